@@ -1,0 +1,158 @@
+//! The one error type of this crate.
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong loading, validating or writing a table.
+///
+/// Every variant names the file and, where there is one, the column and the 1-based data row
+/// (the header is not counted, so data row 1 is line 2 of a CSV file).
+#[derive(Debug, thiserror::Error)]
+pub enum DatasetError {
+    /// The file could not be opened or read.
+    #[error("{file}: cannot read: {source}")]
+    Io {
+        /// The file.
+        file: PathBuf,
+        /// The underlying I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file is empty or holds a header but no data rows.
+    #[error("{file}: the file is empty (no {what})")]
+    Empty {
+        /// The file.
+        file: PathBuf,
+        /// What is missing: "header" or "data rows".
+        what: &'static str,
+    },
+    /// The file is not valid CSV or Parquet.
+    #[error("{file}: cannot parse as {format}: {message}")]
+    Parse {
+        /// The file.
+        file: PathBuf,
+        /// "CSV" or "Parquet".
+        format: &'static str,
+        /// The parser's message.
+        message: String,
+    },
+    /// A required column is absent.
+    #[error("{file}: missing required column `{column}` (columns present: {present})")]
+    MissingColumn {
+        /// The file.
+        file: PathBuf,
+        /// The column the schema requires.
+        column: String,
+        /// The columns the file has, comma separated.
+        present: String,
+    },
+    /// The same column name appears twice in the header.
+    #[error("{file}: column `{column}` appears more than once in the header")]
+    DuplicateColumn {
+        /// The file.
+        file: PathBuf,
+        /// The repeated name.
+        column: String,
+    },
+    /// A cell is empty where a value is required.
+    #[error("{file}: column `{column}`, row {row}: empty cell (a value is required)")]
+    EmptyCell {
+        /// The file.
+        file: PathBuf,
+        /// The column.
+        column: String,
+        /// 1-based data row.
+        row: usize,
+    },
+    /// A cell does not parse as the column's type.
+    #[error("{file}: column `{column}`, row {row}: `{value}` is not {expected}")]
+    BadCell {
+        /// The file.
+        file: PathBuf,
+        /// The column.
+        column: String,
+        /// 1-based data row.
+        row: usize,
+        /// The offending text.
+        value: String,
+        /// What the column holds, e.g. "a number".
+        expected: &'static str,
+    },
+    /// A numeric cell is NaN or infinite.
+    #[error("{file}: column `{column}`, row {row}: `{value}` is not a finite number")]
+    NonFinite {
+        /// The file.
+        file: PathBuf,
+        /// The column.
+        column: String,
+        /// 1-based data row.
+        row: usize,
+        /// The offending text.
+        value: String,
+    },
+    /// A value breaks a rule of the schema other than its type (range, monotonicity, …).
+    #[error("{file}: column `{column}`, row {row}: {message}")]
+    Invalid {
+        /// The file.
+        file: PathBuf,
+        /// The column.
+        column: String,
+        /// 1-based data row.
+        row: usize,
+        /// What rule was broken.
+        message: String,
+    },
+    /// The requested column is not in the table.
+    #[error("table `{table}` has no column `{column}`")]
+    NoSuchColumn {
+        /// The table's name or file.
+        table: String,
+        /// The column asked for.
+        column: String,
+    },
+    /// The requested column exists but holds another type.
+    #[error("table `{table}`: column `{column}` holds {actual}, not {expected}")]
+    WrongColumnType {
+        /// The table's name or file.
+        table: String,
+        /// The column.
+        column: String,
+        /// The type asked for.
+        expected: &'static str,
+        /// The type it holds.
+        actual: &'static str,
+    },
+    /// No embedded dataset has this name.
+    #[error("no dataset named `{name}`; known datasets: {known}")]
+    UnknownDataset {
+        /// The name asked for.
+        name: String,
+        /// The known names, comma separated.
+        known: String,
+    },
+    /// The output path's extension is neither `.csv` nor `.parquet`.
+    #[error("{file}: unsupported table format (use a .csv or .parquet file name)")]
+    UnsupportedFormat {
+        /// The file.
+        file: PathBuf,
+    },
+    /// Columns of a table being built have different lengths.
+    #[error("table `{table}`: column `{column}` has {len} rows, expected {expected}")]
+    RaggedColumns {
+        /// The table.
+        table: String,
+        /// The column.
+        column: String,
+        /// Its length.
+        len: usize,
+        /// The length of the first column.
+        expected: usize,
+    },
+    /// Writing the output failed; nothing was left at the destination.
+    #[error("{file}: cannot write: {message}")]
+    Write {
+        /// The destination.
+        file: PathBuf,
+        /// What failed.
+        message: String,
+    },
+}

@@ -1,0 +1,26 @@
+//! Published tables from the seed documents as validated CSV, and the table I/O at millcomp's edges.
+//!
+//! * [`registry`]: every shipped table (embedded in the binary), with its schema and provenance.
+//! * [`contracts`]: schemas of the files exchanged with other tools (the measured-groove CSV).
+//! * [`table`]: reading a user's CSV/Parquet file against a schema with errors that name the file,
+//!   column and 1-based row; writing tables and text atomically (temporary file + rename).
+//!
+//! ```
+//! let doe = millcomp_datasets::load("clayton_doe").unwrap();
+//! assert_eq!(doe.n_rows(), 8);
+//! // 000_…txt Table 3-3, trial 1: max X force 3.34 N.
+//! assert_eq!(doe.f64s("max_fx_n").unwrap()[0], 3.34);
+//! ```
+#![warn(missing_docs)]
+
+pub mod contracts;
+pub mod error;
+pub mod registry;
+pub mod table;
+
+pub use error::DatasetError;
+pub use registry::{DATASETS, Dataset, dataset, load};
+pub use table::{
+    Column, ColumnData, ColumnKind, ColumnSpec, Schema, Table, TableFormat, read_any, read_csv_str,
+    read_table, write_atomic, write_table, write_text_atomic,
+};

@@ -1,0 +1,794 @@
+//! Typed tables at the edges: read a CSV or Parquet file, check it against a [`Schema`], hand the
+//! numerical cores plain vectors, and write results back atomically.
+//!
+//! Reading goes through polars with every column read as text, so that each cell is parsed here and
+//! an error can name the file, the column and the 1-based data row.
+
+use std::fs::File;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use polars::prelude::*;
+
+use crate::error::DatasetError;
+
+/// The type a column holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ColumnKind {
+    /// A finite floating-point number.
+    Float,
+    /// An integer.
+    Int,
+    /// A 0/1 flag, kept as an integer column.
+    Flag,
+    /// Free text.
+    Text,
+}
+
+impl ColumnKind {
+    fn describe(self) -> &'static str {
+        match self {
+            ColumnKind::Float => "a number",
+            ColumnKind::Int => "an integer",
+            ColumnKind::Flag => "0 or 1",
+            ColumnKind::Text => "text",
+        }
+    }
+}
+
+/// One column a schema expects.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct ColumnSpec {
+    /// Column name, units in the name (`depth_um`).
+    pub name: String,
+    /// The type of its cells.
+    pub kind: ColumnKind,
+    /// Whether the column must be present.
+    pub required: bool,
+    /// One line saying what it holds.
+    pub description: String,
+}
+
+impl ColumnSpec {
+    /// A required column.
+    pub fn required(name: &str, kind: ColumnKind, description: &str) -> Self {
+        Self {
+            name: name.to_string(),
+            kind,
+            required: true,
+            description: description.to_string(),
+        }
+    }
+
+    /// An optional column.
+    pub fn optional(name: &str, kind: ColumnKind, description: &str) -> Self {
+        Self {
+            required: false,
+            ..Self::required(name, kind, description)
+        }
+    }
+}
+
+/// What a table must look like.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Schema {
+    /// Name used in messages.
+    pub name: String,
+    /// Expected columns, in their documented order.
+    pub columns: Vec<ColumnSpec>,
+    /// Whether columns not in the schema are kept (as text) rather than dropped with a note.
+    pub keep_extra: bool,
+}
+
+impl Schema {
+    /// A schema with the given columns; extra columns are ignored with a note.
+    pub fn new(name: &str, columns: Vec<ColumnSpec>) -> Self {
+        Self {
+            name: name.to_string(),
+            columns,
+            keep_extra: false,
+        }
+    }
+
+    /// Keep columns the schema does not name, as text.
+    pub fn keeping_extra(mut self) -> Self {
+        self.keep_extra = true;
+        self
+    }
+}
+
+/// The cells of one column.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ColumnData {
+    /// Finite floats.
+    Float(Vec<f64>),
+    /// Integers (also 0/1 flags).
+    Int(Vec<i64>),
+    /// Text.
+    Text(Vec<String>),
+}
+
+impl ColumnData {
+    /// Number of cells.
+    pub fn len(&self) -> usize {
+        match self {
+            ColumnData::Float(v) => v.len(),
+            ColumnData::Int(v) => v.len(),
+            ColumnData::Text(v) => v.len(),
+        }
+    }
+
+    /// True when the column has no cells.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    fn type_name(&self) -> &'static str {
+        match self {
+            ColumnData::Float(_) => "numbers",
+            ColumnData::Int(_) => "integers",
+            ColumnData::Text(_) => "text",
+        }
+    }
+
+    /// The cell at `row` (0-based) as JSON.
+    pub fn json_value(&self, row: usize) -> serde_json::Value {
+        match self {
+            ColumnData::Float(v) => serde_json::Value::from(v[row]),
+            ColumnData::Int(v) => serde_json::Value::from(v[row]),
+            ColumnData::Text(v) => serde_json::Value::from(v[row].clone()),
+        }
+    }
+
+    /// The cell at `row` (0-based) as display text.
+    pub fn display(&self, row: usize) -> String {
+        match self {
+            ColumnData::Float(v) => format_float(v[row]),
+            ColumnData::Int(v) => v[row].to_string(),
+            ColumnData::Text(v) => v[row].clone(),
+        }
+    }
+}
+
+/// Shortest text that reads back as the same float (so tables round-trip and print cleanly).
+fn format_float(x: f64) -> String {
+    let s = format!("{x}");
+    if s.contains('e') || s.len() <= 12 {
+        s
+    } else {
+        format!("{x:.6}")
+    }
+}
+
+/// A named column.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Column {
+    /// Column name.
+    pub name: String,
+    /// Its cells.
+    pub data: ColumnData,
+}
+
+/// A validated table: typed columns of equal length.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table {
+    /// Where it came from (file path or dataset name), used in messages.
+    pub origin: String,
+    /// The columns, in schema order followed by kept extras.
+    pub columns: Vec<Column>,
+    /// Columns present in the file but not in the schema, which were ignored.
+    pub ignored_columns: Vec<String>,
+}
+
+impl Table {
+    /// Builds a table from columns, checking that they all have the same length.
+    pub fn from_columns(origin: &str, columns: Vec<Column>) -> Result<Self, DatasetError> {
+        if let Some(first) = columns.first() {
+            let expected = first.data.len();
+            for c in &columns {
+                if c.data.len() != expected {
+                    return Err(DatasetError::RaggedColumns {
+                        table: origin.to_string(),
+                        column: c.name.clone(),
+                        len: c.data.len(),
+                        expected,
+                    });
+                }
+            }
+        }
+        Ok(Self {
+            origin: origin.to_string(),
+            columns,
+            ignored_columns: Vec::new(),
+        })
+    }
+
+    /// Number of rows.
+    pub fn n_rows(&self) -> usize {
+        self.columns.first().map_or(0, |c| c.data.len())
+    }
+
+    /// Column names in order.
+    pub fn names(&self) -> Vec<&str> {
+        self.columns.iter().map(|c| c.name.as_str()).collect()
+    }
+
+    /// The column called `name`, if present.
+    pub fn column(&self, name: &str) -> Option<&Column> {
+        self.columns.iter().find(|c| c.name == name)
+    }
+
+    fn need(&self, name: &str) -> Result<&Column, DatasetError> {
+        self.column(name).ok_or_else(|| DatasetError::NoSuchColumn {
+            table: self.origin.clone(),
+            column: name.to_string(),
+        })
+    }
+
+    /// A numeric column as floats (integer columns are converted).
+    pub fn f64s(&self, name: &str) -> Result<Vec<f64>, DatasetError> {
+        let c = self.need(name)?;
+        match &c.data {
+            ColumnData::Float(v) => Ok(v.clone()),
+            ColumnData::Int(v) => Ok(v.iter().map(|&x| x as f64).collect()),
+            other => Err(DatasetError::WrongColumnType {
+                table: self.origin.clone(),
+                column: name.to_string(),
+                expected: "numbers",
+                actual: other.type_name(),
+            }),
+        }
+    }
+
+    /// An integer column.
+    pub fn i64s(&self, name: &str) -> Result<Vec<i64>, DatasetError> {
+        let c = self.need(name)?;
+        match &c.data {
+            ColumnData::Int(v) => Ok(v.clone()),
+            other => Err(DatasetError::WrongColumnType {
+                table: self.origin.clone(),
+                column: name.to_string(),
+                expected: "integers",
+                actual: other.type_name(),
+            }),
+        }
+    }
+
+    /// Any column as text.
+    pub fn strings(&self, name: &str) -> Result<Vec<String>, DatasetError> {
+        let c = self.need(name)?;
+        Ok((0..c.data.len()).map(|i| c.data.display(i)).collect())
+    }
+
+    /// Rows as JSON objects keyed by column name.
+    pub fn to_json_rows(&self) -> Vec<serde_json::Value> {
+        (0..self.n_rows())
+            .map(|i| {
+                let mut m = serde_json::Map::new();
+                for c in &self.columns {
+                    m.insert(c.name.clone(), c.data.json_value(i));
+                }
+                serde_json::Value::Object(m)
+            })
+            .collect()
+    }
+
+    /// A plain aligned text rendering of the whole table (no truncation).
+    pub fn to_text(&self) -> String {
+        let headers: Vec<String> = self.columns.iter().map(|c| c.name.clone()).collect();
+        let cells: Vec<Vec<String>> = (0..self.n_rows())
+            .map(|i| self.columns.iter().map(|c| c.data.display(i)).collect())
+            .collect();
+        let mut widths: Vec<usize> = headers.iter().map(|h| h.chars().count()).collect();
+        for row in &cells {
+            for (w, cell) in widths.iter_mut().zip(row) {
+                *w = (*w).max(cell.chars().count());
+            }
+        }
+        let numeric: Vec<bool> = self
+            .columns
+            .iter()
+            .map(|c| !matches!(c.data, ColumnData::Text(_)))
+            .collect();
+        let line = |row: &[String]| -> String {
+            let parts: Vec<String> = row
+                .iter()
+                .zip(&widths)
+                .zip(&numeric)
+                .map(|((cell, &w), &num)| {
+                    if num {
+                        format!("{cell:>w$}")
+                    } else {
+                        format!("{cell:<w$}")
+                    }
+                })
+                .collect();
+            parts.join("  ").trim_end().to_string()
+        };
+        let mut out = line(&headers);
+        out.push('\n');
+        let rule: Vec<String> = widths.iter().map(|&w| "-".repeat(w)).collect();
+        out.push_str(&rule.join("  "));
+        out.push('\n');
+        for row in &cells {
+            out.push_str(&line(row));
+            out.push('\n');
+        }
+        out
+    }
+
+    /// The table as a polars `DataFrame`.
+    pub fn to_dataframe(&self) -> Result<DataFrame, DatasetError> {
+        let cols: Vec<polars::prelude::Column> = self
+            .columns
+            .iter()
+            .map(|c| {
+                let name = PlSmallStr::from(c.name.as_str());
+                match &c.data {
+                    ColumnData::Float(v) => Series::new(name, v).into(),
+                    ColumnData::Int(v) => Series::new(name, v).into(),
+                    ColumnData::Text(v) => Series::new(name, v).into(),
+                }
+            })
+            .collect();
+        DataFrame::new(self.n_rows(), cols).map_err(|e| DatasetError::Write {
+            file: PathBuf::from(&self.origin),
+            message: e.to_string(),
+        })
+    }
+}
+
+/// Reads `path` (`.csv`, or `.parquet`/`.pq`) and validates it against `schema`.
+///
+/// Required columns must be present; every cell of a schema column must parse as its kind, and
+/// numbers must be finite. Columns the schema does not name are listed in
+/// [`Table::ignored_columns`] (or kept as text with [`Schema::keeping_extra`]).
+pub fn read_table(path: &Path, schema: &Schema) -> Result<Table, DatasetError> {
+    let raw = read_raw(path)?;
+    validate(path, raw, schema)
+}
+
+/// Reads `path` (`.csv` or `.parquet`) without a schema: a column whose cells all parse as finite
+/// numbers becomes a float column, any other column is kept as text (so a later consumer can name
+/// the offending cell). Used where the columns are chosen by the user (`doe analyze --response`).
+pub fn read_any(path: &Path) -> Result<Table, DatasetError> {
+    let raw = read_raw(path)?;
+    if raw.names.is_empty() {
+        return Err(DatasetError::Empty {
+            file: path.to_path_buf(),
+            what: "header",
+        });
+    }
+    if raw.cells.first().is_none_or(Vec::is_empty) {
+        return Err(DatasetError::Empty {
+            file: path.to_path_buf(),
+            what: "data rows",
+        });
+    }
+    let columns = raw
+        .names
+        .into_iter()
+        .zip(raw.cells)
+        .map(|(name, cells)| {
+            let numbers: Option<Vec<f64>> = cells
+                .iter()
+                .map(|c| {
+                    c.as_deref()
+                        .and_then(|t| t.parse::<f64>().ok())
+                        .filter(|x| x.is_finite())
+                })
+                .collect();
+            let data = match numbers {
+                Some(v) => ColumnData::Float(v),
+                None => ColumnData::Text(cells.into_iter().map(Option::unwrap_or_default).collect()),
+            };
+            Column { name, data }
+        })
+        .collect();
+    Ok(Table {
+        origin: path.display().to_string(),
+        columns,
+        ignored_columns: Vec::new(),
+    })
+}
+
+/// Reads embedded CSV text (a shipped dataset) and validates it against `schema`.
+pub fn read_csv_str(origin: &str, text: &str, schema: &Schema) -> Result<Table, DatasetError> {
+    let path = PathBuf::from(origin);
+    let raw = read_csv_raw(&path, std::io::Cursor::new(text.as_bytes().to_vec()))?;
+    validate(&path, raw, schema)
+}
+
+/// Every column of a file as text cells (`None` = empty/null), in file order.
+struct RawTable {
+    names: Vec<String>,
+    cells: Vec<Vec<Option<String>>>,
+}
+
+fn is_parquet(path: &Path) -> bool {
+    matches!(
+        path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()),
+        Some(ref e) if e == "parquet" || e == "pq"
+    )
+}
+
+fn read_raw(path: &Path) -> Result<RawTable, DatasetError> {
+    let file = File::open(path).map_err(|source| DatasetError::Io {
+        file: path.to_path_buf(),
+        source,
+    })?;
+    let len = file.metadata().map(|m| m.len()).unwrap_or(0);
+    if len == 0 {
+        return Err(DatasetError::Empty {
+            file: path.to_path_buf(),
+            what: "header",
+        });
+    }
+    if is_parquet(path) {
+        let df = ParquetReader::new(file)
+            .finish()
+            .map_err(|e| DatasetError::Parse {
+                file: path.to_path_buf(),
+                format: "Parquet",
+                message: e.to_string(),
+            })?;
+        raw_from_dataframe(path, &df)
+    } else {
+        read_csv_raw(path, file)
+    }
+}
+
+fn read_csv_raw<R: polars::io::mmap::MmapBytesReader>(
+    path: &Path,
+    reader: R,
+) -> Result<RawTable, DatasetError> {
+    let df = CsvReadOptions::default()
+        .with_has_header(true)
+        .with_infer_schema_length(Some(0))
+        .into_reader_with_file_handle(reader)
+        .finish()
+        .map_err(|e| {
+            let message = e.to_string();
+            if message.contains("empty") {
+                DatasetError::Empty {
+                    file: path.to_path_buf(),
+                    what: "header",
+                }
+            } else {
+                DatasetError::Parse {
+                    file: path.to_path_buf(),
+                    format: "CSV",
+                    message,
+                }
+            }
+        })?;
+    raw_from_dataframe(path, &df)
+}
+
+fn raw_from_dataframe(path: &Path, df: &DataFrame) -> Result<RawTable, DatasetError> {
+    let mut names = Vec::new();
+    let mut cells = Vec::new();
+    for col in df.columns() {
+        let name = col.name().to_string();
+        if names.contains(&name) {
+            return Err(DatasetError::DuplicateColumn {
+                file: path.to_path_buf(),
+                column: name,
+            });
+        }
+        let as_text = col
+            .cast(&DataType::String)
+            .map_err(|e| DatasetError::Parse {
+                file: path.to_path_buf(),
+                format: "table",
+                message: format!("column `{name}`: {e}"),
+            })?;
+        let ca = as_text.str().map_err(|e| DatasetError::Parse {
+            file: path.to_path_buf(),
+            format: "table",
+            message: format!("column `{name}`: {e}"),
+        })?;
+        cells.push(
+            ca.iter()
+                .map(|v| v.map(|s| s.trim().to_string()).filter(|s| !s.is_empty()))
+                .collect(),
+        );
+        names.push(name);
+    }
+    Ok(RawTable { names, cells })
+}
+
+fn parse_cell(
+    path: &Path,
+    column: &str,
+    row: usize,
+    text: &str,
+    kind: ColumnKind,
+) -> Result<CellValue, DatasetError> {
+    let bad = || DatasetError::BadCell {
+        file: path.to_path_buf(),
+        column: column.to_string(),
+        row,
+        value: text.to_string(),
+        expected: kind.describe(),
+    };
+    match kind {
+        ColumnKind::Float => {
+            let x: f64 = text.parse().map_err(|_| bad())?;
+            if x.is_finite() {
+                Ok(CellValue::Float(x))
+            } else {
+                Err(DatasetError::NonFinite {
+                    file: path.to_path_buf(),
+                    column: column.to_string(),
+                    row,
+                    value: text.to_string(),
+                })
+            }
+        }
+        ColumnKind::Int => {
+            if let Ok(i) = text.parse::<i64>() {
+                return Ok(CellValue::Int(i));
+            }
+            // Accept "3.0" written by spreadsheet tools, not "3.5".
+            match text.parse::<f64>() {
+                Ok(x) if x.is_finite() && x.fract() == 0.0 && x.abs() < 9.0e15 => {
+                    Ok(CellValue::Int(x as i64))
+                }
+                _ => Err(bad()),
+            }
+        }
+        ColumnKind::Flag => match text {
+            "0" | "0.0" | "false" | "FALSE" | "False" => Ok(CellValue::Int(0)),
+            "1" | "1.0" | "true" | "TRUE" | "True" => Ok(CellValue::Int(1)),
+            _ => Err(bad()),
+        },
+        ColumnKind::Text => Ok(CellValue::Text(text.to_string())),
+    }
+}
+
+enum CellValue {
+    Float(f64),
+    Int(i64),
+    Text(String),
+}
+
+fn validate(path: &Path, raw: RawTable, schema: &Schema) -> Result<Table, DatasetError> {
+    if raw.names.is_empty() {
+        return Err(DatasetError::Empty {
+            file: path.to_path_buf(),
+            what: "header",
+        });
+    }
+    let n_rows = raw.cells.first().map_or(0, Vec::len);
+    for spec in schema.columns.iter().filter(|s| s.required) {
+        if !raw.names.iter().any(|n| n == &spec.name) {
+            return Err(DatasetError::MissingColumn {
+                file: path.to_path_buf(),
+                column: spec.name.clone(),
+                present: raw.names.join(", "),
+            });
+        }
+    }
+    if n_rows == 0 {
+        return Err(DatasetError::Empty {
+            file: path.to_path_buf(),
+            what: "data rows",
+        });
+    }
+    let mut columns = Vec::new();
+    for spec in &schema.columns {
+        let Some(idx) = raw.names.iter().position(|n| n == &spec.name) else {
+            continue;
+        };
+        let mut data = match spec.kind {
+            ColumnKind::Float => ColumnData::Float(Vec::with_capacity(n_rows)),
+            ColumnKind::Int | ColumnKind::Flag => ColumnData::Int(Vec::with_capacity(n_rows)),
+            ColumnKind::Text => ColumnData::Text(Vec::with_capacity(n_rows)),
+        };
+        for (i, cell) in raw.cells[idx].iter().enumerate() {
+            let row = i + 1;
+            let value = match cell {
+                Some(text) => parse_cell(path, &spec.name, row, text, spec.kind)?,
+                None if spec.kind == ColumnKind::Text => CellValue::Text(String::new()),
+                None => {
+                    return Err(DatasetError::EmptyCell {
+                        file: path.to_path_buf(),
+                        column: spec.name.clone(),
+                        row,
+                    });
+                }
+            };
+            match (&mut data, value) {
+                (ColumnData::Float(v), CellValue::Float(x)) => v.push(x),
+                (ColumnData::Int(v), CellValue::Int(x)) => v.push(x),
+                (ColumnData::Text(v), CellValue::Text(x)) => v.push(x),
+                _ => unreachable!("parse_cell returns the kind it was asked for"),
+            }
+        }
+        columns.push(Column {
+            name: spec.name.clone(),
+            data,
+        });
+    }
+    let mut ignored = Vec::new();
+    for (name, cells) in raw.names.iter().zip(&raw.cells) {
+        if schema.columns.iter().any(|s| &s.name == name) {
+            continue;
+        }
+        if schema.keep_extra {
+            columns.push(Column {
+                name: name.clone(),
+                data: ColumnData::Text(cells.iter().map(|c| c.clone().unwrap_or_default()).collect()),
+            });
+        } else {
+            ignored.push(name.clone());
+        }
+    }
+    Ok(Table {
+        origin: path.display().to_string(),
+        columns,
+        ignored_columns: ignored,
+    })
+}
+
+/// Output formats for [`write_table`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TableFormat {
+    /// Comma-separated text with a header.
+    Csv,
+    /// Apache Parquet.
+    Parquet,
+}
+
+impl TableFormat {
+    /// The format implied by a file name's extension.
+    pub fn from_path(path: &Path) -> Result<Self, DatasetError> {
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase())
+            .as_deref()
+        {
+            Some("csv") => Ok(TableFormat::Csv),
+            Some("parquet") | Some("pq") => Ok(TableFormat::Parquet),
+            _ => Err(DatasetError::UnsupportedFormat {
+                file: path.to_path_buf(),
+            }),
+        }
+    }
+}
+
+/// Writes `table` to `path` (format from the extension) through a temporary file in the same
+/// directory that is renamed into place, so a failure never leaves a half-written file.
+pub fn write_table(table: &Table, path: &Path) -> Result<(), DatasetError> {
+    let format = TableFormat::from_path(path)?;
+    let mut df = table.to_dataframe()?;
+    write_atomic(path, |file| match format {
+        TableFormat::Csv => CsvWriter::new(file)
+            .include_header(true)
+            .finish(&mut df)
+            .map_err(|e| e.to_string()),
+        TableFormat::Parquet => ParquetWriter::new(file)
+            .finish(&mut df)
+            .map(|_| ())
+            .map_err(|e| e.to_string()),
+    })
+}
+
+/// Writes bytes produced by `fill` to `path` atomically (temporary file + rename).
+pub fn write_atomic<F>(path: &Path, fill: F) -> Result<(), DatasetError>
+where
+    F: FnOnce(&mut File) -> Result<(), String>,
+{
+    let werr = |message: String| DatasetError::Write {
+        file: path.to_path_buf(),
+        message,
+    };
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let mut tmp = tempfile::Builder::new()
+        .prefix(".millcomp-")
+        .suffix(".partial")
+        .tempfile_in(&dir)
+        .map_err(|e| werr(format!("cannot create a temporary file in {}: {e}", dir.display())))?;
+    fill(tmp.as_file_mut()).map_err(werr)?;
+    tmp.as_file_mut().flush().map_err(|e| werr(e.to_string()))?;
+    tmp.as_file()
+        .sync_all()
+        .map_err(|e| werr(e.to_string()))?;
+    tmp.persist(path).map_err(|e| werr(e.error.to_string()))?;
+    Ok(())
+}
+
+/// Writes text to `path` atomically.
+pub fn write_text_atomic(path: &Path, text: &str) -> Result<(), DatasetError> {
+    write_atomic(path, |f| f.write_all(text.as_bytes()).map_err(|e| e.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn schema() -> Schema {
+        Schema::new(
+            "t",
+            vec![
+                ColumnSpec::required("a_um", ColumnKind::Float, "a"),
+                ColumnSpec::required("n", ColumnKind::Int, "n"),
+                ColumnSpec::optional("flag", ColumnKind::Flag, "f"),
+            ],
+        )
+    }
+
+    #[test]
+    fn parses_types_and_notes_extra_columns() {
+        let t = read_csv_str("mem.csv", "a_um,n,extra\n1.5,2,x\n-3e-1,4,y\n", &schema()).unwrap();
+        assert_eq!(t.f64s("a_um").unwrap(), vec![1.5, -0.3]);
+        assert_eq!(t.i64s("n").unwrap(), vec![2, 4]);
+        assert_eq!(t.ignored_columns, vec!["extra".to_string()]);
+        assert!(t.column("flag").is_none());
+    }
+
+    #[test]
+    fn errors_name_column_and_row() {
+        let e = read_csv_str("mem.csv", "a_um,n\n1,2\nabc,3\n", &schema()).unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.contains("a_um") && msg.contains("row 2") && msg.contains("abc"), "{msg}");
+        let e = read_csv_str("mem.csv", "a_um,n\n1,2\nNaN,3\n", &schema()).unwrap_err();
+        assert!(matches!(e, DatasetError::NonFinite { row: 2, .. }), "{e}");
+        let e = read_csv_str("mem.csv", "a_um\n1\n", &schema()).unwrap_err();
+        assert!(matches!(e, DatasetError::MissingColumn { ref column, .. } if column == "n"));
+        let e = read_csv_str("mem.csv", "a_um,n\n", &schema()).unwrap_err();
+        assert!(matches!(e, DatasetError::Empty { .. }), "{e}");
+        let e = read_csv_str("mem.csv", "a_um,n\n1,\n", &schema()).unwrap_err();
+        assert!(matches!(e, DatasetError::EmptyCell { row: 1, .. }), "{e}");
+        let e = read_csv_str("mem.csv", "a_um,n,flag\n1,2,3\n", &schema()).unwrap_err();
+        assert!(matches!(e, DatasetError::BadCell { ref column, .. } if column == "flag"));
+    }
+
+    #[test]
+    fn round_trips_through_csv_and_parquet() {
+        let dir = tempfile::tempdir().unwrap();
+        let t = read_csv_str("mem.csv", "a_um,n,flag\n1.25,2,1\n3,4,0\n", &schema()).unwrap();
+        for name in ["out.csv", "out.parquet"] {
+            let p = dir.path().join(name);
+            write_table(&t, &p).unwrap();
+            let back = read_table(&p, &schema()).unwrap();
+            assert_eq!(back.f64s("a_um").unwrap(), vec![1.25, 3.0]);
+            assert_eq!(back.i64s("flag").unwrap(), vec![1, 0]);
+        }
+        let leftovers: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .filter(|e| e.file_name().to_string_lossy().ends_with(".partial"))
+            .collect();
+        assert!(leftovers.is_empty());
+    }
+
+    #[test]
+    fn read_any_keeps_bad_numeric_columns_as_text() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.csv");
+        std::fs::write(&p, "x,y,label\n1,2,a\n3,NaN,b\n").unwrap();
+        let t = read_any(&p).unwrap();
+        assert_eq!(t.f64s("x").unwrap(), vec![1.0, 3.0]);
+        assert_eq!(t.strings("y").unwrap(), vec!["2", "NaN"]);
+        assert!(t.f64s("label").is_err());
+    }
+
+    #[test]
+    fn unsupported_extension_writes_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let t = read_csv_str("mem.csv", "a_um,n\n1,2\n", &schema()).unwrap();
+        let p = dir.path().join("out.xlsx");
+        assert!(matches!(
+            write_table(&t, &p),
+            Err(DatasetError::UnsupportedFormat { .. })
+        ));
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+}
