@@ -1,0 +1,118 @@
+//! The one error type of `millcomp-sim`.
+//!
+//! Every variant names what is at fault (parameter, key, dimension) and, where it makes sense, the allowed
+//! range, so that a CLI can print it verbatim.
+
+use thiserror::Error;
+
+/// Errors raised by the physics crate. Outcomes (e.g. a stage that saturated) are not errors.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum SimError {
+    /// A physical parameter is outside its allowed range (or not finite).
+    #[error("invalid parameter `{name}` = {value}: allowed {allowed}")]
+    InvalidParameter {
+        /// Parameter name, with its unit suffix (e.g. `tilt_deg`).
+        name: &'static str,
+        /// The value that was given.
+        value: f64,
+        /// Human-readable allowed range, e.g. `0 <= tilt_deg < 90`.
+        allowed: &'static str,
+    },
+    /// Matrix/vector dimensions of a model do not agree.
+    #[error("dimension mismatch in `{what}`: expected {expected}, found {found}")]
+    DimensionMismatch {
+        /// Which matrix or vector.
+        what: &'static str,
+        /// Expected size.
+        expected: usize,
+        /// Size found.
+        found: usize,
+    },
+    /// A numerical operation failed (singular matrix, non-finite result).
+    #[error("numerical failure in `{what}`: {detail}")]
+    Numerical {
+        /// The operation.
+        what: &'static str,
+        /// Details.
+        detail: String,
+    },
+    /// A session file key is missing, has the wrong type or an invalid value.
+    #[error("session key `{key}`: {message}")]
+    Session {
+        /// Dotted key path, e.g. `grooves[2].tilt_deg`.
+        key: String,
+        /// What is wrong and what is allowed.
+        message: String,
+    },
+    /// Unknown effect name (see [`crate::effects::EFFECT_NAMES`]).
+    #[error("unknown effect `{name}`: allowed {allowed}")]
+    UnknownEffect {
+        /// The name that was given.
+        name: String,
+        /// The allowed names, comma separated.
+        allowed: String,
+    },
+    /// A named parameter of an effect is unknown or missing.
+    #[error("effect `{effect}`: parameter `{param}` {message}")]
+    EffectParameter {
+        /// Effect name.
+        effect: &'static str,
+        /// Parameter name.
+        param: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A file could not be read.
+    #[error("cannot read `{path}`: {message}")]
+    Io {
+        /// The path.
+        path: String,
+        /// The OS message.
+        message: String,
+    },
+}
+
+/// Check that `value` is finite and in `[lo, hi]` (use infinities for open sides).
+pub(crate) fn check_range(
+    name: &'static str,
+    value: f64,
+    lo: f64,
+    hi: f64,
+    allowed: &'static str,
+) -> Result<f64, SimError> {
+    if value.is_finite() && value >= lo && value <= hi {
+        Ok(value)
+    } else {
+        Err(SimError::InvalidParameter {
+            name,
+            value,
+            allowed,
+        })
+    }
+}
+
+/// Check that `value` is finite and strictly positive.
+pub(crate) fn check_positive(name: &'static str, value: f64) -> Result<f64, SimError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(SimError::InvalidParameter {
+            name,
+            value,
+            allowed: "finite and > 0",
+        })
+    }
+}
+
+/// Check that `value` is finite and non-negative.
+pub(crate) fn check_nonneg(name: &'static str, value: f64) -> Result<f64, SimError> {
+    if value.is_finite() && value >= 0.0 {
+        Ok(value)
+    } else {
+        Err(SimError::InvalidParameter {
+            name,
+            value,
+            allowed: "finite and >= 0",
+        })
+    }
+}

@@ -1,0 +1,529 @@
+//! The groove stage (`000_…txt` ch. 6–7): a full-immersion slot with a programmed depth profile, cut by a
+//! tilted ball-end mill on the PZT-actuated spindle, as a steppable plant.
+//!
+//! Per step of `dt_s`:
+//! 1. the PZT spindle receives the actuator command (V) and moves the tool tip radially by `tip_um`
+//!    (+ = towards the work); its z-component is `tip_um · sin α` (eq. 26);
+//! 2. the actual depth at the tool's x is `d = d_cmd − δz + tip_um·sin α`, clamped to `[0, R]`
+//!    (**sign convention: every term in µm, + = deeper groove**);
+//! 3. the cutting force at the current rotation angle follows from the force model at depth `d`;
+//! 4. the z-deflection `δz = Fz,peak/kz` uses the peak z-force over the last revolution — the thesis'
+//!    assumption that "the maximum force corresponds to the maximum deflection, or maximum error" (§6.2) —
+//!    and is applied from the next step on (explicit; the loop gain ∂Fz/∂d/kz ≈ 0.2 keeps it stable);
+//! 5. sensors: workpiece z-force (Kistler, §7.2), raw spindle y-force (§7.3: `Fz cos α / 2.28 +
+//!    0.44 N/µm · tip`), capacitance gauge on the tip displacement.
+//!
+//! The groove profile is the depth cut at each x (the bottom left behind the tool).
+
+use serde::{Deserialize, Serialize};
+use std::collections::VecDeque;
+use std::f64::consts::PI;
+
+use crate::error::{SimError, check_positive, check_range};
+use crate::force::{
+    BallEndForceModel, CutConditions, ForceParams, PreparedCut, S7_GROOVE_FORCE_SCALE,
+};
+use crate::material::Material;
+use crate::sensors::{CapacitanceGauge, ForceSensor, NoiseSpec};
+use crate::spindle::{DiscretePztSpindle, PztSpindle, SpindleStep};
+use crate::stiffness::TiltedToolStiffness;
+use crate::tool::BallEndTool;
+
+/// Static calibration from the spindle transducer's y-reading to the axial tool force (eq. 31, 2.28).
+pub const SPINDLE_Y_CALIBRATION: f64 = 2.28;
+
+/// Programmed depth along a groove.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum DepthProfile {
+    /// Linear ramp from `from_um` at x = 0 to `to_um` at the end of the groove.
+    Ramp {
+        /// Depth at x = 0 (µm).
+        from_um: f64,
+        /// Depth at x = length (µm).
+        to_um: f64,
+    },
+    /// Constant depth.
+    Constant {
+        /// Depth (µm).
+        depth_um: f64,
+    },
+    /// Piecewise-constant steps: `(x_start_mm, depth_um)`, sorted by x; before the first step the depth is 0.
+    Steps {
+        /// Step starts and depths.
+        steps: Vec<(f64, f64)>,
+    },
+}
+
+impl DepthProfile {
+    /// Programmed depth (µm) at `x_mm` for a groove of `length_mm`.
+    pub fn depth_at(&self, x_mm: f64, length_mm: f64) -> f64 {
+        match self {
+            DepthProfile::Ramp { from_um, to_um } => {
+                let s = if length_mm > 0.0 {
+                    (x_mm / length_mm).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                from_um + (to_um - from_um) * s
+            }
+            DepthProfile::Constant { depth_um } => *depth_um,
+            DepthProfile::Steps { steps } => steps
+                .iter()
+                .take_while(|(x0, _)| *x0 <= x_mm)
+                .last()
+                .map(|(_, d)| *d)
+                .unwrap_or(0.0),
+        }
+    }
+
+    /// Validate: depths within `[0, max_depth_um]`, steps sorted.
+    pub fn validate(&self, max_depth_um: f64) -> Result<(), SimError> {
+        let chk = |d: f64| {
+            check_range(
+                "depth_um",
+                d,
+                0.0,
+                max_depth_um,
+                "0 <= depth_um <= tool radius_um",
+            )
+        };
+        match self {
+            DepthProfile::Ramp { from_um, to_um } => {
+                chk(*from_um)?;
+                chk(*to_um)?;
+            }
+            DepthProfile::Constant { depth_um } => {
+                chk(*depth_um)?;
+            }
+            DepthProfile::Steps { steps } => {
+                let mut last = f64::NEG_INFINITY;
+                for (x, d) in steps {
+                    if !x.is_finite() || *x < last {
+                        return Err(SimError::InvalidParameter {
+                            name: "steps.x_mm",
+                            value: *x,
+                            allowed: "finite and non-decreasing",
+                        });
+                    }
+                    last = *x;
+                    chk(*d)?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Which force signal the stage reports as `force_meas_n`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ForceChannel {
+    /// Workpiece z-force (Kistler under the part, §7.2).
+    #[default]
+    WorkpieceZ,
+    /// Calibrated spindle axial force converted to workpiece z: `(raw − 0.44·tip)·2.28/cos α` (§7.3).
+    SpindleCalibrated,
+}
+
+/// Groove stage configuration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GrooveConfig {
+    /// Force model (material, tool, constants).
+    pub force_model: BallEndForceModel,
+    /// Tool/spindle stiffness.
+    pub stiffness: TiltedToolStiffness,
+    /// PZT spindle plant.
+    pub spindle: PztSpindle,
+    /// Spindle speed (rpm).
+    pub speed_rpm: f64,
+    /// Upfeed (µm/rev).
+    pub upfeed_um_per_rev: f64,
+    /// Tool tilt (deg).
+    pub tilt_deg: f64,
+    /// Groove length (mm).
+    pub length_mm: f64,
+    /// Programmed depth profile.
+    pub depth_profile: DepthProfile,
+    /// Force channel reported as `force_meas_n`.
+    pub force_channel: ForceChannel,
+    /// Optional force-sensor noise (σ in N; quantisation 0.04 N when present, §5.2.2).
+    pub force_noise: Option<NoiseSpec>,
+    /// Optional gauge noise (σ in µm).
+    pub gauge_noise: Option<NoiseSpec>,
+}
+
+impl GrooveConfig {
+    /// The thesis' groove: S7, 0–80 µm over 20 mm, 10 000 rpm, 10 µm/rev, tilt `tilt_deg`, long (4 mm shank)
+    /// tool with wearland `wearland_um` (§6.2 simulation: 8 µm; the measured grooves of Fig. 7-9: 5 µm) and
+    /// runout 10 µm, measured stiffness, force scale [`S7_GROOVE_FORCE_SCALE`].
+    pub fn thesis(tilt_deg: f64, wearland_um: f64) -> Result<Self, SimError> {
+        let c = Self {
+            force_model: BallEndForceModel::new(
+                Material::s7(),
+                BallEndTool::new(400.0, wearland_um, 10.0)?,
+                ForceParams {
+                    force_scale: S7_GROOVE_FORCE_SCALE,
+                    ..ForceParams::default()
+                },
+            )?,
+            stiffness: TiltedToolStiffness::default(),
+            spindle: PztSpindle::default(),
+            speed_rpm: 10_000.0,
+            upfeed_um_per_rev: 10.0,
+            tilt_deg,
+            length_mm: 20.0,
+            depth_profile: DepthProfile::Ramp {
+                from_um: 0.0,
+                to_um: 80.0,
+            },
+            force_channel: ForceChannel::WorkpieceZ,
+            force_noise: None,
+            gauge_noise: None,
+        };
+        c.validate()?;
+        Ok(c)
+    }
+
+    /// Validate everything (errors name the parameter).
+    pub fn validate(&self) -> Result<(), SimError> {
+        self.force_model.validate()?;
+        self.stiffness.validate()?;
+        self.spindle.validate()?;
+        check_positive("speed_rpm", self.speed_rpm)?;
+        check_positive("upfeed_um_per_rev", self.upfeed_um_per_rev)?;
+        check_range(
+            "tilt_deg",
+            self.tilt_deg,
+            0.0,
+            89.999_999,
+            "0 <= tilt_deg < 90",
+        )?;
+        check_positive("length_mm", self.length_mm)?;
+        self.depth_profile
+            .validate(self.force_model.tool.radius_um)?;
+        Ok(())
+    }
+
+    /// Feed velocity (mm/s).
+    pub fn feed_mm_s(&self) -> f64 {
+        self.upfeed_um_per_rev * self.speed_rpm * 1e-3 / 60.0
+    }
+
+    /// Duration of the cut (s).
+    pub fn duration_s(&self) -> f64 {
+        self.length_mm / self.feed_mm_s()
+    }
+
+    /// Cut conditions at `depth_um`.
+    pub fn conditions(&self, depth_um: f64) -> CutConditions {
+        CutConditions {
+            depth_um,
+            upfeed_um_per_rev: self.upfeed_um_per_rev,
+            speed_rpm: self.speed_rpm,
+            tilt_deg: self.tilt_deg,
+        }
+    }
+
+    /// Quasi-static (per-revolution peak) uncompensated z-deflection (µm) at programmed depth
+    /// `depth_cmd_um`, solved self-consistently: `δ = Fz,peak(d_cmd − δ)/kz` by fixed-point iteration.
+    pub fn static_deflection_um(&self, depth_cmd_um: f64) -> Result<f64, SimError> {
+        let c = self.stiffness.z_compliance_um_per_n(self.tilt_deg)?;
+        let mut delta = 0.0;
+        for _ in 0..100 {
+            let d = (depth_cmd_um - delta).clamp(0.0, self.force_model.tool.radius_um);
+            let f = self.force_model.peak_z_force_n(&self.conditions(d))?;
+            let next = f * c;
+            if (next - delta).abs() < 1e-9 {
+                return Ok(next);
+            }
+            delta = next;
+        }
+        Ok(delta)
+    }
+}
+
+/// One step of the groove stage.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct GrooveStepOutput {
+    /// Time since the start of the cut (s).
+    pub t_s: f64,
+    /// Tool position along the groove (mm).
+    pub x_mm: f64,
+    /// Programmed depth at x (µm).
+    pub depth_cmd_um: f64,
+    /// Depth actually cut at x (µm).
+    pub depth_cut_um: f64,
+    /// z-deflection of the tool from the force (µm, + = shallower).
+    pub deflection_um: f64,
+    /// PZT tool-tip (radial) displacement (µm).
+    pub pzt_tip_um: f64,
+    /// z-component of the PZT displacement (µm, + = deeper).
+    pub pzt_z_um: f64,
+    /// Applied actuator voltage (V).
+    pub applied_v: f64,
+    /// True instantaneous workpiece z-force (N).
+    pub force_z_n: f64,
+    /// Measured force on the configured channel (N).
+    pub force_meas_n: f64,
+    /// Raw spindle y-force reading (N) incl. the PZT coupling.
+    pub spindle_force_raw_n: f64,
+    /// Capacitance-gauge reading of the tip displacement (µm).
+    pub gauge_um: f64,
+    /// True once x has reached the end of the groove.
+    pub done: bool,
+}
+
+/// Sliding maximum over a fixed number of samples (monotone deque).
+#[derive(Debug, Clone)]
+struct SlidingMax {
+    window: usize,
+    k: usize,
+    q: VecDeque<(usize, f64)>,
+}
+
+impl SlidingMax {
+    fn new(window: usize) -> Self {
+        Self {
+            window: window.max(1),
+            k: 0,
+            q: VecDeque::with_capacity(window.max(1) + 1),
+        }
+    }
+    #[inline]
+    fn push(&mut self, x: f64) -> f64 {
+        while let Some(&(_, v)) = self.q.back() {
+            if v <= x {
+                self.q.pop_back();
+            } else {
+                break;
+            }
+        }
+        self.q.push_back((self.k, x));
+        while let Some(&(i, _)) = self.q.front() {
+            if i + self.window <= self.k {
+                self.q.pop_front();
+            } else {
+                break;
+            }
+        }
+        self.k += 1;
+        self.q.front().map(|p| p.1).unwrap_or(x)
+    }
+}
+
+/// The steppable groove plant.
+#[derive(Debug, Clone)]
+pub struct GrooveStage {
+    cfg: GrooveConfig,
+    dt_s: f64,
+    spindle: DiscretePztSpindle,
+    force_sensor: ForceSensor,
+    gauge: CapacitanceGauge,
+    compliance_um_per_n: f64,
+    sin_a: f64,
+    cos_a: f64,
+    omega_rad_s: f64,
+    feed_mm_s: f64,
+    t_s: f64,
+    deflection_um: f64,
+    peak: SlidingMax,
+    prepared: PreparedCut,
+    prepared_depth: f64,
+    last_tip_um: f64,
+}
+
+impl GrooveStage {
+    /// Build a stage stepping at `dt_s`.
+    pub fn new(cfg: GrooveConfig, dt_s: f64) -> Result<Self, SimError> {
+        cfg.validate()?;
+        check_positive("dt_s", dt_s)?;
+        let spindle = cfg.spindle.discretize(dt_s)?;
+        let force_sensor = match cfg.force_noise {
+            Some(n) => ForceSensor::new(n.sigma, 0.04, n.seed)?,
+            None => ForceSensor::ideal(),
+        };
+        let gauge = match cfg.gauge_noise {
+            Some(n) => CapacitanceGauge::new(50.0, 2.5, 0.0, n.sigma, n.seed)?,
+            None => CapacitanceGauge::rd20(),
+        };
+        let compliance = cfg.stiffness.z_compliance_um_per_n(cfg.tilt_deg)?;
+        let a = cfg.tilt_deg.to_radians();
+        let steps_per_rev = (60.0 / cfg.speed_rpm / dt_s).round() as usize;
+        let d0 = cfg.depth_profile.depth_at(0.0, cfg.length_mm);
+        let prepared = cfg.force_model.prepare(&cfg.conditions(d0));
+        Ok(Self {
+            dt_s,
+            spindle,
+            force_sensor,
+            gauge,
+            compliance_um_per_n: compliance,
+            sin_a: a.sin(),
+            cos_a: a.cos(),
+            omega_rad_s: cfg.speed_rpm / 60.0 * 2.0 * PI,
+            feed_mm_s: cfg.feed_mm_s(),
+            t_s: 0.0,
+            deflection_um: 0.0,
+            peak: SlidingMax::new(steps_per_rev),
+            prepared,
+            prepared_depth: d0,
+            last_tip_um: 0.0,
+            cfg,
+        })
+    }
+
+    /// Configuration.
+    pub fn config(&self) -> &GrooveConfig {
+        &self.cfg
+    }
+
+    /// Step size (s).
+    pub fn dt_s(&self) -> f64 {
+        self.dt_s
+    }
+
+    /// Current time (s).
+    pub fn t_s(&self) -> f64 {
+        self.t_s
+    }
+
+    /// z-compliance of the tilted tool (µm/N).
+    pub fn z_compliance_um_per_n(&self) -> f64 {
+        self.compliance_um_per_n
+    }
+
+    /// Tool-tip radial displacement per µm of wanted z-correction: `1/sin α` (eq. 26).
+    pub fn tip_per_z(&self) -> f64 {
+        if self.sin_a > 0.0 {
+            1.0 / self.sin_a
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// Whether the cut is finished.
+    pub fn done(&self) -> bool {
+        self.t_s * self.feed_mm_s >= self.cfg.length_mm
+    }
+
+    /// Advance one step with actuator command `command_v` (V; clamped to 0–1000 V, NaN holds).
+    pub fn step(&mut self, command_v: f64) -> GrooveStepOutput {
+        let SpindleStep {
+            applied_v, tip_um, ..
+        } = self.spindle.step(command_v);
+        self.last_tip_um = tip_um;
+        let x = (self.t_s * self.feed_mm_s).min(self.cfg.length_mm);
+        let d_cmd = self.cfg.depth_profile.depth_at(x, self.cfg.length_mm);
+        let pzt_z = tip_um * self.sin_a;
+        let d_cut =
+            (d_cmd - self.deflection_um + pzt_z).clamp(0.0, self.cfg.force_model.tool.radius_um);
+        if (d_cut - self.prepared_depth).abs() > 1e-3 {
+            self.prepared = self.cfg.force_model.prepare(&self.cfg.conditions(d_cut));
+            self.prepared_depth = d_cut;
+        }
+        let f = self.prepared.forces(self.omega_rad_s * self.t_s);
+        let fz = f[2];
+        let peak = self.peak.push(fz);
+        let deflection_now = self.deflection_um;
+        self.deflection_um = peak * self.compliance_um_per_n;
+        let coupling = self.cfg.spindle.force_coupling_n_per_um * tip_um;
+        let spindle_raw_true = fz * self.cos_a / SPINDLE_Y_CALIBRATION + coupling;
+        let force_meas = match self.cfg.force_channel {
+            ForceChannel::WorkpieceZ => self.force_sensor.measure(fz),
+            ForceChannel::SpindleCalibrated => {
+                let raw = self.force_sensor.measure(spindle_raw_true);
+                (raw - coupling) * SPINDLE_Y_CALIBRATION / self.cos_a
+            }
+        };
+        let gauge = self.gauge.measure_um(tip_um);
+        let out = GrooveStepOutput {
+            t_s: self.t_s,
+            x_mm: x,
+            depth_cmd_um: d_cmd,
+            depth_cut_um: d_cut,
+            deflection_um: deflection_now,
+            pzt_tip_um: tip_um,
+            pzt_z_um: pzt_z,
+            applied_v,
+            force_z_n: fz,
+            force_meas_n: force_meas,
+            spindle_force_raw_n: spindle_raw_true,
+            gauge_um: gauge,
+            done: false,
+        };
+        self.t_s += self.dt_s;
+        GrooveStepOutput {
+            done: self.done(),
+            ..out
+        }
+    }
+
+    /// Run the whole cut with a command policy `policy(&last_output) -> volts` (first call gets `None`);
+    /// returns every step.
+    pub fn run(
+        &mut self,
+        mut policy: impl FnMut(Option<&GrooveStepOutput>) -> f64,
+    ) -> Vec<GrooveStepOutput> {
+        let n = (self.cfg.duration_s() / self.dt_s).ceil() as usize + 1;
+        let mut out: Vec<GrooveStepOutput> = Vec::with_capacity(n);
+        loop {
+            let v = policy(out.last());
+            let o = self.step(v);
+            let done = o.done;
+            out.push(o);
+            if done {
+                break;
+            }
+        }
+        out
+    }
+}
+
+/// A groove profile: depth cut vs x, sampled every `spacing_mm` from a run (nearest step at or after x).
+pub fn profile(
+    run: &[GrooveStepOutput],
+    spacing_mm: f64,
+) -> Result<Vec<(f64, f64, f64)>, SimError> {
+    check_positive("spacing_mm", spacing_mm)?;
+    let mut out = Vec::new();
+    let mut next = 0.0;
+    for o in run {
+        if o.x_mm + 1e-12 >= next {
+            out.push((o.x_mm, o.depth_cmd_um, o.depth_cut_um));
+            next += spacing_mm;
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sliding_max_window() {
+        let mut s = SlidingMax::new(3);
+        let xs = [1.0, 5.0, 2.0, 1.0, 0.5, 0.2, 4.0];
+        let ys: Vec<f64> = xs.iter().map(|x| s.push(*x)).collect();
+        assert_eq!(ys, vec![1.0, 5.0, 5.0, 5.0, 2.0, 1.0, 4.0]);
+    }
+
+    #[test]
+    fn depth_profiles() {
+        let r = DepthProfile::Ramp {
+            from_um: 0.0,
+            to_um: 80.0,
+        };
+        assert_eq!(r.depth_at(10.0, 20.0), 40.0);
+        let s = DepthProfile::Steps {
+            steps: vec![(0.0, 10.0), (5.0, 20.0)],
+        };
+        assert_eq!(s.depth_at(4.9, 20.0), 10.0);
+        assert_eq!(s.depth_at(5.0, 20.0), 20.0);
+        assert!(
+            DepthProfile::Constant { depth_um: 500.0 }
+                .validate(400.0)
+                .is_err()
+        );
+    }
+}

@@ -1,0 +1,43 @@
+//! # millcomp-sim — micro-milling physics
+//!
+//! Cutting forces of miniature ball-end mills, tool/spindle stiffness, the PZT-actuated spindle, sensors and
+//! filters, the groove and thin-wall compensation stages as steppable plants, the effects a nominal model may
+//! lack, and groove sessions. Sources: the seed documents in `shared/seeds/` (cited per item as
+//! `000_…txt` §x.y etc.). Units are SI inside; public names carry units (`depth_um`, `force_n`, `dt_s`).
+//!
+//! | module | what | checked against |
+//! |---|---|---|
+//! | [`force`], [`material`], [`tool`] | ball-end force model (reconstructed eqs. 2–14) | Table 3-3 (31 % mean error), 1.49 N S7 offset, duty cycle 90/75 % |
+//! | [`stiffness`] | two-section cantilever, tilted z-stiffness, machine in series | 0.141 N/µm, 0.571 vs 0.597 N/µm, eq. 28 |
+//! | [`spindle`], [`spindle_fit`], [`lti`] | PZT spindle plant, ZOH discretisation, figure evaluation | 20 %/1.38 ms open loop (< 1 %) |
+//! | [`filters`], [`sensors`] | 500 Hz low-pass, peak-and-hold, 0.0005/0.9995, notch chain; force/gauge | unit tests |
+//! | [`groove`] | steppable groove plant | 16.0 µm deflection at 80 µm (published 17) |
+//! | [`thinwall`] | steppable thin-wall plant (004) | 87.3/106.7/126.3 vs 85.9/106.7/127.8 µm |
+//! | [`effects`], [`session`] | the seven named effects; TOML sessions → measured-groove CSV rows | seed figures |
+//!
+//! ```
+//! use millcomp_sim::groove::GrooveConfig;
+//! // the thesis' 20° S7 groove deflects ≈ 16 µm at its 80 µm end (000 §6.1: predicted 17, measured 16)
+//! let d = GrooveConfig::thesis(20.0, 8.0).unwrap().static_deflection_um(80.0).unwrap();
+//! assert!((d - 17.0).abs() / 17.0 < 0.15);
+//! ```
+#![warn(missing_docs)]
+
+pub mod effects;
+pub mod error;
+pub mod filters;
+pub mod force;
+pub mod groove;
+pub mod lti;
+pub mod material;
+pub mod sensors;
+pub mod session;
+pub mod spindle;
+pub mod spindle_fit;
+pub mod stiffness;
+pub mod thinwall;
+pub mod tool;
+
+pub use error::SimError;
+pub use lti::{ContinuousLti, DiscreteLti};
+pub use spindle::{DiscretePztSpindle, PztSpindle};

@@ -1,0 +1,200 @@
+//! Sensors (`000_…txt` §3.2, §5.2.2, §7.3; `004_…txt` Table 1).
+//!
+//! * [`ForceSensor`]: Kistler 9251 + 5004 charge amplifier, "sensitivity of 0.04 N" (§5.2.2) — taken as the
+//!   white-noise standard deviation *and* the quantisation step of the force channel; optional, seeded.
+//!   The thin-wall sensor of `004` has 0.001 N resolution.
+//! * [`CapacitanceGauge`]: Lion Precision RD20-1, 50 µm range, 2.5 µm/V (§5.2.2); the reading saturates at
+//!   the ends of its range.
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{SimError, check_nonneg, check_positive};
+
+/// Seeded Gaussian noise source (`None` sigma → exact).
+#[derive(Debug, Clone)]
+pub struct NoiseSource {
+    rng: ChaCha8Rng,
+    normal: Option<Normal<f64>>,
+}
+
+impl NoiseSource {
+    /// Noise with standard deviation `sigma` (0 → none) from `seed`.
+    pub fn new(seed: u64, sigma: f64) -> Result<Self, SimError> {
+        check_nonneg("noise_sigma", sigma)?;
+        let normal = if sigma > 0.0 {
+            Some(Normal::new(0.0, sigma).map_err(|e| SimError::Numerical {
+                what: "noise distribution",
+                detail: e.to_string(),
+            })?)
+        } else {
+            None
+        };
+        Ok(Self {
+            rng: ChaCha8Rng::seed_from_u64(seed),
+            normal,
+        })
+    }
+
+    /// No noise.
+    pub fn none() -> Self {
+        Self {
+            rng: ChaCha8Rng::seed_from_u64(0),
+            normal: None,
+        }
+    }
+
+    /// One sample (0 when noise-free).
+    #[inline]
+    pub fn sample(&mut self) -> f64 {
+        match &self.normal {
+            Some(n) => n.sample(&mut self.rng),
+            None => 0.0,
+        }
+    }
+}
+
+/// Quantise `x` to steps of `q` (no quantisation for `q == 0`).
+#[inline]
+pub fn quantize(x: f64, q: f64) -> f64 {
+    if q > 0.0 { (x / q).round() * q } else { x }
+}
+
+/// A force channel with noise and resolution.
+#[derive(Debug, Clone)]
+pub struct ForceSensor {
+    /// Quantisation step (N).
+    pub resolution_n: f64,
+    noise: NoiseSource,
+}
+
+impl ForceSensor {
+    /// Ideal sensor (no noise, no quantisation).
+    pub fn ideal() -> Self {
+        Self {
+            resolution_n: 0.0,
+            noise: NoiseSource::none(),
+        }
+    }
+
+    /// Sensor with noise σ `noise_sigma_n`, resolution `resolution_n`, seeded.
+    pub fn new(noise_sigma_n: f64, resolution_n: f64, seed: u64) -> Result<Self, SimError> {
+        check_nonneg("resolution_n", resolution_n)?;
+        Ok(Self {
+            resolution_n,
+            noise: NoiseSource::new(seed, noise_sigma_n)?,
+        })
+    }
+
+    /// The thesis' spindle/workpiece force channel: σ = resolution = 0.04 N (§5.2.2).
+    pub fn thesis(seed: u64) -> Result<Self, SimError> {
+        Self::new(0.04, 0.04, seed)
+    }
+
+    /// Measure a true force (N).
+    #[inline]
+    pub fn measure(&mut self, force_n: f64) -> f64 {
+        quantize(force_n + self.noise.sample(), self.resolution_n)
+    }
+}
+
+/// Capacitance gauge: position (µm) ↔ volts with a finite range.
+#[derive(Debug, Clone)]
+pub struct CapacitanceGauge {
+    /// Measuring range (µm), reading clamped to `[0, range_um]`.
+    pub range_um: f64,
+    /// Sensitivity (µm/V).
+    pub sensitivity_um_per_v: f64,
+    /// Offset (µm) added to the reading (the thesis' gauge showed 0.25 µm initial offset, Fig. 5-15).
+    pub offset_um: f64,
+    noise: NoiseSource,
+}
+
+impl CapacitanceGauge {
+    /// RD20-1: 50 µm range, 2.5 µm/V, no noise, no offset.
+    pub fn rd20() -> Self {
+        Self {
+            range_um: 50.0,
+            sensitivity_um_per_v: 2.5,
+            offset_um: 0.0,
+            noise: NoiseSource::none(),
+        }
+    }
+
+    /// Custom gauge.
+    pub fn new(
+        range_um: f64,
+        sensitivity_um_per_v: f64,
+        offset_um: f64,
+        noise_sigma_um: f64,
+        seed: u64,
+    ) -> Result<Self, SimError> {
+        check_positive("range_um", range_um)?;
+        check_positive("sensitivity_um_per_v", sensitivity_um_per_v)?;
+        if !offset_um.is_finite() {
+            return Err(SimError::InvalidParameter {
+                name: "offset_um",
+                value: offset_um,
+                allowed: "finite",
+            });
+        }
+        Ok(Self {
+            range_um,
+            sensitivity_um_per_v,
+            offset_um,
+            noise: NoiseSource::new(seed, noise_sigma_um)?,
+        })
+    }
+
+    /// Reading in µm of a true position (µm), saturating at the range ends.
+    #[inline]
+    pub fn measure_um(&mut self, position_um: f64) -> f64 {
+        (position_um + self.offset_um + self.noise.sample()).clamp(0.0, self.range_um)
+    }
+
+    /// Reading in volts of a true position.
+    pub fn measure_v(&mut self, position_um: f64) -> f64 {
+        self.measure_um(position_um) / self.sensitivity_um_per_v
+    }
+}
+
+/// Serializable noise option `{ seed, sigma }` used by sessions and stages.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct NoiseSpec {
+    /// RNG seed.
+    pub seed: u64,
+    /// Standard deviation (unit of the signal it is applied to).
+    pub sigma: f64,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn force_sensor_noise_statistics_and_resolution() {
+        let mut s = ForceSensor::thesis(7).unwrap();
+        let n = 20_000;
+        let xs: Vec<f64> = (0..n).map(|_| s.measure(3.0)).collect();
+        let mean = xs.iter().sum::<f64>() / n as f64;
+        let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
+        // mean within 4 standard errors (σ/√n ≈ 3e-4 N)
+        assert!((mean - 3.0).abs() < 0.0015, "{mean}");
+        // σ² of noise + uniform quantisation q²/12 = 0.0016 + 0.000133
+        assert!((var - 0.001733).abs() < 0.0002, "{var}");
+        for x in xs {
+            assert!(((x / 0.04).round() * 0.04 - x).abs() < 1e-12);
+        }
+        assert_eq!(ForceSensor::ideal().measure(1.234), 1.234);
+    }
+
+    #[test]
+    fn gauge_saturates_and_converts() {
+        let mut g = CapacitanceGauge::rd20();
+        assert_eq!(g.measure_um(60.0), 50.0);
+        assert_eq!(g.measure_um(-1.0), 0.0);
+        assert_eq!(g.measure_v(25.0), 10.0);
+    }
+}

@@ -1,0 +1,766 @@
+//! Groove sessions: a TOML file describing tool, material, stiffness, effects and a plan of grooves and
+//! pauses (schema in `sim/SESSION.md`), and [`simulate_session`], which predicts every measured point as a
+//! row of the DESIGN.md measured-groove CSV contract.
+//!
+//! Prediction per point (quasi-static, per-revolution peak force as in `000_…txt` §6.2):
+//! `depth_meas = depth_cmd − δz + Σ effect offsets (+ noise)`, with `δz = Fz,peak(depth_cmd − δz)·(1/kz)`
+//! solved by fixed-point iteration on a per-groove table of peak z-force vs actual depth. Effect offsets do
+//! not feed back into the force (second order).
+
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::f64::consts::PI;
+use std::path::Path;
+
+use crate::effects::{AMBIENT_C, Effect, EffectContext, effect_from_params};
+use crate::error::SimError;
+use crate::force::{BallEndForceModel, CutConditions, FlankLaw, ForceParams};
+use crate::groove::DepthProfile;
+use crate::material::Material;
+use crate::sensors::{NoiseSource, NoiseSpec};
+use crate::stiffness::TiltedToolStiffness;
+use crate::tool::BallEndTool;
+
+/// `[tool]` table.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ToolSpec {
+    /// Ball radius (µm), default 400.
+    #[serde(default = "d_radius")]
+    pub radius_um: f64,
+    /// Wearland (µm), default 8.
+    #[serde(default = "d_wearland")]
+    pub wearland_um: f64,
+    /// Runout (µm), default 10.
+    #[serde(default = "d_runout")]
+    pub runout_um: f64,
+}
+fn d_radius() -> f64 {
+    400.0
+}
+fn d_wearland() -> f64 {
+    8.0
+}
+fn d_runout() -> f64 {
+    10.0
+}
+
+/// `[material]` table: a named material with optional overrides.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    /// `S7`, `1018`, `6061`, `H59`, `C45`.
+    pub name: String,
+    /// Override of W (MPa).
+    pub w_mpa: Option<f64>,
+    /// Override of E (GPa).
+    pub e_gpa: Option<f64>,
+    /// Override of µ.
+    pub mu_rake: Option<f64>,
+    /// Override of µf.
+    pub mu_flank: Option<f64>,
+}
+
+/// `[force_model]` table.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ForceModelSpec {
+    /// Multiplier on all forces (default 1).
+    #[serde(default = "d_one")]
+    pub force_scale: f64,
+    /// Shear angle (deg), default 50.
+    #[serde(default = "d_shear")]
+    pub shear_angle_deg: f64,
+    /// `flow_stress` (default) or `elastic_recovery`.
+    #[serde(default = "d_law")]
+    pub flank_law: String,
+    /// Factor for `flow_stress` (default π/4).
+    #[serde(default = "d_factor")]
+    pub flank_factor: f64,
+    /// Constant for `elastic_recovery` (default 9.24).
+    #[serde(default = "d_c")]
+    pub flank_c: f64,
+}
+fn d_one() -> f64 {
+    1.0
+}
+fn d_shear() -> f64 {
+    50.0
+}
+fn d_law() -> String {
+    "flow_stress".into()
+}
+fn d_factor() -> f64 {
+    PI / 4.0
+}
+fn d_c() -> f64 {
+    9.24
+}
+
+impl Default for ForceModelSpec {
+    fn default() -> Self {
+        Self {
+            force_scale: 1.0,
+            shear_angle_deg: 50.0,
+            flank_law: d_law(),
+            flank_factor: d_factor(),
+            flank_c: d_c(),
+        }
+    }
+}
+
+/// `[stiffness]` table.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StiffnessSpec {
+    /// Axial (spindle) stiffness (N/µm), default 1.220.
+    #[serde(default = "d_axial")]
+    pub axial_n_per_um: f64,
+    /// Radial (tool) stiffness (N/µm), default 0.114.
+    #[serde(default = "d_radial")]
+    pub radial_n_per_um: f64,
+}
+fn d_axial() -> f64 {
+    1.220
+}
+fn d_radial() -> f64 {
+    0.114
+}
+impl Default for StiffnessSpec {
+    fn default() -> Self {
+        Self {
+            axial_n_per_um: d_axial(),
+            radial_n_per_um: d_radial(),
+        }
+    }
+}
+
+/// `[[effects]]` entry.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EffectSpec {
+    /// Effect name (see `effects::EFFECT_NAMES`).
+    pub name: String,
+    /// Whether it is applied (default true).
+    #[serde(default = "d_true")]
+    pub enabled: bool,
+    /// Parameters (missing ones take the seed defaults).
+    #[serde(default)]
+    pub params: BTreeMap<String, f64>,
+}
+fn d_true() -> bool {
+    true
+}
+
+/// One groove of the plan.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GrooveSpec {
+    /// Session time at which the cut starts (s); default: when the previous item ends.
+    pub start_s: Option<f64>,
+    /// Spindle speed (rpm).
+    pub spindle_rpm: f64,
+    /// Upfeed (µm/rev); give this or `feed_mm_min`.
+    pub upfeed_um: Option<f64>,
+    /// Feed rate (mm/min); give this or `upfeed_um`.
+    pub feed_mm_min: Option<f64>,
+    /// Tool tilt (deg).
+    pub tilt_deg: f64,
+    /// Coolant state from the start of this groove on (default: unchanged; initially off).
+    pub coolant: Option<bool>,
+    /// Groove length (mm).
+    pub length_mm: f64,
+    /// Machine X of the groove start (mm), default 0.
+    #[serde(default)]
+    pub x_offset_mm: f64,
+    /// Spacing of the measured points (mm).
+    pub measure_every_mm: f64,
+    /// Programmed depth profile.
+    pub depth: DepthProfile,
+}
+
+/// A pause of the plan.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PauseSpec {
+    /// Duration (s).
+    pub duration_s: f64,
+    /// Spindle speed during the pause (rpm), default 0.
+    #[serde(default)]
+    pub spindle_rpm: f64,
+    /// Coolant state during the pause (default: unchanged).
+    pub coolant: Option<bool>,
+}
+
+/// A plan item.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum PlanItem {
+    /// A groove.
+    Groove(GrooveSpec),
+    /// A pause.
+    Pause(PauseSpec),
+}
+
+/// A session file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Session {
+    /// Name.
+    #[serde(default)]
+    pub name: String,
+    /// Free text.
+    #[serde(default)]
+    pub description: String,
+    /// Tool.
+    pub tool: ToolSpec,
+    /// Material.
+    pub material: MaterialSpec,
+    /// Force-model constants.
+    #[serde(default)]
+    pub force_model: ForceModelSpec,
+    /// Stiffness.
+    #[serde(default)]
+    pub stiffness: StiffnessSpec,
+    /// Effects present in the simulated truth.
+    #[serde(default)]
+    pub effects: Vec<EffectSpec>,
+    /// Plan of grooves and pauses, in time order.
+    pub plan: Vec<PlanItem>,
+}
+
+/// Options of [`simulate_session`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+pub struct SimOptions {
+    /// Gaussian measurement noise on `depth_meas_um` (σ in µm), seeded; `None` = noise-free.
+    pub noise: Option<NoiseSpec>,
+}
+
+/// One measured point: exactly the DESIGN.md measured-groove CSV columns.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct GroovePoint {
+    /// Groove index in the plan (0-based, grooves only).
+    pub groove_id: i64,
+    /// Session clock when this point was cut (s).
+    pub t_s: f64,
+    /// Position along the groove (mm).
+    pub x_mm: f64,
+    /// Cumulative engaged length of the tool at this point (mm).
+    pub cut_length_mm: f64,
+    /// Spindle speed (rpm).
+    pub spindle_rpm: f64,
+    /// Feed rate (mm/min).
+    pub feed_mm_min: f64,
+    /// Upfeed (µm/rev).
+    pub upfeed_um: f64,
+    /// Tool tilt (deg).
+    pub tilt_deg: f64,
+    /// Coolant on (1) or off (0).
+    pub coolant_on: u8,
+    /// Programmed depth (µm).
+    pub depth_cmd_um: f64,
+    /// Predicted (or measured) depth (µm).
+    pub depth_meas_um: f64,
+    /// Spindle temperature (°C), present when a spindle thermal model is active.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub spindle_temp_c: Option<f64>,
+}
+
+/// CSV header of the measured-groove contract (without the optional temperature column).
+pub const CSV_COLUMNS: [&str; 11] = [
+    "groove_id",
+    "t_s",
+    "x_mm",
+    "cut_length_mm",
+    "spindle_rpm",
+    "feed_mm_min",
+    "upfeed_um",
+    "tilt_deg",
+    "coolant_on",
+    "depth_cmd_um",
+    "depth_meas_um",
+];
+
+/// Write points as CSV (header + rows; `spindle_temp_c` column added when any point has it).
+pub fn write_csv<W: std::io::Write>(points: &[GroovePoint], mut w: W) -> std::io::Result<()> {
+    let temp = points.iter().any(|p| p.spindle_temp_c.is_some());
+    let mut header = CSV_COLUMNS.join(",");
+    if temp {
+        header.push_str(",spindle_temp_c");
+    }
+    writeln!(w, "{header}")?;
+    for p in points {
+        write!(
+            w,
+            "{},{},{},{},{},{},{},{},{},{},{}",
+            p.groove_id,
+            p.t_s,
+            p.x_mm,
+            p.cut_length_mm,
+            p.spindle_rpm,
+            p.feed_mm_min,
+            p.upfeed_um,
+            p.tilt_deg,
+            p.coolant_on,
+            p.depth_cmd_um,
+            p.depth_meas_um
+        )?;
+        if temp {
+            match p.spindle_temp_c {
+                Some(t) => write!(w, ",{t}")?,
+                None => write!(w, ",")?,
+            }
+        }
+        writeln!(w)?;
+    }
+    Ok(())
+}
+
+fn sess_err(key: impl Into<String>, message: impl Into<String>) -> SimError {
+    SimError::Session {
+        key: key.into(),
+        message: message.into(),
+    }
+}
+
+fn in_range(key: String, v: f64, lo: f64, hi: f64, allowed: &str) -> Result<f64, SimError> {
+    if v.is_finite() && v >= lo && v <= hi {
+        Ok(v)
+    } else {
+        Err(sess_err(
+            key,
+            format!("= {v} out of range: allowed {allowed}"),
+        ))
+    }
+}
+
+/// Re-key a parameter error under a session key path.
+fn rekey(prefix: &str, e: SimError) -> SimError {
+    match e {
+        SimError::InvalidParameter {
+            name,
+            value,
+            allowed,
+        } => sess_err(
+            format!("{prefix}.{name}"),
+            format!("= {value} out of range: allowed {allowed}"),
+        ),
+        other => other,
+    }
+}
+
+impl Session {
+    /// Parse and validate a session from TOML text; errors name the key.
+    pub fn from_toml_str(text: &str) -> Result<Self, SimError> {
+        let s: Session = toml::from_str(text).map_err(|e| {
+            let msg = e.message().to_string();
+            // toml reports unknown/missing fields in the message; the span locates the line
+            let line = e
+                .span()
+                .map(|sp| text[..sp.start.min(text.len())].lines().count().max(1));
+            let key = extract_backticked(&msg).unwrap_or_else(|| "<toml>".into());
+            sess_err(
+                key,
+                match line {
+                    Some(l) => format!("{msg} (line {l})"),
+                    None => msg,
+                },
+            )
+        })?;
+        s.validate()?;
+        Ok(s)
+    }
+
+    /// Read, parse and validate a session file.
+    pub fn from_path(path: impl AsRef<Path>) -> Result<Self, SimError> {
+        let p = path.as_ref();
+        let text = std::fs::read_to_string(p).map_err(|e| SimError::Io {
+            path: p.display().to_string(),
+            message: e.to_string(),
+        })?;
+        Self::from_toml_str(&text)
+    }
+
+    /// The material with overrides applied.
+    pub fn material(&self) -> Result<Material, SimError> {
+        let mut m = Material::by_name(&self.material.name)?;
+        if let Some(v) = self.material.w_mpa {
+            m.w_mpa = v;
+        }
+        if let Some(v) = self.material.e_gpa {
+            m.e_gpa = v;
+        }
+        if let Some(v) = self.material.mu_rake {
+            m.mu_rake = v;
+        }
+        if let Some(v) = self.material.mu_flank {
+            m.mu_flank = v;
+        }
+        m.validate().map_err(|e| rekey("material", e))?;
+        Ok(m)
+    }
+
+    /// The force model described by the session.
+    pub fn force_model(&self) -> Result<BallEndForceModel, SimError> {
+        let tool = BallEndTool::new(
+            self.tool.radius_um,
+            self.tool.wearland_um,
+            self.tool.runout_um,
+        )
+        .map_err(|e| rekey("tool", e))?;
+        let law = match self.force_model.flank_law.as_str() {
+            "flow_stress" => FlankLaw::FlowStress {
+                factor: self.force_model.flank_factor,
+            },
+            "elastic_recovery" => FlankLaw::ElasticRecovery {
+                c: self.force_model.flank_c,
+            },
+            other => {
+                return Err(sess_err(
+                    "force_model.flank_law",
+                    format!("unknown law `{other}`; allowed flow_stress, elastic_recovery"),
+                ));
+            }
+        };
+        BallEndForceModel::new(
+            self.material()?,
+            tool,
+            ForceParams {
+                shear_angle_deg: self.force_model.shear_angle_deg,
+                flank_law: law,
+                force_scale: self.force_model.force_scale,
+            },
+        )
+        .map_err(|e| rekey("force_model", e))
+    }
+
+    /// The stiffness described by the session.
+    pub fn stiffness(&self) -> Result<TiltedToolStiffness, SimError> {
+        TiltedToolStiffness::new(
+            self.stiffness.axial_n_per_um,
+            self.stiffness.radial_n_per_um,
+        )
+        .map_err(|e| rekey("stiffness", e))
+    }
+
+    /// The enabled effects.
+    pub fn effects(&self) -> Result<Vec<Box<dyn Effect>>, SimError> {
+        let mut out = Vec::new();
+        for (i, e) in self.effects.iter().enumerate() {
+            let eff = effect_from_params(&e.name, &e.params).map_err(|err| match err {
+                SimError::UnknownEffect { name, allowed } => sess_err(
+                    format!("effects[{i}].name"),
+                    format!("unknown effect `{name}`; allowed {allowed}"),
+                ),
+                SimError::EffectParameter { param, message, .. } => {
+                    sess_err(format!("effects[{i}].params.{param}"), message)
+                }
+                other => other,
+            })?;
+            if e.enabled {
+                out.push(eff);
+            }
+        }
+        Ok(out)
+    }
+
+    /// Validate everything; errors name the key (`plan[2].tilt_deg`, …).
+    pub fn validate(&self) -> Result<(), SimError> {
+        let fm = self.force_model()?;
+        self.stiffness()?;
+        self.effects()?;
+        if self.plan.is_empty() {
+            return Err(sess_err("plan", "the plan has no items"));
+        }
+        let r = fm.tool.radius_um;
+        for (i, item) in self.plan.iter().enumerate() {
+            match item {
+                PlanItem::Groove(g) => {
+                    let k = |f: &str| format!("plan[{i}].{f}");
+                    if let Some(t) = g.start_s {
+                        in_range(k("start_s"), t, 0.0, 1e9, "0 <= start_s")?;
+                    }
+                    in_range(
+                        k("spindle_rpm"),
+                        g.spindle_rpm,
+                        1e-9,
+                        1e6,
+                        "0 < spindle_rpm <= 1e6",
+                    )?;
+                    in_range(
+                        k("tilt_deg"),
+                        g.tilt_deg,
+                        0.0,
+                        89.999_999,
+                        "0 <= tilt_deg < 90",
+                    )?;
+                    in_range(
+                        k("length_mm"),
+                        g.length_mm,
+                        1e-9,
+                        1e4,
+                        "0 < length_mm <= 1e4",
+                    )?;
+                    in_range(
+                        k("measure_every_mm"),
+                        g.measure_every_mm,
+                        1e-4,
+                        g.length_mm.max(1e-4),
+                        "0.0001 <= measure_every_mm <= length_mm",
+                    )?;
+                    in_range(
+                        k("x_offset_mm"),
+                        g.x_offset_mm,
+                        -1e5,
+                        1e5,
+                        "|x_offset_mm| <= 1e5",
+                    )?;
+                    match (g.upfeed_um, g.feed_mm_min) {
+                        (Some(u), None) => {
+                            in_range(k("upfeed_um"), u, 1e-9, 1e3, "0 < upfeed_um <= 1000")?;
+                        }
+                        (None, Some(f)) => {
+                            in_range(k("feed_mm_min"), f, 1e-9, 1e6, "0 < feed_mm_min")?;
+                        }
+                        _ => {
+                            return Err(sess_err(
+                                k("upfeed_um"),
+                                "give exactly one of upfeed_um or feed_mm_min",
+                            ));
+                        }
+                    }
+                    g.depth
+                        .validate(r)
+                        .map_err(|e| rekey(&format!("plan[{i}].depth"), e))?;
+                }
+                PlanItem::Pause(p) => {
+                    in_range(
+                        format!("plan[{i}].duration_s"),
+                        p.duration_s,
+                        0.0,
+                        1e9,
+                        "0 <= duration_s",
+                    )?;
+                    in_range(
+                        format!("plan[{i}].spindle_rpm"),
+                        p.spindle_rpm,
+                        0.0,
+                        1e6,
+                        "0 <= spindle_rpm <= 1e6",
+                    )?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+fn extract_backticked(msg: &str) -> Option<String> {
+    let a = msg.find('`')?;
+    let b = msg[a + 1..].find('`')?;
+    Some(msg[a + 1..a + 1 + b].to_string())
+}
+
+impl GrooveSpec {
+    /// Upfeed (µm/rev), from `upfeed_um` or `feed_mm_min`.
+    pub fn upfeed(&self) -> f64 {
+        match (self.upfeed_um, self.feed_mm_min) {
+            (Some(u), _) => u,
+            (None, Some(f)) => f * 1e3 / self.spindle_rpm,
+            _ => 0.0,
+        }
+    }
+
+    /// Feed rate (mm/min).
+    pub fn feed(&self) -> f64 {
+        self.upfeed() * self.spindle_rpm * 1e-3
+    }
+
+    /// Cut duration (s).
+    pub fn duration_s(&self) -> f64 {
+        self.length_mm / (self.feed() / 60.0)
+    }
+}
+
+/// Peak z-force vs actual depth on a grid (linear interpolation).
+struct PeakTable {
+    step_um: f64,
+    f: Vec<f64>,
+}
+
+impl PeakTable {
+    fn new(
+        model: &BallEndForceModel,
+        base: CutConditions,
+        max_depth: f64,
+    ) -> Result<Self, SimError> {
+        let step = 0.25;
+        let n = (max_depth / step).ceil() as usize + 2;
+        let mut f = Vec::with_capacity(n);
+        for k in 0..n {
+            let mut c = base;
+            c.depth_um = (k as f64 * step).min(model.tool.radius_um);
+            f.push(model.peak_z_force_n(&c)?);
+        }
+        Ok(Self { step_um: step, f })
+    }
+    fn at(&self, d: f64) -> f64 {
+        let x = (d.max(0.0) / self.step_um).min((self.f.len() - 1) as f64);
+        let i = (x.floor() as usize).min(self.f.len() - 2);
+        let w = x - i as f64;
+        self.f[i] * (1.0 - w) + self.f[i + 1] * w
+    }
+}
+
+/// Simulate a session: one [`GroovePoint`] per measured point, in plan order.
+pub fn simulate_session(
+    session: &Session,
+    opts: &SimOptions,
+) -> Result<Vec<GroovePoint>, SimError> {
+    session.validate()?;
+    let model = session.force_model()?;
+    let stiffness = session.stiffness()?;
+    let effects = session.effects()?;
+    let mut noise = match opts.noise {
+        Some(n) => NoiseSource::new(n.seed, n.sigma)?,
+        None => NoiseSource::none(),
+    };
+    // first pass: the time line of coolant and spindle events
+    let mut coolant_events: Vec<(f64, bool)> = Vec::new();
+    let mut spindle_events: Vec<(f64, f64)> = Vec::new();
+    let mut t = 0.0f64;
+    let mut coolant = false;
+    let mut starts = Vec::new();
+    for item in &session.plan {
+        match item {
+            PlanItem::Groove(g) => {
+                let t0 = g.start_s.unwrap_or(t).max(t);
+                if let Some(c) = g.coolant {
+                    if c != coolant || coolant_events.is_empty() {
+                        coolant_events.push((t0, c));
+                        coolant = c;
+                    }
+                }
+                spindle_events.push((t0, g.spindle_rpm));
+                starts.push(t0);
+                t = t0 + g.duration_s();
+            }
+            PlanItem::Pause(p) => {
+                if let Some(c) = p.coolant {
+                    if c != coolant || coolant_events.is_empty() {
+                        coolant_events.push((t, c));
+                        coolant = c;
+                    }
+                }
+                spindle_events.push((t, p.spindle_rpm));
+                starts.push(t);
+                t += p.duration_s;
+            }
+        }
+    }
+    // second pass: points
+    let mut out = Vec::new();
+    let mut cut_length = 0.0f64;
+    let mut groove_id = 0i64;
+    for (item, &t0) in session.plan.iter().zip(&starts) {
+        let PlanItem::Groove(g) = item else { continue };
+        let upfeed = g.upfeed();
+        let base = CutConditions {
+            depth_um: 0.0,
+            upfeed_um_per_rev: upfeed,
+            speed_rpm: g.spindle_rpm,
+            tilt_deg: g.tilt_deg,
+        };
+        let compliance = stiffness.z_compliance_um_per_n(g.tilt_deg)?;
+        // max programmed depth on a fine grid
+        let nfine = 1000usize;
+        let mut max_d: f64 = 0.0;
+        for k in 0..=nfine {
+            max_d = max_d.max(
+                g.depth
+                    .depth_at(g.length_mm * k as f64 / nfine as f64, g.length_mm),
+            );
+        }
+        let table = PeakTable::new(&model, base, max_d)?;
+        let v_mm_s = g.feed() / 60.0;
+        let n_pts = (g.length_mm / g.measure_every_mm + 1e-9).floor() as usize;
+        let mut x_prev = 0.0;
+        for j in 0..=n_pts {
+            let x = (j as f64 * g.measure_every_mm).min(g.length_mm);
+            // engaged length between the previous point and this one
+            let sub = 20usize;
+            for s in 0..sub {
+                let xa = x_prev + (x - x_prev) * (s as f64 + 0.5) / sub as f64;
+                if g.depth.depth_at(xa, g.length_mm) > 0.0 {
+                    cut_length += (x - x_prev) / sub as f64;
+                }
+            }
+            x_prev = x;
+            let tp = t0 + x / v_mm_s;
+            let d_cmd = g.depth.depth_at(x, g.length_mm);
+            let mut delta = 0.0;
+            for _ in 0..200 {
+                let next = table.at(d_cmd - delta) * compliance;
+                if (next - delta).abs() < 1e-10 {
+                    delta = next;
+                    break;
+                }
+                delta = next;
+            }
+            let d_act = (d_cmd - delta).max(0.0);
+            let fz = table.at(d_act);
+            let phi = model.contact_angle_rad(d_act);
+            let chip_fz = model.params.force_scale
+                * model.material.mu_rake
+                * model.specific_cutting_pressure_mpa()
+                * 1e-6
+                * (0.5 * phi).cos();
+            let ce_end = coolant_events.partition_point(|e| e.0 <= tp);
+            let se_end = spindle_events.partition_point(|e| e.0 <= tp);
+            let ctx = EffectContext {
+                t_s: tp,
+                x_mm: x,
+                machine_x_mm: g.x_offset_mm + x,
+                cut_length_mm: cut_length,
+                spindle_rpm: g.spindle_rpm,
+                tilt_deg: g.tilt_deg,
+                upfeed_um: upfeed,
+                depth_cmd_um: d_cmd,
+                depth_actual_um: d_act,
+                force_z_n: fz,
+                chip_force_z_n_per_um2: chip_fz,
+                z_compliance_um_per_n: compliance,
+                coolant_events: &coolant_events[..ce_end],
+                spindle_events: &spindle_events[..se_end],
+            };
+            let mut offset = 0.0;
+            let mut temp = None;
+            for e in &effects {
+                offset += e.depth_offset_um(&ctx);
+                if let Some(r) = e.spindle_temp_rise_c(&ctx) {
+                    temp = Some(AMBIENT_C + r);
+                }
+            }
+            let coolant_on = coolant_events[..ce_end]
+                .last()
+                .map(|e| e.1)
+                .unwrap_or(false);
+            out.push(GroovePoint {
+                groove_id,
+                t_s: tp,
+                x_mm: x,
+                cut_length_mm: cut_length,
+                spindle_rpm: g.spindle_rpm,
+                feed_mm_min: g.feed(),
+                upfeed_um: upfeed,
+                tilt_deg: g.tilt_deg,
+                coolant_on: u8::from(coolant_on),
+                depth_cmd_um: d_cmd,
+                depth_meas_um: d_cmd - delta + offset + noise.sample(),
+                spindle_temp_c: temp,
+            });
+        }
+        groove_id += 1;
+    }
+    Ok(out)
+}
