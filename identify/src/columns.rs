@@ -1,0 +1,293 @@
+//! One entry point for the CLI: `millcomp identify <what> FILE` reads the CSV into named columns
+//! and calls [`identify_columns`], which picks the verb's columns by their contract names,
+//! reports missing ones by name and notes the ignored ones.
+//!
+//! | verb        | required columns                     | optional columns                         |
+//! |-------------|--------------------------------------|------------------------------------------|
+//! | `spindle`   | `t_s, u_v, y_um`                     |                                          |
+//! | `stiffness` | `load_n, deflection_um`              | `direction` (text)                       |
+//! | `thermal`   | `t_s, drift_um`                      | `speed_rpm`, `temp_c`                    |
+//! | `force`     | `depth_um, upfeed_um` (or `upfeed_um_per_rev`) and any of `max_fx_n, max_fy_n, max_fz_n` (peaks) or `rot_deg` with any of `fx_n, fy_n, fz_n` (traces) | `speed_rpm`, `tilt_deg` |
+//! | `wall`      | `force_n, deflection_um`             |                                          |
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::str::FromStr;
+
+use crate::error::{IdentifyError, Result};
+use crate::nonlinear::NlsOptions;
+use crate::verbs::Identified;
+use crate::verbs::force::{
+    ForceConditions, ForceData, ForceOptions, ForceParam, ForceTraceData, PeakForceData,
+    identify_force,
+};
+use crate::verbs::spindle::{SpindleData, SpindleOptions, identify_spindle};
+use crate::verbs::stiffness::{StiffnessData, StiffnessOptions, identify_stiffness};
+use crate::verbs::thermal::{ThermalData, ThermalModel, VerbOptions, identify_thermal};
+use crate::verbs::wall::{WallData, WallGeometry, WallOptions, identify_wall};
+
+/// What to identify (`millcomp identify <what>`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Verb {
+    /// PZT spindle plant from a step response.
+    Spindle,
+    /// Static stiffness from load–deflection data.
+    Stiffness,
+    /// Force-model material/friction parameters.
+    Force,
+    /// Thermal drift model.
+    Thermal,
+    /// Thin-wall effective stiffness.
+    Wall,
+}
+
+impl FromStr for Verb {
+    type Err = IdentifyError;
+    fn from_str(s: &str) -> Result<Self> {
+        Ok(match s {
+            "spindle" => Verb::Spindle,
+            "stiffness" => Verb::Stiffness,
+            "force" => Verb::Force,
+            "thermal" => Verb::Thermal,
+            "wall" => Verb::Wall,
+            _ => {
+                return Err(IdentifyError::MissingColumn {
+                    column: s.into(),
+                    reason:
+                        "unknown identify target; allowed spindle, stiffness, force, thermal, wall"
+                            .into(),
+                });
+            }
+        })
+    }
+}
+
+/// Named data columns (numeric and text).
+#[derive(Debug, Clone, Default)]
+pub struct Columns {
+    numeric: BTreeMap<String, Vec<f64>>,
+    text: BTreeMap<String, Vec<String>>,
+}
+
+impl Columns {
+    /// Empty set of columns.
+    pub fn new() -> Self {
+        Self::default()
+    }
+    /// Adds (or replaces) a numeric column.
+    pub fn insert(&mut self, name: &str, values: Vec<f64>) -> &mut Self {
+        self.numeric.insert(name.to_string(), values);
+        self
+    }
+    /// Adds (or replaces) a text column.
+    pub fn insert_text(&mut self, name: &str, values: Vec<String>) -> &mut Self {
+        self.text.insert(name.to_string(), values);
+        self
+    }
+    fn names(&self) -> BTreeSet<String> {
+        self.numeric
+            .keys()
+            .chain(self.text.keys())
+            .cloned()
+            .collect()
+    }
+}
+
+/// Options of all verbs (each verb uses its own).
+#[derive(Debug, Clone, Default)]
+pub struct IdentifyOptions {
+    /// Data file name recorded in the saved model.
+    pub source_file: String,
+    /// Nonlinear solver options.
+    pub nls: NlsOptions,
+    /// Thermal model (default exponential).
+    pub thermal_model: ThermalModel,
+    /// Spindle: fit the extra real pole.
+    pub spindle_extra_pole: bool,
+    /// Spindle: fit a dead time.
+    pub spindle_dead_time: bool,
+    /// Stiffness: tilts (deg) at which to derive the tilted-tool z-stiffness.
+    pub tilt_deg: Vec<f64>,
+    /// Stiffness: known machine stiffness (N/µm) for the series combination.
+    pub machine_stiffness_n_per_um: Option<f64>,
+    /// Force: parameters to fit (empty: W only).
+    pub force_free: Vec<ForceParam>,
+    /// Force: material name for the fixed parameters (the physics crate's `Material::by_name`;
+    /// default 6061).
+    pub material: Option<String>,
+    /// Force: weight by 1/F² (relative errors).
+    pub relative_errors: bool,
+    /// Wall: geometry for the derived modulus.
+    pub wall_geometry: Option<WallGeometry>,
+}
+
+struct Picker<'a> {
+    cols: &'a Columns,
+    used: BTreeSet<String>,
+    verb: &'static str,
+}
+
+impl<'a> Picker<'a> {
+    fn req(&mut self, name: &str) -> Result<&'a [f64]> {
+        self.opt(name).ok_or_else(|| IdentifyError::MissingColumn {
+            column: name.into(),
+            reason: format!("required by `identify {}`", self.verb),
+        })
+    }
+    fn opt(&mut self, name: &str) -> Option<&'a [f64]> {
+        let v = self.cols.numeric.get(name)?;
+        self.used.insert(name.to_string());
+        Some(v.as_slice())
+    }
+    fn text(&mut self, name: &str) -> Option<&'a [String]> {
+        let v = self.cols.text.get(name)?;
+        self.used.insert(name.to_string());
+        Some(v.as_slice())
+    }
+    fn notes(&self) -> Vec<String> {
+        self.cols
+            .names()
+            .difference(&self.used)
+            .map(|c| {
+                format!(
+                    "column `{c}` is not used by `identify {}` and was ignored",
+                    self.verb
+                )
+            })
+            .collect()
+    }
+}
+
+/// Runs verb `verb` on named columns (see the module table for the names).
+pub fn identify_columns(verb: Verb, cols: &Columns, opts: &IdentifyOptions) -> Result<Identified> {
+    let common = VerbOptions {
+        source_file: opts.source_file.clone(),
+        nls: opts.nls,
+    };
+    let name = match verb {
+        Verb::Spindle => "spindle",
+        Verb::Stiffness => "stiffness",
+        Verb::Force => "force",
+        Verb::Thermal => "thermal",
+        Verb::Wall => "wall",
+    };
+    let mut p = Picker {
+        cols,
+        used: BTreeSet::new(),
+        verb: name,
+    };
+    let mut out = match verb {
+        Verb::Spindle => {
+            let d = SpindleData {
+                t_s: p.req("t_s")?,
+                u_v: p.req("u_v")?,
+                y_um: p.req("y_um")?,
+            };
+            let o = SpindleOptions {
+                common,
+                extra_pole: opts.spindle_extra_pole,
+                dead_time: opts.spindle_dead_time,
+                ..Default::default()
+            };
+            identify_spindle(&d, &o)?
+        }
+        Verb::Stiffness => {
+            let d = StiffnessData {
+                load_n: p.req("load_n")?,
+                deflection_um: p.req("deflection_um")?,
+                direction: p.text("direction"),
+            };
+            let o = StiffnessOptions {
+                common,
+                tilt_deg: opts.tilt_deg.clone(),
+                machine_stiffness_n_per_um: opts.machine_stiffness_n_per_um,
+            };
+            identify_stiffness(&d, &o)?
+        }
+        Verb::Thermal => {
+            let d = ThermalData {
+                t_s: p.req("t_s")?,
+                drift_um: p.req("drift_um")?,
+                speed_rpm: p.opt("speed_rpm"),
+                temp_c: p.opt("temp_c"),
+            };
+            identify_thermal(&d, opts.thermal_model, &common)?
+        }
+        Verb::Wall => {
+            let d = WallData {
+                force_n: p.req("force_n")?,
+                deflection_um: p.req("deflection_um")?,
+            };
+            let o = WallOptions {
+                common,
+                geometry: opts.wall_geometry,
+            };
+            identify_wall(&d, &o)?
+        }
+        Verb::Force => {
+            let depth = p.req("depth_um")?;
+            let upfeed = match p.opt("upfeed_um_per_rev") {
+                Some(u) => u,
+                None => p.req("upfeed_um")?,
+            };
+            let conditions = ForceConditions {
+                depth_um: depth,
+                upfeed_um_per_rev: upfeed,
+                speed_rpm: p.opt("speed_rpm"),
+                tilt_deg: p.opt("tilt_deg"),
+            };
+            let data = match p.opt("rot_deg") {
+                Some(rot) => ForceData::Traces(ForceTraceData {
+                    conditions,
+                    rot_deg: rot,
+                    fx_n: p.opt("fx_n"),
+                    fy_n: p.opt("fy_n"),
+                    fz_n: p.opt("fz_n"),
+                }),
+                None => ForceData::Peaks(PeakForceData {
+                    conditions,
+                    max_fx_n: p.opt("max_fx_n"),
+                    max_fy_n: p.opt("max_fy_n"),
+                    max_fz_n: p.opt("max_fz_n"),
+                }),
+            };
+            let mut o = ForceOptions {
+                common,
+                relative_errors: opts.relative_errors,
+                ..Default::default()
+            };
+            if !opts.force_free.is_empty() {
+                o.free = opts.force_free.clone();
+            }
+            if let Some(m) = &opts.material {
+                o.base.material = millcomp_sim::material::Material::by_name(m).map_err(|e| {
+                    IdentifyError::ModelEvaluation {
+                        model: "force".into(),
+                        cause: e.to_string(),
+                    }
+                })?;
+            }
+            identify_force(&data, &o)?
+        }
+    };
+    out.notes = p.notes();
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn missing_and_ignored_columns_are_named() {
+        let mut c = Columns::new();
+        c.insert("load_n", vec![1.0, 2.0, 3.0, 4.0]);
+        let e = identify_columns(Verb::Stiffness, &c, &IdentifyOptions::default()).unwrap_err();
+        assert!(e.to_string().contains("deflection_um"), "{e}");
+        c.insert("deflection_um", vec![1.0, 2.1, 2.9, 4.0]);
+        c.insert_text("source", vec!["x".into(); 4]);
+        let r = identify_columns(Verb::Stiffness, &c, &IdentifyOptions::default()).unwrap();
+        assert_eq!(r.notes.len(), 1);
+        assert!(r.notes[0].contains("`source`"));
+        assert!("nonsense".parse::<Verb>().is_err());
+    }
+}

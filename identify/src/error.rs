@@ -1,0 +1,161 @@
+//! The one error type of the crate.
+//!
+//! Errors are for input that cannot be fitted at all (wrong lengths, NaN, non-monotone time, fewer
+//! points than parameters, a regressor that does not vary, impossible bounds). A fit that ran but did
+//! not converge, or converged to a poorly identifiable point, is *not* an error: it is a
+//! [`FitReport`](crate::FitReport) with a `status` and `warnings`.
+//!
+//! Row numbers are 0-based indices into the data columns (the first data row below a CSV header is
+//! row 0); the CLI adds its own header offset when it prints them.
+
+/// Everything that makes identification impossible, each variant naming the offending column, row
+/// or parameter and what would have been allowed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum IdentifyError {
+    /// Fewer usable data points than the fit needs (at least one more than the free parameters,
+    /// so that a residual variance and standard errors exist).
+    #[error(
+        "too few points: {got} usable rows for {n_params} free parameters ({what}); need at least {needed}"
+    )]
+    TooFewPoints {
+        /// Usable rows supplied.
+        got: usize,
+        /// Free parameters to estimate.
+        n_params: usize,
+        /// Minimum number of rows required.
+        needed: usize,
+        /// Which fit (or which group, e.g. one stiffness direction).
+        what: String,
+    },
+    /// Two columns that must be equally long are not.
+    #[error("column `{column}` has {len} rows but `{reference}` has {expected}")]
+    LengthMismatch {
+        /// Offending column.
+        column: String,
+        /// Its length.
+        len: usize,
+        /// Column it is compared with.
+        reference: String,
+        /// Length of the reference column.
+        expected: usize,
+    },
+    /// A NaN or infinite value in the data.
+    #[error("column `{column}` row {row}: value {value} is not finite (NaN or infinite)")]
+    NonFinite {
+        /// Offending column.
+        column: String,
+        /// 0-based data row.
+        row: usize,
+        /// The value found.
+        value: f64,
+    },
+    /// Time (or another ordering column) does not strictly increase.
+    #[error(
+        "column `{column}` row {row}: value {value} does not increase (previous row {prev}); time must be strictly increasing"
+    )]
+    NonMonotoneTime {
+        /// Offending column.
+        column: String,
+        /// 0-based data row where the order breaks.
+        row: usize,
+        /// Value at `row - 1`.
+        prev: f64,
+        /// Value at `row`.
+        value: f64,
+    },
+    /// An input column that has to vary is constant, so the named parameters cannot be identified.
+    #[error("column `{column}` is constant ({value}): {parameters} cannot be identified from it")]
+    ConstantInput {
+        /// Offending column.
+        column: String,
+        /// Its (single) value.
+        value: f64,
+        /// Parameters that would need the column to vary.
+        parameters: String,
+    },
+    /// A value outside the range a column or option allows.
+    #[error("{name} = {value} is out of range: allowed {allowed}")]
+    InvalidParameter {
+        /// Column, option or parameter name.
+        name: String,
+        /// The value given.
+        value: f64,
+        /// Human-readable allowed range.
+        allowed: &'static str,
+    },
+    /// Bounds with `lower >= upper` or NaN.
+    #[error("parameter `{name}`: bad bounds [{lower}, {upper}] (need lower < upper, not NaN)")]
+    BadBounds {
+        /// Parameter name.
+        name: String,
+        /// Lower bound.
+        lower: f64,
+        /// Upper bound.
+        upper: f64,
+    },
+    /// A starting value not strictly inside its bounds (or not finite).
+    #[error("parameter `{name}`: initial value {value} is not strictly inside [{lower}, {upper}]")]
+    InitialOutsideBounds {
+        /// Parameter name.
+        name: String,
+        /// Initial value.
+        value: f64,
+        /// Lower bound.
+        lower: f64,
+        /// Upper bound.
+        upper: f64,
+    },
+    /// A required column (or group of rows) is missing.
+    #[error("missing input `{column}`: {reason}")]
+    MissingColumn {
+        /// Column name.
+        column: String,
+        /// Why it is needed.
+        reason: String,
+    },
+    /// The forward model could not be evaluated at the starting point (or the physics crate
+    /// rejected a fixed input).
+    #[error("model `{model}` could not be evaluated: {cause}")]
+    ModelEvaluation {
+        /// Model kind.
+        model: String,
+        /// Cause, usually the physics crate's error message.
+        cause: String,
+    },
+    /// The argmin solver failed internally (not a non-convergence, which is a report status).
+    #[error("solver error: {0}")]
+    Solver(String),
+    /// A saved model file could not be read or written.
+    #[error("saved model: {0}")]
+    SavedModel(String),
+    /// `diagnose`: the measured data do not belong to the session (different grooves, points or
+    /// conditions). `row` is the 0-based data row, `None` when the whole file is at fault.
+    #[error("measured data do not match the session: {}column `{column}`: {message}", row.map(|r| format!("row {r}, ")).unwrap_or_default())]
+    SessionMismatch {
+        /// Offending column (`rows` when the row counts differ).
+        column: String,
+        /// 0-based data row, if one row is at fault.
+        row: Option<usize>,
+        /// What differs, with both values.
+        message: String,
+    },
+    /// `diagnose`: a candidate effect name that is not registered.
+    #[error("unknown candidate effect `{name}`; allowed {allowed}")]
+    UnknownCandidate {
+        /// The name given.
+        name: String,
+        /// Registered names.
+        allowed: String,
+    },
+    /// `diagnose`: the session file could not be simulated, or a report file could not be written.
+    #[error("{what}: {message}")]
+    Io {
+        /// File or item at fault.
+        what: String,
+        /// Cause.
+        message: String,
+    },
+}
+
+/// Result alias of the crate.
+pub type Result<T> = std::result::Result<T, IdentifyError>;

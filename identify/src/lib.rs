@@ -1,0 +1,34 @@
+//! # millcomp-identify
+//!
+//! Least-squares identification with honest uncertainty for the millcomp models.
+//!
+//! * Engine: weighted linear least squares ([`fit_linear`], QR/SVD, rank deficiency named by
+//!   parameter) and bounded nonlinear least squares on argmin ([`fit_nonlinear`], trust region
+//!   with Steihaug-CG steps on the Gauss–Newton model), both returning a [`FitReport`] with standard
+//!   errors, t-based 95 % intervals, covariance, correlation, condition number, identifiability
+//!   warnings and residual diagnostics.
+//! * Models are residual operators with Jacobians ([`ResidualModel`] = argmin `Operator` +
+//!   `Jacobian`); [`check_jacobian`] is the finite-difference test every analytic Jacobian has.
+//! * Errors ([`IdentifyError`]) are for input that cannot be fitted; a fit that ran always gives a
+//!   report whose `status` says how it ended.
+#![warn(missing_docs)]
+
+pub mod columns;
+pub mod error;
+pub mod jaccheck;
+pub mod linear;
+pub mod nonlinear;
+pub mod report;
+pub mod validate;
+
+pub use columns::{Columns, IdentifyOptions, Verb, identify_columns};
+pub use error::{IdentifyError, Result};
+pub use jaccheck::{JacobianCheck, check_jacobian, fd_jacobian};
+pub use linear::{LinearFit, LinearMethod, fit_linear};
+pub use nonlinear::{NlsOptions, NonlinearFit, ParamSpec, ResidualModel, fit_nonlinear};
+pub use report::{FitReport, FitStatus, NamedMatrix, ResidualDiagnostics, RmsResidual};
+pub mod saved;
+pub mod verbs;
+
+pub use saved::{Derived, SavedModel};
+pub use verbs::Identified;

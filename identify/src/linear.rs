@@ -1,0 +1,339 @@
+//! Weighted linear least squares `min ‖W^½(Aθ − y)‖²` by QR (default) or SVD, with rank
+//! deficiency detected and reported by parameter.
+//!
+//! Columns are scaled to unit norm before factorising (so that a column in N and one in µN are
+//! judged alike); the QR is nalgebra's column-pivoted Householder QR, whose `|R_kk|/|R_00|`
+//! reveals the numerical rank. A rank-deficient problem is not an error: the minimum-norm SVD
+//! solution is returned with status `rank_deficient` and a warning naming the unseen combination.
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::error::{IdentifyError, Result};
+use crate::report::{FitReport, FitStatus, ReportInputs, build_report, thresholds};
+use crate::validate;
+
+/// Factorisation used by [`fit_linear`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LinearMethod {
+    /// Column-pivoted Householder QR (falls back to SVD when rank deficient).
+    #[default]
+    Qr,
+    /// Singular value decomposition (minimum-norm solution).
+    Svd,
+}
+
+/// Result of a linear fit: the report and the estimate vector in parameter order.
+#[derive(Debug, Clone)]
+pub struct LinearFit {
+    /// The report.
+    pub report: FitReport,
+    /// Estimates in the order of the names passed in.
+    pub theta: DVector<f64>,
+}
+
+/// Weighted linear least squares.
+///
+/// * `names` — one per column of `design`;
+/// * `design` — n × p regressor matrix `A`;
+/// * `y` — n observations (unit `unit`, used in the `rms_residual_<unit>` key);
+/// * `weights` — optional inverse variances (> 0), one per row.
+///
+/// Errors on NaN (naming column and row), length mismatch, `n ≤ p`, non-positive weights.
+///
+/// ```
+/// use millcomp_identify::{fit_linear, LinearMethod};
+/// use nalgebra::DMatrix;
+/// // y = 2 + 3x exactly, plus a tiny alternating perturbation.
+/// let x = [0.0, 1.0, 2.0, 3.0, 4.0];
+/// let y: Vec<f64> = x.iter().enumerate().map(|(i, x)| 2.0 + 3.0 * x + if i % 2 == 0 { 1e-3 } else { -1e-3 }).collect();
+/// let a = DMatrix::from_fn(5, 2, |i, j| if j == 0 { 1.0 } else { x[i] });
+/// let names = ["intercept".to_string(), "slope".to_string()];
+/// let fit = fit_linear(&names, &a, &y, None, LinearMethod::Qr, "line", "um").unwrap();
+/// assert!((fit.report.param("slope") - 3.0).abs() < 1e-3);
+/// assert_eq!(fit.report.rank, 2);
+/// ```
+pub fn fit_linear(
+    names: &[String],
+    design: &DMatrix<f64>,
+    y: &[f64],
+    weights: Option<&[f64]>,
+    method: LinearMethod,
+    model: &str,
+    unit: &str,
+) -> Result<LinearFit> {
+    let (n, p) = design.shape();
+    if names.len() != p {
+        return Err(IdentifyError::InvalidParameter {
+            name: "names.len()".into(),
+            value: names.len() as f64,
+            allowed: "one name per design column",
+        });
+    }
+    validate::same_len("y", y, "design rows", n)?;
+    validate::finite("y", y)?;
+    for (j, name) in names.iter().enumerate() {
+        let col: Vec<f64> = design.column(j).iter().copied().collect();
+        validate::finite(name, &col)?;
+    }
+    let sw: Vec<f64> = match weights {
+        Some(w) => {
+            validate::same_len("weights", w, "y", n)?;
+            validate::finite("weights", w)?;
+            if let Some(row) = w.iter().position(|&v| v <= 0.0) {
+                return Err(IdentifyError::InvalidParameter {
+                    name: format!("weights[{row}]"),
+                    value: w[row],
+                    allowed: "> 0 (inverse variance)",
+                });
+            }
+            w.iter().map(|v| v.sqrt()).collect()
+        }
+        None => vec![1.0; n],
+    };
+    validate::enough_points(n, p, model)?;
+
+    let mut aw = design.clone();
+    for (i, s) in sw.iter().enumerate() {
+        aw.row_mut(i).scale_mut(*s);
+    }
+    let yw = DVector::from_iterator(n, y.iter().zip(&sw).map(|(y, s)| y * s));
+    let col_norm: Vec<f64> = (0..p)
+        .map(|j| {
+            let c = aw.column(j).norm();
+            if c > 0.0 { c } else { 1.0 }
+        })
+        .collect();
+    let mut scaled = aw.clone();
+    for (j, c) in col_norm.iter().enumerate() {
+        scaled.column_mut(j).scale_mut(1.0 / c);
+    }
+
+    let mut extra = Vec::new();
+    let (z, used) = match method {
+        LinearMethod::Qr => {
+            let qr = scaled.clone().col_piv_qr();
+            let r = qr.r();
+            let r00 = r[(0, 0)].abs();
+            let deficient = (0..p).any(|k| r[(k, k)].abs() <= thresholds::RANK_RTOL * r00);
+            if deficient {
+                extra.push(
+                    "QR found the design rank deficient; the minimum-norm SVD solution is reported"
+                        .to_string(),
+                );
+                (svd_solve(&scaled, &yw), "linear_svd")
+            } else {
+                // R z' = Qᵀ y, then undo the pivoting.
+                let mut qty = yw.clone();
+                qr.q_tr_mul(&mut qty);
+                let rp = r.view((0, 0), (p, p)).into_owned();
+                let zp = rp
+                    .solve_upper_triangular(&qty.rows(0, p).into_owned())
+                    .ok_or_else(|| IdentifyError::Solver("triangular solve failed".into()))?;
+                let mut z = zp;
+                qr.p().inv_permute_rows(&mut z);
+                (z, "linear_qr")
+            }
+        }
+        LinearMethod::Svd => (svd_solve(&scaled, &yw), "linear_svd"),
+    };
+    let theta = DVector::from_iterator(p, z.iter().zip(&col_norm).map(|(z, c)| z / c));
+    let resid_w = &aw * &theta - &yw;
+    let resid_raw = design * &theta - DVector::from_column_slice(y);
+    let report = build_report(ReportInputs {
+        model,
+        method: used,
+        names,
+        theta: &theta,
+        jac: &aw,
+        resid_w: &resid_w,
+        resid_raw: &resid_raw,
+        unit,
+        status: FitStatus::Converged,
+        message: "solved exactly (linear least squares)".into(),
+        iterations: 0,
+        extra_warnings: extra,
+    });
+    Ok(LinearFit { report, theta })
+}
+
+fn svd_solve(a: &DMatrix<f64>, b: &DVector<f64>) -> DVector<f64> {
+    let svd = a.clone().svd(true, true);
+    let smax = svd.singular_values.max();
+    svd.solve(b, thresholds::RANK_RTOL * smax)
+        .unwrap_or_else(|_| DVector::zeros(a.ncols()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    fn names(v: &[&str]) -> Vec<String> {
+        v.iter().map(|s| s.to_string()).collect()
+    }
+
+    #[test]
+    fn qr_and_svd_agree_on_line() {
+        let x: Vec<f64> = (0..10).map(|i| i as f64).collect();
+        let y: Vec<f64> = x
+            .iter()
+            .enumerate()
+            .map(|(i, x)| 1.0 + 0.5 * x + 0.01 * ((i * 7 % 5) as f64 - 2.0))
+            .collect();
+        let a = DMatrix::from_fn(10, 2, |i, j| if j == 0 { 1.0 } else { x[i] });
+        let n = names(&["b0", "b1"]);
+        let q = fit_linear(&n, &a, &y, None, LinearMethod::Qr, "t", "um").unwrap();
+        let s = fit_linear(&n, &a, &y, None, LinearMethod::Svd, "t", "um").unwrap();
+        assert_relative_eq!(q.theta, s.theta, max_relative = 1e-12);
+        assert_eq!(q.report.method, "linear_qr");
+    }
+
+    #[test]
+    fn textbook_line_standard_errors() {
+        // Data and reference from a hand calculation of simple regression (Σx = 10, Σx² = 30,
+        // n = 5, Sxx = 10): y = [1, 3, 2, 5, 4] at x = 0..4 → slope 0.8, intercept 1.4,
+        // RSS = 3.6, s² = 1.2, SE(slope) = √(1.2/10), SE(intercept) = √(1.2·30/(5·10)).
+        let x = [0.0, 1.0, 2.0, 3.0, 4.0];
+        let y = [1.0, 3.0, 2.0, 5.0, 4.0];
+        let a = DMatrix::from_fn(5, 2, |i, j| if j == 0 { 1.0 } else { x[i] });
+        let f = fit_linear(
+            &names(&["c", "m"]),
+            &a,
+            &y,
+            None,
+            LinearMethod::Qr,
+            "t",
+            "um",
+        )
+        .unwrap();
+        assert_relative_eq!(f.report.param("m"), 0.8, epsilon = 1e-12);
+        assert_relative_eq!(f.report.param("c"), 1.4, epsilon = 1e-12);
+        assert_relative_eq!(f.report.se("m"), (1.2f64 / 10.0).sqrt(), epsilon = 1e-12);
+        assert_relative_eq!(
+            f.report.se("c"),
+            (1.2f64 * 30.0 / 50.0).sqrt(),
+            epsilon = 1e-12
+        );
+        // t_{0.975}(3) = 3.1824463052837078 (scipy.stats.t.ppf(0.975, 3), scipy 1.17.1).
+        let ci = f.report.ci95["m"];
+        assert_relative_eq!(
+            ci[1] - 0.8,
+            3.1824463052837078 * (0.12f64).sqrt(),
+            epsilon = 1e-9
+        );
+    }
+
+    #[test]
+    fn rank_deficiency_named() {
+        // Columns b and c are identical: only b + c is identifiable.
+        let a = DMatrix::from_fn(6, 3, |i, j| match j {
+            0 => 1.0,
+            _ => i as f64,
+        });
+        let y: Vec<f64> = (0..6)
+            .map(|i| 1.0 + 2.0 * i as f64 + 0.1 * (i % 2) as f64)
+            .collect();
+        for m in [LinearMethod::Qr, LinearMethod::Svd] {
+            let f = fit_linear(&names(&["a", "b", "c"]), &a, &y, None, m, "t", "um").unwrap();
+            assert_eq!(f.report.status, FitStatus::RankDeficient);
+            assert_eq!(f.report.rank, 2);
+            let w = f.report.warnings.join("\n");
+            assert!(
+                w.contains("b") && w.contains("c") && w.contains("not identifiable"),
+                "{w}"
+            );
+            // Minimum-norm solution splits the slope equally.
+            assert_relative_eq!(f.theta[1], f.theta[2], epsilon = 1e-9);
+            assert!(f.report.se("b").is_infinite());
+        }
+    }
+
+    #[test]
+    fn zero_column_named_on_its_own() {
+        let a = DMatrix::from_fn(6, 3, |i, j| match j {
+            0 => 1.0,
+            1 => i as f64,
+            _ => 0.0,
+        });
+        let y: Vec<f64> = (0..6)
+            .map(|i| 1.0 + 2.0 * i as f64 + 0.1 * (i % 2) as f64)
+            .collect();
+        let f = fit_linear(
+            &names(&["a", "b", "dead"]),
+            &a,
+            &y,
+            None,
+            LinearMethod::Svd,
+            "t",
+            "um",
+        )
+        .unwrap();
+        assert_eq!(f.report.status, FitStatus::RankDeficient);
+        assert_eq!(f.report.rank, 2);
+        assert!(
+            f.report.warnings[0].contains("parameter dead has no effect"),
+            "{:?}",
+            f.report.warnings
+        );
+        assert_eq!(f.report.warnings.len(), 1, "{:?}", f.report.warnings);
+        // the identifiable parameters keep finite standard errors
+        assert!(f.report.se("b").is_finite() && f.report.se("dead").is_infinite());
+    }
+
+    #[test]
+    fn weights_downweight_outlier() {
+        let x: Vec<f64> = (0..8).map(|i| i as f64).collect();
+        let mut y: Vec<f64> = x.iter().map(|x| 2.0 * x).collect();
+        y[7] += 10.0;
+        let mut w = vec![1.0; 8];
+        w[7] = 1e-12;
+        let a = DMatrix::from_fn(8, 1, |i, _| x[i]);
+        let f = fit_linear(
+            &names(&["m"]),
+            &a,
+            &y,
+            Some(&w),
+            LinearMethod::Qr,
+            "t",
+            "um",
+        )
+        .unwrap();
+        assert_relative_eq!(f.report.param("m"), 2.0, epsilon = 1e-6);
+        let e = fit_linear(
+            &names(&["m"]),
+            &a,
+            &y,
+            Some(&[1.0; 3]),
+            LinearMethod::Qr,
+            "t",
+            "um",
+        );
+        assert!(matches!(e, Err(IdentifyError::LengthMismatch { .. })));
+    }
+
+    #[test]
+    fn too_few_and_nan() {
+        let a = DMatrix::from_fn(2, 2, |i, j| (i + j) as f64);
+        let e = fit_linear(
+            &names(&["a", "b"]),
+            &a,
+            &[1.0, 2.0],
+            None,
+            LinearMethod::Qr,
+            "t",
+            "um",
+        );
+        assert!(matches!(e, Err(IdentifyError::TooFewPoints { got: 2, .. })));
+        let a = DMatrix::from_fn(3, 1, |i, _| i as f64);
+        let e = fit_linear(
+            &names(&["a"]),
+            &a,
+            &[1.0, f64::NAN, 2.0],
+            None,
+            LinearMethod::Qr,
+            "t",
+            "um",
+        );
+        assert!(matches!(e, Err(IdentifyError::NonFinite { row: 1, .. })));
+    }
+}

@@ -1,0 +1,101 @@
+//! The `millcomp identify <what>` verbs: each takes named data columns, validates them, fits the
+//! physics crate's model and returns an [`Identified`] (report + saveable model).
+
+use std::collections::BTreeMap;
+
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+use statrs::distribution::{ContinuousCDF, StudentsT};
+
+use crate::report::FitReport;
+use crate::saved::{Derived, SavedModel};
+
+pub(crate) mod combine;
+pub mod force;
+pub mod spindle;
+pub mod stiffness;
+pub mod thermal;
+pub mod wall;
+
+/// What a verb returns. Serialises as the report's keys at top level (`params`, `std_err`,
+/// `ci95`, `rms_residual_<unit>`, `status`, `warnings`, ...) plus `derived` and `groups` when not
+/// empty; `model` (the saveable form) is not serialised — write it with
+/// [`SavedModel::to_toml`].
+#[derive(Debug, Clone, Serialize)]
+pub struct Identified {
+    /// The fit report (all parameters of the model).
+    #[serde(flatten)]
+    pub report: FitReport,
+    /// Functions of the parameters with delta-method uncertainty (e.g. tilted-tool stiffness).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub derived: BTreeMap<String, Derived>,
+    /// Per-group reports when the verb fits independent groups (e.g. stiffness directions).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub groups: BTreeMap<String, FitReport>,
+    /// Notes about the input (e.g. columns that were ignored).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
+    /// The saveable model (`--save`).
+    #[serde(skip)]
+    pub model: SavedModel,
+}
+
+impl Identified {
+    pub(crate) fn new(
+        kind: &str,
+        report: FitReport,
+        derived: BTreeMap<String, Derived>,
+        groups: BTreeMap<String, FitReport>,
+        source_file: &str,
+    ) -> Self {
+        let model = SavedModel::from_report(kind, &report, derived.clone(), source_file);
+        Identified {
+            report,
+            derived,
+            groups,
+            notes: Vec::new(),
+            model,
+        }
+    }
+}
+
+/// Delta-method derived quantity `g(θ)` from the parameters named `inputs` of `report`
+/// (gradient by central differences, relative step 1e-6, then `SE² = ∇gᵀ Σ ∇g`).
+pub(crate) fn derive(
+    report: &FitReport,
+    inputs: &[&str],
+    formula: &str,
+    g: impl Fn(&[f64]) -> f64,
+) -> Option<Derived> {
+    let x: Vec<f64> = inputs
+        .iter()
+        .map(|n| report.params.get(*n).copied())
+        .collect::<Option<Vec<f64>>>()?;
+    let cov = report.covariance.to_matrix();
+    let idx: Vec<usize> = inputs
+        .iter()
+        .map(|n| report.covariance.names.iter().position(|m| m == n))
+        .collect::<Option<Vec<usize>>>()?;
+    let value = g(&x);
+    let mut grad = DVector::zeros(x.len());
+    for j in 0..x.len() {
+        let h = 1e-6 * x[j].abs().max(1e-12);
+        let mut xp = x.clone();
+        let mut xm = x.clone();
+        xp[j] += h;
+        xm[j] -= h;
+        grad[j] = (g(&xp) - g(&xm)) / (2.0 * h);
+    }
+    let sub = DMatrix::from_fn(x.len(), x.len(), |i, j| cov[(idx[i], idx[j])]);
+    let var = (grad.transpose() * sub * &grad)[(0, 0)];
+    let se = var.max(0.0).sqrt();
+    let t = StudentsT::new(0.0, 1.0, report.dof.max(1) as f64)
+        .map(|d| d.inverse_cdf(0.975))
+        .unwrap_or(f64::NAN);
+    Some(Derived {
+        value,
+        std_err: se,
+        ci95: [value - t * se, value + t * se],
+        formula: formula.to_string(),
+    })
+}

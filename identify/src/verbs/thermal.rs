@@ -1,0 +1,558 @@
+//! `identify thermal`: drift models of `002_…txt` from a drift time series.
+//!
+//! * [`ThermalModel::Exponential`] — first-order settling after an event at `t = 0` (coolant on,
+//!   spindle start; 002 §7.1: +8.5 µm, settled after ~45 min):
+//!   `drift_um(t) = offset_um + amplitude_um·(1 − exp(−t/tau_s))`.
+//! * [`ThermalModel::LinearTemperature`] — the calibration `Δl = m·ΔT` (002 §7.6, eq. 2):
+//!   `drift_um = offset_um + m_um_per_k·(temp_c − temp_ref_c)`, `temp_ref_c` = first temperature
+//!   (held fixed and recorded).
+//! * [`ThermalModel::SpeedDependent`] — spindle growth with a speed-dependent steady state
+//!   (002 §7.6, Fig. 25: "temperature increase is small below 16 000 rpm … highly affected by the
+//!   rotational speed" above; growth up to ~20 µm with a time constant of minutes), as a
+//!   first-order lag driven by the speed history (the speed of row k holds until row k+1, the
+//!   spindle starts cold):
+//!   `g(t₀) = 0`, `g_{k+1} = a_k + (g_k − a_k)·exp(−Δt_k/τ)`, `drift_um = offset_um + g`, with the
+//!   steady state `a(n) = a_ref_um·(n/n_ref)^exponent`, `n_ref = 30 000 rpm` (002's warm-up
+//!   speed; recorded as `speed_ref_rpm`). A power law because bearing friction power grows like
+//!   `n^1…n^3` and the steady growth follows the heat input; with exponent ≈ 3 the growth at
+//!   16 000 rpm is ~15 % of that at 30 000 rpm ("small … negligible" in Fig. 25). The exponent
+//!   needs at least two distinct non-zero speeds; with one it is held at 2 and a warning says so.
+//!   (The physics crate publishes no spindle-growth model yet; this formula is the one to share.)
+
+use argmin::core::{Error as ArgminError, Jacobian, Operator};
+use nalgebra::{DMatrix, DVector};
+
+use super::Identified;
+use crate::error::{IdentifyError, Result};
+use crate::linear::{LinearMethod, fit_linear};
+use crate::nonlinear::{NlsOptions, ParamSpec, ResidualModel, fit_nonlinear};
+use crate::validate;
+use std::collections::BTreeMap;
+
+/// Which drift model to fit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ThermalModel {
+    /// `offset + a(1 − e^{−t/τ})`.
+    #[default]
+    Exponential,
+    /// `offset + m·(T − T_ref)` (needs `temp_c`).
+    LinearTemperature,
+    /// First-order lag to the speed-dependent steady state `a(n)` (needs `speed_rpm`).
+    SpeedDependent,
+}
+
+impl ThermalModel {
+    /// Saved-model kind string.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            ThermalModel::Exponential => "thermal_exponential",
+            ThermalModel::LinearTemperature => "thermal_linear_temp",
+            ThermalModel::SpeedDependent => "thermal_speed",
+        }
+    }
+}
+
+/// Drift time series (columns `t_s`, `drift_um`, optional `speed_rpm`, `temp_c`).
+#[derive(Debug, Clone, Copy)]
+pub struct ThermalData<'a> {
+    /// Time since the event (coolant on, spindle start), s; strictly increasing.
+    pub t_s: &'a [f64],
+    /// Measured drift (e.g. apparent tool elongation), µm.
+    pub drift_um: &'a [f64],
+    /// Spindle speed per row, rpm (speed-dependent model).
+    pub speed_rpm: Option<&'a [f64]>,
+    /// Spindle temperature per row, °C (linear-temperature model).
+    pub temp_c: Option<&'a [f64]>,
+}
+
+/// Options shared by the verbs.
+#[derive(Debug, Clone, Default)]
+pub struct VerbOptions {
+    /// Data file name recorded in the saved model.
+    pub source_file: String,
+    /// Nonlinear solver options.
+    pub nls: NlsOptions,
+}
+
+/// Residual operator of the exponential model, parameters
+/// `[amplitude_um, tau_s, offset_um]`, residual `model − drift_um`.
+#[derive(Debug, Clone)]
+pub struct ExponentialDrift<'a> {
+    /// Times, s.
+    pub t_s: &'a [f64],
+    /// Data, µm.
+    pub drift_um: &'a [f64],
+}
+
+/// `offset + a(1 − e^{−t/τ})` (the formula of [`ThermalModel::Exponential`]).
+pub fn exponential_drift_um(t_s: f64, amplitude_um: f64, tau_s: f64, offset_um: f64) -> f64 {
+    offset_um + amplitude_um * (1.0 - (-t_s / tau_s).exp())
+}
+
+impl Operator for ExponentialDrift<'_> {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+    fn apply(&self, p: &DVector<f64>) -> std::result::Result<DVector<f64>, ArgminError> {
+        Ok(DVector::from_iterator(
+            self.t_s.len(),
+            self.t_s
+                .iter()
+                .zip(self.drift_um)
+                .map(|(&t, &y)| exponential_drift_um(t, p[0], p[1], p[2]) - y),
+        ))
+    }
+}
+
+impl Jacobian for ExponentialDrift<'_> {
+    type Param = DVector<f64>;
+    type Jacobian = DMatrix<f64>;
+    fn jacobian(&self, p: &DVector<f64>) -> std::result::Result<DMatrix<f64>, ArgminError> {
+        let (a, tau) = (p[0], p[1]);
+        Ok(DMatrix::from_fn(self.t_s.len(), 3, |i, j| {
+            let t = self.t_s[i];
+            let e = (-t / tau).exp();
+            match j {
+                0 => 1.0 - e,
+                1 => -a * e * t / (tau * tau),
+                _ => 1.0,
+            }
+        }))
+    }
+}
+
+impl ResidualModel for ExponentialDrift<'_> {}
+
+/// Starting values `[a, τ, offset]` from the data: offset = first value, a = last − first, τ = time
+/// to 63 % of the change (or a third of the record).
+fn exponential_start(t: &[f64], y: &[f64]) -> [f64; 3] {
+    let n = y.len();
+    let k = (n / 10).max(1);
+    let y0 = y[..k].iter().sum::<f64>() / k as f64;
+    let y1 = y[n - k..].iter().sum::<f64>() / k as f64;
+    let a = y1 - y0;
+    let span = t[n - 1] - t[0];
+    let target = y0 + 0.632 * a;
+    let tau = t
+        .iter()
+        .zip(y)
+        .find(|(_, y)| {
+            if a >= 0.0 {
+                **y >= target
+            } else {
+                **y <= target
+            }
+        })
+        .map(|(t, _)| *t - t.min(0.0))
+        .filter(|tau| *tau > 0.0)
+        .unwrap_or(span / 3.0);
+    let tau = if tau > 0.0 { tau } else { 1.0 };
+    let a = if a != 0.0 { a } else { 1.0 };
+    // offset: back-extrapolate the first value to t = 0.
+    let off = y0 - a * (1.0 - (-t[0].max(0.0) / tau).exp());
+    [a, tau, off]
+}
+
+fn check_common(data: &ThermalData<'_>) -> Result<()> {
+    let n = data.t_s.len();
+    validate::same_len("drift_um", data.drift_um, "t_s", n)?;
+    validate::finite("t_s", data.t_s)?;
+    validate::finite("drift_um", data.drift_um)?;
+    validate::strictly_increasing("t_s", data.t_s)?;
+    Ok(())
+}
+
+/// Fits a thermal drift model (see the module docs for the formulas).
+///
+/// Errors name the column and row: NaN, non-monotone `t_s`, missing `temp_c`/`speed_rpm` for the
+/// model that needs it, constant `drift_um` or `temp_c` (nothing to identify), too few rows.
+///
+/// ```
+/// use millcomp_identify::verbs::thermal::*;
+/// // 002 §7.1: coolant drift +8.5 µm settling in ~45 min → τ ≈ 15 min = 900 s.
+/// let t: Vec<f64> = (0..60).map(|i| i as f64 * 65.0).collect();
+/// let y: Vec<f64> = t.iter().enumerate()
+///     .map(|(i, &t)| exponential_drift_um(t, 8.5, 900.0, 0.0) + 0.05 * ((i * 37 % 11) as f64 - 5.0) / 5.0)
+///     .collect();
+/// let fit = identify_thermal(&ThermalData { t_s: &t, drift_um: &y, speed_rpm: None, temp_c: None },
+///                            ThermalModel::Exponential, &VerbOptions::default()).unwrap();
+/// assert!((fit.report.param("amplitude_um") - 8.5).abs() < 0.1);
+/// assert!((fit.report.param("tau_s") - 900.0).abs() < 30.0);
+/// ```
+pub fn identify_thermal(
+    data: &ThermalData<'_>,
+    model: ThermalModel,
+    opts: &VerbOptions,
+) -> Result<Identified> {
+    check_common(data)?;
+    let kind = model.kind();
+    match model {
+        ThermalModel::Exponential => {
+            validate::enough_points(data.t_s.len(), 3, kind)?;
+            validate::not_constant("drift_um", data.drift_um, "amplitude_um and tau_s")?;
+            let [a0, tau0, off0] = exponential_start(data.t_s, data.drift_um);
+            let specs = [
+                ParamSpec::free("amplitude_um", a0),
+                ParamSpec::positive("tau_s", tau0),
+                ParamSpec::free("offset_um", off0),
+            ];
+            let op = ExponentialDrift {
+                t_s: data.t_s,
+                drift_um: data.drift_um,
+            };
+            let mut fit = fit_nonlinear(op, &specs, &opts.nls, kind, "um")?;
+            let span = data.t_s[data.t_s.len() - 1];
+            let tau = fit.report.param("tau_s");
+            if tau > span {
+                fit.report.warnings.push(format!(
+                    "tau_s = {tau:.4e} s exceeds the record (last t_s = {span:.4e} s): the steady state is extrapolated; record longer"
+                ));
+            }
+            Ok(Identified::new(
+                kind,
+                fit.report,
+                BTreeMap::new(),
+                BTreeMap::new(),
+                &opts.source_file,
+            ))
+        }
+        ThermalModel::LinearTemperature => {
+            let temp = data.temp_c.ok_or_else(|| IdentifyError::MissingColumn {
+                column: "temp_c".into(),
+                reason: "the linear-temperature model Δl = m·ΔT needs the spindle temperature"
+                    .into(),
+            })?;
+            validate::same_len("temp_c", temp, "t_s", data.t_s.len())?;
+            validate::finite("temp_c", temp)?;
+            validate::not_constant("temp_c", temp, "m_um_per_k")?;
+            let tref = temp[0];
+            let n = temp.len();
+            let x = DMatrix::from_fn(n, 2, |i, j| if j == 0 { temp[i] - tref } else { 1.0 });
+            let names = ["m_um_per_k".to_string(), "offset_um".to_string()];
+            let mut fit = fit_linear(
+                &names,
+                &x,
+                data.drift_um,
+                None,
+                LinearMethod::Qr,
+                kind,
+                "um",
+            )?;
+            fit.report.fixed.insert("temp_ref_c".into(), tref);
+            Ok(Identified::new(
+                kind,
+                fit.report,
+                BTreeMap::new(),
+                BTreeMap::new(),
+                &opts.source_file,
+            ))
+        }
+        ThermalModel::SpeedDependent => {
+            let speed = data.speed_rpm.ok_or_else(|| IdentifyError::MissingColumn {
+                column: "speed_rpm".into(),
+                reason: "the speed-dependent thermal model needs the spindle speed per row".into(),
+            })?;
+            validate::same_len("speed_rpm", speed, "t_s", data.t_s.len())?;
+            validate::finite("speed_rpm", speed)?;
+            if let Some(row) = speed.iter().position(|&n| n < 0.0) {
+                return Err(IdentifyError::InvalidParameter {
+                    name: format!("speed_rpm row {row}"),
+                    value: speed[row],
+                    allowed: ">= 0 rpm",
+                });
+            }
+            validate::not_constant("drift_um", data.drift_um, "a_ref_um and tau_s")?;
+            let mut levels: Vec<f64> = speed.iter().copied().filter(|&n| n > 0.0).collect();
+            levels.sort_by(f64::total_cmp);
+            levels.dedup();
+            if levels.is_empty() {
+                return Err(IdentifyError::ConstantInput {
+                    column: "speed_rpm".into(),
+                    value: 0.0,
+                    parameters: "a_ref_um, exponent and tau_s (the spindle never runs)".into(),
+                });
+            }
+            let fit_exponent = levels.len() >= 2;
+            let op = SpeedDrift {
+                t_s: data.t_s,
+                speed_rpm: speed,
+                drift_um: data.drift_um,
+                fixed_exponent: (!fit_exponent).then_some(DEFAULT_EXPONENT),
+            };
+            let n_par = if fit_exponent { 4 } else { 3 };
+            validate::enough_points(data.t_s.len(), n_par, kind)?;
+            // Start: offset = first value; a_ref from the largest excursion at the speed that
+            // produced it, scaled to n_ref with the default exponent; τ = time to 63 % of that
+            // excursion (a third of the record when not found).
+            let y0 = data.drift_um[0];
+            let (kpk, _) =
+                data.drift_um
+                    .iter()
+                    .enumerate()
+                    .fold((0, 0.0f64), |(kb, vb), (k, y)| {
+                        if (y - y0).abs() > vb {
+                            (k, (y - y0).abs())
+                        } else {
+                            (kb, vb)
+                        }
+                    });
+            let peak = data.drift_um[kpk] - y0;
+            let n_pk = (0..=kpk)
+                .rev()
+                .map(|k| speed[k])
+                .find(|&n| n > 0.0)
+                .unwrap_or(levels[levels.len() - 1]);
+            let aref0 = if peak != 0.0 { peak } else { 1.0 }
+                / (n_pk / SPEED_REF_RPM).powf(DEFAULT_EXPONENT);
+            let t0 = data.t_s[0];
+            let span = data.t_s[data.t_s.len() - 1] - t0;
+            let tau0 = data
+                .drift_um
+                .iter()
+                .zip(data.t_s)
+                .find(|(y, _)| ((*y - y0) / peak) >= 0.632)
+                .map(|(_, t)| t - t0)
+                .filter(|tau| *tau > 0.0)
+                .unwrap_or(span / 3.0);
+            let off0 = y0;
+            let mut specs = vec![ParamSpec::free("a_ref_um", aref0)];
+            if fit_exponent {
+                specs.push(ParamSpec::bounded("exponent", DEFAULT_EXPONENT, 0.0, 10.0));
+            }
+            specs.push(ParamSpec::positive("tau_s", tau0));
+            specs.push(ParamSpec::free("offset_um", off0));
+            let mut fit = fit_nonlinear(op, &specs, &opts.nls, kind, "um")?;
+            fit.report
+                .fixed
+                .insert("speed_ref_rpm".into(), SPEED_REF_RPM);
+            if !fit_exponent {
+                fit.report.fixed.insert("exponent".into(), DEFAULT_EXPONENT);
+                fit.report.warnings.push(format!(
+                    "only one non-zero speed ({} rpm): the exponent of a(n) cannot be identified and is held at {DEFAULT_EXPONENT}; a_ref_um is the growth extrapolated to {SPEED_REF_RPM} rpm",
+                    levels[0]
+                ));
+            }
+            Ok(Identified::new(
+                kind,
+                fit.report,
+                BTreeMap::new(),
+                BTreeMap::new(),
+                &opts.source_file,
+            ))
+        }
+    }
+}
+
+/// Reference speed of the speed-dependent steady state, rpm (002 §7.6 warm-up speed).
+pub const SPEED_REF_RPM: f64 = 30_000.0;
+/// Exponent of `a(n)` used when it cannot be identified (viscous bearing friction ∝ n²).
+pub const DEFAULT_EXPONENT: f64 = 2.0;
+
+/// Steady-state spindle growth `a(n) = a_ref·(n/n_ref)^exponent`, µm (0 at n = 0).
+pub fn steady_growth_um(speed_rpm: f64, a_ref_um: f64, exponent: f64) -> f64 {
+    if speed_rpm <= 0.0 {
+        0.0
+    } else {
+        a_ref_um * (speed_rpm / SPEED_REF_RPM).powf(exponent)
+    }
+}
+
+/// Drift of the speed-dependent model at the sample times (µm), see the module docs.
+pub fn speed_drift_um(
+    t_s: &[f64],
+    speed_rpm: &[f64],
+    a_ref_um: f64,
+    exponent: f64,
+    tau_s: f64,
+    offset_um: f64,
+) -> Vec<f64> {
+    let mut g = 0.0;
+    let mut out = Vec::with_capacity(t_s.len());
+    for k in 0..t_s.len() {
+        out.push(offset_um + g);
+        if k + 1 < t_s.len() {
+            let a = steady_growth_um(speed_rpm[k], a_ref_um, exponent);
+            let phi = (-(t_s[k + 1] - t_s[k]) / tau_s).exp();
+            g = a + (g - a) * phi;
+        }
+    }
+    out
+}
+
+/// Residual operator of the speed-dependent model, parameters
+/// `[a_ref_um, exponent, tau_s, offset_um]` (`exponent` omitted when fixed). Jacobian by forward
+/// sensitivities of the recursion (exact).
+#[derive(Debug, Clone)]
+pub struct SpeedDrift<'a> {
+    /// Times, s.
+    pub t_s: &'a [f64],
+    /// Speeds, rpm (held from one row to the next).
+    pub speed_rpm: &'a [f64],
+    /// Data, µm.
+    pub drift_um: &'a [f64],
+    /// `Some(e)`: the exponent is held at `e` and not a parameter.
+    pub fixed_exponent: Option<f64>,
+}
+
+impl SpeedDrift<'_> {
+    fn unpack(&self, p: &DVector<f64>) -> (f64, f64, f64, f64) {
+        match self.fixed_exponent {
+            Some(e) => (p[0], e, p[1], p[2]),
+            None => (p[0], p[1], p[2], p[3]),
+        }
+    }
+}
+
+impl Operator for SpeedDrift<'_> {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+    fn apply(&self, p: &DVector<f64>) -> std::result::Result<DVector<f64>, ArgminError> {
+        let (a, e, tau, off) = self.unpack(p);
+        let m = speed_drift_um(self.t_s, self.speed_rpm, a, e, tau, off);
+        Ok(DVector::from_iterator(
+            m.len(),
+            m.iter().zip(self.drift_um).map(|(m, y)| m - y),
+        ))
+    }
+}
+
+impl Jacobian for SpeedDrift<'_> {
+    type Param = DVector<f64>;
+    type Jacobian = DMatrix<f64>;
+    fn jacobian(&self, p: &DVector<f64>) -> std::result::Result<DMatrix<f64>, ArgminError> {
+        let (a_ref, e, tau, _) = self.unpack(p);
+        let n = self.t_s.len();
+        // sensitivities of g to (a_ref, exponent, tau)
+        let mut j = DMatrix::zeros(n, p.len());
+        let (mut g, mut sa, mut se, mut st) = (0.0, 0.0, 0.0, 0.0);
+        for k in 0..n {
+            let (ca, ce, ct) = match self.fixed_exponent {
+                Some(_) => (0, None, 1),
+                None => (0, Some(1), 2),
+            };
+            j[(k, ca)] = sa;
+            if let Some(ce) = ce {
+                j[(k, ce)] = se;
+            }
+            j[(k, ct)] = st;
+            j[(k, p.len() - 1)] = 1.0;
+            if k + 1 < n {
+                let nk = self.speed_rpm[k];
+                let (a, da_dref, da_de) = if nk > 0.0 {
+                    let r = nk / SPEED_REF_RPM;
+                    let rp = r.powf(e);
+                    (a_ref * rp, rp, a_ref * rp * r.ln())
+                } else {
+                    (0.0, 0.0, 0.0)
+                };
+                let dt = self.t_s[k + 1] - self.t_s[k];
+                let phi = (-dt / tau).exp();
+                let dphi_dtau = phi * dt / (tau * tau);
+                sa = (1.0 - phi) * da_dref + phi * sa;
+                se = (1.0 - phi) * da_de + phi * se;
+                st = phi * st + (g - a) * dphi_dtau;
+                g = a + (g - a) * phi;
+            }
+        }
+        Ok(j)
+    }
+}
+
+impl ResidualModel for SpeedDrift<'_> {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::jaccheck::check_jacobian;
+
+    #[test]
+    fn exponential_jacobian_matches_fd() {
+        let t: Vec<f64> = (0..20).map(|i| i as f64 * 100.0).collect();
+        let y = vec![0.0; 20];
+        let op = ExponentialDrift {
+            t_s: &t,
+            drift_um: &y,
+        };
+        let c = check_jacobian(&op, &DVector::from_vec(vec![8.5, 900.0, 0.3]), 1e-6).unwrap();
+        assert!(c.ok, "{c:?}");
+    }
+
+    #[test]
+    fn speed_jacobian_matches_fd() {
+        // warm-up at 30 000 rpm, step to 20 000, stop (002 §7.6 style speed history)
+        let t: Vec<f64> = (0..60).map(|i| i as f64 * 30.0).collect();
+        let n: Vec<f64> = (0..60)
+            .map(|i| match i {
+                0..=19 => 30_000.0,
+                20..=39 => 20_000.0,
+                _ => 0.0,
+            })
+            .collect();
+        let y = vec![0.0; 60];
+        let op = SpeedDrift {
+            t_s: &t,
+            speed_rpm: &n,
+            drift_um: &y,
+            fixed_exponent: None,
+        };
+        let c = check_jacobian(&op, &DVector::from_vec(vec![20.0, 2.5, 300.0, 0.4]), 1e-6).unwrap();
+        assert!(c.ok, "{c:?}");
+        let op = SpeedDrift {
+            fixed_exponent: Some(2.0),
+            ..op
+        };
+        let c = check_jacobian(&op, &DVector::from_vec(vec![20.0, 300.0, 0.4]), 1e-6).unwrap();
+        assert!(c.ok, "{c:?}");
+    }
+
+    #[test]
+    fn errors_name_the_cause() {
+        let t = [0.0, 1.0, 1.0, 3.0];
+        let y = [0.0, 1.0, 2.0, 3.0];
+        let d = ThermalData {
+            t_s: &t,
+            drift_um: &y,
+            speed_rpm: None,
+            temp_c: None,
+        };
+        let e =
+            identify_thermal(&d, ThermalModel::Exponential, &VerbOptions::default()).unwrap_err();
+        assert!(
+            matches!(e, IdentifyError::NonMonotoneTime { row: 2, .. }),
+            "{e}"
+        );
+        let t = [0.0, 1.0, 2.0, 3.0];
+        let y = [2.0; 4];
+        let d = ThermalData {
+            t_s: &t,
+            drift_um: &y,
+            speed_rpm: None,
+            temp_c: None,
+        };
+        let e =
+            identify_thermal(&d, ThermalModel::Exponential, &VerbOptions::default()).unwrap_err();
+        assert!(matches!(e, IdentifyError::ConstantInput { .. }), "{e}");
+        let e = identify_thermal(&d, ThermalModel::LinearTemperature, &VerbOptions::default())
+            .unwrap_err();
+        assert!(e.to_string().contains("temp_c"), "{e}");
+        let y = [0.0, 1.0, 2.0];
+        let d = ThermalData {
+            t_s: &t[..3],
+            drift_um: &y,
+            speed_rpm: None,
+            temp_c: None,
+        };
+        let e =
+            identify_thermal(&d, ThermalModel::Exponential, &VerbOptions::default()).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                IdentifyError::TooFewPoints {
+                    got: 3,
+                    needed: 4,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+    }
+}
