@@ -1,0 +1,321 @@
+//! The plant-agnostic MPC controller: Kalman filter on the disturbance-augmented state, condensed QP
+//! solved by Clarabel every cycle, status check, fallback, and a last-line clamp.
+//!
+//! Cycle k ([`MpcController::step`]):
+//! 1. measurement update of the augmented state with `y_k` and the known offset `w_k`
+//!    (non-finite measurements are skipped);
+//! 2. `update_q`/`update_b` from the estimate, the previous command and the preview window;
+//! 3. Clarabel solve; accepted only if the status is `Solved`/`AlmostSolved` and the solution is finite;
+//! 4. otherwise **fallback**: the last accepted plan shifted by the number of cycles since it was computed,
+//!    and once it runs out, hold the previous command (counted in [`SolverStats::fallbacks`]);
+//! 5. last line of defence: a non-finite command holds the previous one; clamp to `[u_min, u_max]` and to
+//!    the slew limit around the previous command;
+//! 6. time update of the filter with the command actually emitted.
+
+use std::time::Instant;
+
+use nalgebra::DVector;
+use serde::{Deserialize, Serialize};
+
+use crate::config::MpcConfig;
+use crate::error::MpcError;
+use crate::kalman::{AugmentedModel, KalmanFilter};
+use crate::qp::{CondensedQp, QpStatus};
+use crate::stats::SolverStats;
+use millcomp_sim::DiscreteLti;
+
+/// The known future over the horizon, supplied every cycle by the caller (the planned process).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PreviewWindow {
+    /// Known additive output offset of the current cycle, `w_k` (n_outputs).
+    pub offset_now: Vec<f64>,
+    /// Known additive output offsets `w_{k+1} … w_{k+N}` (N·n_outputs, step-major).
+    pub offsets: Vec<f64>,
+    /// References `r_{k+1} … r_{k+N}` (N·n_outputs, step-major).
+    pub reference: Vec<f64>,
+}
+
+impl PreviewWindow {
+    /// All-zero window (regulation to zero, no known offsets).
+    pub fn zeros(horizon: usize, n_outputs: usize) -> Self {
+        Self {
+            offset_now: vec![0.0; n_outputs],
+            offsets: vec![0.0; horizon * n_outputs],
+            reference: vec![0.0; horizon * n_outputs],
+        }
+    }
+}
+
+/// What one control cycle did.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MpcStep {
+    /// The command emitted (finite, within limits and slew).
+    pub u: Vec<f64>,
+    /// QP status of this cycle.
+    pub status: QpStatus,
+    /// True if the fallback was used.
+    pub fallback: bool,
+    /// Time for update + solve, µs (0 if the solver was not called).
+    pub solve_us: f64,
+    /// Interior-point iterations.
+    pub iterations: u32,
+}
+
+/// Linear offset-free MPC with preview, solved by Clarabel.
+#[derive(Debug)]
+pub struct MpcController {
+    cfg: MpcConfig,
+    model: AugmentedModel,
+    kf: KalmanFilter,
+    qp: CondensedQp,
+    nu: usize,
+    u_prev: Vec<f64>,
+    plan: Vec<f64>,
+    plan_buf: Vec<f64>,
+    plan_age: usize,
+    times_us: Vec<f64>,
+    fallbacks: usize,
+    status_counts: Vec<(QpStatus, usize)>,
+    inject_failures: usize,
+    injecting: bool,
+}
+
+impl MpcController {
+    /// Build the controller (validates `cfg` against the model, computes the Kalman gain, builds the QP
+    /// and the Clarabel solver once).
+    ///
+    /// ```
+    /// use millcomp_mpc::{MpcConfig, MpcController, PreviewWindow};
+    /// use millcomp_sim::ContinuousLti;
+    /// // first-order plant 1/(0.01 s + 1) at 1 kHz; drive the output to 0.5
+    /// let plant = ContinuousLti::from_transfer_function(&[1.0], &[0.01, 1.0]).unwrap()
+    ///     .discretize_zoh(1e-3).unwrap();
+    /// let mut mpc = MpcController::new(&plant, &MpcConfig::siso(20, 0.0, 1.0, 0.2)).unwrap();
+    /// let mut win = PreviewWindow::zeros(20, 1);
+    /// win.reference.iter_mut().for_each(|r| *r = 0.5);
+    /// let (mut x, mut y) = (plant.zero_state(), 0.0);
+    /// for _ in 0..300 {
+    ///     let step = mpc.step(&[y], &win).unwrap();
+    ///     y = plant.step_siso(&mut x, step.u[0]);
+    /// }
+    /// assert!((y - 0.5).abs() < 1e-3);
+    /// assert_eq!(mpc.stats().fallbacks, 0);
+    /// ```
+    pub fn new(model: &DiscreteLti, cfg: &MpcConfig) -> Result<Self, MpcError> {
+        let (nu, ny) = (model.n_inputs(), model.n_outputs());
+        cfg.validate(nu, ny)?;
+        let aug = AugmentedModel::new(model, cfg)?;
+        let r: Vec<f64> = if cfg.kalman.measurement_noise.is_empty() {
+            vec![1e-2; ny]
+        } else {
+            cfg.kalman.measurement_noise.clone()
+        };
+        let mut kf = KalmanFilter::steady_state(
+            &aug,
+            cfg.kalman.input_noise,
+            cfg.kalman.disturbance_noise,
+            &r,
+        )?;
+        kf.set_gate(&cfg.kalman.innovation_gate, cfg.kalman.gate_max_skips);
+        let qp = CondensedQp::new(&aug, cfg)?;
+        let u0: Vec<f64> = (0..nu)
+            .map(|i| 0.0f64.clamp(cfg.limits.u_min[i], cfg.limits.u_max[i]))
+            .collect();
+        Ok(Self {
+            cfg: cfg.clone(),
+            model: aug,
+            kf,
+            qp,
+            nu,
+            u_prev: u0.clone(),
+            plan: u0.repeat(cfg.horizon),
+            plan_buf: Vec::with_capacity(cfg.horizon * nu),
+            plan_age: 0,
+            times_us: Vec::new(),
+            fallbacks: 0,
+            status_counts: Vec::new(),
+            inject_failures: 0,
+            injecting: false,
+        })
+    }
+
+    /// Set the previous command (e.g. the actuator's current value before the first cycle); clamped.
+    pub fn set_previous_input(&mut self, u: &[f64]) {
+        for (i, &ui) in u.iter().enumerate().take(self.nu) {
+            if ui.is_finite() {
+                self.u_prev[i] = ui.clamp(self.cfg.limits.u_min[i], self.cfg.limits.u_max[i]);
+            }
+        }
+        self.plan = self.u_prev.repeat(self.cfg.horizon);
+        self.plan_age = 0;
+    }
+
+    /// Set the augmented state estimate `[x; d]` in the model's original state coordinates (default zero).
+    pub fn set_state_estimate(&mut self, xa: &DVector<f64>) -> Result<(), MpcError> {
+        if xa.len() != self.model.n() {
+            return Err(MpcError::DimensionMismatch {
+                what: "augmented state estimate".into(),
+                expected: self.model.n(),
+                found: xa.len(),
+            });
+        }
+        let xi = self.model.to_internal(xa);
+        self.kf.reset(&xi);
+        Ok(())
+    }
+
+    /// Make the next `cycles` solves fail genuinely (Clarabel's iteration cap set to 1 → `MaxIterations`).
+    /// Fault injection for tests and scenario fault cases.
+    pub fn inject_solver_failures(&mut self, cycles: usize) {
+        self.inject_failures += cycles;
+    }
+
+    /// One control cycle. `y` are the measured outputs of this cycle (NaN entries → measurement skipped).
+    /// Errors only on dimension mismatches; a solver failure is an outcome ([`MpcStep::fallback`]).
+    pub fn step(&mut self, y: &[f64], window: &PreviewWindow) -> Result<MpcStep, MpcError> {
+        let ny = self.model.n_outputs();
+        if y.len() != ny || window.offset_now.len() != ny {
+            return Err(MpcError::DimensionMismatch {
+                what: "measurement / offset_now (n_outputs)".into(),
+                expected: ny,
+                found: if y.len() != ny {
+                    y.len()
+                } else {
+                    window.offset_now.len()
+                },
+            });
+        }
+        let xa = self.kf.correct(y, &window.offset_now).clone();
+        // fault injection toggles the real solver setting
+        let want_inject = self.inject_failures > 0;
+        if want_inject != self.injecting {
+            self.qp
+                .set_max_iter_override(if want_inject { Some(1) } else { None })?;
+            self.injecting = want_inject;
+        }
+        let t0 = Instant::now();
+        let finite = self
+            .qp
+            .update(&xa, &self.u_prev, &window.offsets, &window.reference)?;
+        let (status, solve_us, iterations) = if finite {
+            let st = self.qp.solve();
+            let us = t0.elapsed().as_secs_f64() * 1e6;
+            self.times_us.push(us);
+            (st, us, self.qp.iterations())
+        } else {
+            (QpStatus::NonFiniteData, 0.0, 0)
+        };
+        if self.inject_failures > 0 {
+            self.inject_failures -= 1;
+        }
+        self.count_status(status);
+        let mut u = vec![0.0; self.nu];
+        let fallback = !status.is_ok();
+        if !fallback {
+            let mut buf = std::mem::take(&mut self.plan_buf);
+            self.qp.expand(self.qp.solution(), &mut buf);
+            std::mem::swap(&mut self.plan, &mut buf);
+            self.plan_buf = buf;
+            self.plan_age = 0;
+            u.copy_from_slice(&self.plan[..self.nu]);
+        } else {
+            self.fallbacks += 1;
+            self.plan_age += 1;
+            let n = self.cfg.horizon;
+            if self.plan_age < n {
+                u.copy_from_slice(
+                    &self.plan[self.plan_age * self.nu..(self.plan_age + 1) * self.nu],
+                );
+            } else {
+                u.copy_from_slice(&self.u_prev);
+            }
+        }
+        // last line of defence
+        for (i, ui) in u.iter_mut().enumerate() {
+            let mut v = *ui;
+            if !v.is_finite() {
+                v = self.u_prev[i];
+            }
+            let du = self.cfg.limits.du_max[i];
+            v = v.clamp(self.u_prev[i] - du, self.u_prev[i] + du);
+            v = v.clamp(self.cfg.limits.u_min[i], self.cfg.limits.u_max[i]);
+            *ui = v;
+        }
+        self.kf.predict(&u);
+        self.u_prev.copy_from_slice(&u);
+        Ok(MpcStep {
+            u,
+            status,
+            fallback,
+            solve_us,
+            iterations,
+        })
+    }
+
+    fn count_status(&mut self, st: QpStatus) {
+        if let Some(e) = self.status_counts.iter_mut().find(|(s, _)| *s == st) {
+            e.1 += 1;
+        } else {
+            self.status_counts.push((st, 1));
+        }
+    }
+
+    /// Solver statistics so far.
+    pub fn stats(&self) -> SolverStats {
+        SolverStats::from_times(&self.times_us, self.fallbacks)
+    }
+
+    /// Raw per-cycle QP times (µs).
+    pub fn solve_times_us(&self) -> &[f64] {
+        &self.times_us
+    }
+
+    /// Count of each QP status seen.
+    pub fn status_counts(&self) -> &[(QpStatus, usize)] {
+        &self.status_counts
+    }
+
+    /// Current filtered augmented state estimate `[x̂; d̂]` (original state coordinates).
+    pub fn state_estimate(&self) -> DVector<f64> {
+        self.model.to_original(self.kf.estimate())
+    }
+
+    /// Current disturbance estimate `d̂` (output or input units).
+    pub fn disturbance_estimate(&self) -> Vec<f64> {
+        let e = self.kf.estimate();
+        e.rows(self.model.n_plant, self.model.n_dist)
+            .iter()
+            .copied()
+            .collect()
+    }
+
+    /// Number of disturbance states.
+    pub fn n_disturbances(&self) -> usize {
+        self.model.n_dist
+    }
+
+    /// The last accepted plan (N·n_inputs, step-major).
+    pub fn plan(&self) -> &[f64] {
+        &self.plan
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &MpcConfig {
+        &self.cfg
+    }
+
+    /// The QP (for export and benchmarks).
+    pub fn qp(&self) -> &CondensedQp {
+        &self.qp
+    }
+
+    /// The augmented model.
+    pub fn model(&self) -> &AugmentedModel {
+        &self.model
+    }
+
+    /// The Kalman filter.
+    pub fn kalman(&self) -> &KalmanFilter {
+        &self.kf
+    }
+}

@@ -1,0 +1,486 @@
+//! Disturbance-augmented prediction model and its steady-state Kalman filter.
+//!
+//! Offset-free MPC (Muske & Badgwell 2002; Pannocchia & Rawlings 2003): the plant model
+//! `x⁺ = A x + B u`, `y = C x + w` (w: a *known* output offset, the preview of the planned process) is
+//! augmented with integrating disturbances `d⁺ = d`:
+//!
+//! ```text
+//! ξ = [x; d],   ξ⁺ = [[A, B_d], [0, I]] ξ + [B; 0] u,   y = [C, C_d] ξ + w.
+//! ```
+//!
+//! Output disturbances: `B_d = 0`, `C_d` selects the disturbed outputs. Input disturbances: `B_d = B` columns,
+//! `C_d = 0`. The filter is the *current* (measurement-update-first) form with the steady-state gain of the
+//! filter Riccati equation, found by plain fixed-point iteration of the DARE (converges for a detectable
+//! augmented pair, which holds when the plant has no pole at z = 1 for output disturbances).
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::config::{DisturbanceKind, MpcConfig};
+use crate::error::MpcError;
+use millcomp_sim::DiscreteLti;
+
+/// The plant model augmented with integrating disturbance states, in *scaled* plant coordinates.
+///
+/// The plant state is rescaled, `x = T x̃` with `T = diag(t)`, `tᵢ` the largest `|xᵢ|` of the unit-step
+/// responses of all inputs (a realisation-independent conditioning step: a controllable-canonical model of
+/// the PZT spindle has states that differ by 10⁹ in scale). Outputs, inputs and disturbances keep their
+/// units; use [`AugmentedModel::to_internal`] / [`AugmentedModel::to_original`] to convert states.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AugmentedModel {
+    /// Augmented state matrix `[[Ã, B̃_d], [0, I]]`.
+    pub a: DMatrix<f64>,
+    /// Augmented input matrix `[B̃; 0]`.
+    pub b: DMatrix<f64>,
+    /// Augmented output matrix `[C̃, C_d]`.
+    pub c: DMatrix<f64>,
+    /// Number of plant states.
+    pub n_plant: usize,
+    /// Number of disturbance states.
+    pub n_dist: usize,
+    /// Sample time (s).
+    pub dt_s: f64,
+    /// State scale `t` (`x = diag(t) x̃`).
+    pub state_scale: DVector<f64>,
+}
+
+/// Largest |xᵢ| over the unit-step responses of every input (at most 2000 steps), 1 where that is 0 or
+/// not finite.
+fn step_scales(model: &DiscreteLti) -> DVector<f64> {
+    let (nx, nu) = (model.n_states(), model.n_inputs());
+    let mut scale = DVector::<f64>::zeros(nx);
+    for i in 0..nu {
+        let mut x = DVector::<f64>::zeros(nx);
+        let bi = model.b.column(i).into_owned();
+        for _ in 0..2000 {
+            x = &model.a * &x + &bi;
+            if !x.iter().all(|v| v.is_finite() && v.abs() < 1e150) {
+                break;
+            }
+            for j in 0..nx {
+                scale[j] = scale[j].max(x[j].abs());
+            }
+        }
+    }
+    scale.map(|v| if v.is_finite() && v > 1e-300 { v } else { 1.0 })
+}
+
+impl AugmentedModel {
+    /// Build from a strictly proper discrete model (`D = 0`: the measurement of cycle k is taken before the
+    /// command of cycle k is applied) and the disturbance part of `cfg`.
+    pub fn new(model: &DiscreteLti, cfg: &MpcConfig) -> Result<Self, MpcError> {
+        let (nx, nu, ny) = (model.n_states(), model.n_inputs(), model.n_outputs());
+        if model.d.iter().any(|v| *v != 0.0) {
+            return Err(MpcError::InvalidConfig {
+                key: "model.d".into(),
+                value: "non-zero feed-through".into(),
+                allowed: "D = 0 (strictly proper: the measurement precedes the command)".into(),
+            });
+        }
+        if nx == 0 || nu == 0 || ny == 0 {
+            return Err(MpcError::DimensionMismatch {
+                what: "model states/inputs/outputs (all must be >= 1)".into(),
+                expected: 1,
+                found: nx.min(nu).min(ny),
+            });
+        }
+        let t = step_scales(model);
+        // Ã = T⁻¹ A T, B̃ = T⁻¹ B, C̃ = C T
+        let mut at = model.a.clone();
+        let mut bt = model.b.clone();
+        let mut ct = model.c.clone();
+        for i in 0..nx {
+            for j in 0..nx {
+                at[(i, j)] *= t[j] / t[i];
+            }
+            for j in 0..nu {
+                bt[(i, j)] /= t[i];
+            }
+        }
+        for r in 0..ny {
+            for j in 0..nx {
+                ct[(r, j)] *= t[j];
+            }
+        }
+        let kind = cfg.disturbance.kind;
+        let channels: Vec<usize> = match (&cfg.disturbance.channels, kind) {
+            (_, DisturbanceKind::None) => Vec::new(),
+            (Some(c), _) => c.clone(),
+            (None, DisturbanceKind::Output) => (0..ny).collect(),
+            (None, DisturbanceKind::Input) => (0..nu).collect(),
+        };
+        let nd = channels.len();
+        let n = nx + nd;
+        let mut a = DMatrix::zeros(n, n);
+        a.view_mut((0, 0), (nx, nx)).copy_from(&at);
+        let mut b = DMatrix::zeros(n, nu);
+        b.view_mut((0, 0), (nx, nu)).copy_from(&bt);
+        let mut c = DMatrix::zeros(ny, n);
+        c.view_mut((0, 0), (ny, nx)).copy_from(&ct);
+        for (j, &ch) in channels.iter().enumerate() {
+            a[(nx + j, nx + j)] = 1.0;
+            match kind {
+                DisturbanceKind::Output => {
+                    if ch >= ny {
+                        return Err(crate::error::invalid(
+                            format!("disturbance.channels[{j}]"),
+                            ch,
+                            format!("0 ..= {}", ny - 1),
+                        ));
+                    }
+                    c[(ch, nx + j)] = 1.0;
+                }
+                DisturbanceKind::Input => {
+                    if ch >= nu {
+                        return Err(crate::error::invalid(
+                            format!("disturbance.channels[{j}]"),
+                            ch,
+                            format!("0 ..= {}", nu - 1),
+                        ));
+                    }
+                    for i in 0..nx {
+                        a[(i, nx + j)] = bt[(i, ch)];
+                    }
+                }
+                DisturbanceKind::None => {}
+            }
+        }
+        Ok(Self {
+            a,
+            b,
+            c,
+            n_plant: nx,
+            n_dist: nd,
+            dt_s: model.dt_s,
+            state_scale: t,
+        })
+    }
+
+    /// Augmented state dimension.
+    pub fn n(&self) -> usize {
+        self.n_plant + self.n_dist
+    }
+    /// Number of inputs.
+    pub fn n_inputs(&self) -> usize {
+        self.b.ncols()
+    }
+    /// Number of outputs.
+    pub fn n_outputs(&self) -> usize {
+        self.c.nrows()
+    }
+
+    /// Original-coordinate augmented state `[x; d]` → internal `[x̃; d]`.
+    pub fn to_internal(&self, xa: &DVector<f64>) -> DVector<f64> {
+        let mut v = xa.clone();
+        for i in 0..self.n_plant.min(v.len()) {
+            v[i] /= self.state_scale[i];
+        }
+        v
+    }
+
+    /// Internal `[x̃; d]` → original-coordinate `[x; d]`.
+    pub fn to_original(&self, xi: &DVector<f64>) -> DVector<f64> {
+        let mut v = xi.clone();
+        for i in 0..self.n_plant.min(v.len()) {
+            v[i] *= self.state_scale[i];
+        }
+        v
+    }
+}
+
+/// Steady-state (current-form) Kalman filter on the augmented state.
+#[derive(Debug, Clone)]
+pub struct KalmanFilter {
+    a: DMatrix<f64>,
+    b: DMatrix<f64>,
+    c: DMatrix<f64>,
+    /// Steady-state filter gain `L = P Cᵀ (C P Cᵀ + R)⁻¹` (n × ny), P the a-priori covariance.
+    pub gain: DMatrix<f64>,
+    /// A-priori steady-state covariance (internal coordinates).
+    pub covariance: DMatrix<f64>,
+    /// Number of doubling iterations used.
+    pub iterations: usize,
+    x_pred: DVector<f64>,
+    x_filt: DVector<f64>,
+    r: DMatrix<f64>,
+    gate: Vec<f64>,
+    gate_max_skips: usize,
+    consecutive_skips: Vec<usize>,
+    reacquire: Vec<bool>,
+    /// Cycles in which at least one output was skipped (not finite, or gated as an outlier).
+    pub skipped_measurements: usize,
+    /// Output-cycles rejected by the innovation gate.
+    pub gated_outputs: usize,
+}
+
+/// Iteration cap and relative tolerance of the structured doubling algorithm.
+const SDA_MAX_ITER: usize = 100;
+const SDA_REL_TOL: f64 = 1e-13;
+
+/// Solve the filter DARE `X = A X Aᵀ − A X Cᵀ (C X Cᵀ + R)⁻¹ C X Aᵀ + Q` by the structured doubling
+/// algorithm (Chu, Fan, Lin & Wang 2004), applied to the dual control DARE with `(Aᵀ, Cᵀ)`:
+/// `A₀ = Aᵀ, G₀ = Cᵀ R⁻¹ C, H₀ = Q`; `W = I + G H`; `A ← A W⁻¹ A`, `G ← G + A W⁻¹ G Aᵀ`,
+/// `H ← H + Aᵀ H W⁻¹ A`; `H → X` quadratically.
+pub fn filter_dare(
+    a: &DMatrix<f64>,
+    c: &DMatrix<f64>,
+    q: &DMatrix<f64>,
+    r: &DMatrix<f64>,
+) -> Result<(DMatrix<f64>, usize), MpcError> {
+    let n = a.nrows();
+    let r_inv = r.clone().try_inverse().ok_or(MpcError::Numerical {
+        what: "kalman DARE",
+        detail: "measurement covariance singular".into(),
+    })?;
+    let mut ak = a.transpose();
+    let mut gk = c.transpose() * r_inv * c;
+    let mut hk = q.clone();
+    let eye = DMatrix::<f64>::identity(n, n);
+    for it in 0..SDA_MAX_ITER {
+        let w = &eye + &gk * &hk;
+        let w_lu = w.lu();
+        let wa = w_lu.solve(&ak).ok_or(MpcError::Numerical {
+            what: "kalman DARE",
+            detail: "I + G H singular in the doubling iteration".into(),
+        })?;
+        let wg = w_lu.solve(&gk).ok_or(MpcError::Numerical {
+            what: "kalman DARE",
+            detail: "I + G H singular in the doubling iteration".into(),
+        })?;
+        let a_next = &ak * &wa;
+        let mut g_next = &gk + &ak * wg * ak.transpose();
+        let mut h_next = &hk + ak.transpose() * &hk * &wa;
+        g_next = (&g_next + g_next.transpose()) * 0.5;
+        h_next = (&h_next + h_next.transpose()) * 0.5;
+        if !h_next.iter().all(|v| v.is_finite()) {
+            break;
+        }
+        let diff = (&h_next - &hk).norm();
+        let scale = h_next.norm().max(1e-300);
+        ak = a_next;
+        gk = g_next;
+        hk = h_next;
+        if diff <= SDA_REL_TOL * scale {
+            return Ok((hk, it + 1));
+        }
+    }
+    Err(MpcError::Numerical {
+        what: "kalman DARE",
+        detail: format!(
+            "no convergence after {SDA_MAX_ITER} doubling steps: the augmented model is not detectable \
+             (output disturbance on a plant with an integrator?) or the noise covariances are extreme"
+        ),
+    })
+}
+
+impl KalmanFilter {
+    /// Steady-state filter for `model` with input-referred plant noise `q_input · B̃ B̃ᵀ` (plus 1e-9 of its
+    /// trace on the diagonal, for definiteness), disturbance random-walk variance `q_dist`, and
+    /// measurement noise variances `r` (one per output).
+    pub fn steady_state(
+        model: &AugmentedModel,
+        q_input: f64,
+        q_dist: f64,
+        r: &[f64],
+    ) -> Result<Self, MpcError> {
+        let n = model.n();
+        let np = model.n_plant;
+        let ny = model.n_outputs();
+        if r.len() != ny {
+            return Err(MpcError::DimensionMismatch {
+                what: "kalman.measurement_noise".into(),
+                expected: ny,
+                found: r.len(),
+            });
+        }
+        let bp = model.b.rows(0, np).into_owned();
+        let qp = &bp * bp.transpose() * q_input;
+        let eps = 1e-9 * qp.trace().max(1e-300) / np as f64;
+        let mut q = DMatrix::zeros(n, n);
+        q.view_mut((0, 0), (np, np)).copy_from(&qp);
+        for i in 0..n {
+            q[(i, i)] += if i < np { eps } else { q_dist };
+        }
+        let rm = DMatrix::from_diagonal(&DVector::from_column_slice(r));
+        let (p, iterations) = filter_dare(&model.a, &model.c, &q, &rm)?;
+        let c = &model.c;
+        let s = c * &p * c.transpose() + &rm;
+        let s_inv = s.try_inverse().ok_or(MpcError::Numerical {
+            what: "kalman gain",
+            detail: "innovation covariance singular".into(),
+        })?;
+        let gain = &p * c.transpose() * s_inv;
+        if !gain.iter().all(|v| v.is_finite()) {
+            return Err(MpcError::Numerical {
+                what: "kalman gain",
+                detail: "not finite".into(),
+            });
+        }
+        Ok(Self {
+            a: model.a.clone(),
+            b: model.b.clone(),
+            c: model.c.clone(),
+            gain,
+            covariance: p,
+            iterations,
+            x_pred: DVector::zeros(n),
+            x_filt: DVector::zeros(n),
+            r: rm,
+            gate: Vec::new(),
+            gate_max_skips: 0,
+            consecutive_skips: vec![0; ny],
+            reacquire: vec![false; ny],
+            skipped_measurements: 0,
+            gated_outputs: 0,
+        })
+    }
+
+    /// Enable innovation gating: per-output absolute gates (empty: off) and the maximum number of
+    /// consecutive cycles an output may be rejected before it is accepted again.
+    pub fn set_gate(&mut self, gate: &[f64], max_skips: usize) {
+        self.gate = gate.to_vec();
+        self.gate_max_skips = max_skips;
+    }
+
+    /// Set the state estimate (internal coordinates).
+    pub fn reset(&mut self, x: &DVector<f64>) {
+        self.x_pred.copy_from(x);
+        self.x_filt.copy_from(x);
+    }
+
+    /// Measurement update with `y` (measured outputs) and the known output offset `w` of this cycle:
+    /// `ξ̂ = ξ̂⁻ + L (y − w − C ξ̂⁻)`. Outputs that are not finite, or whose innovation exceeds the gate (for
+    /// at most `gate_max_skips` consecutive cycles; after that the output is accepted every cycle until its
+    /// innovation is back inside the gate), are left out: the update then uses the gain of the
+    /// remaining outputs, `L_s = P C_sᵀ (C_s P C_sᵀ + R_s)⁻¹` with the steady-state a-priori covariance P.
+    /// Returns the filtered estimate.
+    pub fn correct(&mut self, y: &[f64], w: &[f64]) -> &DVector<f64> {
+        let ny = self.c.nrows();
+        self.x_filt.copy_from(&self.x_pred);
+        if y.len() != ny || w.len() != ny {
+            self.skipped_measurements += 1;
+            return &self.x_filt;
+        }
+        let yhat = &self.c * &self.x_pred;
+        let mut used = Vec::with_capacity(ny);
+        let mut innov = Vec::with_capacity(ny);
+        for i in 0..ny {
+            let v = y[i] - w[i] - yhat[i];
+            if !v.is_finite() {
+                continue;
+            }
+            if let Some(&g) = self.gate.get(i) {
+                if v.abs() <= g {
+                    self.reacquire[i] = false;
+                } else if !self.reacquire[i] {
+                    if self.consecutive_skips[i] < self.gate_max_skips {
+                        self.consecutive_skips[i] += 1;
+                        self.gated_outputs += 1;
+                        continue;
+                    }
+                    // persisted longer than a glitch: accept it (and keep accepting until it is back
+                    // inside the gate)
+                    self.reacquire[i] = true;
+                }
+            }
+            self.consecutive_skips[i] = 0;
+            used.push(i);
+            innov.push(v);
+        }
+        if used.len() < ny {
+            self.skipped_measurements += 1;
+        }
+        if used.is_empty() {
+            return &self.x_filt;
+        }
+        if used.len() == ny {
+            self.x_filt += &self.gain * DVector::from_vec(innov);
+        } else {
+            let cs = DMatrix::from_fn(used.len(), self.c.ncols(), |r, j| self.c[(used[r], j)]);
+            let rs = DMatrix::from_fn(used.len(), used.len(), |r, q| self.r[(used[r], used[q])]);
+            let s = &cs * &self.covariance * cs.transpose() + rs;
+            if let Some(s_inv) = s.try_inverse() {
+                let l = &self.covariance * cs.transpose() * s_inv;
+                self.x_filt += l * DVector::from_vec(innov);
+            }
+        }
+        if !self.x_filt.iter().all(|v| v.is_finite()) {
+            self.x_filt.copy_from(&self.x_pred);
+        }
+        &self.x_filt
+    }
+
+    /// Time update with the input actually applied: `ξ̂⁻ ← A ξ̂ + B u`.
+    pub fn predict(&mut self, u: &[f64]) {
+        let ud = DVector::from_column_slice(u);
+        let next = &self.a * &self.x_filt + &self.b * ud;
+        if next.iter().all(|v| v.is_finite()) {
+            self.x_pred = next;
+        }
+    }
+
+    /// Current filtered estimate `ξ̂_{k|k}` (internal coordinates).
+    pub fn estimate(&self) -> &DVector<f64> {
+        &self.x_filt
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+    use millcomp_sim::ContinuousLti;
+
+    fn first_order() -> DiscreteLti {
+        ContinuousLti::from_transfer_function(&[2.0], &[1e-2, 1.0])
+            .unwrap()
+            .discretize_zoh(1e-3)
+            .unwrap()
+    }
+
+    #[test]
+    fn scalar_dare_matches_closed_form() {
+        // scalar system without disturbance: p = a²p − a²p²/(p + r) + q  ⇒ closed-form positive root
+        let m = first_order();
+        let mut cfg = MpcConfig::siso(5, -1.0, 1.0, 1.0);
+        cfg.disturbance.kind = DisturbanceKind::None;
+        let aug = AugmentedModel::new(&m, &cfg).unwrap();
+        // internal (scaled) coordinates; process noise q = q_u b² (+1e-9 of it)
+        let (a, b, c) = (aug.a[(0, 0)], aug.b[(0, 0)], aug.c[(0, 0)]);
+        let (qu, r) = (1e-3, 1e-2);
+        let q = qu * b * b * (1.0 + 1e-9);
+        let kf = KalmanFilter::steady_state(&aug, qu, 1.0, &[r]).unwrap();
+        // c² p² + (r(1 − a²) − q c²) p − q r = 0
+        let (qa, qb, qc) = (c * c, r * (1.0 - a * a) - q * c * c, -q * r);
+        let p = (-qb + (qb * qb - 4.0 * qa * qc).sqrt()) / (2.0 * qa);
+        assert_relative_eq!(kf.covariance[(0, 0)], p, max_relative = 1e-9);
+    }
+
+    #[test]
+    fn output_disturbance_estimated_offset_free() {
+        let m = first_order();
+        let cfg = MpcConfig::siso(5, -1.0, 1.0, 1.0);
+        let aug = AugmentedModel::new(&m, &cfg).unwrap();
+        assert_eq!(aug.n(), 2);
+        let mut kf = KalmanFilter::steady_state(&aug, 1e-6, 1e-2, &[1e-4]).unwrap();
+        // true plant at rest with an output offset of 0.7: the estimate converges to d = 0.7
+        for _ in 0..2000 {
+            kf.correct(&[0.7], &[0.0]);
+            kf.predict(&[0.0]);
+        }
+        assert_relative_eq!(kf.estimate()[1], 0.7, epsilon = 1e-6);
+        // a NaN measurement is skipped, not propagated
+        kf.correct(&[f64::NAN], &[0.0]);
+        assert!(kf.estimate().iter().all(|v| v.is_finite()));
+        assert_eq!(kf.skipped_measurements, 1);
+    }
+
+    #[test]
+    fn rejects_feedthrough() {
+        let mut m = first_order();
+        m.d[(0, 0)] = 1.0;
+        let cfg = MpcConfig::siso(5, -1.0, 1.0, 1.0);
+        assert!(
+            matches!(AugmentedModel::new(&m, &cfg), Err(MpcError::InvalidConfig { key, .. }) if key == "model.d")
+        );
+    }
+}

@@ -1,0 +1,46 @@
+//! Per-run solver statistics (the `solver` object of the simulate JSON contract).
+
+use serde::{Deserialize, Serialize};
+
+/// Solver statistics of one controller run: `{"solves", "median_us", "p99_us", "fallbacks"}`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+pub struct SolverStats {
+    /// Number of QP solves attempted (cycles where Clarabel was called).
+    pub solves: usize,
+    /// Median per-cycle QP time (update_q/update_b + solve), µs.
+    pub median_us: f64,
+    /// 99th percentile of the per-cycle QP time, µs.
+    pub p99_us: f64,
+    /// Cycles that used the fallback (previous plan shifted, then hold) instead of a fresh solution.
+    pub fallbacks: usize,
+}
+
+/// Percentile by the nearest-rank method on a copy of `samples` (`p` in 0..=100); 0 for an empty slice.
+///
+/// ```
+/// use millcomp_mpc::stats::percentile;
+/// let v = [5.0, 1.0, 3.0, 2.0, 4.0];
+/// assert_eq!(percentile(&v, 50.0), 3.0);
+/// assert_eq!(percentile(&v, 100.0), 5.0);
+/// ```
+pub fn percentile(samples: &[f64], p: f64) -> f64 {
+    let mut v: Vec<f64> = samples.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(|a, b| a.total_cmp(b));
+    let rank = ((p / 100.0) * v.len() as f64).ceil() as usize;
+    v[rank.clamp(1, v.len()) - 1]
+}
+
+impl SolverStats {
+    /// Summarise raw per-cycle times.
+    pub fn from_times(times_us: &[f64], fallbacks: usize) -> Self {
+        Self {
+            solves: times_us.len(),
+            median_us: percentile(times_us, 50.0),
+            p99_us: percentile(times_us, 99.0),
+            fallbacks,
+        }
+    }
+}

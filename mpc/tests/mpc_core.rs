@@ -1,0 +1,308 @@
+//! The MPC core against independent references: Riccati LQ, constraints, slack, fallbacks.
+
+mod common;
+
+use approx::assert_relative_eq;
+use common::*;
+use millcomp_mpc::config::{DisturbanceKind, SoftOutput};
+use millcomp_mpc::qp::QpStatus;
+use millcomp_mpc::{MpcConfig, MpcController, PreviewWindow};
+use millcomp_sim::{DiscreteLti, PztSpindle};
+use nalgebra::{DMatrix, DVector};
+
+/// PZT spindle of `000_…txt` §5.2.4 (ζ = 0.46, ωn = 1302 rad/s, 50 µm / 1000 V) with an extra real pole
+/// at 37 000 rad/s (sim's provisional fit), volts → tool-tip µm, sampled at 0.5 ms.
+fn spindle() -> DiscreteLti {
+    PztSpindle::new(0.05, 0.46, 1302.0, Some(37_000.0), None)
+        .unwrap()
+        .to_lti()
+        .unwrap()
+        .discretize_zoh(5e-4)
+        .unwrap()
+}
+
+/// Apply `u` for one sample and return the output *after* it (the next cycle's measurement).
+fn advance(m: &DiscreteLti, x: &mut DVector<f64>, u: f64) -> f64 {
+    m.step_siso(x, u);
+    (&m.c * &*x)[0]
+}
+
+fn cfg(horizon: usize) -> MpcConfig {
+    let mut c = MpcConfig::siso(horizon, 0.0, 1000.0, 100.0);
+    c.weights.output = vec![1.0];
+    c.weights.input_rate = vec![1e-5];
+    c
+}
+
+/// Finite-horizon LQ by backward Riccati recursion on ξ = [x; u_{k−1}] with input Δu:
+/// minimises Σ_{k=1..N} y_kᵀQy_k + Σ_{k=0..N−1} Δu_kᵀRΔu_k. Returns the first move u₀ = u₋₁ + Δu₀.
+fn riccati_first_move(
+    m: &DiscreteLti,
+    n: usize,
+    q: f64,
+    r: f64,
+    x0: &DVector<f64>,
+    u_prev: f64,
+) -> f64 {
+    let nx = m.n_states();
+    let mut at = DMatrix::zeros(nx + 1, nx + 1);
+    at.view_mut((0, 0), (nx, nx)).copy_from(&m.a);
+    at.view_mut((0, nx), (nx, 1)).copy_from(&m.b);
+    at[(nx, nx)] = 1.0;
+    let mut bt = DMatrix::zeros(nx + 1, 1);
+    bt.view_mut((0, 0), (nx, 1)).copy_from(&m.b);
+    bt[(nx, 0)] = 1.0;
+    let mut ct = DMatrix::zeros(1, nx + 1);
+    ct.view_mut((0, 0), (1, nx)).copy_from(&m.c);
+    let qt = ct.transpose() * &ct * q;
+    let rm = DMatrix::from_element(1, 1, r);
+    let mut p = qt.clone();
+    let mut k0 = DMatrix::zeros(1, nx + 1);
+    for _ in (0..n).rev() {
+        let s = &rm + bt.transpose() * &p * &bt;
+        let k = s.try_inverse().unwrap() * bt.transpose() * &p * &at;
+        p = &qt + at.transpose() * &p * &at - at.transpose() * &p * &bt * &k;
+        k0 = k;
+    }
+    let mut xi = DVector::zeros(nx + 1);
+    xi.rows_mut(0, nx).copy_from(x0);
+    xi[nx] = u_prev;
+    u_prev - (k0 * xi)[0]
+}
+
+#[test]
+fn unconstrained_first_move_equals_riccati_lq() {
+    let m = spindle();
+    for &n in &[5usize, 20, 40] {
+        let mut c = cfg(n);
+        c.disturbance.kind = DisturbanceKind::None;
+        // limits far away: the constrained QP has the unconstrained solution
+        c.limits.u_min = vec![-1e7];
+        c.limits.u_max = vec![1e7];
+        c.limits.du_max = vec![1e7];
+        c.solver.tol_gap = 1e-10;
+        c.solver.tol_feas = 1e-10;
+        let mut mpc = MpcController::new(&m, &c).unwrap();
+        // a physical state: the equilibrium at 300 V, moving (half of it in each derivative state)
+        let mut x0 = m.steady_state(&DVector::from_element(1, 300.0)).unwrap();
+        x0[0] = 0.5 * x0[2] * 1302.0 * 1302.0;
+        x0[1] = -0.5 * x0[2] * 1302.0;
+        mpc.set_state_estimate(&x0).unwrap();
+        mpc.set_previous_input(&[150.0]);
+        // the exact measurement leaves the estimate unchanged (zero innovation)
+        let y0 = (&m.c * &x0)[0];
+        let step = mpc.step(&[y0], &PreviewWindow::zeros(n, 1)).unwrap();
+        assert_eq!(step.status, QpStatus::Solved);
+        let u_lq = riccati_first_move(&m, n, 1.0, 1e-5, &x0, 150.0);
+        let scale = (u_lq - 150.0).abs().max(1.0);
+        assert!(
+            (step.u[0] - u_lq).abs() <= LQ_FIRST_MOVE_REL * scale,
+            "N={n}: mpc {} vs riccati {u_lq}",
+            step.u[0]
+        );
+    }
+}
+
+#[test]
+fn hard_input_limits_and_slew_hold_every_cycle() {
+    let m = spindle();
+    let mut c = cfg(20);
+    c.limits.du_max = vec![25.0];
+    let mut mpc = MpcController::new(&m, &c).unwrap();
+    let mut win = PreviewWindow::zeros(20, 1);
+    // 80 µm is beyond the 50 µm stroke: the input must saturate at 1000 V, never beyond
+    win.reference.iter_mut().for_each(|r| *r = 80.0);
+    let (mut x, mut y, mut u_prev) = (m.zero_state(), 0.0, 0.0);
+    let mut saturated = 0;
+    for _ in 0..400 {
+        let s = mpc.step(&[y], &win).unwrap();
+        let u = s.u[0];
+        assert!(u.is_finite());
+        assert!(
+            (0.0 - LIMIT_ABS..=1000.0 + LIMIT_ABS).contains(&u),
+            "u = {u}"
+        );
+        assert!(
+            (u - u_prev).abs() <= 25.0 + LIMIT_ABS,
+            "slew {}",
+            u - u_prev
+        );
+        if (u - 1000.0).abs() < 1e-6 {
+            saturated += 1;
+        }
+        u_prev = u;
+        y = advance(&m, &mut x, u);
+    }
+    assert!(
+        saturated > 300,
+        "input should sit at its limit, saturated {saturated} cycles"
+    );
+    assert_eq!(mpc.stats().fallbacks, 0);
+}
+
+#[test]
+fn unreachable_soft_bound_is_handled_by_the_slack() {
+    let m = spindle();
+    let mut c = cfg(20);
+    c.limits.du_max = vec![5.0]; // slow: the bound cannot be met in the next steps
+    c.soft_outputs = vec![SoftOutput {
+        output: 0,
+        stride: 1,
+        from_step: 1,
+        min: None,
+        max: Some(10.0),
+    }];
+    let mut mpc = MpcController::new(&m, &c).unwrap();
+    // start at 1000 V equilibrium (50 µm), bound y ≤ 10 µm: infeasible as a hard constraint
+    let x_eq = m.steady_state(&DVector::from_element(1, 1000.0)).unwrap();
+    let mut xa = DVector::zeros(x_eq.len() + 1);
+    xa.rows_mut(0, x_eq.len()).copy_from(&x_eq);
+    mpc.set_state_estimate(&xa).unwrap();
+    mpc.set_previous_input(&[1000.0]);
+    let mut x = x_eq.clone();
+    let mut y = (&m.c * &x)[0];
+    let win = PreviewWindow::zeros(20, 1); // reference 0 would pull further down; bound is active above
+    let mut ys = Vec::new();
+    for _ in 0..600 {
+        let s = mpc.step(&[y], &win).unwrap();
+        assert!(s.status.is_ok(), "status {:?}", s.status);
+        y = advance(&m, &mut x, s.u[0]);
+        ys.push(y);
+    }
+    assert_eq!(mpc.stats().fallbacks, 0);
+    // after the slew-limited descent the bound holds
+    assert!(ys[500..].iter().all(|&v| v <= 10.0 + SOFT_BOUND_ABS));
+}
+
+#[test]
+#[allow(clippy::needless_range_loop)] // k is both the cycle count and the plan index
+fn injected_solver_failure_uses_shifted_plan_then_hold() {
+    let m = spindle();
+    let c = cfg(10);
+    let mut mpc = MpcController::new(&m, &c).unwrap();
+    let mut win = PreviewWindow::zeros(10, 1);
+    win.reference.iter_mut().for_each(|r| *r = 20.0);
+    let (mut x, mut y) = (m.zero_state(), 0.0);
+    for _ in 0..5 {
+        let s = mpc.step(&[y], &win).unwrap();
+        y = advance(&m, &mut x, s.u[0]);
+    }
+    let plan = mpc.plan().to_vec();
+    mpc.inject_solver_failures(15);
+    let mut prev = *plan.first().unwrap();
+    for k in 1..=15 {
+        let s = mpc.step(&[y], &win).unwrap();
+        assert!(s.fallback);
+        assert_eq!(s.status, QpStatus::MaxIterations);
+        assert!(s.u[0].is_finite() && (0.0..=1000.0).contains(&s.u[0]));
+        if k < 10 {
+            // the previous plan, shifted (then clamped to the slew limit around the previous command)
+            let expect = plan[k].clamp(prev - 100.0, prev + 100.0);
+            assert_relative_eq!(s.u[0], expect, epsilon = 1e-12);
+        } else {
+            assert_relative_eq!(s.u[0], prev, epsilon = 1e-12); // hold
+        }
+        prev = s.u[0];
+        y = advance(&m, &mut x, s.u[0]);
+    }
+    assert_eq!(mpc.stats().fallbacks, 15);
+    // recovery: the next cycle solves again
+    let s = mpc.step(&[y], &win).unwrap();
+    assert_eq!(s.status, QpStatus::Solved);
+    assert_eq!(mpc.stats().fallbacks, 15);
+}
+
+#[test]
+fn offset_free_under_gain_mismatch_and_output_disturbance() {
+    let model = spindle();
+    // truth: 30 % more gain and a 3 µm output offset
+    let truth = PztSpindle::new(0.065, 0.46, 1302.0, Some(37_000.0), None)
+        .unwrap()
+        .to_lti()
+        .unwrap()
+        .discretize_zoh(5e-4)
+        .unwrap();
+    // a robust tuning: moves cost more and the disturbance observer is slower than the plant
+    let mut c = cfg(20);
+    c.weights.input_rate = vec![1e-3];
+    c.kalman.measurement_noise = vec![1e-3];
+    c.kalman.disturbance_noise = 1e-4;
+    let mut mpc = MpcController::new(&model, &c).unwrap();
+    let mut win = PreviewWindow::zeros(20, 1);
+    win.reference.iter_mut().for_each(|r| *r = 12.0);
+    let (mut x, mut y) = (truth.zero_state(), 3.0);
+    for _ in 0..3000 {
+        let s = mpc.step(&[y], &win).unwrap();
+        y = advance(&truth, &mut x, s.u[0]) + 3.0;
+    }
+    assert!((y - 12.0).abs() < OFFSET_FREE_ABS, "y = {y}");
+    // the disturbance estimate carries the mismatch
+    assert!(mpc.disturbance_estimate()[0].abs() > 1.0);
+}
+
+#[test]
+fn move_blocking_gives_piecewise_constant_plan() {
+    let m = spindle();
+    let mut c = cfg(12);
+    c.move_blocking = Some(vec![1, 2, 3, 6]);
+    let mut mpc = MpcController::new(&m, &c).unwrap();
+    assert_eq!(mpc.qp().n_variables(), 4);
+    let mut win = PreviewWindow::zeros(12, 1);
+    win.reference.iter_mut().for_each(|r| *r = 10.0);
+    mpc.step(&[0.0], &win).unwrap();
+    let p = mpc.plan();
+    assert_eq!(p.len(), 12);
+    assert_eq!(p[1], p[2]);
+    assert_eq!(p[3], p[4]);
+    assert_eq!(p[4], p[5]);
+    assert!(p[6..].iter().all(|v| *v == p[6]));
+    let mut c = cfg(12);
+    c.control_horizon = Some(3);
+    let mpc = MpcController::new(&m, &c).unwrap();
+    assert_eq!(mpc.qp().n_variables(), 3);
+}
+
+#[test]
+fn nan_measurements_never_reach_the_actuator() {
+    let m = spindle();
+    let mut mpc = MpcController::new(&m, &cfg(20)).unwrap();
+    let mut win = PreviewWindow::zeros(20, 1);
+    win.reference.iter_mut().for_each(|r| *r = 5.0);
+    let (mut x, mut y) = (m.zero_state(), 0.0);
+    for k in 0..200 {
+        let meas = if k % 7 == 3 { f64::NAN } else { y };
+        let s = mpc.step(&[meas], &win).unwrap();
+        assert!(s.u[0].is_finite() && (0.0..=1000.0).contains(&s.u[0]));
+        y = advance(&m, &mut x, s.u[0]);
+    }
+    assert!((y - 5.0).abs() < 0.05);
+    // non-finite preview data: fallback, not NaN
+    win.offsets[3] = f64::NAN;
+    let s = mpc.step(&[y], &win).unwrap();
+    assert_eq!(s.status, QpStatus::NonFiniteData);
+    assert!(s.fallback && s.u[0].is_finite());
+}
+
+#[test]
+fn preview_acts_before_a_known_step() {
+    // a known output offset steps at k = 30; with preview the controller starts moving before it
+    let m = spindle();
+    let mut mpc = MpcController::new(&m, &cfg(20)).unwrap();
+    let (mut x, mut y) = (m.zero_state(), 0.0);
+    let w = |k: usize| if k >= 30 { -10.0 } else { 0.0 };
+    let mut first_move = None;
+    for k in 0..60 {
+        let mut win = PreviewWindow::zeros(20, 1);
+        win.offset_now[0] = w(k);
+        for j in 0..20 {
+            win.offsets[j] = w(k + 1 + j);
+        }
+        let s = mpc.step(&[y + w(k)], &win).unwrap();
+        if first_move.is_none() && s.u[0] > 1.0 {
+            first_move = Some(k);
+        }
+        y = advance(&m, &mut x, s.u[0]);
+    }
+    let k = first_move.expect("controller moved");
+    assert!(k < 30, "moved at {k}, after the step");
+}
