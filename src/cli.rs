@@ -9,7 +9,6 @@ Exit status:
   0  success
   1  failure: bad input (the message names the file, column, row or parameter), unreadable file
   2  usage error (unknown option, missing argument)
-  3  the verb is part of the CLI contract but not available in this build yet
 
 Errors go to stderr with their cause chain; with --json, results go to stdout as one JSON document.";
 
@@ -54,6 +53,9 @@ pub struct DemoArgs {
     /// Directory for the report and tables.
     #[arg(long, default_value = "millcomp-demo")]
     pub out: PathBuf,
+    /// Worker threads of the demo batch (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
 }
 
 /// `millcomp doe …`.
@@ -146,13 +148,59 @@ pub struct DoeAnalyzeArgs {
 /// `millcomp identify <what> FILE`.
 #[derive(Debug, Args)]
 pub struct IdentifyArgs {
-    /// spindle | stiffness | force | thermal | wall
-    pub what: String,
-    /// Measured data (CSV).
+    /// What to identify.
+    #[arg(value_enum)]
+    pub what: IdentifyWhat,
+    /// Measured data (CSV or Parquet). Columns: spindle `t_s,u_v,y_um`; stiffness
+    /// `load_n,deflection_um[,direction]`; thermal `t_s,drift_um[,speed_rpm][,temp_c]`;
+    /// force `depth_um,upfeed_um,max_fx_n|max_fy_n|max_fz_n[,speed_rpm,tilt_deg]` or traces
+    /// `rot_deg,fx_n|fy_n|fz_n` with the cut conditions; wall `force_n,deflection_um`.
     pub file: PathBuf,
-    /// Write the identified model as TOML.
+    /// Write the identified model as TOML (schema: identify/MODEL.md).
     #[arg(long)]
     pub save: Option<PathBuf>,
+    /// Thermal model: exponential | linear-temperature | speed-dependent.
+    #[arg(long, default_value = "exponential")]
+    pub model: String,
+    /// Spindle: also fit the extra real pole.
+    #[arg(long)]
+    pub extra_pole: bool,
+    /// Spindle: also fit a dead time.
+    #[arg(long)]
+    pub dead_time: bool,
+    /// Stiffness: tilts (deg) at which to report the tilted-tool z-stiffness.
+    #[arg(long, value_delimiter = ',')]
+    pub tilt_deg: Vec<f64>,
+    /// Stiffness: machine stiffness (N/um) in series with the identified tool stiffness.
+    #[arg(long)]
+    pub machine_stiffness_n_per_um: Option<f64>,
+    /// Force: parameters to fit (w_mpa, mu_rake, mu_flank, wearland_um, runout_um); default W only.
+    #[arg(long, value_delimiter = ',')]
+    pub free: Vec<String>,
+    /// Force: workpiece material for the parameters held fixed (S7, 1018, 6061, ...).
+    #[arg(long)]
+    pub material: Option<String>,
+    /// Force: weight residuals by 1/F^2 (relative errors).
+    #[arg(long)]
+    pub relative_errors: bool,
+    /// Wall: geometry `height_um,thickness_um,length_um` to derive the modulus.
+    #[arg(long, value_delimiter = ',')]
+    pub wall_geometry: Vec<f64>,
+}
+
+/// The identification targets.
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+pub enum IdentifyWhat {
+    /// PZT spindle plant from a step response.
+    Spindle,
+    /// Tool / spindle / machine stiffness from load-deflection data.
+    Stiffness,
+    /// Force-model material and friction parameters.
+    Force,
+    /// Thermal drift models.
+    Thermal,
+    /// Thin-wall effective stiffness.
+    Wall,
 }
 
 /// `millcomp diagnose SESSION MEASURED.csv`.
@@ -191,10 +239,51 @@ pub struct SimulateArgs {
 
 /// `millcomp batch`.
 #[derive(Debug, Args)]
+#[command(args_conflicts_with_subcommands = true)]
 pub struct BatchArgs {
-    /// Sub-command `merge` or scenario options.
-    #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
-    pub args: Vec<String>,
+    /// `merge DIR...`: join the slices of one batch.
+    #[command(subcommand)]
+    pub command: Option<BatchCommand>,
+    /// Scenario table (CSV or Parquet): one row per scenario, one column per factor
+    /// (tilt_deg, depth_um, upfeed_um, wearland_um, material, stiffness_error_pct,
+    /// force_model_error_pct, noise_scale, stage, wall_um, feed_step, length_mm, speed_rpm, seed).
+    #[arg(long, conflicts_with = "doe")]
+    pub scenarios: Option<PathBuf>,
+    /// Generate the scenarios with `doe design` arguments given as one string, e.g.
+    /// "--design fractional --factors tilt_deg=20:40,depth_um=60:100,upfeed_um=8:12 --resolution 3 --seed 1".
+    #[arg(long, allow_hyphen_values = true)]
+    pub doe: Option<String>,
+    /// Controllers to compare: none, open-loop, pid, pid-aw, pid-design, threshold, mpc.
+    #[arg(long, default_value = "pid,mpc")]
+    pub controllers: String,
+    /// Output directory (results.csv/.parquet, summary.json, plots/, runs/ for resuming).
+    #[arg(long, default_value = "millcomp-batch")]
+    pub out: PathBuf,
+    /// Run slice K of N (0-based K). Also taken from SLURM_ARRAY_TASK_ID/SLURM_ARRAY_TASK_COUNT or
+    /// JOB_COMPLETION_INDEX/MILLCOMP_SHARD_COUNT.
+    #[arg(long)]
+    pub shard: Option<String>,
+    /// Worker threads (default: all cores, or RAYON_NUM_THREADS).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// `millcomp batch merge`.
+#[derive(Debug, Subcommand)]
+pub enum BatchCommand {
+    /// Join the slices (output directories of `--shard K/N` runs) of one batch.
+    Merge(BatchMergeArgs),
+}
+
+/// `millcomp batch merge DIR... --out OUT`.
+#[derive(Debug, Args)]
+pub struct BatchMergeArgs {
+    /// Slice directories.
+    #[arg(required = true)]
+    pub dirs: Vec<PathBuf>,
+    /// Output directory of the merged results.
+    #[arg(long, default_value = "millcomp-batch-merged")]
+    pub out: PathBuf,
 }
 
 /// `millcomp datasets …`.

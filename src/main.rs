@@ -7,6 +7,7 @@ use clap::Parser;
 
 mod cli;
 mod cmd;
+mod plot;
 
 use cli::Cli;
 
@@ -14,8 +15,6 @@ use cli::Cli;
 const EXIT_OK: u8 = 0;
 /// Exit status when the run failed: bad input, unreadable file, failed check.
 const EXIT_FAILURE: u8 = 1;
-/// Exit status when the verb exists in the contract but is not available in this build yet.
-const EXIT_NOT_YET: u8 = 3;
 
 fn main() -> ExitCode {
     // clap prints usage errors itself and exits with status 2.
@@ -24,11 +23,7 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::from(EXIT_OK),
         Err(err) => {
             report(&err);
-            if err.downcast_ref::<cmd::NotYet>().is_some() {
-                ExitCode::from(EXIT_NOT_YET)
-            } else {
-                ExitCode::from(EXIT_FAILURE)
-            }
+            ExitCode::from(EXIT_FAILURE)
         }
     }
 }

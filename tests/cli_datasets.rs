@@ -73,7 +73,13 @@ fn list_names_every_dataset() {
         .iter()
         .map(|d| d["name"].as_str().unwrap())
         .collect();
-    for want in ["clayton_doe", "clayton_spindle", "thin_wall_results", "depth_error_budget", "nc_feed_step"] {
+    for want in [
+        "clayton_doe",
+        "clayton_spindle",
+        "thin_wall_results",
+        "depth_error_budget",
+        "nc_feed_step",
+    ] {
         assert!(names.contains(&want), "{want} missing from {names:?}");
     }
 }
@@ -106,35 +112,50 @@ fn assert_nothing_written(dir: &tempfile::TempDir) {
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
-    assert_eq!(names, vec!["input.csv".to_string()], "unexpected files: {names:?}");
+    assert_eq!(
+        names,
+        vec!["input.csv".to_string()],
+        "unexpected files: {names:?}"
+    );
 }
 
 #[test]
 fn valid_measured_groove_passes_and_notes_unknown_columns() {
     let (a, dir) = check(
-        &format!("{GROOVE_HEADER},operator\n1,0,0,0,10000,100,10,20,1,0,0.2,ann\n1,0.6,1,1,10000,100,10,20,1,4,3.1,ann\n"),
+        &format!(
+            "{GROOVE_HEADER},operator\n1,0,0,0,10000,100,10,20,1,0,0.2,ann\n1,0.6,1,1,10000,100,10,20,1,4,3.1,ann\n"
+        ),
         "measured-groove",
     );
     a.success()
         .stdout(predicate::str::contains("2 rows"))
-        .stdout(predicate::str::contains("unknown column `operator` ignored"));
+        .stdout(predicate::str::contains(
+            "unknown column `operator` ignored",
+        ));
     assert_nothing_written(&dir);
 }
 
 #[test]
 fn missing_required_column_names_file_and_column() {
     let header = GROOVE_HEADER.replace(",depth_meas_um", "");
-    let (a, dir) = check(&format!("{header}\n1,0,0,0,10000,100,10,20,1,0\n"), "measured-groove");
+    let (a, dir) = check(
+        &format!("{header}\n1,0,0,0,10000,100,10,20,1,0\n"),
+        "measured-groove",
+    );
     a.code(1)
         .stderr(predicate::str::contains("input.csv"))
-        .stderr(predicate::str::contains("missing required column `depth_meas_um`"));
+        .stderr(predicate::str::contains(
+            "missing required column `depth_meas_um`",
+        ));
     assert_nothing_written(&dir);
 }
 
 #[test]
 fn non_numeric_cell_names_file_column_and_row() {
     let (a, dir) = check(
-        &format!("{GROOVE_HEADER}\n1,0,0,0,10000,100,10,20,1,0,0.2\n1,0.6,1,1,10000,100,ten,20,1,4,3.1\n"),
+        &format!(
+            "{GROOVE_HEADER}\n1,0,0,0,10000,100,10,20,1,0,0.2\n1,0.6,1,1,10000,100,ten,20,1,4,3.1\n"
+        ),
         "measured-groove",
     );
     a.code(1)
@@ -147,7 +168,9 @@ fn non_numeric_cell_names_file_column_and_row() {
 #[test]
 fn nan_cell_names_file_column_and_row() {
     let (a, dir) = check(
-        &format!("{GROOVE_HEADER}\n1,0,0,0,10000,100,10,20,1,0,0.2\n1,0.6,1,1,10000,100,10,20,1,4,NaN\n"),
+        &format!(
+            "{GROOVE_HEADER}\n1,0,0,0,10000,100,10,20,1,0,0.2\n1,0.6,1,1,10000,100,10,20,1,4,NaN\n"
+        ),
         "measured-groove",
     );
     a.code(1)
@@ -170,7 +193,9 @@ fn empty_file_is_a_clear_error() {
 #[test]
 fn time_going_backwards_within_a_groove_is_rejected() {
     let (a, _dir) = check(
-        &format!("{GROOVE_HEADER}\n1,5,0,0,10000,100,10,20,1,0,0.2\n1,4,1,1,10000,100,10,20,1,4,3.1\n"),
+        &format!(
+            "{GROOVE_HEADER}\n1,5,0,0,10000,100,10,20,1,0,0.2\n1,4,1,1,10000,100,10,20,1,4,3.1\n"
+        ),
         "measured-groove",
     );
     a.code(1)
@@ -185,15 +210,6 @@ fn user_copy_of_a_shipped_table_validates_against_its_schema() {
 
 fn millcomp_datasets_csv() -> &'static str {
     include_str!("../datasets/data/clayton_doe.csv")
-}
-
-#[test]
-fn unavailable_verbs_say_so_and_exit_3() {
-    millcomp()
-        .args(["batch"])
-        .assert()
-        .code(3)
-        .stderr(predicate::str::contains("not available in this build yet"));
 }
 
 #[test]

@@ -8,7 +8,13 @@ fn millcomp() -> Command {
 }
 
 fn json_of(args: &[&str]) -> serde_json::Value {
-    let out = millcomp().args(args).assert().success().get_output().stdout.clone();
+    let out = millcomp()
+        .args(args)
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
     serde_json::from_slice(&out).expect("one JSON document on stdout")
 }
 
@@ -27,8 +33,14 @@ fn term<'a>(doc: &'a serde_json::Value, name: &str) -> &'a serde_json::Value {
 fn analyze_table_3_3_reproduces_the_thesis_conclusion() {
     // 000_…txt §3.5: depth and upfeed significant for the X force, speed not; upfeed for Z.
     let fx = json_of(&[
-        "doe", "analyze", CLAYTON, "--response", "max_fx_n",
-        "--factors", "depth_um,speed_rpm,upfeed_um", "--json",
+        "doe",
+        "analyze",
+        CLAYTON,
+        "--response",
+        "max_fx_n",
+        "--factors",
+        "depth_um,speed_rpm,upfeed_um",
+        "--json",
     ]);
     assert_eq!(fx["n_runs"], 8);
     assert_eq!(fx["residual_df"], 4);
@@ -41,8 +53,14 @@ fn analyze_table_3_3_reproduces_the_thesis_conclusion() {
     assert!((effect - 1.2825).abs() < 1e-12, "{effect}");
 
     let fz = json_of(&[
-        "doe", "analyze", CLAYTON, "--response", "max_fz_n",
-        "--factors", "depth_um,speed_rpm,upfeed_um", "--json",
+        "doe",
+        "analyze",
+        CLAYTON,
+        "--response",
+        "max_fz_n",
+        "--factors",
+        "depth_um,speed_rpm,upfeed_um",
+        "--json",
     ]);
     assert!(term(&fz, "upfeed_um")["p_value"].as_f64().unwrap() < 0.05);
     assert!(term(&fz, "speed_rpm")["p_value"].as_f64().unwrap() > 0.05);
@@ -55,19 +73,34 @@ fn analyze_matches_statsmodels_golden_through_the_cli() {
     // stored in doe/tests/golden/anova_clayton.json with the versions and calls.
     let golden: serde_json::Value =
         serde_json::from_str(include_str!("../doe/tests/golden/anova_clayton.json")).unwrap();
-    for (response, key) in [("max_fx_n", "fx_n"), ("max_fy_n", "fy_n"), ("max_fz_n", "fz_n")] {
+    for (response, key) in [
+        ("max_fx_n", "fx_n"),
+        ("max_fy_n", "fy_n"),
+        ("max_fz_n", "fz_n"),
+    ] {
         let doc = json_of(&[
-            "doe", "analyze", CLAYTON, "--response", response,
-            "--factors", "depth_um,speed_rpm,upfeed_um", "--json",
+            "doe",
+            "analyze",
+            CLAYTON,
+            "--response",
+            response,
+            "--factors",
+            "depth_um,speed_rpm,upfeed_um",
+            "--json",
         ]);
-        let want = golden["responses"][key]["main"]["terms"].as_array().unwrap();
+        let want = golden["responses"][key]["main"]["terms"]
+            .as_array()
+            .unwrap();
         assert_eq!(want.len(), 3);
         for w in want {
             let name = w["term"].as_str().unwrap();
             let got = term(&doc, name);
             for field in ["f", "p_value", "sum_sq"] {
                 let (g, e) = (got[field].as_f64().unwrap(), w[field].as_f64().unwrap());
-                assert!((g - e).abs() <= 1e-8 * e.abs().max(1e-12) + 1e-14, "{key} {name} {field}: {g} vs {e}");
+                assert!(
+                    (g - e).abs() <= 1e-8 * e.abs().max(1e-12) + 1e-14,
+                    "{key} {name} {field}: {g} vs {e}"
+                );
             }
         }
     }
@@ -76,8 +109,15 @@ fn analyze_matches_statsmodels_golden_through_the_cli() {
 #[test]
 fn fractional_resolution_3_for_seven_factors_has_8_runs() {
     let d = json_of(&[
-        "doe", "design", "--design", "fractional", "--factors", "A,B,C,D,E,F,G",
-        "--resolution", "3", "--json",
+        "doe",
+        "design",
+        "--design",
+        "fractional",
+        "--factors",
+        "A,B,C,D,E,F,G",
+        "--resolution",
+        "3",
+        "--json",
     ]);
     assert_eq!(d["n_runs"], 8);
     assert_eq!(d["resolution"], 3);
@@ -95,8 +135,15 @@ fn design_writes_csv_and_parquet_that_analyze_reads_back() {
         let out = dir.path().join(name);
         millcomp()
             .args([
-                "doe", "design", "--design", "full", "--factors",
-                "depth_um=100:200,speed_rpm=10000:20000,upfeed_um=10:20", "--seed", "7", "--out",
+                "doe",
+                "design",
+                "--design",
+                "full",
+                "--factors",
+                "depth_um=100:200,speed_rpm=10000:20000,upfeed_um=10:20",
+                "--seed",
+                "7",
+                "--out",
             ])
             .arg(&out)
             .assert()
@@ -105,7 +152,10 @@ fn design_writes_csv_and_parquet_that_analyze_reads_back() {
         assert_eq!(table.n_rows(), 8);
         let depth = table.f64s("depth_um").unwrap();
         assert_eq!(depth.iter().filter(|&&d| d == 100.0).count(), 4);
-        assert_eq!(table.f64s("depth_um_coded").unwrap().iter().sum::<f64>(), 0.0);
+        assert_eq!(
+            table.f64s("depth_um_coded").unwrap().iter().sum::<f64>(),
+            0.0
+        );
     }
 }
 
@@ -115,8 +165,16 @@ fn save_writes_a_model_file_and_plots_land_in_the_directory() {
     let model = dir.path().join("fx.toml");
     let plots = dir.path().join("plots");
     millcomp()
-        .args(["doe", "analyze", CLAYTON, "--response", "max_fx_n", "--factors",
-               "depth_um,speed_rpm,upfeed_um", "--save"])
+        .args([
+            "doe",
+            "analyze",
+            CLAYTON,
+            "--response",
+            "max_fx_n",
+            "--factors",
+            "depth_um,speed_rpm,upfeed_um",
+            "--save",
+        ])
         .arg(&model)
         .arg("--plots")
         .arg(&plots)
@@ -135,7 +193,16 @@ fn bad_input_is_named_and_nothing_is_written() {
     let model = dir.path().join("m.toml");
     // Unknown factor name.
     millcomp()
-        .args(["doe", "analyze", CLAYTON, "--response", "max_fx_n", "--factors", "depth_um,feed", "--save"])
+        .args([
+            "doe",
+            "analyze",
+            CLAYTON,
+            "--response",
+            "max_fx_n",
+            "--factors",
+            "depth_um,feed",
+            "--save",
+        ])
         .arg(&model)
         .assert()
         .code(1)
@@ -156,18 +223,41 @@ fn bad_input_is_named_and_nothing_is_written() {
     millcomp()
         .args(["doe", "analyze"])
         .arg(&bad)
-        .args(["--response", "a", "--factors", "b,y", "--model", "quadratic"])
+        .args([
+            "--response",
+            "a",
+            "--factors",
+            "b,y",
+            "--model",
+            "quadratic",
+        ])
         .assert()
         .code(1);
     // Aliased generators.
     millcomp()
-        .args(["doe", "design", "--design", "fractional", "--factors", "A,B,C,D,E", "--generators", "D=AB,E=AB"])
+        .args([
+            "doe",
+            "design",
+            "--design",
+            "fractional",
+            "--factors",
+            "A,B,C,D,E",
+            "--generators",
+            "D=AB,E=AB",
+        ])
         .assert()
         .code(1)
         .stderr(predicate::str::contains("E"));
     // A factor with one level.
     millcomp()
-        .args(["doe", "design", "--design", "full", "--factors", "depth_um=100:100,B"])
+        .args([
+            "doe",
+            "design",
+            "--design",
+            "full",
+            "--factors",
+            "depth_um=100:100,B",
+        ])
         .assert()
         .code(1)
         .stderr(predicate::str::contains("depth_um"));

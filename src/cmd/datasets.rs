@@ -47,7 +47,9 @@ fn check(file: &std::path::Path, schema: &str, json: bool) -> anyhow::Result<()>
 fn list(json: bool) -> anyhow::Result<()> {
     let mut rows = Vec::new();
     for d in millcomp_datasets::DATASETS {
-        let table = d.load().with_context(|| format!("loading dataset `{}`", d.name))?;
+        let table = d
+            .load()
+            .with_context(|| format!("loading dataset `{}`", d.name))?;
         rows.push((d, table.n_rows()));
     }
     if json {

@@ -107,8 +107,7 @@ fn analyze(args: &DoeAnalyzeArgs, json: bool) -> anyhow::Result<()> {
             println!(
                 "removed {:<16} p = {}",
                 step.removed,
-                step.p_value
-                    .map_or("-".to_string(), |p| format!("{p:.4}"))
+                step.p_value.map_or("-".to_string(), |p| format!("{p:.4}"))
             );
         }
         println!();

@@ -1,0 +1,140 @@
+//! `millcomp identify <what> FILE`: least-squares fits with honest uncertainty
+//! (`millcomp-identify`), reading the data through `millcomp-datasets`.
+
+use anyhow::{Context, bail};
+use millcomp_datasets::ColumnData;
+use millcomp_identify::verbs::force::ForceParam;
+use millcomp_identify::verbs::thermal::ThermalModel;
+use millcomp_identify::verbs::wall::WallGeometry;
+use millcomp_identify::{Columns, FitReport, IdentifyOptions, Verb, identify_columns};
+
+use crate::cli::{IdentifyArgs, IdentifyWhat};
+use crate::cmd::print_json;
+
+pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
+    let verb = match args.what {
+        IdentifyWhat::Spindle => Verb::Spindle,
+        IdentifyWhat::Stiffness => Verb::Stiffness,
+        IdentifyWhat::Force => Verb::Force,
+        IdentifyWhat::Thermal => Verb::Thermal,
+        IdentifyWhat::Wall => Verb::Wall,
+    };
+    let options = options(&args)?;
+    let table = millcomp_datasets::read_any(&args.file)?;
+    let mut cols = Columns::new();
+    for c in &table.columns {
+        match &c.data {
+            ColumnData::Float(v) => cols.insert(&c.name, v.clone()),
+            ColumnData::Int(v) => cols.insert(&c.name, v.iter().map(|&x| x as f64).collect()),
+            ColumnData::Text(v) => cols.insert_text(&c.name, v.clone()),
+        };
+    }
+    let fit = identify_columns(verb, &cols, &options)
+        .with_context(|| format!("{}: identify {}", args.file.display(), verb_name(verb)))?;
+    if let Some(path) = &args.save {
+        let text = fit.model.to_toml()?;
+        millcomp_datasets::write_text_atomic(path, &text)
+            .with_context(|| format!("saving the model to {}", path.display()))?;
+    }
+    if json {
+        return print_json(&fit);
+    }
+    print_report(&fit.report);
+    for (name, d) in &fit.derived {
+        println!(
+            "derived {name} = {:.6} ± {:.3} (95 % [{:.6}, {:.6}])  {}",
+            d.value, d.std_err, d.ci95[0], d.ci95[1], d.formula
+        );
+    }
+    for (group, r) in &fit.groups {
+        println!("\n[{group}]");
+        print_report(r);
+    }
+    for n in &fit.notes {
+        println!("note: {n}");
+    }
+    if let Some(path) = &args.save {
+        println!("model: {}", path.display());
+    }
+    Ok(())
+}
+
+fn verb_name(v: Verb) -> &'static str {
+    match v {
+        Verb::Spindle => "spindle",
+        Verb::Stiffness => "stiffness",
+        Verb::Force => "force",
+        Verb::Thermal => "thermal",
+        Verb::Wall => "wall",
+    }
+}
+
+fn options(args: &IdentifyArgs) -> anyhow::Result<IdentifyOptions> {
+    let thermal_model = match args.model.as_str() {
+        "exponential" => ThermalModel::Exponential,
+        "linear-temperature" => ThermalModel::LinearTemperature,
+        "speed-dependent" => ThermalModel::SpeedDependent,
+        other => {
+            bail!("--model `{other}`: allowed exponential, linear-temperature, speed-dependent")
+        }
+    };
+    let force_free = args
+        .free
+        .iter()
+        .map(|n| ForceParam::parse(n).with_context(|| format!("--free {n}")))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let wall_geometry = match args.wall_geometry.as_slice() {
+        [] => None,
+        [height_um, thickness_um, length_um] => Some(WallGeometry {
+            height_um: *height_um,
+            thickness_um: *thickness_um,
+            length_um: *length_um,
+        }),
+        other => bail!(
+            "--wall-geometry takes height_um,thickness_um,length_um (3 numbers), got {}",
+            other.len()
+        ),
+    };
+    Ok(IdentifyOptions {
+        source_file: args.file.display().to_string(),
+        thermal_model,
+        spindle_extra_pole: args.extra_pole,
+        spindle_dead_time: args.dead_time,
+        tilt_deg: args.tilt_deg.clone(),
+        machine_stiffness_n_per_um: args.machine_stiffness_n_per_um,
+        force_free,
+        material: args.material.clone(),
+        relative_errors: args.relative_errors,
+        wall_geometry,
+        ..Default::default()
+    })
+}
+
+fn print_report(r: &FitReport) {
+    println!(
+        "model: {}   method: {}   status: {:?}",
+        r.model, r.method, r.status
+    );
+    println!(
+        "{:<22} {:>14} {:>12} {:>28}",
+        "parameter", "estimate", "std err", "95 % interval"
+    );
+    for (name, value) in &r.params {
+        let se = r.std_err.get(name).copied().unwrap_or(f64::NAN);
+        let ci = r.ci95.get(name).copied().unwrap_or([f64::NAN; 2]);
+        println!(
+            "{name:<22} {value:>14.6} {se:>12.4} {:>28}",
+            format!("[{:.6}, {:.6}]", ci[0], ci[1])
+        );
+    }
+    for (name, value) in &r.fixed {
+        println!("{name:<22} {value:>14.6} {:>12} {:>28}", "(fixed)", "");
+    }
+    println!(
+        "rms residual {:.4} {}   n = {}   dof = {}   condition number {:.3e}   iterations {}",
+        r.rms_residual.value, r.rms_residual.unit, r.n_obs, r.dof, r.condition_number, r.iterations
+    );
+    for w in &r.warnings {
+        println!("warning: {w}");
+    }
+}

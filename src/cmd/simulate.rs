@@ -1,0 +1,214 @@
+//! `millcomp simulate SESSION`: the groove session's profiles as the measured-groove CSV
+//! (DESIGN.md contract), noise-free unless `--noise-seed` is given, plus an SVG plot.
+
+use anyhow::{Context, bail};
+use millcomp_sim::sensors::NoiseSpec;
+use millcomp_sim::session::{GroovePoint, Session, SimOptions, simulate_session, write_csv};
+use serde_json::json;
+
+use std::path::Path;
+
+use millcomp_mpc::{ControllerKind, Scenario, run_scenario_with_trace};
+
+use crate::cli::SimulateArgs;
+use crate::cmd::print_json;
+use crate::plot::{Series, line_plot};
+
+/// Profilometer noise used with `--noise-seed` (002_…txt §7.2: Talysurf, ~0.1 um repeatability).
+const PROFILOMETER_SIGMA_UM: f64 = 0.1;
+
+pub fn run(args: SimulateArgs, json: bool) -> anyhow::Result<()> {
+    if args.controller.is_some() || is_scenario(&args.file)? {
+        return run_scenario(&args, json);
+    }
+    let session = Session::from_path(&args.file)
+        .with_context(|| format!("reading session {}", args.file.display()))?;
+    let options = SimOptions {
+        noise: args.noise_seed.map(|seed| NoiseSpec {
+            seed,
+            sigma: PROFILOMETER_SIGMA_UM,
+        }),
+    };
+    let points = simulate_session(&session, &options)
+        .with_context(|| format!("simulating {}", args.file.display()))?;
+    if points.is_empty() {
+        bail!(
+            "{}: the session plan measures no points",
+            args.file.display()
+        );
+    }
+    if let Some(out) = &args.out {
+        millcomp_datasets::write_atomic(out, |f| write_csv(&points, f).map_err(|e| e.to_string()))
+            .with_context(|| format!("writing {}", out.display()))?;
+    }
+    if let Some(plot) = &args.plot {
+        plot_profiles(plot, &session.name, &points)?;
+    }
+    let summary = summarise(&points);
+    if json {
+        return print_json(&json!({
+            "session": session.name,
+            "n_points": points.len(),
+            "noise_sigma_um": options.noise.map(|n| n.sigma),
+            "grooves": summary,
+            "out": args.out.as_ref().map(|p| p.display().to_string()),
+            "plot": args.plot.as_ref().map(|p| p.display().to_string()),
+        }));
+    }
+    if args.out.is_none() {
+        write_csv(&points, std::io::stdout().lock())?;
+        return Ok(());
+    }
+    println!("session {}: {} points", session.name, points.len());
+    println!(
+        "{:>6} {:>7} {:>12} {:>16} {:>16}",
+        "groove", "points", "t_start_s", "max_error_um", "mean_error_um"
+    );
+    for g in &summary {
+        println!(
+            "{:>6} {:>7} {:>12.1} {:>16.3} {:>16.3}",
+            g["groove_id"].as_i64().unwrap_or(-1),
+            g["n_points"].as_u64().unwrap_or(0),
+            g["t_start_s"].as_f64().unwrap_or(f64::NAN),
+            g["max_error_um"].as_f64().unwrap_or(f64::NAN),
+            g["mean_error_um"].as_f64().unwrap_or(f64::NAN)
+        );
+    }
+    if let Some(out) = &args.out {
+        println!("written: {}", out.display());
+    }
+    if let Some(plot) = &args.plot {
+        println!("plot: {}", plot.display());
+    }
+    Ok(())
+}
+
+/// Per groove: number of points, start time, and the depth error (measured − commanded).
+fn summarise(points: &[GroovePoint]) -> Vec<serde_json::Value> {
+    let mut ids: Vec<i64> = points.iter().map(|p| p.groove_id).collect();
+    ids.dedup();
+    ids.sort_unstable();
+    ids.dedup();
+    ids.iter()
+        .map(|&id| {
+            let g: Vec<&GroovePoint> = points.iter().filter(|p| p.groove_id == id).collect();
+            let err: Vec<f64> = g.iter().map(|p| p.depth_meas_um - p.depth_cmd_um).collect();
+            let max = err
+                .iter()
+                .fold(0.0_f64, |m, e| if e.abs() > m.abs() { *e } else { m });
+            let mean = err.iter().sum::<f64>() / err.len() as f64;
+            json!({"groove_id": id, "n_points": g.len(), "t_start_s": g[0].t_s,
+                   "max_error_um": max, "mean_error_um": mean})
+        })
+        .collect()
+}
+
+fn plot_profiles(path: &std::path::Path, name: &str, points: &[GroovePoint]) -> anyhow::Result<()> {
+    let mut ids: Vec<i64> = points.iter().map(|p| p.groove_id).collect();
+    ids.sort_unstable();
+    ids.dedup();
+    let mut series = Vec::new();
+    for id in ids {
+        let g: Vec<&GroovePoint> = points.iter().filter(|p| p.groove_id == id).collect();
+        series.push(Series {
+            label: format!("groove {id} programmed"),
+            points: g.iter().map(|p| (p.x_mm, -p.depth_cmd_um)).collect(),
+        });
+        series.push(Series {
+            label: format!("groove {id} simulated"),
+            points: g.iter().map(|p| (p.x_mm, -p.depth_meas_um)).collect(),
+        });
+    }
+    line_plot(
+        path,
+        &format!("Groove profiles — session {name}"),
+        "x along the groove (mm)",
+        "groove bottom (um, 0 = surface)",
+        &series,
+    )
+}
+
+/// A closed-loop scenario file has a top-level `stage` key (`mpc/SCENARIOS.md`); a session has a
+/// `plan` (`sim/SESSION.md`).
+fn is_scenario(path: &Path) -> anyhow::Result<bool> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let doc: toml::Table =
+        toml::from_str(&text).with_context(|| format!("{}: not valid TOML", path.display()))?;
+    Ok(doc.contains_key("stage"))
+}
+
+/// `simulate SCENARIO --controller K`: one closed-loop run on the truth plant of the scenario.
+fn run_scenario(args: &SimulateArgs, json: bool) -> anyhow::Result<()> {
+    let scenario = Scenario::load(&args.file)?;
+    let name = args.controller.as_deref().unwrap_or("none");
+    let kind: ControllerKind = name.parse().context("--controller")?;
+    let out = run_scenario_with_trace(&scenario, kind)
+        .with_context(|| format!("{}: closed-loop run with `{name}`", args.file.display()))?;
+    if let Some(path) = &args.out {
+        let mut text = out.trace.columns.join(",");
+        text.push('\n');
+        for row in &out.trace.rows {
+            let cells: Vec<String> = row.iter().map(|v| format!("{v}")).collect();
+            text.push_str(&cells.join(","));
+            text.push('\n');
+        }
+        millcomp_datasets::write_text_atomic(path, &text)
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(plot) = &args.plot {
+        let x = out.trace.column("x_mm").unwrap_or_default();
+        let mut series = Vec::new();
+        for col in ["error_um", "depth_error_um", "thickness_error_um"] {
+            if let Some(y) = out.trace.column(col) {
+                series.push(Series {
+                    label: format!("{col} ({name})"),
+                    points: x.iter().copied().zip(y).collect(),
+                });
+            }
+        }
+        if series.is_empty() {
+            bail!(
+                "the run's trace has no error column to plot (columns: {})",
+                out.trace.columns.join(", ")
+            );
+        }
+        line_plot(
+            plot,
+            &format!("{} — {}", scenario.name, name),
+            "x (mm)",
+            "error (um, + = too deep)",
+            &series,
+        )?;
+    }
+    if json {
+        return print_json(&out.report);
+    }
+    let m = &out.report.metrics;
+    println!(
+        "scenario {} ({}), controller {}",
+        out.report.scenario, out.report.stage, out.report.controller
+    );
+    println!(
+        "peak-to-peak error {:.3} um   rms {:.3} um   max {:.3} um   min {:.3} um   actuator travel {:.2} um",
+        m.pp_error_um, m.rms_error_um, m.max_error_um, m.min_error_um, m.actuator_travel_um
+    );
+    if let Some(s) = &out.report.solver {
+        println!(
+            "solver: {} solves, median {:.1} us, p99 {:.1} us, {} fallbacks",
+            s.solves, s.median_us, s.p99_us, s.fallbacks
+        );
+    }
+    if let Some(walls) = &out.report.walls {
+        for w in walls {
+            println!("{}", serde_json::to_string(w)?);
+        }
+    }
+    if let Some(p) = &args.out {
+        println!("written: {}", p.display());
+    }
+    if let Some(p) = &args.plot {
+        println!("plot: {}", p.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,261 @@
+//! End-to-end tests of `millcomp batch`: the real closed loop (millcomp-mpc's runner) on short grooves,
+//! shards as separate processes, merge, resume and bad input.
+
+use std::path::Path;
+
+use assert_cmd::Command;
+use predicates::str::contains;
+use serde_json::Value;
+
+/// Four scenarios on short grooves (`length_mm` = 0.5: 30 revolutions at 10 000 rpm and 10 µm/rev,
+/// 0.18 s of machining) so the whole file runs in seconds. Levels chosen inside the published ranges
+/// (`000_…txt` ch. 6–7: tilt 20–40°, 0–80 µm ramp).
+const SCENARIOS: &str = "\
+tilt_deg,depth_um,stiffness_error_pct,length_mm
+20,60,0,0.5
+40,60,10,0.5
+20,100,10,0.5
+40,100,0,0.5
+";
+
+fn millcomp() -> Command {
+    let mut c = Command::cargo_bin("millcomp").expect("binary");
+    c.env_remove("SLURM_ARRAY_TASK_ID")
+        .env_remove("JOB_COMPLETION_INDEX")
+        .env("RAYON_NUM_THREADS", "2");
+    c
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> std::path::PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).expect("write");
+    p
+}
+
+fn run_json(args: &[&str]) -> Value {
+    let out = millcomp().args(args).arg("--json").output().expect("run");
+    assert!(
+        out.status.success(),
+        "millcomp {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("json")
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
+
+#[test]
+fn four_shards_merge_to_the_single_run_and_resume_skips_done_runs() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = write(tmp.path(), "s.csv", SCENARIOS);
+    let single = tmp.path().join("single");
+    let doc = run_json(&[
+        "batch",
+        "--scenarios",
+        s(&file),
+        "--controllers",
+        "pid,mpc",
+        "--out",
+        s(&single),
+    ]);
+    // 4 scenarios × 2 controllers.
+    assert_eq!(doc["n_runs"], 8);
+    assert_eq!(doc["n_ran"], 8);
+    for c in ["pid", "mpc"] {
+        let pp = doc["by_controller"][c]["pp_error_um"].as_f64().unwrap();
+        assert!(pp.is_finite() && pp > 0.0, "{c}: {pp}");
+    }
+    // The ANOVA has the controller as a factor, with the contract's term keys.
+    let terms = doc["anova"]["pp_error_um"]["terms"].as_array().unwrap();
+    assert!(terms.iter().any(|t| t["term"] == "controller"));
+    assert!(terms[0].get("p_value").is_some() && terms[0].get("sum_sq").is_some());
+
+    // Four slices as separate processes (one of them through the Slurm environment), then merge.
+    let mut dirs = Vec::new();
+    for k in 0..4 {
+        let d = tmp.path().join(format!("shard-{k}"));
+        let mut cmd = millcomp();
+        cmd.args([
+            "batch",
+            "--scenarios",
+            s(&file),
+            "--controllers",
+            "pid,mpc",
+            "--out",
+            s(&d),
+            "--json",
+        ]);
+        if k == 3 {
+            cmd.env("SLURM_ARRAY_TASK_ID", "3")
+                .env("SLURM_ARRAY_TASK_COUNT", "4");
+        } else {
+            cmd.args(["--shard", &format!("{k}/4")]);
+        }
+        let out = cmd.output().unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(v["n_runs"], 2, "8 runs round-robin over 4 shards");
+        assert_eq!(v["shard"]["index"], k);
+        dirs.push(d);
+    }
+    let merged = tmp.path().join("merged");
+    let mut args = vec!["batch", "merge"];
+    args.extend(dirs.iter().map(|d| s(d)));
+    args.extend(["--out", s(&merged)]);
+    let m = run_json(&args);
+    assert_eq!(m["n_runs"], 8);
+    let a = std::fs::read_to_string(single.join("results.csv")).unwrap();
+    let b = std::fs::read_to_string(merged.join("results.csv")).unwrap();
+    assert_eq!(a, b, "merged slices differ from the single run");
+    assert_eq!(doc["by_controller"], m["by_controller"]);
+    assert!(merged.join("results.parquet").exists());
+    assert!(merged.join("plots/pp_error_um_by_controller.svg").exists());
+    assert!(merged.join("plots/pp_error_um_by_tilt_deg.svg").exists());
+
+    // Resume: remove one finished run; only that one runs again and the results are unchanged.
+    std::fs::remove_file(single.join("runs/run-000005.json")).unwrap();
+    let again = run_json(&[
+        "batch",
+        "--scenarios",
+        s(&file),
+        "--controllers",
+        "pid,mpc",
+        "--out",
+        s(&single),
+    ]);
+    assert_eq!(again["n_ran"], 1);
+    assert_eq!(again["n_resumed"], 7);
+    assert_eq!(
+        std::fs::read_to_string(single.join("results.csv")).unwrap(),
+        a
+    );
+
+    // Merging slices of different batches is refused.
+    let other_file = write(tmp.path(), "o.csv", &SCENARIOS.replace("20,60", "25,60"));
+    let other = tmp.path().join("other");
+    run_json(&[
+        "batch",
+        "--scenarios",
+        s(&other_file),
+        "--controllers",
+        "pid,mpc",
+        "--out",
+        s(&other),
+        "--shard",
+        "0/4",
+    ]);
+    millcomp()
+        .args([
+            "batch",
+            "merge",
+            s(&dirs[0]),
+            s(&other),
+            "--out",
+            s(&tmp.path().join("bad")),
+        ])
+        .assert()
+        .code(1)
+        .stderr(contains("different batch"));
+    // Missing slices are named.
+    millcomp()
+        .args([
+            "batch",
+            "merge",
+            s(&dirs[0]),
+            s(&dirs[1]),
+            "--out",
+            s(&tmp.path().join("bad2")),
+        ])
+        .assert()
+        .code(1)
+        .stderr(contains("runs are missing"));
+    // The same --out cannot hold two batches.
+    millcomp()
+        .args(["batch", "--scenarios", s(&other_file), "--out", s(&single)])
+        .assert()
+        .code(1)
+        .stderr(contains("another batch"));
+}
+
+#[test]
+fn bad_input_gives_clear_errors() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = write(tmp.path(), "s.csv", SCENARIOS);
+    let bad = write(tmp.path(), "b.csv", "tilt_deg,spindle_colour\n20,1\n");
+    millcomp()
+        .args(["batch", "--scenarios", s(&bad)])
+        .assert()
+        .code(1)
+        .stderr(contains("unknown factor `spindle_colour`"));
+    millcomp()
+        .args(["batch", "--scenarios", s(&file), "--controllers", "pid,lqr"])
+        .assert()
+        .code(1)
+        .stderr(contains("unknown controller `lqr`"));
+    millcomp()
+        .args(["batch", "--scenarios", s(&file), "--shard", "4/4"])
+        .assert()
+        .code(1)
+        .stderr(contains("out of range"));
+    millcomp()
+        .args(["batch", "--scenarios", s(&file)])
+        .env("JOB_COMPLETION_INDEX", "7")
+        .env("MILLCOMP_SHARD_COUNT", "4")
+        .assert()
+        .code(1)
+        .stderr(contains("out of range"));
+    let bad_value = write(tmp.path(), "v.csv", "material\nbrass\n");
+    millcomp()
+        .args(["batch", "--scenarios", s(&bad_value)])
+        .assert()
+        .code(1)
+        .stderr(contains("material"))
+        .stderr(contains("row 1"));
+    millcomp()
+        .args(["batch", "--doe", "--design full --factors colour=1:2"])
+        .assert()
+        .code(1)
+        .stderr(contains("unknown factor `colour`"));
+    millcomp()
+        .args(["batch"])
+        .assert()
+        .code(1)
+        .stderr(contains("--scenarios"));
+}
+
+#[test]
+fn doe_design_drives_the_batch() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("doe");
+    // 2^(3-1) resolution III design: 4 scenarios; length_mm fixed through a constant factor would not
+    // be a design factor, so the groove length is one of the factors (0.3 / 0.5 mm).
+    let doc = run_json(&[
+        "batch",
+        "--doe",
+        "--design fractional --factors tilt_deg=20:40,upfeed_um=8:12,length_mm=0.3:0.5 --resolution 3 --seed 1",
+        "--controllers",
+        "none,pid",
+        "--out",
+        s(&out),
+    ]);
+    assert_eq!(doc["n_runs"], 8);
+    assert_eq!(doc["n_scenarios"], 4);
+    let csv = std::fs::read_to_string(out.join("results.csv")).unwrap();
+    let header = csv.lines().next().unwrap();
+    assert_eq!(
+        header,
+        "run,scenario,tilt_deg,upfeed_um,length_mm,controller,pp_error_um,rms_error_um,max_error_um,min_error_um,actuator_travel_um,solver_fallbacks"
+    );
+    // PID (the thesis' closed loop) removes part of the uncompensated error (000 ch. 7: 16 → 3 µm).
+    let none = doc["by_controller"]["none"]["pp_error_um"]
+        .as_f64()
+        .unwrap();
+    let pid = doc["by_controller"]["pid"]["pp_error_um"].as_f64().unwrap();
+    assert!(pid < none, "pid {pid} vs none {none}");
+}

@@ -1,0 +1,124 @@
+//! End-to-end tests of `millcomp diagnose SESSION MEASURED.csv` on the shipped synthetic sessions
+//! (datasets/synthetic/README.md lists what each hides and with which parameters).
+
+use assert_cmd::Command;
+use predicates::prelude::*;
+
+fn millcomp() -> Command {
+    Command::cargo_bin("millcomp").expect("binary built")
+}
+
+fn synthetic(name: &str, ext: &str) -> String {
+    format!(
+        "{}/datasets/synthetic/{name}.{ext}",
+        env!("CARGO_MANIFEST_DIR")
+    )
+}
+
+fn diagnose_json(name: &str) -> serde_json::Value {
+    let out = millcomp()
+        .args([
+            "diagnose",
+            &synthetic(name, "toml"),
+            &synthetic(name, "csv"),
+            "--json",
+        ])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    serde_json::from_slice(&out).unwrap()
+}
+
+#[test]
+fn coolant_drift_is_named_first_and_the_gap_shrinks() {
+    let doc = diagnose_json("coolant_thermal_drift");
+    assert_eq!(doc["named"][0], "coolant_thermal_drift");
+    let step = &doc["steps"][0];
+    assert_eq!(step["effect"], "coolant_thermal_drift");
+    assert!(step["p_value"].as_f64().unwrap() < 0.01);
+    let (before, after) = (
+        doc["initial_rms_um"].as_f64().unwrap(),
+        doc["final_rms_um"].as_f64().unwrap(),
+    );
+    assert!(after <= 0.5 * before, "rms {before} -> {after}");
+    assert!(step["params"].as_object().is_some_and(|p| !p.is_empty()));
+    for k in ["rms_before_um", "rms_after_um"] {
+        assert!(step[k].as_f64().is_some(), "{k}");
+    }
+}
+
+#[test]
+fn clean_session_names_none() {
+    let doc = diagnose_json("clean");
+    assert_eq!(doc["named"], serde_json::json!(["none"]));
+    assert_eq!(doc["steps"].as_array().unwrap().len(), 0);
+}
+
+#[test]
+fn report_directory_gets_plots_and_text() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = dir.path().join("report");
+    millcomp()
+        .args([
+            "diagnose",
+            &synthetic("tool_wear", "toml"),
+            &synthetic("tool_wear", "csv"),
+            "--report",
+        ])
+        .arg(&report)
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("tool_wear"));
+    let files: Vec<String> = std::fs::read_dir(&report)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(files.iter().any(|f| f.ends_with(".svg")), "{files:?}");
+    assert!(files.iter().any(|f| f == "diagnose.txt"), "{files:?}");
+}
+
+#[test]
+fn measured_file_that_does_not_match_its_session_is_an_error() {
+    // The clean session's measurements with a different groove number on every point of groove 0.
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(synthetic("clean", "csv")).unwrap();
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        if i > 0 && line.starts_with("0,") {
+            out.push(format!("7{line}"));
+        } else {
+            out.push(line.to_string());
+        }
+    }
+    let bad = dir.path().join("other.csv");
+    std::fs::write(&bad, out.join("\n")).unwrap();
+    millcomp()
+        .args(["diagnose", &synthetic("clean", "toml")])
+        .arg(&bad)
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains("other.csv"));
+}
+
+#[test]
+fn contract_errors_in_the_measured_csv_name_column_and_row() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(synthetic("clean", "csv")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let header: Vec<&str> = lines[0].split(',').collect();
+    let col = header.iter().position(|c| *c == "depth_meas_um").unwrap();
+    let mut cells: Vec<String> = lines[3].split(',').map(String::from).collect();
+    cells[col] = "NaN".into();
+    lines[3] = cells.join(",");
+    let bad = dir.path().join("bad.csv");
+    std::fs::write(&bad, lines.join("\n")).unwrap();
+    millcomp()
+        .args(["diagnose", &synthetic("clean", "toml")])
+        .arg(&bad)
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains("bad.csv"))
+        .stderr(predicate::str::contains("column `depth_meas_um`, row 3"));
+}

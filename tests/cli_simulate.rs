@@ -1,0 +1,186 @@
+//! End-to-end tests of `millcomp simulate SESSION`.
+
+use assert_cmd::Command;
+use predicates::prelude::*;
+
+fn millcomp() -> Command {
+    Command::cargo_bin("millcomp").expect("binary built")
+}
+
+const EXAMPLE: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/datasets/sessions/example.toml"
+);
+
+const CONTRACT_HEADER: &str = "groove_id,t_s,x_mm,cut_length_mm,spindle_rpm,feed_mm_min,upfeed_um,tilt_deg,coolant_on,depth_cmd_um,depth_meas_um";
+
+#[test]
+fn session_csv_follows_the_measured_groove_contract_and_round_trips() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run.csv");
+    let plot = dir.path().join("run.svg");
+    millcomp()
+        .args(["simulate", EXAMPLE, "--out"])
+        .arg(&out)
+        .arg("--plot")
+        .arg(&plot)
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("written"));
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(text.starts_with(CONTRACT_HEADER), "{}", &text[..200]);
+    assert!(std::fs::read_to_string(&plot).unwrap().contains("<svg"));
+    // What simulate writes is what diagnose accepts.
+    millcomp()
+        .args(["datasets", "check"])
+        .arg(&out)
+        .args(["--as", "measured-groove"])
+        .assert()
+        .success();
+    // Noise-free output is the library's prediction, bit for bit.
+    let session = millcomp_sim::session::Session::from_path(std::path::Path::new(EXAMPLE)).unwrap();
+    let points = millcomp_sim::session::simulate_session(&session, &Default::default()).unwrap();
+    let table = millcomp_datasets::contracts::read_measured_groove(&out).unwrap();
+    let meas = table.f64s("depth_meas_um").unwrap();
+    assert_eq!(meas.len(), points.len());
+    for (m, p) in meas.iter().zip(&points) {
+        assert!((m - p.depth_meas_um).abs() <= 1e-12 * p.depth_meas_um.abs().max(1.0));
+    }
+}
+
+#[test]
+fn noise_seed_changes_the_profile_by_about_the_profilometer_noise() {
+    let run = |extra: &[&str]| -> Vec<f64> {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("r.csv");
+        millcomp()
+            .args(["simulate", EXAMPLE, "--out"])
+            .arg(&out)
+            .args(extra)
+            .assert()
+            .success();
+        millcomp_datasets::contracts::read_measured_groove(&out)
+            .unwrap()
+            .f64s("depth_meas_um")
+            .unwrap()
+    };
+    let clean = run(&[]);
+    let noisy = run(&["--noise-seed", "7"]);
+    let again = run(&["--noise-seed", "7"]);
+    assert_eq!(noisy, again, "seeded noise is reproducible");
+    let rms = (clean
+        .iter()
+        .zip(&noisy)
+        .map(|(a, b)| (a - b).powi(2))
+        .sum::<f64>()
+        / clean.len() as f64)
+        .sqrt();
+    // sigma = 0.1 um (PROFILOMETER_SIGMA_UM); with ~160 points the sample RMS is within ±25 %.
+    assert!((0.075..0.125).contains(&rms), "rms {rms}");
+}
+
+#[test]
+fn bad_session_names_the_key_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.toml");
+    let text =
+        std::fs::read_to_string(EXAMPLE)
+            .unwrap()
+            .replacen("tilt_deg = 20.0", "tilt_deg = 95.0", 1);
+    std::fs::write(&bad, text).unwrap();
+    let out = dir.path().join("run.csv");
+    millcomp()
+        .args(["simulate"])
+        .arg(&bad)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains("bad.toml"))
+        .stderr(predicate::str::contains("tilt"));
+    assert!(!out.exists());
+}
+
+#[test]
+fn json_summary_lists_each_groove() {
+    let out = millcomp()
+        .args(["simulate", EXAMPLE, "--json"])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let doc: serde_json::Value = serde_json::from_slice(&out).unwrap();
+    let grooves = doc["grooves"].as_array().unwrap();
+    assert_eq!(grooves.len(), 4);
+    // Uncompensated ramp groove at 20 deg tilt: deflection of the order of the thesis's 16-17 um
+    // (000_…txt §6.3) plus the session's effects, so the largest error is clearly negative.
+    assert!(grooves[0]["max_error_um"].as_f64().unwrap() < -8.0);
+}
+
+const GROOVE_30: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/datasets/scenarios/groove_s7_30deg.toml"
+);
+
+#[test]
+fn scenario_with_mpc_reports_metrics_and_solver_stats() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("trace.csv");
+    let run = |controller: &str| -> serde_json::Value {
+        let o = millcomp()
+            .args([
+                "simulate",
+                GROOVE_30,
+                "--controller",
+                controller,
+                "--json",
+                "--out",
+            ])
+            .arg(&out)
+            .assert()
+            .success()
+            .get_output()
+            .stdout
+            .clone();
+        serde_json::from_slice(&o).unwrap()
+    };
+    let none = run("none");
+    let mpc = run("mpc");
+    for doc in [&none, &mpc] {
+        for k in [
+            "pp_error_um",
+            "rms_error_um",
+            "max_error_um",
+            "min_error_um",
+            "actuator_travel_um",
+        ] {
+            assert!(doc["metrics"][k].as_f64().unwrap().is_finite(), "{k}");
+        }
+    }
+    // 000_…txt §7.2.2 (Figure 7-13): uncompensated 30 deg groove error about 16 um.
+    let pp_none = none["metrics"]["pp_error_um"].as_f64().unwrap();
+    assert!(
+        (13.0..19.0).contains(&pp_none),
+        "uncompensated pp {pp_none}"
+    );
+    // Issue 6: MPC removes at least 90 % of it.
+    let pp_mpc = mpc["metrics"]["pp_error_um"].as_f64().unwrap();
+    assert!(pp_mpc <= 0.1 * pp_none, "mpc pp {pp_mpc} vs {pp_none}");
+    assert!(mpc["solver"]["solves"].as_u64().unwrap() > 1000);
+    assert_eq!(mpc["solver"]["fallbacks"], 0);
+    assert!(std::fs::read_to_string(&out).unwrap().lines().count() > 10);
+}
+
+#[test]
+fn unknown_controller_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("trace.csv");
+    millcomp()
+        .args(["simulate", GROOVE_30, "--controller", "fuzzy", "--out"])
+        .arg(&out)
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains("fuzzy"));
+    assert!(!out.exists());
+}
