@@ -30,7 +30,11 @@ pub fn measured_groove_schema() -> Schema {
             ColumnSpec::required("groove_id", Int, "groove number"),
             ColumnSpec::required("t_s", Float, "session clock when this point was cut"),
             ColumnSpec::required("x_mm", Float, "position along the groove"),
-            ColumnSpec::required("cut_length_mm", Float, "cumulative engaged length of the tool"),
+            ColumnSpec::required(
+                "cut_length_mm",
+                Float,
+                "cumulative engaged length of the tool",
+            ),
             ColumnSpec::required("spindle_rpm", Float, "spindle speed"),
             ColumnSpec::required("feed_mm_min", Float, "feed rate"),
             ColumnSpec::required("upfeed_um", Float, "feed per revolution"),
@@ -91,7 +95,9 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = write(
             &dir,
-            &format!("{HEADER},operator\n1,0,0,0,10000,100,10,20,1,0,0.1,ann\n1,1,0.1,0.1,10000,100,10,20,1,1,1.2,ann\n"),
+            &format!(
+                "{HEADER},operator\n1,0,0,0,10000,100,10,20,1,0,0.1,ann\n1,1,0.1,0.1,10000,100,10,20,1,1,1.2,ann\n"
+            ),
         );
         let t = read_measured_groove(&p).unwrap();
         assert_eq!(t.n_rows(), 2);
@@ -103,9 +109,14 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = write(
             &dir,
-            &format!("{HEADER}\n1,5,0,0,10000,100,10,20,1,0,0\n2,1,0,0,10000,100,10,20,1,0,0\n1,4,0.1,0.1,10000,100,10,20,1,1,1\n"),
+            &format!(
+                "{HEADER}\n1,5,0,0,10000,100,10,20,1,0,0\n2,1,0,0,10000,100,10,20,1,0,0\n1,4,0.1,0.1,10000,100,10,20,1,1,1\n"
+            ),
         );
         let e = read_measured_groove(&p).unwrap_err();
-        assert!(matches!(e, DatasetError::Invalid { row: 3, ref column, .. } if column == "t_s"), "{e}");
+        assert!(
+            matches!(e, DatasetError::Invalid { row: 3, ref column, .. } if column == "t_s"),
+            "{e}"
+        );
     }
 }

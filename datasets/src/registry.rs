@@ -45,7 +45,8 @@ use ColumnKind::{Float as F, Int as I, Text as T};
 
 const S0: &str = "000_367e180efde69d0c.txt (Clayton, Force modeling and deflection compensation of miniature ball end mills)";
 const S2: &str = "002_1746cabacde4dcfb.txt (axial depth-of-cut error study, micro milling)";
-const S3: &str = "003_d95efe3529e650fc.txt (Brecher et al., real-time compensation of tool deflection)";
+const S3: &str =
+    "003_d95efe3529e650fc.txt (Brecher et al., real-time compensation of tool deflection)";
 const S4: &str = "004_13bffb4774552fad.txt (thin-wall micromilling with radial compensation)";
 
 const SRC: (&str, ColumnKind, &str) = ("source", T, "seed file and table/section");
@@ -69,9 +70,21 @@ pub static DATASETS: &[Dataset] = &[
             ("depth_um", F, "depth of cut"),
             ("speed_rpm", F, "spindle speed"),
             ("upfeed_um", F, "feed per revolution"),
-            ("max_fx_n", F, "largest positive X force per flute, averaged"),
-            ("max_fy_n", F, "largest positive Y force per flute, averaged"),
-            ("max_fz_n", F, "largest positive Z force per flute, averaged"),
+            (
+                "max_fx_n",
+                F,
+                "largest positive X force per flute, averaged",
+            ),
+            (
+                "max_fy_n",
+                F,
+                "largest positive Y force per flute, averaged",
+            ),
+            (
+                "max_fz_n",
+                F,
+                "largest positive Z force per flute, averaged",
+            ),
             SRC,
         ],
     },
@@ -117,9 +130,17 @@ pub static DATASETS: &[Dataset] = &[
             ("mu_rake", F, "rake-face friction coefficient"),
             ("mu_flank", F, "flank-face friction coefficient"),
             ("hardness_mpa", F, "measured hardness"),
-            ("volumetric_work_nm_per_m3", F, "area under the stress-strain curve"),
+            (
+                "volumetric_work_nm_per_m3",
+                F,
+                "area under the stress-strain curve",
+            ),
             ("volumetric_work_x35_nm_per_m3", F, "35 x volumetric work"),
-            ("model_w_nm_per_m3", F, "the model parameter W used in eqs (9)-(10)"),
+            (
+                "model_w_nm_per_m3",
+                F,
+                "the model parameter W used in eqs (9)-(10)",
+            ),
             ("shear_angle_deg", F, "shear angle gamma"),
             SRC,
         ],
@@ -132,7 +153,11 @@ pub static DATASETS: &[Dataset] = &[
         csv: include_str!("../data/clayton_cut_conditions.csv"),
         columns: &[
             ("material", T, "workpiece material"),
-            ("figure", T, "figure showing the measured and predicted forces"),
+            (
+                "figure",
+                T,
+                "figure showing the measured and predicted forces",
+            ),
             ("tilt_deg", F, "tool tilt"),
             ("depth_um", F, "depth of cut"),
             ("upfeed_um", F, "feed per revolution"),
@@ -176,7 +201,11 @@ pub static DATASETS: &[Dataset] = &[
             ("method", T, "uncompensated, open_loop or closed_loop_pid"),
             ("force_measured_on", T, "none, workpiece or spindle"),
             ("pp_error_um", F, "peak-to-peak profile error"),
-            ("reduction_pct", F, "error reduction relative to uncompensated"),
+            (
+                "reduction_pct",
+                F,
+                "error reduction relative to uncompensated",
+            ),
             SRC,
         ],
     },
@@ -196,7 +225,11 @@ pub static DATASETS: &[Dataset] = &[
         csv: include_str!("../data/depth_error_budget.csv"),
         columns: &[
             ("contribution", T, "as named in the seed"),
-            ("effect", T, "millcomp effect name (diagnose contract) where one applies"),
+            (
+                "effect",
+                T,
+                "millcomp effect name (diagnose contract) where one applies",
+            ),
             ("value_um", F, "contribution (+ deepens the cut)"),
             ("bound", T, "signed value or plus_minus bound"),
             SRC,
@@ -247,10 +280,22 @@ pub static DATASETS: &[Dataset] = &[
         columns: &[
             ("wall", I, "wall number"),
             ("nominal_um", F, "nominal thickness"),
-            ("uncompensated_um", F, "measured thickness without compensation"),
-            ("uncompensated_error_pct", F, "relative error without compensation"),
+            (
+                "uncompensated_um",
+                F,
+                "measured thickness without compensation",
+            ),
+            (
+                "uncompensated_error_pct",
+                F,
+                "relative error without compensation",
+            ),
             ("compensated_um", F, "measured thickness with compensation"),
-            ("compensated_error_pct", F, "relative error with compensation"),
+            (
+                "compensated_error_pct",
+                F,
+                "relative error with compensation",
+            ),
             SRC,
         ],
     },
@@ -293,7 +338,12 @@ mod tests {
         for d in DATASETS {
             let t = d.load().unwrap_or_else(|e| panic!("{}: {e}", d.name));
             assert!(t.n_rows() > 0, "{}", d.name);
-            assert!(t.ignored_columns.is_empty(), "{}: {:?}", d.name, t.ignored_columns);
+            assert!(
+                t.ignored_columns.is_empty(),
+                "{}: {:?}",
+                d.name,
+                t.ignored_columns
+            );
             let sources = t.strings("source").unwrap();
             let seed_file = d.seed.split(' ').next().unwrap();
             for (i, s) in sources.iter().enumerate() {

@@ -381,7 +381,9 @@ pub fn read_any(path: &Path) -> Result<Table, DatasetError> {
                 .collect();
             let data = match numbers {
                 Some(v) => ColumnData::Float(v),
-                None => ColumnData::Text(cells.into_iter().map(Option::unwrap_or_default).collect()),
+                None => {
+                    ColumnData::Text(cells.into_iter().map(Option::unwrap_or_default).collect())
+                }
             };
             Column { name, data }
         })
@@ -620,7 +622,12 @@ fn validate(path: &Path, raw: RawTable, schema: &Schema) -> Result<Table, Datase
         if schema.keep_extra {
             columns.push(Column {
                 name: name.clone(),
-                data: ColumnData::Text(cells.iter().map(|c| c.clone().unwrap_or_default()).collect()),
+                data: ColumnData::Text(
+                    cells
+                        .iter()
+                        .map(|c| c.clone().unwrap_or_default())
+                        .collect(),
+                ),
             });
         } else {
             ignored.push(name.clone());
@@ -694,19 +701,24 @@ where
         .prefix(".millcomp-")
         .suffix(".partial")
         .tempfile_in(&dir)
-        .map_err(|e| werr(format!("cannot create a temporary file in {}: {e}", dir.display())))?;
+        .map_err(|e| {
+            werr(format!(
+                "cannot create a temporary file in {}: {e}",
+                dir.display()
+            ))
+        })?;
     fill(tmp.as_file_mut()).map_err(werr)?;
     tmp.as_file_mut().flush().map_err(|e| werr(e.to_string()))?;
-    tmp.as_file()
-        .sync_all()
-        .map_err(|e| werr(e.to_string()))?;
+    tmp.as_file().sync_all().map_err(|e| werr(e.to_string()))?;
     tmp.persist(path).map_err(|e| werr(e.error.to_string()))?;
     Ok(())
 }
 
 /// Writes text to `path` atomically.
 pub fn write_text_atomic(path: &Path, text: &str) -> Result<(), DatasetError> {
-    write_atomic(path, |f| f.write_all(text.as_bytes()).map_err(|e| e.to_string()))
+    write_atomic(path, |f| {
+        f.write_all(text.as_bytes()).map_err(|e| e.to_string())
+    })
 }
 
 #[cfg(test)]
@@ -737,7 +749,10 @@ mod tests {
     fn errors_name_column_and_row() {
         let e = read_csv_str("mem.csv", "a_um,n\n1,2\nabc,3\n", &schema()).unwrap_err();
         let msg = e.to_string();
-        assert!(msg.contains("a_um") && msg.contains("row 2") && msg.contains("abc"), "{msg}");
+        assert!(
+            msg.contains("a_um") && msg.contains("row 2") && msg.contains("abc"),
+            "{msg}"
+        );
         let e = read_csv_str("mem.csv", "a_um,n\n1,2\nNaN,3\n", &schema()).unwrap_err();
         assert!(matches!(e, DatasetError::NonFinite { row: 2, .. }), "{e}");
         let e = read_csv_str("mem.csv", "a_um\n1\n", &schema()).unwrap_err();
