@@ -10,7 +10,7 @@
 //! | effect | free | fixed (why) |
 //! |---|---|---|
 //! | `coolant_thermal_drift` | `amplitude_um`, `time_constant_s` | — |
-//! | `spindle_thermal_growth` | `max_growth_um`, `time_constant_s` | `rpm_onset` 16 000, `rpm_max` 50 000 (only the slope `max_growth/(rpm_max − rpm_onset)` and the onset are visible; the onset is the 002 Fig. 25 knee), `um_per_c` (no effect on depth) |
+//! | `spindle_thermal_growth` | `max_growth_um`, `rpm_onset`, `time_constant_s` (as `identify thermal --model speed-dependent`) | `rpm_max` 50 000 (only the slope `max_growth/(rpm_max − rpm_onset)` and the onset are visible), `um_per_c` (no effect on depth) |
 //! | `probe_tilt_offset` | `alpha_deg` | `d1_mm` 6, `d2_mm` 1 (Δl = (D1 − D2)/2·tan α is one constant: only the product is visible) |
 //! | `tool_wear` | `max_wear_um`, `length_scale_mm` | — |
 //! | `slideway_straightness` | `amplitude_um` | `span_mm` 90, `x0_mm` 0 (with them free the bow becomes a general parabola in X that absorbs offsets and linear trends of other effects) |
@@ -120,6 +120,7 @@ impl Registry {
             effect: Box::new(SpindleThermalGrowth::default()),
             free: vec![
                 FreeParam::new("max_growth_um", -500.0, 500.0, &[0.0]),
+                FreeParam::new("rpm_onset", 0.0, 45_000.0, &[16_000.0]),
                 FreeParam::new("time_constant_s", 10.0, 1e5, &[150.0, 600.0, 2400.0]),
             ],
             description: "speed-dependent spindle thermal growth, first-order lag (002 §7.6, Tab. 5)",

@@ -7,9 +7,9 @@
 //! * the nominal prediction is `simulate_session` of the session with its effects removed;
 //! * the coolant and spindle time lines replay the plan exactly as `simulate_session` does
 //!   (sim/SESSION.md "Semantics");
-//! * the actual depth is `d_act = max(nominal, 0)`, the peak z-force `Fz = δz / c_z` with
-//!   `δz = depth_cmd − nominal` (at the converged fixed point of sim's `δz = Fz(d_cmd − δz)·c_z`,
-//!   sim/src/session.rs) and `Fz(0) = 0` when the tool is pushed out of the cut;
+//! * the actual depth is `d_act = max(nominal, 0)`, the peak z-force `Fz(d_act)` from sim's
+//!   `peak_z_force_n` interpolated on sim's 0.25 µm table grid exactly as `simulate_session` does
+//!   (not `δz/c_z`: at the start of a ramp sim's fixed-point iteration for δz need not converge);
 //! * the chip force per µm² is `scale·µ·Kc·cos(φ/2)` as in sim.
 //!
 //! The test `contexts_reproduce_simulate_session` checks that nominal + Σ effect offsets over these
@@ -18,7 +18,9 @@
 
 use millcomp_sim::effects::{Effect, EffectContext};
 use millcomp_sim::force::CutConditions;
-use millcomp_sim::session::{GroovePoint, GrooveSpec, PlanItem, Session, SimOptions, simulate_session};
+use millcomp_sim::session::{
+    GroovePoint, GrooveSpec, PlanItem, Session, SimOptions, simulate_session,
+};
 
 use crate::error::{IdentifyError, Result};
 
@@ -80,6 +82,9 @@ pub struct SessionModel {
     pub session: Session,
 }
 
+/// Depth grid of sim's peak-force table (µm), sim/src/session.rs `PeakTable::new`.
+const PEAK_TABLE_STEP_UM: f64 = 0.25;
+
 fn sim_err(what: &str, e: impl std::fmt::Display) -> IdentifyError {
     IdentifyError::ModelEvaluation {
         model: format!("session ({what})"),
@@ -87,8 +92,11 @@ fn sim_err(what: &str, e: impl std::fmt::Display) -> IdentifyError {
     }
 }
 
+/// Coolant switch events `(t_s, on)` and spindle speed events `(t_s, rpm)`.
+pub type Timeline = (Vec<(f64, bool)>, Vec<(f64, f64)>);
+
 /// Coolant and spindle event time lines of a plan, replayed as `simulate_session` does.
-pub fn timeline(session: &Session) -> (Vec<(f64, bool)>, Vec<(f64, f64)>) {
+pub fn timeline(session: &Session) -> Timeline {
     let mut coolant_events: Vec<(f64, bool)> = Vec::new();
     let mut spindle_events: Vec<(f64, f64)> = Vec::new();
     let mut t = 0.0f64;
@@ -128,7 +136,9 @@ impl SessionModel {
         nominal_session.effects.clear();
         let nominal = simulate_session(&nominal_session, &SimOptions::default())
             .map_err(|e| sim_err("simulate", e))?;
-        let model = session.force_model().map_err(|e| sim_err("force model", e))?;
+        let model = session
+            .force_model()
+            .map_err(|e| sim_err("force model", e))?;
         let stiffness = session.stiffness().map_err(|e| sim_err("stiffness", e))?;
         let known_effects = session.effects().map_err(|e| sim_err("effects", e))?;
         let grooves: Vec<&GrooveSpec> = session
@@ -146,22 +156,35 @@ impl SessionModel {
             let g = usize::try_from(p.groove_id)
                 .ok()
                 .and_then(|i| grooves.get(i))
-                .ok_or_else(|| sim_err("plan", format!("groove {} not in the plan", p.groove_id)))?;
+                .ok_or_else(|| {
+                    sim_err("plan", format!("groove {} not in the plan", p.groove_id))
+                })?;
             let compliance = stiffness
                 .z_compliance_um_per_n(g.tilt_deg)
                 .map_err(|e| sim_err("stiffness", e))?;
             let d_act = p.depth_meas_um.max(0.0);
-            let delta = p.depth_cmd_um - p.depth_meas_um;
-            let force_z_n = if p.depth_cmd_um - delta > 0.0 {
-                delta / compliance
+            // sim's peak-force table: peak_z_force_n on a 0.25 µm depth grid, linearly
+            // interpolated (sim/src/session.rs `PeakTable`); evaluated at the same d_act as sim
+            // (which need not be a converged fixed point at the start of a ramp)
+            let base = CutConditions {
+                depth_um: 0.0,
+                upfeed_um_per_rev: p.upfeed_um,
+                speed_rpm: p.spindle_rpm,
+                tilt_deg: p.tilt_deg,
+            };
+            let peak = |d: f64| -> Result<f64> {
+                let mut c = base;
+                c.depth_um = d.min(model.tool.radius_um);
+                model.peak_z_force_n(&c).map_err(|e| sim_err("force", e))
+            };
+            let xg = d_act / PEAK_TABLE_STEP_UM;
+            let k = xg.floor();
+            let w = xg - k;
+            let force_z_n = if w == 0.0 {
+                peak(k * PEAK_TABLE_STEP_UM)?
             } else {
-                let c = CutConditions {
-                    depth_um: 0.0,
-                    upfeed_um_per_rev: p.upfeed_um,
-                    speed_rpm: p.spindle_rpm,
-                    tilt_deg: p.tilt_deg,
-                };
-                model.peak_z_force_n(&c).map_err(|e| sim_err("force", e))?
+                peak(k * PEAK_TABLE_STEP_UM)? * (1.0 - w)
+                    + peak((k + 1.0) * PEAK_TABLE_STEP_UM)? * w
             };
             let phi = model.contact_angle_rad(d_act);
             points.push(PointContext {
@@ -201,8 +224,7 @@ impl SessionModel {
             .map(|i| {
                 let ctx = sm.ctx(i);
                 sm.points[i].nominal_um
-                    + sm
-                        .known_effects
+                    + sm.known_effects
                         .iter()
                         .map(|e| e.depth_offset_um(&ctx))
                         .sum::<f64>()

@@ -1,25 +1,39 @@
 //! `identify thermal`: drift models of `002_…txt` from a drift time series.
 //!
+//! Both drift models are the physics crate's effects (`millcomp_sim::effects`), so `identify
+//! thermal` and `diagnose` fit the same formulas and parameters:
+//!
 //! * [`ThermalModel::Exponential`] — first-order settling after an event at `t = 0` (coolant on,
 //!   spindle start; 002 §7.1: +8.5 µm, settled after ~45 min):
-//!   `drift_um(t) = offset_um + amplitude_um·(1 − exp(−t/tau_s))`.
+//!   `drift_um(t) = offset_um + amplitude_um·(1 − exp(−t/tau_s))` — sim's `CoolantThermalDrift`
+//!   (`amplitude_um`, `time_constant_s` = `tau_s`) with the coolant switched on at t = 0, plus an
+//!   offset (test `exponential_is_sims_coolant_drift`; the name `tau_s` is kept for the saved models
+//!   and the scipy golden).
 //! * [`ThermalModel::LinearTemperature`] — the calibration `Δl = m·ΔT` (002 §7.6, eq. 2):
 //!   `drift_um = offset_um + m_um_per_k·(temp_c − temp_ref_c)`, `temp_ref_c` = first temperature
 //!   (held fixed and recorded).
-//! * [`ThermalModel::SpeedDependent`] — spindle growth with a speed-dependent steady state
-//!   (002 §7.6, Fig. 25: "temperature increase is small below 16 000 rpm … highly affected by the
-//!   rotational speed" above; growth up to ~20 µm with a time constant of minutes), as a
-//!   first-order lag driven by the speed history (the speed of row k holds until row k+1, the
-//!   spindle starts cold):
+//! * [`ThermalModel::SpeedDependent`] — sim's `SpindleThermalGrowth` (002 §7.6, Fig. 25:
+//!   "temperature increase is small below 16 000 rpm … highly affected by the rotational speed"
+//!   above; growth up to ~20 µm, Tab. 5, with a time constant of minutes), a first-order lag driven
+//!   by the speed history (the speed of row k holds until row k+1, the spindle starts cold):
 //!   `g(t₀) = 0`, `g_{k+1} = a_k + (g_k − a_k)·exp(−Δt_k/τ)`, `drift_um = offset_um + g`, with the
-//!   steady state `a(n) = a_ref_um·(n/n_ref)^exponent`, `n_ref = 30 000 rpm` (002's warm-up
-//!   speed; recorded as `speed_ref_rpm`). A power law because bearing friction power grows like
-//!   `n^1…n^3` and the steady growth follows the heat input; with exponent ≈ 3 the growth at
-//!   16 000 rpm is ~15 % of that at 30 000 rpm ("small … negligible" in Fig. 25). The exponent
-//!   needs at least two distinct non-zero speeds; with one it is held at 2 and a warning says so.
-//!   (The physics crate publishes no spindle-growth model yet; this formula is the one to share.)
+//!   steady state `a(n) = max_growth_um·((n − rpm_onset)/(rpm_max − rpm_onset))₊`; parameters
+//!   `max_growth_um, rpm_onset, time_constant_s, offset_um`, `rpm_max` = 50 000 rpm held fixed
+//!   (only the slope `max_growth/(rpm_max − rpm_onset)` and the onset are visible). The onset needs
+//!   at least two distinct non-zero speeds; with one it is held at sim's 16 000 rpm and a warning
+//!   says so (test `speed_model_is_sims_spindle_growth`).
+//!
+//! ```
+//! use millcomp_identify::verbs::thermal::speed_drift_um;
+//! // 20 µm at 50 000 rpm, onset 16 000 rpm (sim's defaults): after 10 τ at 33 000 rpm the growth
+//! // is 20·(17 000/34 000) = 10 µm
+//! let t = [0.0, 6000.0];
+//! let g = speed_drift_um(&t, &[33_000.0, 33_000.0], 20.0, 16_000.0, 600.0, 0.0);
+//! assert!((g[1] - 10.0 * (1.0 - (-10.0f64).exp())).abs() < 1e-9);
+//! ```
 
 use argmin::core::{Error as ArgminError, Jacobian, Operator};
+use millcomp_sim::effects::SpindleThermalGrowth;
 use nalgebra::{DMatrix, DVector};
 
 use super::Identified;
@@ -260,29 +274,42 @@ pub fn identify_thermal(
                     allowed: ">= 0 rpm",
                 });
             }
-            validate::not_constant("drift_um", data.drift_um, "a_ref_um and tau_s")?;
+            validate::not_constant(
+                "drift_um",
+                data.drift_um,
+                "max_growth_um and time_constant_s",
+            )?;
             let mut levels: Vec<f64> = speed.iter().copied().filter(|&n| n > 0.0).collect();
             levels.sort_by(f64::total_cmp);
             levels.dedup();
-            if levels.is_empty() {
+            let Some(&top) = levels.last() else {
                 return Err(IdentifyError::ConstantInput {
                     column: "speed_rpm".into(),
                     value: 0.0,
-                    parameters: "a_ref_um, exponent and tau_s (the spindle never runs)".into(),
+                    parameters:
+                        "max_growth_um, rpm_onset and time_constant_s (the spindle never runs)"
+                            .into(),
                 });
-            }
-            let fit_exponent = levels.len() >= 2;
+            };
+            let fit_onset = levels.len() >= 2;
+            // the onset must stay below the top speed (else nothing grows) and below rpm_max
+            let onset_hi = top.min(RPM_MAX) * (1.0 - 1e-3);
+            let onset0 = if DEFAULT_RPM_ONSET < onset_hi {
+                DEFAULT_RPM_ONSET
+            } else {
+                0.5 * levels[0].min(onset_hi)
+            };
             let op = SpeedDrift {
                 t_s: data.t_s,
                 speed_rpm: speed,
                 drift_um: data.drift_um,
-                fixed_exponent: (!fit_exponent).then_some(DEFAULT_EXPONENT),
+                fixed_onset: (!fit_onset).then_some(onset0),
             };
-            let n_par = if fit_exponent { 4 } else { 3 };
+            let n_par = if fit_onset { 4 } else { 3 };
             validate::enough_points(data.t_s.len(), n_par, kind)?;
-            // Start: offset = first value; a_ref from the largest excursion at the speed that
-            // produced it, scaled to n_ref with the default exponent; τ = time to 63 % of that
-            // excursion (a third of the record when not found).
+            // Start: offset = first value; max_growth from the largest excursion at the speed that
+            // produced it through a(n) with the starting onset; τ = time to 63 % of that excursion
+            // (a third of the record when not found).
             let y0 = data.drift_um[0];
             let (kpk, _) =
                 data.drift_um
@@ -299,10 +326,14 @@ pub fn identify_thermal(
             let n_pk = (0..=kpk)
                 .rev()
                 .map(|k| speed[k])
-                .find(|&n| n > 0.0)
-                .unwrap_or(levels[levels.len() - 1]);
-            let aref0 = if peak != 0.0 { peak } else { 1.0 }
-                / (n_pk / SPEED_REF_RPM).powf(DEFAULT_EXPONENT);
+                .find(|&n| n > onset0)
+                .unwrap_or(top);
+            let r_pk = steady_growth_um(n_pk, 1.0, onset0);
+            let g0 = if peak != 0.0 && r_pk > 0.0 {
+                peak / r_pk
+            } else {
+                1.0
+            };
             let t0 = data.t_s[0];
             let span = data.t_s[data.t_s.len() - 1] - t0;
             let tau0 = data
@@ -313,21 +344,18 @@ pub fn identify_thermal(
                 .map(|(_, t)| t - t0)
                 .filter(|tau| *tau > 0.0)
                 .unwrap_or(span / 3.0);
-            let off0 = y0;
-            let mut specs = vec![ParamSpec::free("a_ref_um", aref0)];
-            if fit_exponent {
-                specs.push(ParamSpec::bounded("exponent", DEFAULT_EXPONENT, 0.0, 10.0));
+            let mut specs = vec![ParamSpec::free("max_growth_um", g0)];
+            if fit_onset {
+                specs.push(ParamSpec::bounded("rpm_onset", onset0, 0.0, onset_hi));
             }
-            specs.push(ParamSpec::positive("tau_s", tau0));
-            specs.push(ParamSpec::free("offset_um", off0));
+            specs.push(ParamSpec::positive("time_constant_s", tau0));
+            specs.push(ParamSpec::free("offset_um", y0));
             let mut fit = fit_nonlinear(op, &specs, &opts.nls, kind, "um")?;
-            fit.report
-                .fixed
-                .insert("speed_ref_rpm".into(), SPEED_REF_RPM);
-            if !fit_exponent {
-                fit.report.fixed.insert("exponent".into(), DEFAULT_EXPONENT);
+            fit.report.fixed.insert("rpm_max".into(), RPM_MAX);
+            if !fit_onset {
+                fit.report.fixed.insert("rpm_onset".into(), onset0);
                 fit.report.warnings.push(format!(
-                    "only one non-zero speed ({} rpm): the exponent of a(n) cannot be identified and is held at {DEFAULT_EXPONENT}; a_ref_um is the growth extrapolated to {SPEED_REF_RPM} rpm",
+                    "only one non-zero speed ({} rpm): the growth onset cannot be identified and is held at {onset0} rpm; max_growth_um is the growth extrapolated to {RPM_MAX} rpm",
                     levels[0]
                 ));
             }
@@ -342,27 +370,32 @@ pub fn identify_thermal(
     }
 }
 
-/// Reference speed of the speed-dependent steady state, rpm (002 §7.6 warm-up speed).
-pub const SPEED_REF_RPM: f64 = 30_000.0;
-/// Exponent of `a(n)` used when it cannot be identified (viscous bearing friction ∝ n²).
-pub const DEFAULT_EXPONENT: f64 = 2.0;
+/// Growth onset speed held when it cannot be identified (rpm): sim's `SpindleThermalGrowth`
+/// default (002 §7.6, Fig. 25 knee).
+pub const DEFAULT_RPM_ONSET: f64 = 16_000.0;
+/// Speed of `max_growth_um` (rpm), held fixed: sim's `SpindleThermalGrowth` default (002 §5.2
+/// spindle maximum).
+pub const RPM_MAX: f64 = 50_000.0;
 
-/// Steady-state spindle growth `a(n) = a_ref·(n/n_ref)^exponent`, µm (0 at n = 0).
-pub fn steady_growth_um(speed_rpm: f64, a_ref_um: f64, exponent: f64) -> f64 {
-    if speed_rpm <= 0.0 {
-        0.0
-    } else {
-        a_ref_um * (speed_rpm / SPEED_REF_RPM).powf(exponent)
+/// Steady-state spindle growth (µm) at `speed_rpm`: sim's
+/// `SpindleThermalGrowth::steady_growth_um` with `rpm_max` = [`RPM_MAX`].
+pub fn steady_growth_um(speed_rpm: f64, max_growth_um: f64, rpm_onset: f64) -> f64 {
+    SpindleThermalGrowth {
+        max_growth_um,
+        rpm_onset,
+        rpm_max: RPM_MAX,
+        ..SpindleThermalGrowth::default()
     }
+    .steady_growth_um(speed_rpm)
 }
 
 /// Drift of the speed-dependent model at the sample times (µm), see the module docs.
 pub fn speed_drift_um(
     t_s: &[f64],
     speed_rpm: &[f64],
-    a_ref_um: f64,
-    exponent: f64,
-    tau_s: f64,
+    max_growth_um: f64,
+    rpm_onset: f64,
+    time_constant_s: f64,
     offset_um: f64,
 ) -> Vec<f64> {
     let mut g = 0.0;
@@ -370,8 +403,8 @@ pub fn speed_drift_um(
     for k in 0..t_s.len() {
         out.push(offset_um + g);
         if k + 1 < t_s.len() {
-            let a = steady_growth_um(speed_rpm[k], a_ref_um, exponent);
-            let phi = (-(t_s[k + 1] - t_s[k]) / tau_s).exp();
+            let a = steady_growth_um(speed_rpm[k], max_growth_um, rpm_onset);
+            let phi = (-(t_s[k + 1] - t_s[k]) / time_constant_s).exp();
             g = a + (g - a) * phi;
         }
     }
@@ -379,8 +412,8 @@ pub fn speed_drift_um(
 }
 
 /// Residual operator of the speed-dependent model, parameters
-/// `[a_ref_um, exponent, tau_s, offset_um]` (`exponent` omitted when fixed). Jacobian by forward
-/// sensitivities of the recursion (exact).
+/// `[max_growth_um, rpm_onset, time_constant_s, offset_um]` (`rpm_onset` omitted when fixed).
+/// Jacobian by forward sensitivities of the recursion (exact away from the onset kink).
 #[derive(Debug, Clone)]
 pub struct SpeedDrift<'a> {
     /// Times, s.
@@ -389,14 +422,14 @@ pub struct SpeedDrift<'a> {
     pub speed_rpm: &'a [f64],
     /// Data, µm.
     pub drift_um: &'a [f64],
-    /// `Some(e)`: the exponent is held at `e` and not a parameter.
-    pub fixed_exponent: Option<f64>,
+    /// `Some(o)`: the onset is held at `o` rpm and not a parameter.
+    pub fixed_onset: Option<f64>,
 }
 
 impl SpeedDrift<'_> {
     fn unpack(&self, p: &DVector<f64>) -> (f64, f64, f64, f64) {
-        match self.fixed_exponent {
-            Some(e) => (p[0], e, p[1], p[2]),
+        match self.fixed_onset {
+            Some(o) => (p[0], o, p[1], p[2]),
             None => (p[0], p[1], p[2], p[3]),
         }
     }
@@ -406,8 +439,8 @@ impl Operator for SpeedDrift<'_> {
     type Param = DVector<f64>;
     type Output = DVector<f64>;
     fn apply(&self, p: &DVector<f64>) -> std::result::Result<DVector<f64>, ArgminError> {
-        let (a, e, tau, off) = self.unpack(p);
-        let m = speed_drift_um(self.t_s, self.speed_rpm, a, e, tau, off);
+        let (g, o, tau, off) = self.unpack(p);
+        let m = speed_drift_um(self.t_s, self.speed_rpm, g, o, tau, off);
         Ok(DVector::from_iterator(
             m.len(),
             m.iter().zip(self.drift_um).map(|(m, y)| m - y),
@@ -419,36 +452,36 @@ impl Jacobian for SpeedDrift<'_> {
     type Param = DVector<f64>;
     type Jacobian = DMatrix<f64>;
     fn jacobian(&self, p: &DVector<f64>) -> std::result::Result<DMatrix<f64>, ArgminError> {
-        let (a_ref, e, tau, _) = self.unpack(p);
+        let (gmax, o, tau, _) = self.unpack(p);
         let n = self.t_s.len();
-        // sensitivities of g to (a_ref, exponent, tau)
+        // sensitivities of g to (max_growth, onset, tau)
         let mut j = DMatrix::zeros(n, p.len());
-        let (mut g, mut sa, mut se, mut st) = (0.0, 0.0, 0.0, 0.0);
+        let (mut g, mut sg, mut so, mut st) = (0.0, 0.0, 0.0, 0.0);
+        let (cg, co, ct) = match self.fixed_onset {
+            Some(_) => (0, None, 1),
+            None => (0, Some(1), 2),
+        };
         for k in 0..n {
-            let (ca, ce, ct) = match self.fixed_exponent {
-                Some(_) => (0, None, 1),
-                None => (0, Some(1), 2),
-            };
-            j[(k, ca)] = sa;
-            if let Some(ce) = ce {
-                j[(k, ce)] = se;
+            j[(k, cg)] = sg;
+            if let Some(co) = co {
+                j[(k, co)] = so;
             }
             j[(k, ct)] = st;
             j[(k, p.len() - 1)] = 1.0;
             if k + 1 < n {
                 let nk = self.speed_rpm[k];
-                let (a, da_dref, da_de) = if nk > 0.0 {
-                    let r = nk / SPEED_REF_RPM;
-                    let rp = r.powf(e);
-                    (a_ref * rp, rp, a_ref * rp * r.ln())
+                let span = RPM_MAX - o;
+                let (a, da_dg, da_do) = if nk > o {
+                    let r = (nk - o) / span;
+                    (gmax * r, r, gmax * (nk - RPM_MAX) / (span * span))
                 } else {
                     (0.0, 0.0, 0.0)
                 };
                 let dt = self.t_s[k + 1] - self.t_s[k];
                 let phi = (-dt / tau).exp();
                 let dphi_dtau = phi * dt / (tau * tau);
-                sa = (1.0 - phi) * da_dref + phi * sa;
-                se = (1.0 - phi) * da_de + phi * se;
+                sg = (1.0 - phi) * da_dg + phi * sg;
+                so = (1.0 - phi) * da_do + phi * so;
                 st = phi * st + (g - a) * dphi_dtau;
                 g = a + (g - a) * phi;
             }
@@ -463,6 +496,7 @@ impl ResidualModel for SpeedDrift<'_> {}
 mod tests {
     use super::*;
     use crate::jaccheck::check_jacobian;
+    use millcomp_sim::effects::{CoolantThermalDrift, Effect, EffectContext};
 
     #[test]
     fn exponential_jacobian_matches_fd() {
@@ -492,16 +526,70 @@ mod tests {
             t_s: &t,
             speed_rpm: &n,
             drift_um: &y,
-            fixed_exponent: None,
+            fixed_onset: None,
         };
-        let c = check_jacobian(&op, &DVector::from_vec(vec![20.0, 2.5, 300.0, 0.4]), 1e-6).unwrap();
+        let c = check_jacobian(
+            &op,
+            &DVector::from_vec(vec![20.0, 15_000.0, 300.0, 0.4]),
+            1e-6,
+        )
+        .unwrap();
         assert!(c.ok, "{c:?}");
         let op = SpeedDrift {
-            fixed_exponent: Some(2.0),
+            fixed_onset: Some(16_000.0),
             ..op
         };
         let c = check_jacobian(&op, &DVector::from_vec(vec![20.0, 300.0, 0.4]), 1e-6).unwrap();
         assert!(c.ok, "{c:?}");
+    }
+
+    /// The speed model is sim's `SpindleThermalGrowth` evaluated on the same speed history (and
+    /// its defaults are the constants used here).
+    #[test]
+    fn speed_model_is_sims_spindle_growth() {
+        let d = SpindleThermalGrowth::default();
+        assert_eq!((d.rpm_onset, d.rpm_max), (DEFAULT_RPM_ONSET, RPM_MAX));
+        let t: Vec<f64> = (0..50).map(|i| i as f64 * 45.0).collect();
+        let n: Vec<f64> = (0..50)
+            .map(|i| [36_000.0, 24_000.0, 0.0, 30_000.0][i / 13])
+            .collect();
+        let e = SpindleThermalGrowth {
+            max_growth_um: 17.0,
+            rpm_onset: 14_000.0,
+            time_constant_s: 420.0,
+            ..d
+        };
+        let events: Vec<(f64, f64)> = t.iter().copied().zip(n.iter().copied()).collect();
+        let ours = speed_drift_um(&t, &n, 17.0, 14_000.0, 420.0, 0.3);
+        for (k, &tk) in t.iter().enumerate() {
+            let ctx = EffectContext {
+                t_s: tk,
+                spindle_events: &events[..=k],
+                ..EffectContext::default()
+            };
+            assert!(
+                (ours[k] - 0.3 - e.depth_offset_um(&ctx)).abs() < 1e-12,
+                "row {k}"
+            );
+        }
+    }
+
+    /// The exponential model is sim's `CoolantThermalDrift` with the coolant switched on at t = 0.
+    #[test]
+    fn exponential_is_sims_coolant_drift() {
+        let e = CoolantThermalDrift {
+            amplitude_um: 8.5,
+            time_constant_s: 900.0,
+        };
+        for t in [0.0, 10.0, 900.0, 2700.0, 1e4] {
+            let ctx = EffectContext {
+                t_s: t,
+                coolant_events: &[(0.0, true)],
+                ..EffectContext::default()
+            };
+            let ours = exponential_drift_um(t, 8.5, 900.0, 0.0);
+            assert!((ours - e.depth_offset_um(&ctx)).abs() < 1e-12, "t = {t}");
+        }
     }
 
     #[test]

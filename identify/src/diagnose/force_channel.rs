@@ -1,0 +1,258 @@
+//! The force channel: flute runout from the per-flute peak z-force asymmetry.
+//!
+//! Observation per force-trace row: `a = Fz,peak(flute 2) − Fz,peak(flute 1)` (N). Prediction: sim's
+//! force model ([`BallEndForceModel::per_flute_peaks`], 720 samples per revolution as sim's
+//! `peak_z_force_n`) at the measured depth (the depth actually cut, so depth effects need not be
+//! known), the row's upfeed, speed and tilt, with tool runout `session runout + runout_um`.
+//! Candidates on this channel: `flute_runout` only — every other registered effect shifts the depth
+//! and so changes both flutes' forces alike, which cancels in the difference. Nominal model:
+//! `runout_um = 0` (the session's tool runout); augmented: `runout_um` free in `[0, 50]` µm. The
+//! nested F-test and BIC rule are those of the depth channel (one candidate: threshold = α).
+//! Its Jacobian is a central finite difference ([`fd_jacobian`]): the peak over sampled angles has
+//! no closed-form derivative.
+
+use argmin::core::{Error as ArgminError, Jacobian, Operator};
+use millcomp_sim::force::{BallEndForceModel, CutConditions};
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+use super::context::SessionModel;
+use super::measured::{ForceTrace, MeasuredGroove};
+use super::{Decision, nested_test};
+use crate::error::{IdentifyError, Result};
+use crate::jaccheck::fd_jacobian;
+use crate::nonlinear::{ParamSpec, ResidualModel, fit_nonlinear};
+
+/// Samples per revolution for the per-flute peaks (as sim's `peak_z_force_n`).
+pub const SAMPLES_PER_REV: usize = 720;
+
+/// Per-flute peak asymmetry model.
+#[derive(Debug, Clone)]
+pub struct AsymmetryModel {
+    model: BallEndForceModel,
+    conds: Vec<CutConditions>,
+    y: Vec<f64>,
+    base_runout_um: f64,
+}
+
+impl AsymmetryModel {
+    /// Predicted asymmetry (N) per row with extra runout `extra_um`.
+    pub fn predict(&self, extra_um: f64) -> std::result::Result<Vec<f64>, ArgminError> {
+        let mut m = self.model.clone();
+        m.tool.runout_um = (self.base_runout_um + extra_um).max(0.0);
+        self.conds
+            .iter()
+            .map(|c| {
+                let p = m
+                    .per_flute_peaks(c, SAMPLES_PER_REV)
+                    .map_err(|e| ArgminError::msg(e.to_string()))?;
+                Ok(p[1][2] - p[0][2])
+            })
+            .collect()
+    }
+}
+
+impl Operator for AsymmetryModel {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+    fn apply(&self, theta: &DVector<f64>) -> std::result::Result<DVector<f64>, ArgminError> {
+        let p = self.predict(theta[0])?;
+        Ok(DVector::from_iterator(
+            p.len(),
+            p.iter().zip(&self.y).map(|(a, b)| a - b),
+        ))
+    }
+}
+
+impl Jacobian for AsymmetryModel {
+    type Param = DVector<f64>;
+    type Jacobian = DMatrix<f64>;
+    fn jacobian(&self, theta: &DVector<f64>) -> std::result::Result<DMatrix<f64>, ArgminError> {
+        fd_jacobian(|t| self.apply(t), theta)
+    }
+}
+
+impl ResidualModel for AsymmetryModel {}
+
+/// One accepted force-channel step (same meaning as the depth channel's, forces in N).
+#[derive(Debug, Clone, Serialize)]
+pub struct ForceStep {
+    /// Effect name.
+    pub effect: String,
+    /// Nested F-test p-value.
+    pub p_value: f64,
+    /// RMS asymmetry residual before (N).
+    pub rms_before_n: f64,
+    /// RMS asymmetry residual after (N).
+    pub rms_after_n: f64,
+    /// Estimates.
+    pub params: BTreeMap<String, f64>,
+    /// 95 % intervals.
+    pub ci95: BTreeMap<String, [f64; 2]>,
+    /// Standard errors.
+    pub std_err: BTreeMap<String, f64>,
+    /// F statistic.
+    pub f_statistic: f64,
+    /// Numerator dof.
+    pub df1: usize,
+    /// Denominator dof.
+    pub df2: usize,
+    /// Significance threshold (α / candidates tried).
+    pub threshold: f64,
+    /// BIC of the nominal model.
+    pub bic_before: f64,
+    /// BIC with the effect.
+    pub bic_after: f64,
+    /// Fit warnings.
+    pub warnings: Vec<String>,
+}
+
+/// What the force channel found.
+#[derive(Debug, Clone, Serialize)]
+pub struct ForceChannelReport {
+    /// Force-trace file.
+    pub source: String,
+    /// Rows used.
+    pub n_rows: usize,
+    /// RMS of measured − nominal asymmetry (N).
+    pub initial_rms_n: f64,
+    /// RMS after the accepted steps (N).
+    pub final_rms_n: f64,
+    /// Accepted steps (at most one: `flute_runout`).
+    pub steps: Vec<ForceStep>,
+    /// The tested candidate even when it did not pass: p-value, F, ΔBIC.
+    pub tested: Vec<Decision>,
+    /// Notes.
+    pub notes: Vec<String>,
+}
+
+/// Runs the force channel on `trace` (rows matched to the session's points).
+pub fn diagnose_forces(
+    sm: &SessionModel,
+    measured: &MeasuredGroove,
+    trace: &ForceTrace,
+    alpha: f64,
+) -> Result<ForceChannelReport> {
+    let idx = trace.match_points(sm)?;
+    let model = sm
+        .session
+        .force_model()
+        .map_err(|e| IdentifyError::ModelEvaluation {
+            model: "force channel".into(),
+            cause: e.to_string(),
+        })?;
+    let radius = model.tool.radius_um;
+    let conds: Vec<CutConditions> = idx
+        .iter()
+        .map(|&i| {
+            let p = &sm.points[i];
+            CutConditions {
+                depth_um: measured.depth_meas_um[i].clamp(0.0, radius),
+                upfeed_um_per_rev: p.upfeed_um,
+                speed_rpm: p.spindle_rpm,
+                tilt_deg: p.tilt_deg,
+            }
+        })
+        .collect();
+    let y: Vec<f64> = trace
+        .fz_peak_flute2_n
+        .iter()
+        .zip(&trace.fz_peak_flute1_n)
+        .map(|(a, b)| a - b)
+        .collect();
+    let am = AsymmetryModel {
+        base_runout_um: model.tool.runout_um,
+        model,
+        conds,
+        y: y.clone(),
+    };
+    let n = y.len();
+    let nominal = am
+        .predict(0.0)
+        .map_err(|e| IdentifyError::ModelEvaluation {
+            model: "force channel".into(),
+            cause: e.to_string(),
+        })?;
+    let rss0: f64 = nominal.iter().zip(&y).map(|(p, m)| (p - m).powi(2)).sum();
+    let rms = |rss: f64| (rss / n.max(1) as f64).sqrt();
+    let mut rep = ForceChannelReport {
+        source: trace.source.clone(),
+        n_rows: n,
+        initial_rms_n: rms(rss0),
+        final_rms_n: rms(rss0),
+        steps: Vec::new(),
+        tested: Vec::new(),
+        notes: Vec::new(),
+    };
+    if n < 1 + super::thresholds::MIN_RESIDUAL_DOF {
+        rep.notes.push(format!(
+            "flute_runout skipped: {n} force rows, the fit needs at least {}",
+            1 + super::thresholds::MIN_RESIDUAL_DOF
+        ));
+        return Ok(rep);
+    }
+    let mut best: Option<crate::nonlinear::NonlinearFit> = None;
+    let mut best_rss = f64::INFINITY;
+    for start in [0.5, 3.0, 10.0] {
+        let spec = [ParamSpec::bounded(
+            "flute_runout.runout_um",
+            start,
+            0.0,
+            50.0,
+        )];
+        match fit_nonlinear(
+            am.clone(),
+            &spec,
+            &super::fit::nls_options(),
+            "diagnose_force",
+            "n",
+        ) {
+            Ok(f) => {
+                let rss = f.report.rms_residual.value.powi(2) * n as f64;
+                if rss < best_rss {
+                    best_rss = rss;
+                    best = Some(f);
+                }
+            }
+            Err(e) => rep
+                .notes
+                .push(format!("flute_runout fit from {start} µm failed: {e}")),
+        }
+    }
+    let Some(fit) = best else {
+        rep.notes
+            .push("flute_runout could not be fitted on the force channel".into());
+        return Ok(rep);
+    };
+    let mut d = nested_test("flute_runout", n, 0, 1, rss0, best_rss, alpha, 1);
+    d.identifiable = fit.report.rank == 1;
+    d.significant = d.significant && d.identifiable;
+    if d.significant {
+        let r = &fit.report;
+        let key = "flute_runout.runout_um";
+        rep.steps.push(ForceStep {
+            effect: "flute_runout".into(),
+            p_value: d.p_value,
+            rms_before_n: rms(rss0),
+            rms_after_n: rms(best_rss),
+            params: [("runout_um".to_string(), r.param(key))].into(),
+            ci95: r
+                .ci95
+                .get(key)
+                .map(|c| [("runout_um".to_string(), *c)].into())
+                .unwrap_or_default(),
+            std_err: [("runout_um".to_string(), r.se(key))].into(),
+            f_statistic: d.f_statistic,
+            df1: d.df1,
+            df2: d.df2,
+            threshold: d.threshold,
+            bic_before: d.bic_before,
+            bic_after: d.bic_after,
+            warnings: r.warnings.clone(),
+        });
+        rep.final_rms_n = rms(best_rss);
+    }
+    rep.tested.push(d);
+    Ok(rep)
+}

@@ -1,0 +1,306 @@
+//! Bad input to `diagnose` (issue 7): measured data that do not belong to the session, too few
+//! points for a candidate (skipped with a note, not a crash), untestable candidates, the contract's
+//! CSV errors, bad options.
+
+mod common;
+
+use common::diagnose::{ALPHA, load_case, synthetic_dir};
+use millcomp_identify::IdentifyError;
+use millcomp_identify::diagnose::{
+    DiagnoseOptions, ForceTrace, MeasuredGroove, SessionModel, diagnose, synthetic,
+};
+use millcomp_sim::groove::DepthProfile;
+use millcomp_sim::session::{EffectSpec, GrooveSpec, PlanItem, Session};
+
+fn opts() -> DiagnoseOptions {
+    DiagnoseOptions {
+        alpha: ALPHA,
+        ..DiagnoseOptions::default()
+    }
+}
+
+fn mismatch_column(e: &IdentifyError) -> (String, Option<usize>) {
+    match e {
+        IdentifyError::SessionMismatch { column, row, .. } => (column.clone(), *row),
+        other => panic!("expected SessionMismatch, got {other}"),
+    }
+}
+
+#[test]
+fn measured_file_of_another_session_is_a_clear_error() {
+    let (_, m) = load_case("tool_wear");
+    let other = Session::from_path(synthetic_dir().join("../sessions/example.toml")).unwrap();
+    let e = diagnose(&other, &m, &opts()).unwrap_err();
+    assert_eq!(mismatch_column(&e), ("rows".to_string(), None));
+    let msg = e.to_string();
+    assert!(
+        msg.contains("294 measured points") && msg.contains("plans"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn missing_groove_changed_point_or_conditions_are_named_by_row_and_column() {
+    let (s, m) = load_case("tool_wear");
+    // last groove missing
+    let mut short = m.clone();
+    let keep = short.groove_id.iter().filter(|&&g| g < 13).count();
+    for v in [
+        &mut short.t_s,
+        &mut short.x_mm,
+        &mut short.cut_length_mm,
+        &mut short.spindle_rpm,
+        &mut short.feed_mm_min,
+        &mut short.upfeed_um,
+        &mut short.tilt_deg,
+        &mut short.depth_cmd_um,
+        &mut short.depth_meas_um,
+    ] {
+        v.truncate(keep);
+    }
+    short.groove_id.truncate(keep);
+    short.coolant_on.truncate(keep);
+    let e = diagnose(&s, &short, &opts()).unwrap_err();
+    assert_eq!(mismatch_column(&e).0, "rows");
+    // a point moved along the groove
+    let mut moved = m.clone();
+    moved.x_mm[17] += 0.5;
+    let e = diagnose(&s, &moved, &opts()).unwrap_err();
+    assert_eq!(mismatch_column(&e), ("x_mm".to_string(), Some(17)));
+    // a groove renumbered
+    let mut renum = m.clone();
+    for g in renum.groove_id.iter_mut().filter(|g| **g == 5) {
+        *g = 50;
+    }
+    let e = diagnose(&s, &renum, &opts()).unwrap_err();
+    assert_eq!(mismatch_column(&e), ("groove_id".to_string(), Some(5 * 21)));
+    // a different spindle speed and coolant state
+    let mut rpm = m.clone();
+    rpm.spindle_rpm[40] = 30_000.0;
+    assert_eq!(
+        mismatch_column(&diagnose(&s, &rpm, &opts()).unwrap_err()),
+        ("spindle_rpm".to_string(), Some(40))
+    );
+    let mut cool = m.clone();
+    cool.coolant_on[0] = 1;
+    assert_eq!(
+        mismatch_column(&diagnose(&s, &cool, &opts()).unwrap_err()),
+        ("coolant_on".to_string(), Some(0))
+    );
+}
+
+#[test]
+fn force_trace_rows_must_match_points() {
+    let (s, mut m) = load_case("flute_runout_force");
+    let tr = m.forces.as_mut().unwrap();
+    tr.x_mm[3] = 0.37;
+    let e = diagnose(&s, &m, &opts()).unwrap_err();
+    assert_eq!(mismatch_column(&e), ("x_mm".to_string(), Some(3)));
+    let e =
+        ForceTrace::from_csv_str("f.csv", "groove_id,x_mm,fz_peak_flute1_n\n0,0,1\n").unwrap_err();
+    assert!(
+        matches!(e, IdentifyError::MissingColumn { ref column, .. } if column == "fz_peak_flute2_n")
+    );
+}
+
+/// One groove of `len_mm` measured every 1 mm (len + 1 points), 36 000 rpm, coolant on.
+fn tiny_session(len_mm: f64) -> Session {
+    let mut s = synthetic::base_session("tiny", "tiny");
+    s.plan = vec![PlanItem::Groove(GrooveSpec {
+        start_s: Some(0.0),
+        spindle_rpm: 36_000.0,
+        upfeed_um: Some(10.0),
+        feed_mm_min: None,
+        tilt_deg: 20.0,
+        coolant: Some(true),
+        length_mm: len_mm,
+        x_offset_mm: 30.0,
+        measure_every_mm: 1.0,
+        depth: DepthProfile::Ramp {
+            from_um: 10.0,
+            to_um: 60.0,
+        },
+    })];
+    s
+}
+
+fn with_probe_tilt(s: &Session, seed: u64) -> MeasuredGroove {
+    let sm = SessionModel::new(s).unwrap();
+    // the 002 §7.4 probe-tilt offset, 4.67 µm
+    let off = vec![4.67; sm.len()];
+    synthetic::resample(&sm, &off, synthetic::DEPTH_NOISE_UM, seed)
+}
+
+#[test]
+fn too_few_points_skips_candidates_with_a_note() {
+    // 3 points: every candidate needs ≥ 6 (q + 5 residual dof)
+    let s = tiny_session(2.0);
+    let m = with_probe_tilt(&s, 1);
+    let rep = diagnose(&s, &m, &opts()).unwrap();
+    assert_eq!(rep.named, vec!["none"]);
+    assert!(rep.rounds.is_empty());
+    assert_eq!(rep.skipped.len(), 7);
+    assert!(
+        rep.skipped
+            .iter()
+            .all(|k| k.note.contains("too few points")),
+        "{:?}",
+        rep.skipped
+    );
+    // 6 points: the one-parameter candidates are tested (and the tilt is found), the
+    // two-parameter ones are skipped with a note
+    let s = tiny_session(5.0);
+    let m = with_probe_tilt(&s, 2);
+    let rep = diagnose(&s, &m, &opts()).unwrap();
+    assert_eq!(rep.n_points, 6);
+    for name in [
+        "coolant_thermal_drift",
+        "spindle_thermal_growth",
+        "tool_wear",
+    ] {
+        let k = rep.skipped.iter().find(|k| k.effect == name).unwrap();
+        assert!(k.note.contains("too few points"), "{name}: {}", k.note);
+    }
+    assert_eq!(rep.named[0], "probe_tilt_offset", "{}", rep.human());
+}
+
+#[test]
+fn untestable_candidates_are_skipped_with_a_reason() {
+    // only 10 000 rpm (below the 16 000 rpm growth onset) and the coolant never switched
+    let mut s = tiny_session(20.0);
+    if let PlanItem::Groove(g) = &mut s.plan[0] {
+        g.spindle_rpm = 10_000.0;
+        g.coolant = None;
+    }
+    let m = with_probe_tilt(&s, 3);
+    let rep = diagnose(&s, &m, &opts()).unwrap();
+    let note = |n: &str| {
+        rep.skipped
+            .iter()
+            .find(|k| k.effect == n)
+            .unwrap()
+            .note
+            .clone()
+    };
+    assert!(note("spindle_thermal_growth").contains("16 000 rpm"));
+    assert!(note("coolant_thermal_drift").contains("never switched"));
+    assert_eq!(rep.named[0], "probe_tilt_offset");
+}
+
+#[test]
+fn effects_already_in_the_session_are_not_candidates() {
+    let (mut s, m) = load_case("coolant_thermal_drift+tool_wear");
+    // the coolant drift is known (002 §7.1 values): only the wear remains to be found
+    s.effects.push(EffectSpec {
+        name: "coolant_thermal_drift".into(),
+        enabled: true,
+        params: [
+            ("amplitude_um".to_string(), 8.5),
+            ("time_constant_s".to_string(), 900.0),
+        ]
+        .into(),
+    });
+    let rep = diagnose(&s, &m, &opts()).unwrap();
+    assert_eq!(rep.named, vec!["tool_wear"]);
+    assert!(
+        rep.skipped
+            .iter()
+            .any(|k| k.effect == "coolant_thermal_drift" && k.note.contains("already"))
+    );
+}
+
+#[test]
+fn candidate_subset_free_offset_and_bad_options() {
+    let (s, m) = load_case("tool_wear");
+    let sub = DiagnoseOptions {
+        candidates: Some(vec!["tool_wear".into(), "coolant_thermal_drift".into()]),
+        ..opts()
+    };
+    let rep = diagnose(&s, &m, &sub).unwrap();
+    assert_eq!(rep.rounds[0].tested.len(), 2);
+    // Bonferroni over the two candidates tried
+    assert!((rep.rounds[0].threshold - ALPHA / 2.0).abs() < 1e-15);
+    assert_eq!(rep.named[0], "tool_wear");
+
+    let off = DiagnoseOptions {
+        free_offset: true,
+        ..opts()
+    };
+    let rep = diagnose(&s, &m, &off).unwrap();
+    assert!(rep.skipped.iter().any(|k| k.effect == "probe_tilt_offset"));
+    assert!(rep.nominal_free_params.contains_key("offset_um"));
+    assert_eq!(rep.named[0], "tool_wear");
+
+    for alpha in [0.0, 1.0, f64::NAN, -0.1] {
+        let e = diagnose(&s, &m, &DiagnoseOptions { alpha, ..opts() }).unwrap_err();
+        assert!(matches!(e, IdentifyError::InvalidParameter { ref name, .. } if name == "alpha"));
+    }
+    let e = diagnose(
+        &s,
+        &m,
+        &DiagnoseOptions {
+            candidates: Some(vec!["gremlins".into()]),
+            ..opts()
+        },
+    )
+    .unwrap_err();
+    assert!(matches!(e, IdentifyError::UnknownCandidate { ref name, .. } if name == "gremlins"));
+    assert!(e.to_string().contains("tool_wear"));
+}
+
+const HEADER: &str = "groove_id,t_s,x_mm,cut_length_mm,spindle_rpm,feed_mm_min,upfeed_um,tilt_deg,coolant_on,depth_cmd_um,depth_meas_um";
+
+#[test]
+fn contract_csv_errors() {
+    // missing column
+    let e = MeasuredGroove::from_csv_str("m.csv", "groove_id,t_s\n0,0\n").unwrap_err();
+    assert!(
+        matches!(e, IdentifyError::MissingColumn { ref column, .. } if column == "x_mm"),
+        "{e}"
+    );
+    // non-numeric cell, named by column and row
+    let e = MeasuredGroove::from_csv_str(
+        "m.csv",
+        &format!("{HEADER}\n0,0,0,0,10000,100,10,20,0,0,0\n0,1,1,1,10000,100,10,20,0,4,abc\n"),
+    )
+    .unwrap_err();
+    let msg = e.to_string();
+    assert!(
+        msg.contains("depth_meas_um") && msg.contains("row 1"),
+        "{msg}"
+    );
+    // NaN
+    let e = MeasuredGroove::from_csv_str(
+        "m.csv",
+        &format!("{HEADER}\n0,0,0,0,10000,100,10,20,0,0,NaN\n"),
+    )
+    .unwrap_err();
+    assert!(
+        matches!(e, IdentifyError::NonFinite { ref column, row: 0, .. } if column == "depth_meas_um"),
+        "{e}"
+    );
+    // time going backwards within a groove
+    let e = MeasuredGroove::from_csv_str(
+        "m.csv",
+        &format!("{HEADER}\n0,5,0,0,10000,100,10,20,0,0,0\n1,1,0,0,10000,100,10,20,0,0,0\n0,4,1,1,10000,100,10,20,0,4,4\n"),
+    )
+    .unwrap_err();
+    assert!(
+        matches!(e, IdentifyError::NonMonotoneTime { row: 2, .. }),
+        "{e}"
+    );
+    // coolant flag not 0/1
+    let e = MeasuredGroove::from_csv_str(
+        "m.csv",
+        &format!("{HEADER}\n0,0,0,0,10000,100,10,20,2,0,0\n"),
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("coolant_on"), "{e}");
+    // unknown extra columns are accepted
+    let m = MeasuredGroove::from_csv_str(
+        "m.csv",
+        &format!("{HEADER},operator\n0,0,0,0,10000,100,10,20,0,0,0.1,7\n"),
+    )
+    .unwrap();
+    assert_eq!(m.len(), 1);
+}
