@@ -216,6 +216,16 @@ pub struct DiagnoseArgs {
     /// Significance level (corrected for the number of candidates).
     #[arg(long, default_value_t = 0.01)]
     pub alpha: f64,
+    /// Per-flute peak force trace (`groove_id,x_mm,fz_peak_flute1_n,fz_peak_flute2_n`) for the
+    /// flute-runout force channel.
+    #[arg(long)]
+    pub forces: Option<PathBuf>,
+    /// Only these candidate effects (comma separated; default all).
+    #[arg(long, value_delimiter = ',')]
+    pub candidates: Vec<String>,
+    /// Let the nominal model have a free constant depth offset (probe_tilt_offset is then skipped).
+    #[arg(long)]
+    pub free_offset: bool,
 }
 
 /// `millcomp simulate SESSION|SCENARIO`.

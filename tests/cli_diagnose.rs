@@ -122,3 +122,29 @@ fn contract_errors_in_the_measured_csv_name_column_and_row() {
         .stderr(predicate::str::contains("bad.csv"))
         .stderr(predicate::str::contains("column `depth_meas_um`, row 3"));
 }
+
+#[test]
+fn force_trace_names_flute_runout() {
+    let out = millcomp()
+        .args([
+            "diagnose",
+            &synthetic("flute_runout_force", "toml"),
+            &synthetic("flute_runout_force", "csv"),
+            "--forces",
+            &synthetic("flute_runout_force.forces", "csv"),
+            "--json",
+        ])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let doc: serde_json::Value = serde_json::from_slice(&out).unwrap();
+    let named: Vec<&str> = doc["named"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    assert!(named.contains(&"flute_runout"), "{named:?}");
+}

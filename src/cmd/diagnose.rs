@@ -4,7 +4,7 @@
 //! `millcomp-datasets` first, so errors name the file, column and row.
 
 use anyhow::{Context, bail};
-use millcomp_identify::diagnose::{DiagnoseOptions, MeasuredGroove, diagnose};
+use millcomp_identify::diagnose::{DiagnoseOptions, ForceTrace, MeasuredGroove, diagnose};
 use millcomp_sim::session::{GroovePoint, Session};
 
 use crate::cli::DiagnoseArgs;
@@ -18,10 +18,14 @@ pub fn run(args: DiagnoseArgs, json: bool) -> anyhow::Result<()> {
         .with_context(|| format!("reading session {}", args.session.display()))?;
     let table = millcomp_datasets::contracts::read_measured_groove(&args.measured)?;
     let points = groove_points(&table)?;
-    let measured = MeasuredGroove::from_points(&args.measured.display().to_string(), &points);
+    let mut measured = MeasuredGroove::from_points(&args.measured.display().to_string(), &points);
+    if let Some(path) = &args.forces {
+        measured.forces = Some(ForceTrace::from_path(path)?);
+    }
     let options = DiagnoseOptions {
         alpha: args.alpha,
-        ..Default::default()
+        candidates: (!args.candidates.is_empty()).then(|| args.candidates.clone()),
+        free_offset: args.free_offset,
     };
     let report = diagnose(&session, &measured, &options).with_context(|| {
         format!(
