@@ -16,10 +16,7 @@ use std::path::Path;
 
 use anyhow::Context;
 use clap::Parser;
-use millcomp_datasets::{ColumnData, Table};
-use millcomp_doe::{
-    CcdAlpha, CcdVariant, DesignKind, DesignRequest, FactorSpec, LinearConstraint, ModelSpec,
-};
+use millcomp_datasets::Table;
 
 use crate::cli::DoeDesignArgs;
 
@@ -72,47 +69,9 @@ pub fn design_table(doe_args: &str) -> anyhow::Result<Table> {
     let args = DoeWrap::try_parse_from(&words)
         .map_err(|e| anyhow::anyhow!("--doe `{doe_args}`: {}", e.render().to_string().trim()))?
         .args;
-    let factors = FactorSpec::parse_list(&args.factors).context("--doe --factors")?;
-    let mut kind: DesignKind = args.design.parse().context("--doe --design")?;
-    if let DesignKind::Ccd { variant, alpha } = &mut kind {
-        if args.design == "ccd" {
-            *variant = args
-                .ccd_variant
-                .parse::<CcdVariant>()
-                .context("--doe --ccd-variant")?;
-        }
-        *alpha = args.alpha.parse::<CcdAlpha>().context("--doe --alpha")?;
-    }
-    let mut req = DesignRequest::new(kind, factors);
-    req.resolution = args.resolution;
-    req.generators = args.generators.clone();
-    req.runs = args.runs;
-    req.replicates = args.replicates;
-    req.center_points = args.center_points;
-    req.blocks = args.blocks;
-    req.seed = args.seed;
-    req.randomize = !args.no_randomize;
-    if let Some(m) = &args.model {
-        req.model = Some(ModelSpec::parse(m).context("--doe --model")?);
-    }
-    if let Some(c) = &args.constraints {
-        req.constraints =
-            LinearConstraint::parse_list(c, &req.factors).context("--doe --constraints")?;
-    }
+    let req = crate::cmd::doe::design_request(&args).context("--doe")?;
     let design = millcomp_doe::generate(&req).context("--doe: generating the design")?;
-    let cols = design
-        .columns()
-        .into_iter()
-        .map(|(name, c)| millcomp_datasets::Column {
-            name,
-            data: match c {
-                millcomp_doe::Column::F64(v) => ColumnData::Float(v),
-                millcomp_doe::Column::I64(v) => ColumnData::Int(v),
-                millcomp_doe::Column::Str(v) => ColumnData::Text(v),
-            },
-        })
-        .collect();
-    let table = Table::from_columns("--doe design", cols)?;
+    let table = crate::cmd::doe::table_from_doe("--doe design", design.columns())?;
     if let Some(out) = &args.out {
         millcomp_datasets::write_table(&table, out)
             .with_context(|| format!("--doe --out {}", out.display()))?;

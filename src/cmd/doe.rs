@@ -20,7 +20,8 @@ pub fn run(cmd: DoeCommand, json: bool) -> anyhow::Result<()> {
     }
 }
 
-fn design(args: &DoeDesignArgs, json: bool) -> anyhow::Result<()> {
+/// The design request of `doe design` arguments (also used by `batch --doe`).
+pub fn design_request(args: &DoeDesignArgs) -> anyhow::Result<DesignRequest> {
     let factors = FactorSpec::parse_list(&args.factors).context("--factors")?;
     let mut kind: DesignKind = args.design.parse().context("--design")?;
     if let DesignKind::Ccd { variant, alpha } = &mut kind {
@@ -47,6 +48,11 @@ fn design(args: &DoeDesignArgs, json: bool) -> anyhow::Result<()> {
     if let Some(c) = &args.constraints {
         req.constraints = LinearConstraint::parse_list(c, &req.factors).context("--constraints")?;
     }
+    Ok(req)
+}
+
+fn design(args: &DoeDesignArgs, json: bool) -> anyhow::Result<()> {
+    let req = design_request(args)?;
     let design = millcomp_doe::generate(&req)?;
     if let Some(out) = &args.out {
         let table = table_from_doe("design", design.columns())?;
@@ -156,7 +162,8 @@ fn doe_columns(table: &Table) -> Vec<(String, Column)> {
         .collect()
 }
 
-fn table_from_doe(origin: &str, columns: Vec<(String, Column)>) -> anyhow::Result<Table> {
+/// A design's columns (`Design::columns`) as a table for writing or for `batch`.
+pub fn table_from_doe(origin: &str, columns: Vec<(String, Column)>) -> anyhow::Result<Table> {
     let cols = columns
         .into_iter()
         .map(|(name, c)| millcomp_datasets::Column {
