@@ -20,8 +20,8 @@
 
 use std::time::Instant;
 
+use millcomp_sim::feed::FeedProfile;
 use millcomp_sim::filters::{Biquad, FirstOrderFilter, PeakHold};
-use millcomp_sim::force::BallEndForceModel;
 use millcomp_sim::groove::{GrooveConfig, GrooveStage, GrooveStepOutput};
 use millcomp_sim::material::Material;
 use millcomp_sim::sensors::NoiseSpec;
@@ -31,6 +31,7 @@ use millcomp_sim::stiffness::TiltedToolStiffness;
 use crate::controller::{MpcController, PreviewWindow};
 use crate::error::MpcError;
 use crate::pid::{AntiWindup, Pid, PidGains};
+use crate::predictor::{ForcePredictor, ResponseSurface};
 use crate::report::{Metrics, ModelSummary, RunOutput, RunReport, Trace};
 use crate::scenario::{ControllerKind, Fault, GrooveScenario, Scenario};
 use crate::signal::SlidingMax;
@@ -53,8 +54,8 @@ pub const CHANGE_WINDOW_AFTER_MM: f64 = 2.0;
 pub struct GrooveSetup {
     /// Truth plant.
     pub truth: GrooveConfig,
-    /// Controllers' force model.
-    pub model_force: BallEndForceModel,
+    /// Controllers' force predictor (mechanistic or response surface).
+    pub model_force: ForcePredictor,
     /// Controllers' stiffness (identified, times `1 + stiffness_error`).
     pub model_stiffness: TiltedToolStiffness,
     /// Controllers' spindle model.
@@ -95,19 +96,15 @@ pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, MpcError> {
         .groove
         .as_ref()
         .ok_or_else(|| crate::error::invalid("groove", "missing", "a [groove] table"))?;
-    if !g.feed_steps.is_empty() || g.exit.is_some() {
-        return Err(crate::error::invalid(
-            "groove.feed_steps / groove.exit",
-            "given",
-            "not yet supported: sim's GrooveStage has no feed schedule / exit yet (requested)",
-        ));
-    }
     let mut truth = GrooveConfig::thesis(g.tilt_deg, g.wearland_um)?;
     truth.force_model.material = Material::by_name(&g.material)?;
     truth.speed_rpm = g.speed_rpm;
     truth.upfeed_um_per_rev = g.upfeed_um_per_rev;
     truth.length_mm = g.length_mm;
     truth.depth_profile = g.depth.clone();
+    truth.feed_changes = g.feed_steps.clone();
+    truth.feed_accel_mm_s2 = g.feed_accel_mm_s2;
+    truth.exit = g.exit;
     truth.force_noise = (s.truth.force_noise_n > 0.0).then_some(NoiseSpec {
         seed: s.seed.wrapping_mul(31).wrapping_add(1),
         sigma: s.truth.force_noise_n,
@@ -136,17 +133,27 @@ pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, MpcError> {
         .truth
         .force_errors
         .unwrap_or_else(|| ForceErrors::draw(s.truth.force_error_max, s.seed));
-    let model_force = match &s.control.force_model {
-        Some(path) => load_saved(path)?
-            .apply_to_force_model(&truth.force_model)
-            .map_err(|e| {
-                crate::error::invalid(
-                    "control.force_model",
-                    path,
-                    format!("a saved `force` model: {e}"),
-                )
-            })?,
-        None => force_errors.apply(&truth.force_model)?,
+    let model_force = match (&s.control.force_model, &s.control.force_response_surface) {
+        (Some(_), Some(_)) => {
+            return Err(crate::error::invalid(
+                "control.force_response_surface",
+                "given together with control.force_model",
+                "one force predictor: either an identified model or a response surface",
+            ));
+        }
+        (Some(path), None) => ForcePredictor::Mechanistic(
+            load_saved(path)?
+                .apply_to_force_model(&truth.force_model)
+                .map_err(|e| {
+                    crate::error::invalid(
+                        "control.force_model",
+                        path,
+                        format!("a saved `force` model: {e}"),
+                    )
+                })?,
+        ),
+        (None, Some(path)) => ForcePredictor::ResponseSurface(ResponseSurface::load(path)?),
+        (None, None) => ForcePredictor::Mechanistic(force_errors.apply(&truth.force_model)?),
     };
     let model_spindle = match &s.control.spindle_model {
         Some(path) => load_saved(path)?.to_spindle().map_err(|e| {
@@ -179,14 +186,16 @@ pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, MpcError> {
     })
 }
 
-/// The planned deflection seen by the controllers: `δ̂(x) = Fz,peak(model, d_cmd(x)) · c_z,model`, tabulated.
+/// The planned deflection seen by the controllers: `δ̂(x) = Fz,peak(predictor, d_cmd(x), f(x)) · e(x) ·
+/// c_z,model` with the programmed depth `d_cmd`, the upfeed `f` of the planned feed motion (feed changes
+/// with the axis acceleration) and the engagement `e` (workpiece exit), tabulated along x.
 #[derive(Debug, Clone)]
 pub struct DeflectionPlan {
-    x0_mm: f64,
     dx_mm: f64,
     values_um: Vec<f64>,
-    feed_mm_s: f64,
-    length_mm: f64,
+    feed: FeedProfile,
+    /// Tabulated points where the force predictor extrapolated beyond its fitted range.
+    pub extrapolated_points: usize,
 }
 
 impl DeflectionPlan {
@@ -194,16 +203,25 @@ impl DeflectionPlan {
     pub fn new(setup: &GrooveSetup, dx_mm: f64) -> Result<Self, MpcError> {
         let t = &setup.truth;
         let c = setup.model_stiffness.z_compliance_um_per_n(t.tilt_deg)?;
+        let feed = t.feed_profile()?;
+        let radius = t.force_model.tool.radius_um;
         let n = (t.length_mm / dx_mm).ceil() as usize + 1;
         let mut values = Vec::with_capacity(n);
+        let mut extrapolated = 0;
         for i in 0..n {
             let x = (i as f64 * dx_mm).min(t.length_mm);
-            let d = t
-                .depth_profile
-                .depth_at(x, t.length_mm)
-                .clamp(0.0, setup.model_force.tool.radius_um);
-            let f = if d > 0.0 {
-                setup.model_force.peak_z_force_n(&t.conditions(d))?
+            let d = t.depth_profile.depth_at(x, t.length_mm).clamp(0.0, radius);
+            let e = t.engagement(x);
+            let cond = t.conditions_at(d, feed.upfeed_at_x(x));
+            let f = if d > 0.0 && e > 0.0 {
+                if setup
+                    .model_force
+                    .response_surface()
+                    .is_some_and(|r| r.extrapolates(&cond))
+                {
+                    extrapolated += 1;
+                }
+                setup.model_force.peak_z_force_n(&cond)? * e
             } else {
                 0.0
             };
@@ -212,22 +230,21 @@ impl DeflectionPlan {
             values.push((f * c).min(d));
         }
         Ok(Self {
-            x0_mm: 0.0,
             dx_mm,
             values_um: values,
-            feed_mm_s: t.feed_mm_s(),
-            length_mm: t.length_mm,
+            feed,
+            extrapolated_points: extrapolated,
         })
     }
 
     /// Planned position at time `t_s` (mm).
     pub fn x_at(&self, t_s: f64) -> f64 {
-        (self.feed_mm_s * t_s).clamp(0.0, self.length_mm)
+        self.feed.x_at(t_s)
     }
 
     /// Planned z-deflection (µm) at `x_mm` (linear interpolation).
     pub fn deflection_at(&self, x_mm: f64) -> f64 {
-        let u = ((x_mm - self.x0_mm) / self.dx_mm).max(0.0);
+        let u = (x_mm / self.dx_mm).max(0.0);
         let i = u.floor() as usize;
         if i + 1 >= self.values_um.len() {
             return *self.values_um.last().unwrap_or(&0.0);
@@ -455,6 +472,24 @@ fn apply_faults(
     m
 }
 
+/// The x-windows (mm) around the process changes of a groove in which their peak error is taken: each
+/// depth change point and feed change from [`CHANGE_WINDOW_BEFORE_MM`] before to
+/// [`CHANGE_WINDOW_AFTER_MM`] after, and the exit zone (from the start of the engagement drop, minus
+/// [`CHANGE_WINDOW_BEFORE_MM`], to the edge).
+pub fn change_windows(t: &GrooveConfig) -> Vec<(f64, f64)> {
+    let mut w: Vec<(f64, f64)> = t
+        .depth_profile
+        .change_points_mm()
+        .into_iter()
+        .chain(t.feed_changes.iter().map(|f| f.x_mm))
+        .map(|x| (x - CHANGE_WINDOW_BEFORE_MM, x + CHANGE_WINDOW_AFTER_MM))
+        .collect();
+    if let Some(e) = t.exit {
+        w.push((e.x_mm - e.length_mm - CHANGE_WINDOW_BEFORE_MM, e.x_mm));
+    }
+    w
+}
+
 /// Run a groove scenario with one controller.
 pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcError> {
     let wall = Instant::now();
@@ -550,14 +585,26 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcEr
             })
         }
     };
-    // the first process change inside the groove (a depth step after x = 0)
-    let change_x = match &t.depth_profile {
-        millcomp_sim::groove::DepthProfile::Steps { steps } => {
-            steps.iter().map(|(x, _)| *x).find(|x| *x > 0.0)
-        }
-        _ => None,
-    };
+    // process changes inside the groove: depth steps / plunges, feed changes, the exit
+    let windows = change_windows(t);
+    let exit_window = t
+        .exit
+        .map(|e| (e.x_mm - e.length_mm - CHANGE_WINDOW_BEFORE_MM, e.x_mm));
     let mut change_peak: f64 = 0.0;
+    let mut exit_overcut: f64 = 0.0;
+    if plan.extrapolated_points > 0 {
+        notes.push(format!(
+            "force predictor extrapolated at {} of {} planned points (outside the response surface's fitted ranges)",
+            plan.extrapolated_points,
+            (t.length_mm / 0.01).ceil() as usize + 1
+        ));
+    }
+    if let ForcePredictor::ResponseSurface(_) = &setup.model_force {
+        notes.push(format!(
+            "controllers' force predictor: {}",
+            setup.model_force.describe()
+        ));
+    }
     let mut stage = GrooveStage::new(t.clone(), dt)?;
     let mut last: Option<GrooveStepOutput> = None;
     let mut stuck = None;
@@ -594,12 +641,19 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcEr
             in_limits = false;
         }
         let o = stage.step(v);
-        errors.push(o.depth_cut_um - o.depth_cmd_um);
-        if let Some(xc) = change_x
-            && o.x_mm >= xc - CHANGE_WINDOW_BEFORE_MM
-            && o.x_mm <= xc + CHANGE_WINDOW_AFTER_MM
-        {
-            change_peak = change_peak.max((o.depth_cut_um - o.depth_cmd_um).abs());
+        // the groove exists only where the tool is engaged (before the workpiece edge)
+        if o.engagement > 0.0 {
+            let err = o.depth_cut_um - o.depth_cmd_um;
+            errors.push(err);
+            if windows.iter().any(|(a, b)| o.x_mm >= *a && o.x_mm <= *b) {
+                change_peak = change_peak.max(err.abs());
+            }
+            if let Some((a, b)) = exit_window
+                && o.x_mm >= a
+                && o.x_mm <= b
+            {
+                exit_overcut = exit_overcut.max(err);
+            }
         }
         travel += (o.pzt_tip_um - prev_tip).abs();
         prev_tip = o.pzt_tip_um;
@@ -631,12 +685,15 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcEr
         scenario: s.name.clone(),
         stage: "groove".into(),
         controller: kind.name().into(),
-        metrics: Metrics::from_errors(&errors, travel),
+        metrics: Metrics {
+            exit_overcut_um: exit_window.map(|_| exit_overcut),
+            ..Metrics::from_errors(&errors, travel)
+        },
         solver: ctl.solver_stats(),
         walls: None,
         commands_finite: finite,
         commands_in_limits: in_limits,
-        process_change_peak_um: change_x.map(|_| change_peak),
+        process_change_peak_um: (!windows.is_empty()).then_some(change_peak),
         model: ModelSummary {
             kz_model_n_per_um: kz_model,
             kz_truth_n_per_um: kz_truth,

@@ -33,6 +33,7 @@ pub mod error;
 pub mod groove_run;
 pub mod kalman;
 pub mod pid;
+pub mod predictor;
 pub mod qp;
 pub mod replay;
 pub mod report;

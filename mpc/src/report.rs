@@ -28,6 +28,10 @@ pub struct Metrics {
     /// Thin walls: relative thickness error per wall (%), `(t − t_nom)/t_nom · 100`.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub thickness_error_pct: Option<Vec<f64>>,
+    /// Groove with a workpiece exit: largest overcut (µm, error > 0 = deeper than programmed; 003 §3.3's
+    /// "undersize") from the start of the engagement drop to the edge.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub exit_overcut_um: Option<f64>,
 }
 
 impl Metrics {
@@ -49,6 +53,7 @@ impl Metrics {
             actuator_travel_um,
             thickness_um: None,
             thickness_error_pct: None,
+            exit_overcut_um: None,
         }
     }
 }

@@ -7,7 +7,8 @@ use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
-use millcomp_sim::groove::DepthProfile;
+use millcomp_sim::feed::{FeedChange, WorkpieceExit};
+use millcomp_sim::groove::{DEFAULT_FEED_ACCEL_MM_S2, DepthProfile};
 
 use crate::config::MpcConfig;
 use crate::error::{MpcError, invalid};
@@ -113,25 +114,11 @@ impl StageKind {
     }
 }
 
-/// A feed-rate change at a position along the groove.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct FeedStep {
-    /// Position (mm) where the new feed starts.
-    pub x_mm: f64,
-    /// New upfeed (µm/rev); a doubling of 10 µm/rev is 20.
-    pub upfeed_um_per_rev: f64,
-}
+/// A feed-rate change at a position along the groove (sim's [`FeedChange`]).
+pub type FeedStep = FeedChange;
 
-/// The tool leaves the workpiece.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ExitSpec {
-    /// Position of the workpiece edge (mm).
-    pub x_mm: f64,
-    /// Length over which the engagement falls from 1 to 0 (mm; the ball's contact length).
-    pub length_mm: f64,
-}
+/// The tool leaves the workpiece (sim's [`WorkpieceExit`]).
+pub type ExitSpec = WorkpieceExit;
 
 /// Groove-stage scenario.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -156,10 +143,14 @@ pub struct GrooveScenario {
     pub length_mm: f64,
     /// Programmed depth profile (sim's `DepthProfile`: `{kind = "ramp", from_um, to_um}`, …).
     pub depth: DepthProfile,
-    /// Feed-rate changes.
+    /// Feed-rate changes (`[[x_mm, upfeed_um_per_rev]]` as tables `{x_mm, upfeed_um_per_rev}`).
     #[serde(default)]
     pub feed_steps: Vec<FeedStep>,
-    /// Workpiece exit.
+    /// Feed-axis acceleration (mm/s²) for the feed changes (default: sim's
+    /// [`DEFAULT_FEED_ACCEL_MM_S2`], ≈ 003's 16 ms feed-axis delay for a doubling).
+    #[serde(default = "default_feed_accel")]
+    pub feed_accel_mm_s2: f64,
+    /// Workpiece exit: `{x_mm, length_mm}` (edge position and the length over which the engagement falls).
     #[serde(default)]
     pub exit: Option<ExitSpec>,
     /// If set, the truth force scale is calibrated so that the uncompensated error at the deepest
@@ -183,6 +174,9 @@ fn default_upfeed() -> f64 {
 }
 fn default_length() -> f64 {
     20.0
+}
+fn default_feed_accel() -> f64 {
+    DEFAULT_FEED_ACCEL_MM_S2
 }
 
 /// Thin-wall scenario (`004_…txt` Tables 2–4).
@@ -302,6 +296,10 @@ pub struct ControlSpec {
     /// predictor instead of the perturbed truth (`truth.force_errors` is then ignored).
     #[serde(default)]
     pub force_model: Option<String>,
+    /// Response-surface force predictor (a model saved by `millcomp doe analyze --save`, TOML path) used
+    /// in the controllers' preview; its factors must be process parameters (`mpc/SCENARIOS.md`).
+    #[serde(default)]
+    pub force_response_surface: Option<String>,
 }
 
 fn default_dt() -> f64 {
@@ -327,6 +325,7 @@ impl Default for ControlSpec {
             mpc: None,
             spindle_model: None,
             force_model: None,
+            force_response_surface: None,
         }
     }
 }
@@ -487,11 +486,18 @@ impl Scenario {
                         fs.upfeed_um_per_rev,
                     )?;
                 }
+                finite_pos("groove.feed_accel_mm_s2", g.feed_accel_mm_s2)?;
                 if let Some(e) = g.exit {
                     if !(e.x_mm.is_finite() && e.x_mm > 0.0 && e.x_mm <= g.length_mm) {
                         return Err(invalid("groove.exit.x_mm", e.x_mm, "0 < x_mm <= length_mm"));
                     }
-                    finite_pos("groove.exit.length_mm", e.length_mm)?;
+                    if !(e.length_mm.is_finite() && e.length_mm >= 0.0 && e.length_mm < e.x_mm) {
+                        return Err(invalid(
+                            "groove.exit.length_mm",
+                            e.length_mm,
+                            "0 <= length_mm < exit.x_mm",
+                        ));
+                    }
                 }
                 if let Some(u) = g.calibrate_uncompensated_um {
                     finite_pos("groove.calibrate_uncompensated_um", u)?;

@@ -12,8 +12,10 @@
 //!   deflection read on the stage's 0.1 µm grating ruler, σ 0.05 µm, 3 trials).
 //!
 //! Controllers:
-//! - `threshold` (004 §3.2, faithful): deformation from the *published* model — eq. 18, the wall only —
-//!   `w = F_meas · c_wall`; if the increment `w − u` exceeds 0.5 µm, the stage moves by it;
+//! - `threshold` (004 §3.2, faithful; sim's [`ThresholdCompensator`], the one implementation): deformation
+//!   from the *published* model — eq. 18 as printed (cantilever of height l loaded at its free end,
+//!   evaluated at the cutting height; the wall only) — `w = F_meas · c_eq18`; if the increment `w − u`
+//!   exceeds 0.5 µm, the stage moves by it;
 //! - `open-loop`: the planned deflection (force model ÷ stiffness along the planned cut) as the stage path;
 //! - `pid`: discrete PI (velocity form, kp 0.3, ki 0.7 per cycle; the thesis gains belong to the PZT
 //!   spindle and do not apply to a static stage) on `F_meas·(c_wall + 1/k_tool) − stage`;
@@ -29,7 +31,11 @@ use rand_chacha::ChaCha8Rng;
 
 use millcomp_sim::DiscreteLti;
 use millcomp_sim::sensors::NoiseSpec;
-use millcomp_sim::thinwall::{ThinWallConfig, ThinWallStage, ThinWallStepOutput};
+pub use millcomp_sim::thinwall::WallPlan;
+use millcomp_sim::thinwall::{
+    THRESHOLD_004_UM, ThinWallConfig, ThinWallStage, ThinWallStepOutput, ThresholdCompensator,
+    plan_compensated_wall,
+};
 
 use crate::config::{
     DisturbanceConfig, DisturbanceKind, KalmanConfig, Limits, MpcConfig, SoftOutput, SolverConfig,
@@ -42,26 +48,12 @@ use crate::scenario::{ControllerKind, Fault, Scenario, ThinWallScenario};
 use crate::stats::SolverStats;
 use crate::truth::{ForceErrors, StiffnessCalibration, fit_compliance};
 
-/// The 004 compensation threshold (µm).
-pub const THRESHOLD_UM: f64 = 0.5;
+/// The 004 compensation threshold (µm), sim's [`millcomp_sim::thinwall::THRESHOLD_004_UM`].
+pub const THRESHOLD_UM: f64 = THRESHOLD_004_UM;
 /// Stage travel used as the command limits (µm; assumed, 004 does not give the stroke).
 pub const STAGE_MIN_UM: f64 = -20.0;
 /// Upper end of the stage travel (µm).
 pub const STAGE_MAX_UM: f64 = 60.0;
-
-/// Plan of one wall: per step, the model's cutting-height wall compliance, tool compliance and planned
-/// total deflection under perfect compensation.
-#[derive(Debug, Clone)]
-pub struct WallPlan {
-    /// Model wall compliance at the cutting height per step (µm/N).
-    pub wall_compliance: Vec<f64>,
-    /// Model tool compliance (µm/N).
-    pub tool_compliance: f64,
-    /// Planned deflection (wall + tool) per step (µm).
-    pub deflection_um: Vec<f64>,
-    /// Step length (s).
-    pub dt_s: f64,
-}
 
 fn truth_config(
     s: &Scenario,
@@ -86,31 +78,9 @@ fn truth_config(
 }
 
 /// Plan a wall with the controllers' model (`model`: the truth config with the model's parameters, exact
-/// stage, no noise): step a digital twin, compensating perfectly (fixed point per step on clones).
+/// stage, no noise): sim's [`plan_compensated_wall`] (a digital twin compensating perfectly).
 pub fn plan_wall(model: &ThinWallConfig) -> Result<WallPlan, MpcError> {
-    let dt = model.length_um / model.feed_um_s() / model.cells_x as f64;
-    let mut st = ThinWallStage::new(model.clone())?;
-    let tool_c = 1.0 / model.tool_stiffness_n_per_um;
-    let mut wall_c = Vec::new();
-    let mut defl = Vec::new();
-    let mut u = 0.0;
-    while !st.done() {
-        let c = st.wall_compliance_um_per_n();
-        for _ in 0..4 {
-            let mut probe = st.clone();
-            let o = probe.step(dt, u);
-            u = o.wall_deflection_um + o.tool_deflection_um;
-        }
-        let o = st.step(dt, u);
-        wall_c.push(c);
-        defl.push(o.wall_deflection_um + o.tool_deflection_um);
-    }
-    Ok(WallPlan {
-        wall_compliance: wall_c,
-        tool_compliance: tool_c,
-        deflection_um: defl,
-        dt_s: dt,
-    })
+    Ok(plan_compensated_wall(model)?)
 }
 
 /// The MPC of the thin-wall stage (model `x⁺ = u`, outputs [stage, excess]).
@@ -168,9 +138,7 @@ pub fn thin_wall_mpc(horizon: usize) -> Result<MpcController, MpcError> {
 enum TwCtl {
     None,
     OpenLoop,
-    Threshold {
-        u: f64,
-    },
+    Threshold(ThresholdCompensator),
     Pi {
         u: f64,
         e_prev: f64,
@@ -254,7 +222,7 @@ pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Mp
         let mut ctl = match kind {
             ControllerKind::None => TwCtl::None,
             ControllerKind::OpenLoop => TwCtl::OpenLoop,
-            ControllerKind::Threshold => TwCtl::Threshold { u: 0.0 },
+            ControllerKind::Threshold => TwCtl::Threshold(ThresholdCompensator::paper()),
             ControllerKind::Pid => TwCtl::Pi {
                 u: 0.0,
                 e_prev: 0.0,
@@ -320,16 +288,11 @@ pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Mp
             let cmd = match &mut ctl {
                 TwCtl::None => 0.0,
                 TwCtl::OpenLoop => plan.deflection_um[k.min(n_steps - 1)],
-                TwCtl::Threshold { u } => {
-                    if let Some(f) = f_meas {
-                        let w = f * c_wall; // the published model: the wall only (eq. 18)
-                        let inc = w - *u;
-                        if inc.is_finite() && inc.abs() > THRESHOLD_UM {
-                            *u += inc;
-                        }
-                    }
-                    *u
-                }
+                TwCtl::Threshold(comp) => match f_meas {
+                    // the published model: eq. 18 as printed, the wall only (sim's one implementation)
+                    Some(f) => comp.update(f * plan.eq18_compliance[kp]),
+                    None => comp.command_um(),
+                },
                 TwCtl::Pi { u, e_prev } => {
                     if f_meas.is_some() {
                         let e = est - stage_meas;
@@ -417,7 +380,7 @@ pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Mp
         "thin wall: error series = thickness profile over the height (mean along the wall) − nominal, all walls".into(),
     ];
     if kind == ControllerKind::Threshold {
-        notes.push("threshold uses the published deformation model (eq. 18, wall only; no tool deflection)".into());
+        notes.push("threshold uses the published deformation model (eq. 18 as printed: load at the wall top, evaluated at the cutting height; wall only, no tool deflection)".into());
     }
     Ok(RunOutput {
         report: RunReport {

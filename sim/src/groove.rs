@@ -20,6 +20,7 @@ use std::collections::VecDeque;
 use std::f64::consts::PI;
 
 use crate::error::{SimError, check_positive, check_range};
+use crate::feed::{FeedChange, FeedProfile, WorkpieceExit};
 use crate::force::{
     BallEndForceModel, CutConditions, ForceParams, PreparedCut, S7_GROOVE_FORCE_SCALE,
 };
@@ -49,9 +50,17 @@ pub enum DepthProfile {
         depth_um: f64,
     },
     /// Piecewise-constant steps: `(x_start_mm, depth_um)`, sorted by x; before the first step the depth is 0.
+    /// An instantaneous step in depth is an idealisation: a machine's z-axis needs time to plunge (use
+    /// [`DepthProfile::Points`] for a programmed plunge slope).
     Steps {
         /// Step starts and depths.
         steps: Vec<(f64, f64)>,
+    },
+    /// Piecewise-linear through `(x_mm, depth_um)` points, sorted by x; constant before the first and after
+    /// the last point (an NC program's depth at each block end).
+    Points {
+        /// Points along the groove.
+        points: Vec<(f64, f64)>,
     },
 }
 
@@ -74,6 +83,40 @@ impl DepthProfile {
                 .last()
                 .map(|(_, d)| *d)
                 .unwrap_or(0.0),
+            DepthProfile::Points { points } => {
+                let Some(&(x_first, d_first)) = points.first() else {
+                    return 0.0;
+                };
+                if x_mm <= x_first {
+                    return d_first;
+                }
+                for w in points.windows(2) {
+                    let ((x0, d0), (x1, d1)) = (w[0], w[1]);
+                    if x_mm <= x1 {
+                        return if x1 > x0 {
+                            d0 + (d1 - d0) * (x_mm - x0) / (x1 - x0)
+                        } else {
+                            d1
+                        };
+                    }
+                }
+                points.last().map(|p| p.1).unwrap_or(0.0)
+            }
+        }
+    }
+
+    /// Positions (mm) inside the groove where the programmed depth changes abruptly or its slope changes:
+    /// the starts of steps and the interior points of a point list (process changes a controller can
+    /// preview).
+    pub fn change_points_mm(&self) -> Vec<f64> {
+        match self {
+            DepthProfile::Steps { steps } => {
+                steps.iter().map(|p| p.0).filter(|x| *x > 0.0).collect()
+            }
+            DepthProfile::Points { points } if points.len() > 2 => {
+                points[1..points.len() - 1].iter().map(|p| p.0).collect()
+            }
+            _ => Vec::new(),
         }
     }
 
@@ -96,12 +139,24 @@ impl DepthProfile {
             DepthProfile::Constant { depth_um } => {
                 chk(*depth_um)?;
             }
-            DepthProfile::Steps { steps } => {
+            DepthProfile::Steps { steps: pts } | DepthProfile::Points { points: pts } => {
+                let name = if matches!(self, DepthProfile::Steps { .. }) {
+                    "steps.x_mm"
+                } else {
+                    "points.x_mm"
+                };
+                if pts.is_empty() {
+                    return Err(SimError::InvalidParameter {
+                        name,
+                        value: 0.0,
+                        allowed: "at least one (x_mm, depth_um) pair",
+                    });
+                }
                 let mut last = f64::NEG_INFINITY;
-                for (x, d) in steps {
+                for (x, d) in pts {
                     if !x.is_finite() || *x < last {
                         return Err(SimError::InvalidParameter {
-                            name: "steps.x_mm",
+                            name,
                             value: *x,
                             allowed: "finite and non-decreasing",
                         });
@@ -151,6 +206,25 @@ pub struct GrooveConfig {
     pub force_noise: Option<NoiseSpec>,
     /// Optional gauge noise (σ in µm).
     pub gauge_noise: Option<NoiseSpec>,
+    /// Programmed feed changes along the groove (none: constant `upfeed_um_per_rev`).
+    #[serde(default)]
+    pub feed_changes: Vec<FeedChange>,
+    /// Feed-axis acceleration (mm/s²) with which feed changes are executed (`003_…txt` §3.2).
+    #[serde(default = "default_feed_accel")]
+    pub feed_accel_mm_s2: f64,
+    /// Workpiece edge where the tool leaves the material (none: material over the whole length).
+    #[serde(default)]
+    pub exit: Option<WorkpieceExit>,
+}
+
+/// Default feed-axis acceleration (mm/s²) for feed changes: 100 mm/s² (≈ 0.01 g), the path acceleration of
+/// a jerk-limited NC feed change at micro-milling feeds — an assumption (003 does not give the value; it
+/// only states that the axes follow a feed step "in a delayed manner"). A doubling from 1.67 to 3.33 mm/s
+/// then takes 17 ms (≈ 3 spindle revolutions at 10 000 rpm).
+pub const DEFAULT_FEED_ACCEL_MM_S2: f64 = 100.0;
+
+fn default_feed_accel() -> f64 {
+    DEFAULT_FEED_ACCEL_MM_S2
 }
 
 impl GrooveConfig {
@@ -180,6 +254,9 @@ impl GrooveConfig {
             force_channel: ForceChannel::WorkpieceZ,
             force_noise: None,
             gauge_noise: None,
+            feed_changes: Vec::new(),
+            feed_accel_mm_s2: DEFAULT_FEED_ACCEL_MM_S2,
+            exit: None,
         };
         c.validate()?;
         Ok(c)
@@ -202,24 +279,51 @@ impl GrooveConfig {
         check_positive("length_mm", self.length_mm)?;
         self.depth_profile
             .validate(self.force_model.tool.radius_um)?;
+        self.feed_profile()?;
+        if let Some(e) = &self.exit {
+            e.validate(self.length_mm)?;
+        }
         Ok(())
     }
 
-    /// Feed velocity (mm/s).
+    /// Feed velocity (mm/s) at the start of the cut.
     pub fn feed_mm_s(&self) -> f64 {
         self.upfeed_um_per_rev * self.speed_rpm * 1e-3 / 60.0
     }
 
-    /// Duration of the cut (s).
-    pub fn duration_s(&self) -> f64 {
-        self.length_mm / self.feed_mm_s()
+    /// The feed motion (programmed feed, its changes and the axis acceleration).
+    pub fn feed_profile(&self) -> Result<FeedProfile, SimError> {
+        FeedProfile::new(
+            self.length_mm,
+            self.speed_rpm,
+            self.upfeed_um_per_rev,
+            &self.feed_changes,
+            self.feed_accel_mm_s2,
+        )
     }
 
-    /// Cut conditions at `depth_um`.
+    /// Duration of the cut (s).
+    pub fn duration_s(&self) -> f64 {
+        self.feed_profile()
+            .map(|p| p.duration_s())
+            .unwrap_or_else(|_| self.length_mm / self.feed_mm_s())
+    }
+
+    /// Engagement (0…1) of the tool with the material at `x_mm` (1 everywhere without an exit).
+    pub fn engagement(&self, x_mm: f64) -> f64 {
+        self.exit.map(|e| e.engagement(x_mm)).unwrap_or(1.0)
+    }
+
+    /// Cut conditions at `depth_um` and the starting upfeed.
     pub fn conditions(&self, depth_um: f64) -> CutConditions {
+        self.conditions_at(depth_um, self.upfeed_um_per_rev)
+    }
+
+    /// Cut conditions at `depth_um` and `upfeed_um_per_rev`.
+    pub fn conditions_at(&self, depth_um: f64, upfeed_um_per_rev: f64) -> CutConditions {
         CutConditions {
             depth_um,
-            upfeed_um_per_rev: self.upfeed_um_per_rev,
+            upfeed_um_per_rev,
             speed_rpm: self.speed_rpm,
             tilt_deg: self.tilt_deg,
         }
@@ -270,6 +374,11 @@ pub struct GrooveStepOutput {
     pub spindle_force_raw_n: f64,
     /// Capacitance-gauge reading of the tip displacement (µm).
     pub gauge_um: f64,
+    /// Upfeed (µm/rev) actually run at this step (changes while the feed axis accelerates).
+    pub upfeed_um_per_rev: f64,
+    /// Engagement of the tool with the material (1 inside the workpiece, falling to 0 at its exit edge;
+    /// the groove bottom exists only where it is > 0).
+    pub engagement: f64,
     /// True once x has reached the end of the groove.
     pub done: bool,
 }
@@ -324,12 +433,13 @@ pub struct GrooveStage {
     sin_a: f64,
     cos_a: f64,
     omega_rad_s: f64,
-    feed_mm_s: f64,
+    feed: FeedProfile,
     t_s: f64,
     deflection_um: f64,
     peak: SlidingMax,
     prepared: PreparedCut,
     prepared_depth: f64,
+    prepared_upfeed: f64,
     last_tip_um: f64,
 }
 
@@ -361,12 +471,13 @@ impl GrooveStage {
             sin_a: a.sin(),
             cos_a: a.cos(),
             omega_rad_s: cfg.speed_rpm / 60.0 * 2.0 * PI,
-            feed_mm_s: cfg.feed_mm_s(),
+            feed: cfg.feed_profile()?,
             t_s: 0.0,
             deflection_um: 0.0,
             peak: SlidingMax::new(steps_per_rev),
             prepared,
             prepared_depth: d0,
+            prepared_upfeed: cfg.upfeed_um_per_rev,
             last_tip_um: 0.0,
             cfg,
         })
@@ -401,9 +512,14 @@ impl GrooveStage {
         }
     }
 
+    /// The feed motion.
+    pub fn feed_profile(&self) -> &FeedProfile {
+        &self.feed
+    }
+
     /// Whether the cut is finished.
     pub fn done(&self) -> bool {
-        self.t_s * self.feed_mm_s >= self.cfg.length_mm
+        self.t_s >= self.feed.duration_s()
     }
 
     /// Advance one step with actuator command `command_v` (V; clamped to 0–1000 V, NaN holds).
@@ -412,17 +528,25 @@ impl GrooveStage {
             applied_v, tip_um, ..
         } = self.spindle.step(command_v);
         self.last_tip_um = tip_um;
-        let x = (self.t_s * self.feed_mm_s).min(self.cfg.length_mm);
+        let x = self.feed.x_at(self.t_s);
+        let upfeed = self.feed.upfeed_at(self.t_s);
+        let engagement = self.cfg.engagement(x);
         let d_cmd = self.cfg.depth_profile.depth_at(x, self.cfg.length_mm);
         let pzt_z = tip_um * self.sin_a;
         let d_cut =
             (d_cmd - self.deflection_um + pzt_z).clamp(0.0, self.cfg.force_model.tool.radius_um);
-        if (d_cut - self.prepared_depth).abs() > 1e-3 {
-            self.prepared = self.cfg.force_model.prepare(&self.cfg.conditions(d_cut));
+        if (d_cut - self.prepared_depth).abs() > 1e-3
+            || (upfeed - self.prepared_upfeed).abs() > 1e-4 * self.prepared_upfeed
+        {
+            self.prepared = self
+                .cfg
+                .force_model
+                .prepare(&self.cfg.conditions_at(d_cut, upfeed));
             self.prepared_depth = d_cut;
+            self.prepared_upfeed = upfeed;
         }
         let f = self.prepared.forces(self.omega_rad_s * self.t_s);
-        let fz = f[2];
+        let fz = f[2] * engagement;
         let peak = self.peak.push(fz);
         let deflection_now = self.deflection_um;
         self.deflection_um = peak * self.compliance_um_per_n;
@@ -449,6 +573,8 @@ impl GrooveStage {
             force_meas_n: force_meas,
             spindle_force_raw_n: spindle_raw_true,
             gauge_um: gauge,
+            upfeed_um_per_rev: upfeed,
+            engagement,
             done: false,
         };
         self.t_s += self.dt_s;
@@ -525,5 +651,72 @@ mod tests {
                 .validate(400.0)
                 .is_err()
         );
+        let p = DepthProfile::Points {
+            points: vec![(0.0, 40.0), (10.0, 40.0), (10.05, 60.0)],
+        };
+        assert_eq!(p.depth_at(5.0, 20.0), 40.0);
+        assert!((p.depth_at(10.025, 20.0) - 50.0).abs() < 1e-9);
+        assert_eq!(p.depth_at(15.0, 20.0), 60.0);
+        assert_eq!(p.change_points_mm(), vec![10.0]);
+        let bad = DepthProfile::Points {
+            points: vec![(5.0, 40.0), (1.0, 40.0)],
+        };
+        assert!(
+            bad.validate(400.0)
+                .unwrap_err()
+                .to_string()
+                .contains("points.x_mm")
+        );
+    }
+
+    fn run_uncompensated(cfg: GrooveConfig) -> Vec<GrooveStepOutput> {
+        GrooveStage::new(cfg, 5e-5).unwrap().run(|_| 0.0)
+    }
+
+    #[test]
+    fn feed_doubling_raises_the_deflection_and_shortens_the_cut() {
+        let mut cfg = GrooveConfig::thesis(20.0, 8.0).unwrap();
+        cfg.length_mm = 4.0;
+        cfg.depth_profile = DepthProfile::Constant { depth_um: 40.0 };
+        cfg.feed_changes = vec![FeedChange {
+            x_mm: 2.0,
+            upfeed_um_per_rev: 20.0,
+        }];
+        let run = run_uncompensated(cfg.clone());
+        let err_at = |x: f64| {
+            run.iter()
+                .find(|o| o.x_mm >= x)
+                .map(|o| o.depth_cut_um - o.depth_cmd_um)
+                .unwrap()
+        };
+        // a thicker chip pushes the tool further out of the cut (000 eq. 2: force grows with the chip)
+        let (before, after) = (err_at(1.5), err_at(3.5));
+        assert!(after < before - 0.5, "before {before}, after {after}");
+        // 2 mm at 1.667 mm/s + 2 mm at 3.333 mm/s (+ the 17 ms acceleration) ≈ 1.8 s instead of 2.4 s
+        let t_end = run.last().unwrap().t_s;
+        assert!((t_end - 1.8).abs() < 0.02, "{t_end}");
+        assert!((run.last().unwrap().upfeed_um_per_rev - 20.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn exit_unloads_the_tool() {
+        let mut cfg = GrooveConfig::thesis(20.0, 8.0).unwrap();
+        cfg.length_mm = 3.0;
+        cfg.depth_profile = DepthProfile::Constant { depth_um: 60.0 };
+        cfg.exit = Some(WorkpieceExit {
+            x_mm: 2.5,
+            length_mm: 0.2,
+        });
+        let run = run_uncompensated(cfg);
+        let at = |x: f64| run.iter().find(|o| o.x_mm >= x).unwrap();
+        assert!(at(2.0).deflection_um > 5.0);
+        // past the edge nothing is cut: no force, the tool springs back
+        let past = at(2.7);
+        assert_eq!(past.engagement, 0.0);
+        assert_eq!(past.force_z_n, 0.0);
+        assert!(past.deflection_um.abs() < 1e-9);
+        // halfway through the exit zone the peak force is about half
+        let mid = at(2.4);
+        assert!((mid.engagement - 0.5).abs() < 0.01);
     }
 }

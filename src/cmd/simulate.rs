@@ -193,6 +193,14 @@ fn run_scenario(args: &SimulateArgs, json: bool) -> anyhow::Result<()> {
         "peak-to-peak error {:.3} um   rms {:.3} um   max {:.3} um   min {:.3} um   actuator travel {:.2} um",
         m.pp_error_um, m.rms_error_um, m.max_error_um, m.min_error_um, m.actuator_travel_um
     );
+    if let Some(p) = out.report.process_change_peak_um {
+        println!(
+            "process changes: peak |error| {p:.3} um (0.5 mm before to 2 mm after each change)"
+        );
+    }
+    if let Some(o) = m.exit_overcut_um {
+        println!("workpiece exit: largest overcut {o:.3} um (+ = deeper than programmed)");
+    }
     if let Some(s) = &out.report.solver {
         println!(
             "solver: {} solves, median {:.1} us, p99 {:.1} us, {} fallbacks",
