@@ -72,6 +72,22 @@ impl Plan {
         scenarios: Vec<ScenarioSpec>,
         controllers: Vec<String>,
     ) -> anyhow::Result<Self> {
+        // `threshold` is the 004 thin-wall baseline: refuse it on groove scenarios before anything runs
+        if controllers.iter().any(|c| c == "threshold") {
+            for sc in &scenarios {
+                let thin = matches!(
+                    sc.factors.get("stage"),
+                    Some(super::factors::FactorValue::Text(t)) if t == "thin_wall"
+                );
+                if !thin {
+                    bail!(
+                        "--controllers: `threshold` (the 004 thin-wall baseline) runs only on thin-wall \
+                         scenarios, but scenario row {} is a groove (set factor stage = thin_wall)",
+                        sc.index + 1
+                    );
+                }
+            }
+        }
         let mut p = Plan {
             format: PLAN_FORMAT.to_string(),
             base_scenario: BASE_SCENARIO_FILE.to_string(),
