@@ -691,6 +691,25 @@ depth = { kind = "ramp", from_um = 0.0, to_um = 80.0 }
             key(Scenario::from_toml_str(&t, "x").unwrap_err()),
             "control.mpc.limits.u_min[0]"
         );
+        // process changes: the feed axis, the exit and the feed-change positions name their keys
+        for (extra, want) in [
+            ("feed_accel_mm_s2 = 0.0", "groove.feed_accel_mm_s2"),
+            (
+                "exit = { x_mm = 30.0, length_mm = 0.2 }",
+                "groove.exit.x_mm",
+            ),
+            (
+                "exit = { x_mm = 5.0, length_mm = 6.0 }",
+                "groove.exit.length_mm",
+            ),
+            (
+                "feed_steps = [{ x_mm = 25.0, upfeed_um_per_rev = 20.0 }]",
+                "groove.feed_steps[0].x_mm",
+            ),
+        ] {
+            let t = GROOVE.replace("tilt_deg = 20.0", &format!("tilt_deg = 20.0\n{extra}"));
+            assert_eq!(key(Scenario::from_toml_str(&t, "x").unwrap_err()), want);
+        }
         let t = GROOVE.replace("tilt_deg = 20.0", "tilt_deg = 20.0\nbogus = 1");
         assert!(
             matches!(Scenario::from_toml_str(&t, "x").unwrap_err(), MpcError::Scenario { message, .. } if message.contains("bogus"))
