@@ -242,6 +242,23 @@ impl DeflectionPlan {
         self.feed.x_at(t_s)
     }
 
+    /// Planned z-deflection (µm) at time `t_s` as the stage produces it: the deflection follows the peak
+    /// force of the last revolution (`000_…txt` §6.2), and the force peaks once per tooth: a rise appears
+    /// when the next tooth reaches its peak — on average half a tooth period after the change — and a fall
+    /// once the last tooth peak before it has left the one-revolution window — on average a revolution
+    /// less half a tooth period after it. Evaluated as the maximum of the planned per-revolution
+    /// deflection over `[t − T_rev + T_tooth/2, t − T_tooth/2]` (9 samples, ends included).
+    pub fn deflection_at_time(&self, t_s: f64, rev_s: f64, tooth_s: f64) -> f64 {
+        let t1 = t_s - 0.5 * tooth_s;
+        let t0 = (t_s - rev_s + 0.5 * tooth_s).min(t1);
+        (0..=8)
+            .map(|i| {
+                let t = t0 + (t1 - t0) * i as f64 / 8.0;
+                self.deflection_at(self.x_at(t.max(0.0)))
+            })
+            .fold(0.0, f64::max)
+    }
+
     /// Planned z-deflection (µm) at `x_mm` (linear interpolation).
     pub fn deflection_at(&self, x_mm: f64) -> f64 {
         let u = (x_mm / self.dx_mm).max(0.0);
@@ -315,6 +332,8 @@ struct MpcCtl {
     sin_a: f64,
     every: usize,
     tc_s: f64,
+    rev_s: f64,
+    tooth_s: f64,
     k: usize,
     v_hold: f64,
     window: PreviewWindow,
@@ -371,11 +390,11 @@ impl GrooveCtl for MpcCtl {
             }
         });
         let n = self.mpc.config().horizon;
-        let x_now = self.plan.x_at(t_s);
-        self.window.offset_now[OUT_ERROR] = -self.plan.deflection_at(x_now);
+        let (rev, tooth) = (self.rev_s, self.tooth_s);
+        self.window.offset_now[OUT_ERROR] = -self.plan.deflection_at_time(t_s, rev, tooth);
         for j in 0..n {
-            let x = self.plan.x_at(t_s + (j + 1) as f64 * self.tc_s);
-            self.window.offsets[j * 2 + OUT_ERROR] = -self.plan.deflection_at(x);
+            let t = t_s + (j + 1) as f64 * self.tc_s;
+            self.window.offsets[j * 2 + OUT_ERROR] = -self.plan.deflection_at_time(t, rev, tooth);
         }
         // a stale sensor is left out of the measurement update (prediction from the model and the plan)
         let y = [
@@ -566,6 +585,8 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcEr
                 sin_a,
                 every: s.control.mpc_every,
                 tc_s: dt * s.control.mpc_every as f64,
+                rev_s: 60.0 / t.speed_rpm,
+                tooth_s: 60.0 / t.speed_rpm / t.force_model.tool.flutes as f64,
                 k: 0,
                 v_hold: 0.0,
                 window: PreviewWindow::zeros(n, 2),
