@@ -184,3 +184,67 @@ fn unknown_controller_is_named() {
         .stderr(predicate::str::contains("fuzzy"));
     assert!(!out.exists());
 }
+
+/// The DOE → MPC path: a response surface saved by `doe analyze --save` on Table 3-3 (`000_…txt`, 6061,
+/// 100–200 µm deep) drives the MPC's preview of the S7 feed-step groove. Every planned point lies
+/// outside the surface's ranges, which the run reports; the offset-free estimator absorbs the level
+/// error, and the surface's upfeed slope (0.82 N per 10 µm/rev) still anticipates the doubling.
+#[test]
+fn doe_response_surface_drives_the_mpc_preview() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = dir.path().join("fz.toml");
+    millcomp()
+        .args([
+            "doe",
+            "analyze",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/datasets/data/clayton_doe.csv"),
+            "--response",
+            "max_fz_n",
+            "--factors",
+            "depth_um,speed_rpm,upfeed_um",
+            "--save",
+        ])
+        .arg(&model)
+        .assert()
+        .success();
+    let base = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/datasets/scenarios/groove_s7_20deg_feed_step.toml"
+    ))
+    .unwrap()
+    .replace("length_mm = 20.0", "length_mm = 12.0");
+    let scenario = dir.path().join("rs.toml");
+    std::fs::write(
+        &scenario,
+        format!(
+            "{base}force_response_surface = {:?}\n",
+            model.display().to_string()
+        ),
+    )
+    .unwrap();
+    let run = |controller: &str| -> serde_json::Value {
+        let o = millcomp()
+            .arg("simulate")
+            .arg(&scenario)
+            .args(["--controller", controller, "--json"])
+            .assert()
+            .success()
+            .get_output()
+            .stdout
+            .clone();
+        serde_json::from_slice(&o).unwrap()
+    };
+    let mpc = run("mpc");
+    let notes = mpc["notes"].to_string();
+    assert!(notes.contains("response surface `max_fz_n`"), "{notes}");
+    assert!(notes.contains("extrapolated"), "{notes}");
+    assert_eq!(mpc["commands_finite"], true);
+    assert_eq!(mpc["commands_in_limits"], true);
+    // measured (release): MPC 0.54 µm vs PID 1.69 µm peak at the feed doubling
+    let pid = run("pid");
+    let (m, p) = (
+        mpc["process_change_peak_um"].as_f64().unwrap(),
+        pid["process_change_peak_um"].as_f64().unwrap(),
+    );
+    assert!(m < p, "mpc {m} pid {p}");
+}
