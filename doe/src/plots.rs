@@ -3,6 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use statrs::distribution::{ContinuousCDF, Normal};
 
@@ -253,16 +254,27 @@ fn main_effects(a: &Analysis, path: &Path) -> Result<bool> {
             .x_labels(5)
             .draw()
             .map_err(perr(path))?;
-        ch.draw_series(LineSeries::new(pts.clone(), BLUE.stroke_width(2)))
-            .map_err(perr(path))?;
-        ch.draw_series(
-            pts.iter()
-                .map(|&(x, y)| Circle::new((x, y), 4, BLUE.filled())),
-        )
-        .map_err(perr(path))?;
+        line_with_markers(&mut ch, &pts, BLUE, path)?;
     }
     root.present().map_err(perr(path))?;
     Ok(true)
+}
+
+/// A 2-px line through `pts` with a filled circle on each point (the main-effect and interaction plots).
+fn line_with_markers(
+    ch: &mut ChartContext<'_, SVGBackend<'_>, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    pts: &[(f64, f64)],
+    color: RGBColor,
+    path: &Path,
+) -> Result<()> {
+    ch.draw_series(LineSeries::new(pts.to_vec(), color.stroke_width(2)))
+        .map_err(perr(path))?;
+    ch.draw_series(
+        pts.iter()
+            .map(|&(x, y)| Circle::new((x, y), 4, color.filled())),
+    )
+    .map_err(perr(path))?;
+    Ok(())
 }
 
 fn interactions(a: &Analysis, path: &Path) -> Result<bool> {
@@ -319,13 +331,7 @@ fn interactions(a: &Analysis, path: &Path) -> Result<bool> {
                 continue;
             }
             let pts = level_means(a, i, &rows_at);
-            ch.draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
-                .map_err(perr(path))?;
-            ch.draw_series(
-                pts.iter()
-                    .map(|&(x, y)| Circle::new((x, y), 4, color.filled())),
-            )
-            .map_err(perr(path))?;
+            line_with_markers(&mut ch, &pts, color, path)?;
         }
     }
     root.present().map_err(perr(path))?;

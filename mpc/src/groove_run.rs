@@ -237,6 +237,11 @@ impl DeflectionPlan {
         })
     }
 
+    /// Number of tabulated points.
+    pub fn n_points(&self) -> usize {
+        self.values_um.len()
+    }
+
     /// Planned position at time `t_s` (mm).
     pub fn x_at(&self, t_s: f64) -> f64 {
         self.feed.x_at(t_s)
@@ -503,10 +508,14 @@ pub fn change_windows(t: &GrooveConfig) -> Vec<(f64, f64)> {
         .chain(t.feed_changes.iter().map(|f| f.x_mm))
         .map(|x| (x - CHANGE_WINDOW_BEFORE_MM, x + CHANGE_WINDOW_AFTER_MM))
         .collect();
-    if let Some(e) = t.exit {
-        w.push((e.x_mm - e.length_mm - CHANGE_WINDOW_BEFORE_MM, e.x_mm));
-    }
+    w.extend(exit_window(t));
     w
+}
+
+/// The exit zone (mm): from [`CHANGE_WINDOW_BEFORE_MM`] before the engagement starts to drop to the edge.
+fn exit_window(t: &GrooveConfig) -> Option<(f64, f64)> {
+    t.exit
+        .map(|e| (e.x_mm - e.length_mm - CHANGE_WINDOW_BEFORE_MM, e.x_mm))
 }
 
 /// Run a groove scenario with one controller.
@@ -590,14 +599,7 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcEr
                 k: 0,
                 v_hold: 0.0,
                 window: PreviewWindow::zeros(n, 2),
-                pending_failures: s
-                    .faults
-                    .iter()
-                    .filter_map(|f| match *f {
-                        Fault::SolverFailure { t_s, cycles } => Some((t_s, cycles)),
-                        _ => None,
-                    })
-                    .collect(),
+                pending_failures: s.solver_failures(),
                 // 1 ms of a bit-identical gauge reading, 2 ms of an identical force reading
                 stale: [
                     StaleDetector::new((2e-3 / dt) as usize),
@@ -608,16 +610,14 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcEr
     };
     // process changes inside the groove: depth steps / plunges, feed changes, the exit
     let windows = change_windows(t);
-    let exit_window = t
-        .exit
-        .map(|e| (e.x_mm - e.length_mm - CHANGE_WINDOW_BEFORE_MM, e.x_mm));
+    let exit_window = exit_window(t);
     let mut change_peak: f64 = 0.0;
     let mut exit_overcut: f64 = 0.0;
     if plan.extrapolated_points > 0 {
         notes.push(format!(
             "force predictor extrapolated at {} of {} planned points (outside the response surface's fitted ranges)",
             plan.extrapolated_points,
-            (t.length_mm / 0.01).ceil() as usize + 1
+            plan.n_points()
         ));
     }
     if let ForcePredictor::ResponseSurface(_) = &setup.model_force {

@@ -397,6 +397,19 @@ fn default_seed() -> u64 {
     1
 }
 
+impl Scenario {
+    /// The injected solver failures as `(t_s, cycles)`, in file order.
+    pub fn solver_failures(&self) -> Vec<(f64, usize)> {
+        self.faults
+            .iter()
+            .filter_map(|f| match *f {
+                Fault::SolverFailure { t_s, cycles } => Some((t_s, cycles)),
+                _ => None,
+            })
+            .collect()
+    }
+}
+
 fn finite_pos(key: &str, v: f64) -> Result<(), MpcError> {
     if v.is_finite() && v > 0.0 {
         Ok(())
@@ -488,16 +501,15 @@ impl Scenario {
                 }
                 finite_pos("groove.feed_accel_mm_s2", g.feed_accel_mm_s2)?;
                 if let Some(e) = g.exit {
-                    if !(e.x_mm.is_finite() && e.x_mm > 0.0 && e.x_mm <= g.length_mm) {
-                        return Err(invalid("groove.exit.x_mm", e.x_mm, "0 < x_mm <= length_mm"));
-                    }
-                    if !(e.length_mm.is_finite() && e.length_mm >= 0.0 && e.length_mm < e.x_mm) {
-                        return Err(invalid(
-                            "groove.exit.length_mm",
-                            e.length_mm,
-                            "0 <= length_mm < exit.x_mm",
-                        ));
-                    }
+                    // sim's own check; its parameter names (`exit.x_mm`, …) become scenario keys
+                    e.validate(g.length_mm).map_err(|err| match err {
+                        millcomp_sim::SimError::InvalidParameter {
+                            name,
+                            value,
+                            allowed,
+                        } => invalid(format!("groove.{name}"), value, allowed),
+                        other => other.into(),
+                    })?;
                 }
                 if let Some(u) = g.calibrate_uncompensated_um {
                     finite_pos("groove.calibrate_uncompensated_um", u)?;

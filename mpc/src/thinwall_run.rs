@@ -232,14 +232,7 @@ pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Mp
                 TwCtl::Mpc {
                     mpc: Box::new(thin_wall_mpc(h)?),
                     window: PreviewWindow::zeros(h, 2),
-                    pending: s
-                        .faults
-                        .iter()
-                        .filter_map(|f| match *f {
-                            Fault::SolverFailure { t_s, cycles } => Some((t_s, cycles)),
-                            _ => None,
-                        })
-                        .collect(),
+                    pending: s.solver_failures(),
                 }
             }
             _ => unreachable!("rejected above"),

@@ -267,15 +267,8 @@ impl GrooveConfig {
         self.force_model.validate()?;
         self.stiffness.validate()?;
         self.spindle.validate()?;
-        check_positive("speed_rpm", self.speed_rpm)?;
-        check_positive("upfeed_um_per_rev", self.upfeed_um_per_rev)?;
-        check_range(
-            "tilt_deg",
-            self.tilt_deg,
-            0.0,
-            89.999_999,
-            "0 <= tilt_deg < 90",
-        )?;
+        // speed, upfeed and tilt: the cut conditions' own checks
+        self.conditions(0.0).validate()?;
         check_positive("length_mm", self.length_mm)?;
         self.depth_profile
             .validate(self.force_model.tool.radius_um)?;
