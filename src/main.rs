@@ -7,7 +7,7 @@ use clap::Parser;
 
 mod cli;
 mod cmd;
-mod plot;
+mod present;
 
 use cli::Cli;
 

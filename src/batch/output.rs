@@ -12,7 +12,7 @@ use serde::Serialize;
 use super::exec::{METRICS, RunRecord, load_record, read_plan, read_shard};
 use super::factors::FactorValue;
 use super::plan::{Plan, Shard};
-use crate::plot::{Series, line_plot};
+use crate::present::plot::{Series, line_plot};
 
 /// The ANOVA of one metric.
 #[derive(Debug, Clone, Serialize)]

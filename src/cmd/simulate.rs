@@ -12,7 +12,7 @@ use millcomp_mpc::{ControllerKind, Scenario, run_scenario_with_trace};
 
 use crate::cli::SimulateArgs;
 use crate::cmd::print_json;
-use crate::plot::{Series, line_plot};
+use crate::present::plot::{Series, line_plot};
 
 /// Profilometer noise used with `--noise-seed` (002_…txt §7.2: Talysurf, ~0.1 um repeatability).
 const PROFILOMETER_SIGMA_UM: f64 = 0.1;

@@ -1,4 +1,4 @@
-//! Small SVG line plots for CLI outputs (groove profiles, residuals), written atomically.
+//! The one plotting module: SVG line plots (groove profiles, residuals, batch results), written atomically.
 
 use std::path::Path;
 

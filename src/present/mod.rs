@@ -1,0 +1,4 @@
+//! Presentation: the one place where results become text tables and plots. Libraries return data; the
+//! verbs in `cmd/` hand it here to be printed or drawn.
+
+pub mod plot;
