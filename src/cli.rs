@@ -156,7 +156,7 @@ pub struct IdentifyArgs {
     /// force `depth_um,upfeed_um,max_fx_n|max_fy_n|max_fz_n[,speed_rpm,tilt_deg]` or traces
     /// `rot_deg,fx_n|fy_n|fz_n` with the cut conditions; wall `force_n,deflection_um`.
     pub file: PathBuf,
-    /// Write the identified model as TOML (schema: identify/MODEL.md).
+    /// Write the identified model as TOML (schema: models/MODEL.md).
     #[arg(long)]
     pub save: Option<PathBuf>,
     /// Thermal model: exponential | linear-temperature | speed-dependent.

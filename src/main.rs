@@ -7,6 +7,7 @@ use clap::Parser;
 
 mod cli;
 mod cmd;
+mod columns;
 mod present;
 
 use cli::Cli;

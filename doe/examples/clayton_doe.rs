@@ -1,22 +1,15 @@
 //! The DOE of the Clayton thesis (seed 000, §3.5): generate the 2³ treatment matrix of Table 3-2, analyse the
-//! measured maximum forces of Table 3-3, and write plots and a fitted force model.
+//! measured maximum forces of Table 3-3, and evaluate the fitted response surface (`millcomp doe analyze
+//! --plots DIR --save model.toml` draws the plots and saves the model).
 //!
-//! Run: `cargo run -p millcomp-doe --example clayton_doe [OUT_DIR]` (default OUT_DIR: a temporary directory).
-
-use std::path::PathBuf;
+//! Run: `cargo run -p millcomp-doe --example clayton_doe`.
 
 use millcomp_doe::{
     AnalysisInput, Column, DesignKind, DesignRequest, FactorSpec, ModelSpec, analyze, generate,
-    power, save_model_toml, write_plots,
+    power, response_surface,
 };
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let out: PathBuf = std::env::args()
-        .nth(1)
-        .map(PathBuf::from)
-        .unwrap_or_else(|| std::env::temp_dir().join("clayton_doe"));
-    std::fs::create_dir_all(&out)?;
-
     // Table 3-2 factors → randomised 2³ (the thesis randomised with JMP; here ChaCha8 with a fixed seed).
     let factors = FactorSpec::parse_list("depth_um=100:200,speed_rpm=10000:20000,upfeed_um=10:20")?;
     let mut req = DesignRequest::new(DesignKind::Full, factors);
@@ -47,14 +40,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         let a = analyze(&input)?;
         println!("\n{}", a.human());
-        let dir = out.join(name);
-        let files = write_plots(&a, &dir)?;
-        let model = save_model_toml(&a, &dir.join("model.toml"))?;
-        println!(
-            "plots: {}  model: {}",
-            files.len(),
-            dir.join("model.toml").display()
-        );
+        let model = response_surface(&a)?;
         println!(
             "predicted {name} at 150 µm, 15 000 rpm, 15 µm/rev: {:.3} N",
             model.predict(&[

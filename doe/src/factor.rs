@@ -1,6 +1,6 @@
 //! Factor specifications (`depth_um=100:200`, `A`, `material=S7:1018:6061`), levels and table columns.
 
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 use crate::error::{DoeError, Result};
 
@@ -18,24 +18,8 @@ pub fn factor_letter(i: usize) -> String {
     }
 }
 
-/// One level of a factor, or one value in a table: a number or a label.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(untagged)]
-pub enum Level {
-    /// A numeric level (actual units).
-    Num(f64),
-    /// A categorical level.
-    Label(String),
-}
-
-impl std::fmt::Display for Level {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Level::Num(v) => write!(f, "{v}"),
-            Level::Label(s) => f.write_str(s),
-        }
-    }
-}
+/// One level of a factor, or one value in a table: a number or a label (the models crate's type).
+pub use millcomp_models::Level;
 
 /// A table column, in the three types the CLI's table layer (polars) distinguishes.
 #[derive(Debug, Clone, PartialEq)]

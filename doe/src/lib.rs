@@ -12,7 +12,8 @@
 //! effects and coefficients with standard errors, type II ANOVA (equal to the sequential ANOVA in orthogonal
 //! designs; matches statsmodels' `anova_lm(..., typ=2)`), R², adjusted and predicted R², lack of fit, Lenth's
 //! PSE/ME/SME for saturated models, residual diagnostics, [`backward_eliminate`], [`power`] (noncentral F),
-//! SVG plots ([`write_plots`]) and an actual-unit [`FittedModel`] saved as TOML (schema: `doe/MODEL.md`).
+//! and the actual-unit [`response_surface`] of a fit (a `millcomp_models::ResponseSurface`, saved in the common
+//! model-file format: `models/MODEL.md`). Plots of an analysis are drawn by the CLI.
 //!
 //! ```
 //! use millcomp_doe::{analyze, generate, AnalysisInput, Column, DesignKind, DesignRequest, FactorSpec, ModelSpec};
@@ -45,9 +46,8 @@ pub mod analysis;
 pub mod design;
 pub mod error;
 pub mod factor;
-pub mod fitted;
 pub mod model;
-pub mod plots;
+pub mod surface;
 
 pub use analysis::{
     Analysis, AnalysisInput, BOOKKEEPING_COLUMNS, CoefRow, Diagnostics, Elimination,
@@ -63,8 +63,5 @@ pub use error::{DoeError, Result};
 pub use factor::{
     Column, FACTOR_LETTERS, FactorInfo, FactorLevels, FactorSpec, Level, factor_letter,
 };
-pub use fitted::{
-    ActualTerm, CodedFit, FittedModel, MODEL_FORMAT, MODEL_VERSION, Prediction, save_model_toml,
-};
 pub use model::ModelSpec;
-pub use plots::write_plots;
+pub use surface::response_surface;

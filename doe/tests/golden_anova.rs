@@ -6,7 +6,7 @@
 mod common;
 
 use common::*;
-use millcomp_doe::{AnalysisInput, Column, FittedModel, ModelSpec, analyze};
+use millcomp_doe::{AnalysisInput, Column, ModelSpec, analyze, response_surface};
 
 fn ccd_input() -> (AnalysisInput, serde_json::Value) {
     let g = golden("anova_more.json")["ccd"].clone();
@@ -85,7 +85,7 @@ fn ccd_quadratic_type2_anova_matches_statsmodels() {
 fn fitted_model_actual_units_match_statsmodels_on_raw_columns() {
     let (input, g) = ccd_input();
     let a = analyze(&input).unwrap();
-    let m = FittedModel::from_analysis(&a).unwrap();
+    let m = response_surface(&a).unwrap();
     // statsmodels parameter name → our actual-unit term name.
     let map = [
         ("Intercept", "intercept"),
@@ -189,7 +189,7 @@ fn multi_df_label_terms_match_statsmodels() {
         TOL_LINALG
     ));
     // The fitted model predicts label levels.
-    let m = FittedModel::from_analysis(&a).unwrap();
+    let m = response_surface(&a).unwrap();
     let p = m
         .predict_levels(&[
             ("material", millcomp_doe::Level::Label("S7".into())),

@@ -1,12 +1,11 @@
-//! Fitted model TOML (doe/MODEL.md), backward elimination and SVG plots.
+//! The response surface in the common model-file format (models/MODEL.md) and backward elimination.
+//! (The SVG plots of an analysis are the CLI's: `src/present/doe.rs`.)
 
 mod common;
 
 use common::*;
-use millcomp_doe::{
-    AnalysisInput, DoeError, FittedModel, ModelSpec, analyze, backward_eliminate, save_model_toml,
-    write_plots,
-};
+use millcomp_doe::{AnalysisInput, ModelSpec, analyze, backward_eliminate, response_surface};
+use millcomp_models::{ModelError, ModelFile, Provenance, ResponseSurface};
 
 fn clayton(response: &str, model: ModelSpec) -> AnalysisInput {
     let table = read_csv("tests/fixtures/clayton_table_3_3.csv");
@@ -22,11 +21,21 @@ fn model_toml_round_trip_and_prediction() {
     let a = analyze(&clayton("fx_n", ModelSpec::Main)).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("fx_model.toml");
-    let m = save_model_toml(&a, &path).unwrap();
+    let m = response_surface(&a).unwrap();
+    ModelFile::new(
+        "response_surface",
+        m.clone(),
+        Provenance::now("test", "test"),
+    )
+    .save(&path)
+    .unwrap();
     let text = std::fs::read_to_string(&path).unwrap();
-    assert!(text.contains("format = \"millcomp-doe-model\""));
-    assert!(text.contains("[[terms]]") && text.contains("[[factors]]"));
-    let back = FittedModel::load_toml(&path).unwrap();
+    assert!(text.contains("format = \"millcomp-model\""));
+    assert!(text.contains("kind = \"response_surface\""));
+    assert!(text.contains("[[model.terms]]") && text.contains("[[model.factors]]"));
+    let back = ModelFile::<ResponseSurface>::load(&path, &ResponseSurface::KINDS)
+        .unwrap()
+        .model;
     assert_eq!(back, m);
     // Prediction at trial 1 (200 µm, 10 000 rpm, 20 µm/rev) equals the fitted value of row 1.
     let p = back
@@ -58,13 +67,20 @@ fn model_toml_round_trip_and_prediction() {
     );
     assert!(matches!(
         back.predict(&[("depth_um", 150.0), ("speed_rpm", 1e4)]),
-        Err(DoeError::InvalidPredictionPoint { factor, .. }) if factor == "upfeed_um"
+        Err(ModelError::Prediction { factor, .. }) if factor == "upfeed_um"
     ));
     assert!(matches!(
         back.predict(&[("depth_um", 150.0), ("speed_rpm", 1e4), ("upfeed_um", 10.0), ("tilt_deg", 3.0)]),
-        Err(DoeError::UnknownFactor { name, .. }) if name == "tilt_deg"
+        Err(ModelError::Prediction { factor, .. }) if factor == "tilt_deg"
     ));
-    assert!(FittedModel::from_toml_str(&text.replace("millcomp-doe-model", "other")).is_err());
+    assert!(
+        ModelFile::<ResponseSurface>::from_toml(
+            &text.replace("millcomp-model", "other"),
+            &path,
+            &ResponseSurface::KINDS
+        )
+        .is_err()
+    );
 }
 
 #[test]
@@ -85,40 +101,4 @@ fn backward_elimination_on_table_3_3() {
     let s = backward_eliminate(&clayton("fx_n", ModelSpec::Full), 0.05).unwrap();
     assert!(s.steps[0].p_value.is_none());
     assert_eq!(s.analysis.model, "depth_um + upfeed_um");
-}
-
-#[test]
-fn plots_are_written_as_svg() {
-    let table = read_csv("tests/fixtures/montgomery_example_6_2.csv");
-    let a = analyze(
-        &AnalysisInput::from_table(&table, "filtration_rate", None, ModelSpec::Full).unwrap(),
-    )
-    .unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    let files = write_plots(&a, dir.path()).unwrap();
-    let names: Vec<String> = files
-        .iter()
-        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
-        .collect();
-    assert_eq!(
-        names,
-        vec![
-            "half_normal.svg",
-            "pareto.svg",
-            "main_effects.svg",
-            "interactions.svg",
-            "residuals.svg"
-        ]
-    );
-    for f in &files {
-        let s = std::fs::read_to_string(f).unwrap();
-        assert!(s.starts_with("<svg"), "{}", f.display());
-        assert!(s.len() > 1000);
-    }
-    let hn = std::fs::read_to_string(&files[0]).unwrap();
-    assert!(hn.contains("A:C") && hn.contains("Half-normal"));
-    // A model with error df draws the Pareto of |t|.
-    let b = analyze(&clayton("fz_n", ModelSpec::Main)).unwrap();
-    let files = write_plots(&b, &dir.path().join("z")).unwrap();
-    assert_eq!(files.len(), 5);
 }

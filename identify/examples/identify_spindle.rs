@@ -31,13 +31,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .collect();
     let mut cols = Columns::new();
     cols.insert("t_s", t).insert("u_v", u).insert("y_um", y);
-    let opts = IdentifyOptions {
-        source_file: "synthetic_step.csv".into(),
-        ..Default::default()
-    };
+    let opts = IdentifyOptions::default();
     let fit = identify_columns(Verb::Spindle, &cols, &opts)?;
     println!("{}", serde_json::to_string_pretty(&fit)?);
-    println!("---- model.toml ----\n{}", fit.model.to_toml()?);
+    let file = millcomp_models::ModelFile::new(
+        &fit.kind,
+        fit.model.clone(),
+        millcomp_models::Provenance::now(
+            "identify_spindle example",
+            "cargo run --example identify_spindle",
+        ),
+    );
+    println!("---- model.toml ----\n{}", file.to_toml()?);
     let zeta = fit.report.param("zeta");
     assert!((zeta - 0.46).abs() < 0.01, "zeta {zeta}");
     Ok(())

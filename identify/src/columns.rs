@@ -95,8 +95,6 @@ impl Columns {
 /// Options of all verbs (each verb uses its own).
 #[derive(Debug, Clone, Default)]
 pub struct IdentifyOptions {
-    /// Data file name recorded in the saved model.
-    pub source_file: String,
     /// Nonlinear solver options.
     pub nls: NlsOptions,
     /// Thermal model (default exponential).
@@ -159,10 +157,7 @@ impl<'a> Picker<'a> {
 
 /// Runs verb `verb` on named columns (see the module table for the names).
 pub fn identify_columns(verb: Verb, cols: &Columns, opts: &IdentifyOptions) -> Result<Identified> {
-    let common = VerbOptions {
-        source_file: opts.source_file.clone(),
-        nls: opts.nls,
-    };
+    let common = VerbOptions { nls: opts.nls };
     let name = match verb {
         Verb::Spindle => "spindle",
         Verb::Stiffness => "stiffness",

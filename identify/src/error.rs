@@ -125,9 +125,6 @@ pub enum IdentifyError {
     /// The argmin solver failed internally (not a non-convergence, which is a report status).
     #[error("solver error: {0}")]
     Solver(String),
-    /// A saved model file could not be read or written.
-    #[error("saved model: {0}")]
-    SavedModel(String),
     /// `diagnose`: the measured data do not belong to the session (different grooves, points or
     /// conditions). `row` is the 0-based data row, `None` when the whole file is at fault.
     #[error("measured data do not match the session: {}column `{column}`: {message}", row.map(|r| format!("row {r}, ")).unwrap_or_default())]

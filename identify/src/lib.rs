@@ -30,8 +30,7 @@ pub use jaccheck::{JacobianCheck, check_jacobian, fd_jacobian};
 pub use linear::{LinearFit, LinearMethod, fit_linear};
 pub use nonlinear::{NlsOptions, NonlinearFit, ParamSpec, ResidualModel, fit_nonlinear};
 pub use report::{FitReport, FitStatus, NamedMatrix, ResidualDiagnostics, RmsResidual};
-pub mod saved;
 pub mod verbs;
 
-pub use saved::{Derived, SavedModel};
+pub use millcomp_models::{Derived, IdentifiedModel};
 pub use verbs::Identified;

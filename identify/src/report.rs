@@ -37,57 +37,7 @@ pub mod thresholds {
     pub const DIAG_MIN_N: usize = 20;
 }
 
-/// Outcome of a fit (an outcome, not an error: every status comes with a full report).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum FitStatus {
-    /// Converged (a tolerance was met) or solved exactly (linear, full rank).
-    Converged,
-    /// The iteration limit was reached before any tolerance was met.
-    MaxIter,
-    /// The data do not determine all parameters (the Jacobian is numerically rank deficient);
-    /// the estimate is the minimum-norm one along the unseen directions named in `warnings`.
-    RankDeficient,
-}
-
-/// A square matrix indexed by parameter name (serialised as `{"names": [...], "values": [[...]]}`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
-pub struct NamedMatrix {
-    /// Row/column names, in parameter order.
-    pub names: Vec<String>,
-    /// Row-major values.
-    pub values: Vec<Vec<f64>>,
-}
-
-impl NamedMatrix {
-    /// Entry by names, `None` when a name is unknown.
-    pub fn get(&self, row: &str, col: &str) -> Option<f64> {
-        let i = self.names.iter().position(|n| n == row)?;
-        let j = self.names.iter().position(|n| n == col)?;
-        self.values.get(i)?.get(j).copied()
-    }
-
-    /// As an nalgebra matrix (parameter order of `names`).
-    pub fn to_matrix(&self) -> DMatrix<f64> {
-        let n = self.names.len();
-        DMatrix::from_fn(n, n, |i, j| {
-            self.values
-                .get(i)
-                .and_then(|r| r.get(j))
-                .copied()
-                .unwrap_or(f64::NAN)
-        })
-    }
-
-    fn from_matrix(names: &[String], m: &DMatrix<f64>) -> Self {
-        NamedMatrix {
-            names: names.to_vec(),
-            values: (0..m.nrows())
-                .map(|i| (0..m.ncols()).map(|j| m[(i, j)]).collect())
-                .collect(),
-        }
-    }
-}
+pub use millcomp_models::{FitStatus, NamedMatrix};
 
 /// RMS of the unweighted residuals (model − data), serialised as one key carrying the unit,
 /// e.g. `"rms_residual_um": 0.21`.

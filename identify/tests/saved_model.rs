@@ -1,9 +1,18 @@
-//! The saved-model TOML (documented in `identify/MODEL.md`): round trip, required keys, readers'
-//! checks.
+//! Identified models in the common model-file format (`models/MODEL.md`): round trip, required keys,
+//! readers' checks.
+
+use std::path::Path;
 
 use millcomp_identify::verbs::spindle::*;
 use millcomp_identify::verbs::stiffness::*;
-use millcomp_identify::{IdentifyError, SavedModel};
+use millcomp_models::{IdentifiedModel, ModelFile, Provenance, SpindleModel};
+
+fn provenance() -> Provenance {
+    Provenance::now(
+        "millcomp 0.1.0",
+        "millcomp identify spindle step.csv --save m.toml",
+    )
+}
 
 fn spindle_model() -> millcomp_identify::Identified {
     let s = millcomp_sim::spindle::PztSpindle::new(0.05, 0.46, 1302.0, None, None).unwrap();
@@ -15,13 +24,7 @@ fn spindle_model() -> millcomp_identify::Identified {
         .enumerate()
         .map(|(i, y)| y + 0.002 * ((i * 7 % 5) as f64 - 2.0))
         .collect();
-    let opts = SpindleOptions {
-        common: millcomp_identify::verbs::thermal::VerbOptions {
-            source_file: "step.csv".into(),
-            ..Default::default()
-        },
-        ..Default::default()
-    };
+    let opts = SpindleOptions::default();
     identify_spindle(
         &SpindleData {
             t_s: &t,
@@ -35,13 +38,15 @@ fn spindle_model() -> millcomp_identify::Identified {
 
 #[test]
 fn round_trip_preserves_everything() {
-    let m = spindle_model().model;
-    let text = m.to_toml().unwrap();
-    assert!(text.starts_with("[model]"), "{text}");
+    let fit = spindle_model();
+    assert_eq!(fit.kind, "spindle");
+    let file = ModelFile::new(&fit.kind, fit.model.clone(), provenance());
+    let text = file.to_toml().unwrap();
+    assert!(text.starts_with("[header]"), "{text}");
     for key in [
+        "format = \"millcomp-model\"",
+        "version = 1",
         "kind = \"spindle\"",
-        "format_version = 1",
-        "source_file = \"step.csv\"",
         "[model.params]",
         "[model.std_err]",
         "[model.covariance]",
@@ -49,23 +54,22 @@ fn round_trip_preserves_everything() {
     ] {
         assert!(text.contains(key), "missing {key} in\n{text}");
     }
-    let back = SavedModel::from_toml(&text).unwrap();
-    assert_eq!(back, m);
-    back.expect_kind("spindle").unwrap();
-    assert!((back.param("wn_rad_s").unwrap() - 1302.0).abs() < 5.0);
-    assert!(matches!(
-        back.expect_kind("wall"),
-        Err(IdentifyError::SavedModel(_))
-    ));
-    assert!(
-        back.param("nonexistent")
-            .unwrap_err()
-            .to_string()
-            .contains("gain_um_per_v")
-    );
-    // Readers get the physics crate's spindle back.
-    let s = back.to_spindle().unwrap();
-    assert_eq!(s.zeta, back.params["zeta"]);
+    let back =
+        ModelFile::<IdentifiedModel>::from_toml(&text, Path::new("m.toml"), &["spindle"]).unwrap();
+    assert_eq!(back, file);
+    let m = &back.model;
+    assert!((m.get("wn_rad_s").unwrap() - 1302.0).abs() < 5.0);
+    let e =
+        ModelFile::<IdentifiedModel>::from_toml(&text, Path::new("m.toml"), &["wall"]).unwrap_err();
+    assert!(e.to_string().contains("header.kind"), "{e}");
+    let e = m
+        .require("nonexistent", Path::new("m.toml"), "spindle")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("gain_um_per_v") && e.contains("m.toml"), "{e}");
+    // Readers get the typed spindle view back.
+    let s = SpindleModel::from_identified(m, Path::new("m.toml")).unwrap();
+    assert_eq!(s.zeta, m.params["zeta"]);
     assert!(s.pole_rad_s.is_none() && s.dead_time_s.is_none());
 }
 
@@ -103,9 +107,13 @@ fn derived_quantities_are_saved() {
     // 1/(cos²20°/1.22 + sin²20°/0.114) = 0.571 N/µm (000 §5.2.3 eq. 21 reconstruction, sim docs).
     assert!((d.value - 0.571).abs() < 0.01, "{d:?}");
     assert!(d.ci95[0] < d.value && d.value < d.ci95[1]);
-    let back = SavedModel::from_toml(&r.model.to_toml().unwrap()).unwrap();
-    assert_eq!(back.derived, r.derived);
-    assert_eq!(back.kind, "stiffness");
+    let text = ModelFile::new(&r.kind, r.model.clone(), provenance())
+        .to_toml()
+        .unwrap();
+    let back = ModelFile::<IdentifiedModel>::from_toml(&text, Path::new("k.toml"), &["stiffness"])
+        .unwrap();
+    assert_eq!(back.model.derived, r.derived);
+    assert_eq!(back.header.kind, "stiffness");
     // JSON for the CLI: contract keys at top level.
     let json = serde_json::to_value(&r).unwrap();
     for k in [
@@ -125,19 +133,16 @@ fn derived_quantities_are_saved() {
 
 #[test]
 fn bad_files_are_errors() {
-    assert!(matches!(
-        SavedModel::from_toml("[model]\nkind = 3"),
-        Err(IdentifyError::SavedModel(_))
-    ));
-    let m = spindle_model().model;
-    let text = m
+    let p = Path::new("bad.toml");
+    let e = ModelFile::<IdentifiedModel>::from_toml("[model]\nkind = 3", p, &[]).unwrap_err();
+    assert!(e.to_string().contains("bad.toml"), "{e}");
+    let fit = spindle_model();
+    let text = ModelFile::new(&fit.kind, fit.model, provenance())
         .to_toml()
         .unwrap()
-        .replace("format_version = 1", "format_version = 99");
-    assert!(
-        SavedModel::from_toml(&text)
-            .unwrap_err()
-            .to_string()
-            .contains("format_version 99")
-    );
+        .replace("version = 1", "version = 99");
+    let e = ModelFile::<IdentifiedModel>::from_toml(&text, p, &[])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("header.version") && e.contains("99"), "{e}");
 }

@@ -78,15 +78,23 @@ fn deepest(g: &GrooveScenario) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Read an identified model saved by `millcomp identify` (TOML).
-fn load_saved(path: &str) -> Result<millcomp_identify::SavedModel, MpcError> {
-    let text = std::fs::read_to_string(path).map_err(|e| MpcError::Io {
-        path: path.to_string(),
-        message: e.to_string(),
-    })?;
-    millcomp_identify::SavedModel::from_toml(&text).map_err(|e| MpcError::Scenario {
-        path: path.to_string(),
-        message: e.to_string(),
+/// Read an identified model saved by `millcomp identify` (the common model-file format) of one of `kinds`.
+fn load_saved(
+    path: &str,
+    kinds: &[&str],
+) -> Result<millcomp_models::ModelFile<millcomp_models::IdentifiedModel>, MpcError> {
+    millcomp_models::ModelFile::load(std::path::Path::new(path), kinds).map_err(|e| match e {
+        millcomp_models::ModelError::Io { source, .. } => MpcError::Io {
+            path: path.to_string(),
+            message: source.to_string(),
+        },
+        other => MpcError::Scenario {
+            path: path.to_string(),
+            message: match std::error::Error::source(&other) {
+                Some(cause) => format!("{other}: {cause}"),
+                None => other.to_string(),
+            },
+        },
     })
 }
 
@@ -141,28 +149,31 @@ pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, MpcError> {
                 "one force predictor: either an identified model or a response surface",
             ));
         }
-        (Some(path), None) => ForcePredictor::Mechanistic(
-            load_saved(path)?
-                .apply_to_force_model(&truth.force_model)
-                .map_err(|e| {
-                    crate::error::invalid(
-                        "control.force_model",
-                        path,
-                        format!("a saved `force` model: {e}"),
-                    )
-                })?,
-        ),
+        (Some(path), None) => {
+            let file = load_saved(path, &millcomp_models::ForceModelParams::KINDS)?;
+            let params = millcomp_models::ForceModelParams::from_identified(
+                &file.model,
+                std::path::Path::new(path),
+            )
+            .map_err(|e| crate::error::invalid("control.force_model", path, e.to_string()))?;
+            ForcePredictor::Mechanistic(crate::identified::force_model_with(
+                &params,
+                &truth.force_model,
+            )?)
+        }
         (None, Some(path)) => ForcePredictor::ResponseSurface(ResponseSurface::load(path)?),
         (None, None) => ForcePredictor::Mechanistic(force_errors.apply(&truth.force_model)?),
     };
     let model_spindle = match &s.control.spindle_model {
-        Some(path) => load_saved(path)?.to_spindle().map_err(|e| {
-            crate::error::invalid(
-                "control.spindle_model",
-                path,
-                format!("a saved `spindle` model: {e}"),
+        Some(path) => {
+            let file = load_saved(path, &millcomp_models::SpindleModel::KINDS)?;
+            let m = millcomp_models::SpindleModel::from_identified(
+                &file.model,
+                std::path::Path::new(path),
             )
-        })?,
+            .map_err(|e| crate::error::invalid("control.spindle_model", path, e.to_string()))?;
+            crate::identified::spindle_plant(&m)?
+        }
         None => truth.spindle.clone(),
     };
     let calibration = calibrate_stiffness(

@@ -31,6 +31,7 @@ pub mod config;
 pub mod controller;
 pub mod error;
 pub mod groove_run;
+pub mod identified;
 pub mod kalman;
 pub mod pid;
 pub mod predictor;

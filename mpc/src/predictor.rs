@@ -12,7 +12,7 @@
 
 use std::path::Path;
 
-use millcomp_doe::{FactorCoding, FittedModel};
+use millcomp_models::{FactorCoding, ModelFile};
 use millcomp_sim::force::{BallEndForceModel, CutConditions};
 
 use crate::error::{MpcError, invalid};
@@ -29,7 +29,7 @@ pub const PROCESS_FACTORS: [&str; 5] = [
 /// A response-surface force predictor loaded from a `doe analyze --save` model.
 #[derive(Debug, Clone)]
 pub struct ResponseSurface {
-    model: FittedModel,
+    model: millcomp_models::ResponseSurface,
     path: String,
     factors: Vec<String>,
 }
@@ -37,15 +37,24 @@ pub struct ResponseSurface {
 impl ResponseSurface {
     /// Load and check a saved model: numeric factors only, each a known process parameter.
     pub fn load(path: &str) -> Result<Self, MpcError> {
-        let model = FittedModel::load_toml(Path::new(path)).map_err(|e| MpcError::Scenario {
+        let file = ModelFile::<millcomp_models::ResponseSurface>::load(
+            Path::new(path),
+            &millcomp_models::ResponseSurface::KINDS,
+        )
+        .map_err(|e| MpcError::Scenario {
             path: path.to_string(),
-            message: format!("not a `doe analyze --save` model: {e}"),
+            message: format!(
+                "not a `doe analyze --save` response surface: {e}{}",
+                std::error::Error::source(&e)
+                    .map(|c| format!(": {c}"))
+                    .unwrap_or_default()
+            ),
         })?;
-        Self::new(model, path)
+        Self::new(file.model, path)
     }
 
     /// Wrap an in-memory model (`path` is only used in messages).
-    pub fn new(model: FittedModel, path: &str) -> Result<Self, MpcError> {
+    pub fn new(model: millcomp_models::ResponseSurface, path: &str) -> Result<Self, MpcError> {
         let mut factors = Vec::new();
         for f in &model.factors {
             match f {
@@ -151,9 +160,9 @@ impl ForcePredictor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use millcomp_doe::{AnalysisInput, Column, ModelSpec, analyze};
+    use millcomp_doe::{AnalysisInput, Column, ModelSpec, analyze, response_surface};
 
-    fn surface(factor: &str) -> FittedModel {
+    fn surface(factor: &str) -> millcomp_models::ResponseSurface {
         let col = |v: &[f64]| Column::F64(v.to_vec());
         // f = 0.02·d + 0.05·u exactly on a 2² design
         let input = AnalysisInput {
@@ -165,7 +174,7 @@ mod tests {
             response: col(&[0.9, 2.1, 1.4, 2.6]),
             model: ModelSpec::Main,
         };
-        FittedModel::from_analysis(&analyze(&input).unwrap()).unwrap()
+        response_surface(&analyze(&input).unwrap()).unwrap()
     }
 
     #[test]

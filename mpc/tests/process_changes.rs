@@ -75,7 +75,7 @@ fn exit_mpc_no_undersize_and_half_of_pid() {
 /// feed step.
 #[test]
 fn response_surface_predictor_drives_the_preview() {
-    use millcomp_doe::{AnalysisInput, Column, FittedModel, ModelSpec, analyze};
+    use millcomp_doe::{AnalysisInput, Column, ModelSpec, analyze, response_surface};
     use millcomp_sim::groove::GrooveConfig;
 
     let mut s = around_change(scenario("groove_s7_20deg_feed_step.toml"));
@@ -105,7 +105,7 @@ fn response_surface_predictor_drives_the_preview() {
             );
         }
     }
-    let fitted = FittedModel::from_analysis(
+    let fitted = response_surface(
         &analyze(&AnalysisInput {
             factors: vec![
                 ("depth_um".into(), Column::F64(d)),
@@ -122,7 +122,13 @@ fn response_surface_predictor_drives_the_preview() {
     let dir = std::env::temp_dir().join(format!("millcomp-rs-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("fz_surface.toml");
-    fitted.save_toml(&path).unwrap();
+    millcomp_models::ModelFile::new(
+        "response_surface",
+        fitted,
+        millcomp_models::Provenance::now("test", "response_surface_predictor_drives_the_preview"),
+    )
+    .save(&path)
+    .unwrap();
 
     let mech = run(&s, ControllerKind::Mpc);
     let mut rs = s.clone();

@@ -71,7 +71,7 @@ pub fn design_table(doe_args: &str) -> anyhow::Result<Table> {
         .args;
     let req = crate::cmd::doe::design_request(&args).context("--doe")?;
     let design = millcomp_doe::generate(&req).context("--doe: generating the design")?;
-    let table = crate::cmd::doe::table_from_doe("--doe design", design.columns())?;
+    let table = crate::columns::table_from_doe("--doe design", design.columns())?;
     if let Some(out) = &args.out {
         millcomp_datasets::write_table(&table, out)
             .with_context(|| format!("--doe --out {}", out.display()))?;

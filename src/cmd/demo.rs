@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use millcomp_datasets::{Column, ColumnData, Table};
 use millcomp_doe::{AnalysisInput, ModelSpec};
-use millcomp_identify::{Columns, IdentifyOptions, Verb, identify_columns};
+use millcomp_identify::{IdentifyOptions, Verb, identify_columns};
 use serde::Serialize;
 
 use crate::cli::DemoArgs;
@@ -109,22 +109,6 @@ fn write_table(out: &Path, name: &str, cols: Vec<Column>) -> anyhow::Result<Path
     Ok(path)
 }
 
-fn doe_columns(t: &Table) -> Vec<(String, millcomp_doe::Column)> {
-    t.columns
-        .iter()
-        .map(|c| {
-            let col = match &c.data {
-                ColumnData::Float(v) => millcomp_doe::Column::F64(v.clone()),
-                ColumnData::Int(v) => {
-                    millcomp_doe::Column::F64(v.iter().map(|&x| x as f64).collect())
-                }
-                ColumnData::Text(v) => millcomp_doe::Column::Str(v.clone()),
-            };
-            (c.name.clone(), col)
-        })
-        .collect()
-}
-
 fn fmt_p(p: Option<f64>) -> String {
     p.map_or("-".into(), |p| format!("{p:.4}"))
 }
@@ -132,7 +116,7 @@ fn fmt_p(p: Option<f64>) -> String {
 /// Stage 1: Table 3-3 ANOVA of the three force maxima (main effects, as the thesis, §3.5).
 fn doe_stage(out: &Path, md: &mut String) -> anyhow::Result<Stage> {
     let t = millcomp_datasets::load("clayton_doe")?;
-    let cols = doe_columns(&t);
+    let cols = crate::columns::doe_columns(&t);
     let factors: Vec<String> = ["depth_um", "speed_rpm", "upfeed_um"]
         .map(String::from)
         .to_vec();
@@ -182,7 +166,7 @@ fn doe_stage(out: &Path, md: &mut String) -> anyhow::Result<Stage> {
         }
         if response == "max_fx_n" {
             let dir = out.join("plots").join("doe_max_fx_n");
-            for p in millcomp_doe::write_plots(&a, &dir)? {
+            for p in crate::present::doe::write_doe_plots(&a, &dir)? {
                 files.push(rel(out, &p));
             }
         }
@@ -237,15 +221,24 @@ fn identify_on(
     t: &Table,
     opts: &IdentifyOptions,
 ) -> anyhow::Result<millcomp_identify::verbs::Identified> {
-    let mut cols = Columns::new();
-    for c in &t.columns {
-        match &c.data {
-            ColumnData::Float(v) => cols.insert(&c.name, v.clone()),
-            ColumnData::Int(v) => cols.insert(&c.name, v.iter().map(|&x| x as f64).collect()),
-            ColumnData::Text(v) => cols.insert_text(&c.name, v.clone()),
-        };
-    }
+    let cols = crate::columns::identify_columns(t);
     Ok(identify_columns(verb, &cols, opts)?)
+}
+
+/// Saves an identified model with the embedded data it came from (name and SHA-256) as provenance.
+fn save_identified(
+    fit: &millcomp_identify::verbs::Identified,
+    path: &Path,
+    input_name: &str,
+    input: &str,
+) -> anyhow::Result<()> {
+    let inputs = vec![millcomp_models::InputFile::from_bytes(
+        &format!("{input_name} (embedded)"),
+        input.as_bytes(),
+    )];
+    millcomp_models::ModelFile::new(&fit.kind, fit.model.clone(), crate::cmd::provenance(inputs))
+        .save(path)?;
+    Ok(())
 }
 
 fn param_table(md: &mut String, r: &millcomp_identify::FitReport) {
@@ -273,7 +266,6 @@ fn param_table(md: &mut String, r: &millcomp_identify::FitReport) {
 fn force_stage(out: &Path, md: &mut String) -> anyhow::Result<(Stage, f64)> {
     let t = millcomp_datasets::load("clayton_doe")?;
     let opts = IdentifyOptions {
-        source_file: "clayton_doe".into(),
         material: Some("6061".into()),
         ..Default::default()
     };
@@ -286,7 +278,13 @@ fn force_stage(out: &Path, md: &mut String) -> anyhow::Result<(Stage, f64)> {
     let truth = millcomp_sim::material::Material::by_name("6061")?.w_mpa;
     let w_error_pct = 100.0 * (w / truth - 1.0);
     let model = out.join("force_model.toml");
-    millcomp_datasets::write_text_atomic(&model, &fit.model.to_toml()?)?;
+    let doe = millcomp_datasets::dataset("clayton_doe")?;
+    save_identified(
+        &fit,
+        &model,
+        &format!("datasets/data/{}", doe.file),
+        doe.csv,
+    )?;
     let _ = writeln!(
         md,
         "## 2. Identification\n\n### Force model (6061, from Table 3-3)\n\nNonlinear least squares of the \
@@ -352,12 +350,11 @@ fn parse_spindle_run() -> anyhow::Result<Table> {
 fn spindle_stage(out: &Path, md: &mut String) -> anyhow::Result<Stage> {
     let t = parse_spindle_run()?;
     let opts = IdentifyOptions {
-        source_file: SPINDLE_RUN_FILE.into(),
         ..Default::default()
     };
     let fit = identify_on(Verb::Spindle, &t, &opts).context("identify spindle")?;
     let model = out.join("spindle_model.toml");
-    millcomp_datasets::write_text_atomic(&model, &fit.model.to_toml()?)?;
+    save_identified(&fit, &model, SPINDLE_RUN_FILE, SPINDLE_RUN)?;
     let p = |k: &str| fit.report.params.get(k).copied().unwrap_or(f64::NAN);
     let summary = format!(
         "ζ = {:.3}, ωn = {:.0} rad/s, gain {:.4} µm/V (the thesis: ζ = 0.46, ωn = 1.8/1.38 ms = 1302 rad/s)",

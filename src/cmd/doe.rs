@@ -4,10 +4,9 @@
 use std::path::Path;
 
 use anyhow::{Context, bail};
-use millcomp_datasets::{ColumnData, Table};
 use millcomp_doe::{
-    AnalysisInput, CcdAlpha, CcdVariant, Column, DesignKind, DesignRequest, FactorSpec,
-    LinearConstraint, ModelSpec,
+    AnalysisInput, CcdAlpha, CcdVariant, DesignKind, DesignRequest, FactorSpec, LinearConstraint,
+    ModelSpec,
 };
 
 use crate::cli::{DoeAnalyzeArgs, DoeCommand, DoeDesignArgs};
@@ -55,7 +54,7 @@ fn design(args: &DoeDesignArgs, json: bool) -> anyhow::Result<()> {
     let req = design_request(args)?;
     let design = millcomp_doe::generate(&req)?;
     if let Some(out) = &args.out {
-        let table = table_from_doe("design", design.columns())?;
+        let table = crate::columns::table_from_doe("design", design.columns())?;
         millcomp_datasets::write_table(&table, out)
             .with_context(|| format!("writing the design to {}", out.display()))?;
     }
@@ -75,7 +74,7 @@ fn analyze(args: &DoeAnalyzeArgs, json: bool) -> anyhow::Result<()> {
         bail!("--alpha must be in (0, 1), got {}", args.alpha);
     }
     let table = millcomp_datasets::read_any(&args.file)?;
-    let columns = doe_columns(&table);
+    let columns = crate::columns::doe_columns(&table);
     let model = ModelSpec::parse(&args.model).context("--model")?;
     let factors = (!args.factors.is_empty()).then_some(args.factors.as_slice());
     let input = AnalysisInput::from_table(&columns, &args.response, factors, model)
@@ -90,13 +89,13 @@ fn analyze(args: &DoeAnalyzeArgs, json: bool) -> anyhow::Result<()> {
         (a, None)
     };
     if let Some(path) = &args.save {
-        save_model(&analysis, path)?;
+        save_model(&analysis, &args.file, path)?;
     }
     let plots = match &args.plots {
         Some(dir) => {
             std::fs::create_dir_all(dir)
                 .with_context(|| format!("creating plot directory {}", dir.display()))?;
-            millcomp_doe::write_plots(&analysis, dir)
+            crate::present::doe::write_doe_plots(&analysis, dir)
                 .with_context(|| format!("writing plots to {}", dir.display()))?
         }
         None => Vec::new(),
@@ -128,52 +127,12 @@ fn analyze(args: &DoeAnalyzeArgs, json: bool) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Saves the fitted model through a temporary file in the destination directory, so a failure
-/// leaves nothing behind.
-fn save_model(analysis: &millcomp_doe::Analysis, path: &Path) -> anyhow::Result<()> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => std::path::PathBuf::from("."),
-    };
-    let tmp = tempfile::Builder::new()
-        .prefix(".millcomp-")
-        .suffix(".partial.toml")
-        .tempfile_in(&dir)
-        .with_context(|| format!("creating a temporary file in {}", dir.display()))?;
-    millcomp_doe::save_model_toml(analysis, tmp.path())
-        .with_context(|| format!("writing the model to {}", path.display()))?;
-    tmp.persist(path)
-        .with_context(|| format!("moving the model into place at {}", path.display()))?;
+/// Saves the response surface of the analysis in the common model-file format (atomic: a failure leaves
+/// nothing behind), with the data file and its SHA-256 as provenance.
+fn save_model(analysis: &millcomp_doe::Analysis, input: &Path, path: &Path) -> anyhow::Result<()> {
+    let surface = millcomp_doe::response_surface(analysis)?;
+    let inputs = vec![millcomp_models::InputFile::from_path(input)?];
+    millcomp_models::ModelFile::new("response_surface", surface, crate::cmd::provenance(inputs))
+        .save(path)?;
     Ok(())
-}
-
-fn doe_columns(table: &Table) -> Vec<(String, Column)> {
-    table
-        .columns
-        .iter()
-        .map(|c| {
-            let col = match &c.data {
-                ColumnData::Float(v) => Column::F64(v.clone()),
-                ColumnData::Int(v) => Column::I64(v.clone()),
-                ColumnData::Text(v) => Column::Str(v.clone()),
-            };
-            (c.name.clone(), col)
-        })
-        .collect()
-}
-
-/// A design's columns (`Design::columns`) as a table for writing or for `batch`.
-pub fn table_from_doe(origin: &str, columns: Vec<(String, Column)>) -> anyhow::Result<Table> {
-    let cols = columns
-        .into_iter()
-        .map(|(name, c)| millcomp_datasets::Column {
-            name,
-            data: match c {
-                Column::F64(v) => ColumnData::Float(v),
-                Column::I64(v) => ColumnData::Int(v),
-                Column::Str(v) => ColumnData::Text(v),
-            },
-        })
-        .collect();
-    Ok(Table::from_columns(origin, cols)?)
 }

@@ -2,11 +2,10 @@
 //! (`millcomp-identify`), reading the data through `millcomp-datasets`.
 
 use anyhow::{Context, bail};
-use millcomp_datasets::ColumnData;
 use millcomp_identify::verbs::force::ForceParam;
 use millcomp_identify::verbs::thermal::ThermalModel;
 use millcomp_identify::verbs::wall::WallGeometry;
-use millcomp_identify::{Columns, FitReport, IdentifyOptions, Verb, identify_columns};
+use millcomp_identify::{FitReport, IdentifyOptions, Verb, identify_columns};
 
 use crate::cli::{IdentifyArgs, IdentifyWhat};
 use crate::cmd::print_json;
@@ -21,20 +20,18 @@ pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
     };
     let options = options(&args)?;
     let table = millcomp_datasets::read_any(&args.file)?;
-    let mut cols = Columns::new();
-    for c in &table.columns {
-        match &c.data {
-            ColumnData::Float(v) => cols.insert(&c.name, v.clone()),
-            ColumnData::Int(v) => cols.insert(&c.name, v.iter().map(|&x| x as f64).collect()),
-            ColumnData::Text(v) => cols.insert_text(&c.name, v.clone()),
-        };
-    }
+    let cols = crate::columns::identify_columns(&table);
     let fit = identify_columns(verb, &cols, &options)
         .with_context(|| format!("{}: identify {}", args.file.display(), verb_name(verb)))?;
     if let Some(path) = &args.save {
-        let text = fit.model.to_toml()?;
-        millcomp_datasets::write_text_atomic(path, &text)
-            .with_context(|| format!("saving the model to {}", path.display()))?;
+        let inputs = vec![millcomp_models::InputFile::from_path(&args.file)?];
+        millcomp_models::ModelFile::new(
+            &fit.kind,
+            fit.model.clone(),
+            crate::cmd::provenance(inputs),
+        )
+        .save(path)
+        .with_context(|| format!("saving the model to {}", path.display()))?;
     }
     if json {
         return print_json(&fit);
@@ -96,7 +93,6 @@ fn options(args: &IdentifyArgs) -> anyhow::Result<IdentifyOptions> {
         ),
     };
     Ok(IdentifyOptions {
-        source_file: args.file.display().to_string(),
         thermal_model,
         spindle_extra_pole: args.extra_pole,
         spindle_dead_time: args.dead_time,

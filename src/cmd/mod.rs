@@ -17,6 +17,28 @@ pub fn print_json<T: serde::Serialize>(value: &T) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The provenance of a model this run saves: the program and version, the command line as typed, the
+/// time, and each input with its SHA-256.
+pub fn provenance(inputs: Vec<millcomp_models::InputFile>) -> millcomp_models::Provenance {
+    let words: Vec<String> = std::env::args()
+        .enumerate()
+        .map(|(i, a)| {
+            let a = if i == 0 { "millcomp".to_string() } else { a };
+            if a.is_empty() || a.contains(|c: char| c.is_whitespace() || c == '"' || c == '\'') {
+                format!("'{}'", a.replace('\'', "'\\''"))
+            } else {
+                a
+            }
+        })
+        .collect();
+    let mut p = millcomp_models::Provenance::now(
+        &format!("millcomp {}", env!("CARGO_PKG_VERSION")),
+        &words.join(" "),
+    );
+    p.inputs = inputs;
+    p
+}
+
 /// Runs the verb the user asked for.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     let json = cli.json;

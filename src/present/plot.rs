@@ -100,6 +100,11 @@ pub fn line_plot(
             .map_err(|e| anyhow::anyhow!("{e}"))?;
         root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
     }
-    millcomp_datasets::write_text_atomic(path, &svg)
+    write_svg(path, &svg)
+}
+
+/// Writes an SVG document to `path` atomically (temporary file + rename).
+pub fn write_svg(path: &Path, svg: &str) -> anyhow::Result<()> {
+    millcomp_datasets::write_text_atomic(path, svg)
         .with_context(|| format!("writing plot {}", path.display()))
 }

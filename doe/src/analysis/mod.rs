@@ -5,7 +5,7 @@ pub(crate) mod lenth;
 pub(crate) mod power;
 
 use nalgebra::{DMatrix, DVector};
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, FisherSnedecor, StudentsT};
 
 use crate::error::{DoeError, Result};
@@ -163,39 +163,8 @@ fn distinct_count(c: &Column) -> usize {
     }
 }
 
-/// How a factor was coded.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "lowercase")]
-pub enum FactorCoding {
-    /// Numeric: coded = (x − (low + high)/2) / ((high − low)/2).
-    Numeric {
-        /// Factor name.
-        name: String,
-        /// Minimum in the data (coded −1).
-        low: f64,
-        /// Maximum in the data (coded +1).
-        high: f64,
-        /// Number of distinct levels in the data.
-        levels: usize,
-    },
-    /// Label: levels sorted; two levels → −1/+1; L > 2 levels → L − 1 effect-coded (sum-to-zero) columns,
-    /// column j = +1 at `levels[j]`, −1 at the last level, 0 otherwise.
-    Label {
-        /// Factor name.
-        name: String,
-        /// Sorted levels.
-        levels: Vec<String>,
-    },
-}
-
-impl FactorCoding {
-    /// Factor name.
-    pub fn name(&self) -> &str {
-        match self {
-            FactorCoding::Numeric { name, .. } | FactorCoding::Label { name, .. } => name,
-        }
-    }
-}
+/// How a factor was coded (the models crate's type: a response surface records it).
+pub use millcomp_models::FactorCoding;
 
 /// One row of the ANOVA / effects table (contract keys: `term`, `effect`, `coef`, `std_err`, `df`, `sum_sq`,
 /// `f`, `p_value`).
@@ -946,6 +915,17 @@ pub fn analyze(input: &AnalysisInput) -> Result<Analysis> {
 }
 
 impl Analysis {
+    /// The response of each run, in input order.
+    pub fn response_values(&self) -> &[f64] {
+        &self.data.y
+    }
+
+    /// The coded value of factor `f` (index into [`Analysis::factors`]) in each run, in input order (label
+    /// factors: evenly spaced level index on [−1, 1]).
+    pub fn coded_factor(&self, f: usize) -> &[f64] {
+        &self.data.factor_coded[f]
+    }
+
     /// Names of the factors.
     pub fn factor_names(&self) -> Vec<String> {
         self.factors.iter().map(|f| f.name().to_string()).collect()

@@ -583,7 +583,6 @@ pub fn identify_force(data: &ForceData<'_>, opts: &ForceOptions) -> Result<Ident
         report,
         BTreeMap::new(),
         BTreeMap::new(),
-        &opts.common.source_file,
     ))
 }
 

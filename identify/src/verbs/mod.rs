@@ -8,7 +8,7 @@ use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, StudentsT};
 
 use crate::report::FitReport;
-use crate::saved::{Derived, SavedModel};
+use millcomp_models::{Derived, IdentifiedModel};
 
 pub(crate) mod combine;
 pub mod force;
@@ -19,8 +19,8 @@ pub mod wall;
 
 /// What a verb returns. Serialises as the report's keys at top level (`params`, `std_err`,
 /// `ci95`, `rms_residual_<unit>`, `status`, `warnings`, ...) plus `derived` and `groups` when not
-/// empty; `model` (the saveable form) is not serialised — write it with
-/// [`SavedModel::to_toml`].
+/// empty; `model` (the saveable form) is not serialised — save it as kind [`Identified::kind`] in a
+/// `millcomp_models::ModelFile`.
 #[derive(Debug, Clone, Serialize)]
 pub struct Identified {
     /// The fit report (all parameters of the model).
@@ -35,9 +35,13 @@ pub struct Identified {
     /// Notes about the input (e.g. columns that were ignored).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub notes: Vec<String>,
+    /// The model kind to save it as: `spindle`, `stiffness`, `force`, `thermal_exponential`,
+    /// `thermal_linear_temp`, `thermal_speed`, `wall`.
+    #[serde(skip)]
+    pub kind: String,
     /// The saveable model (`--save`).
     #[serde(skip)]
-    pub model: SavedModel,
+    pub model: IdentifiedModel,
 }
 
 impl Identified {
@@ -46,14 +50,26 @@ impl Identified {
         report: FitReport,
         derived: BTreeMap<String, Derived>,
         groups: BTreeMap<String, FitReport>,
-        source_file: &str,
     ) -> Self {
-        let model = SavedModel::from_report(kind, &report, derived.clone(), source_file);
+        let model = IdentifiedModel {
+            status: report.status,
+            n_obs: report.n_obs,
+            dof: report.dof,
+            rms_residual: report.rms_residual.value,
+            residual_unit: report.rms_residual.unit.clone(),
+            warnings: report.warnings.clone(),
+            params: report.params.clone(),
+            std_err: report.std_err.clone(),
+            fixed: report.fixed.clone(),
+            derived: derived.clone(),
+            covariance: report.covariance.clone(),
+        };
         Identified {
             report,
             derived,
             groups,
             notes: Vec::new(),
+            kind: kind.to_string(),
             model,
         }
     }

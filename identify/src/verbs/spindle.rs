@@ -356,6 +356,5 @@ pub fn identify_spindle(data: &SpindleData<'_>, opts: &SpindleOptions) -> Result
         report,
         BTreeMap::new(),
         BTreeMap::new(),
-        &opts.common.source_file,
     ))
 }

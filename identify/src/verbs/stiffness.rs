@@ -300,13 +300,7 @@ pub fn identify_stiffness(data: &StiffnessData<'_>, opts: &StiffnessOptions) -> 
     } else {
         BTreeMap::new()
     };
-    Ok(Identified::new(
-        "stiffness",
-        report,
-        derived,
-        groups_out,
-        &opts.common.source_file,
-    ))
+    Ok(Identified::new("stiffness", report, derived, groups_out))
 }
 
 fn fmt_num(x: f64) -> String {

@@ -82,8 +82,6 @@ pub struct ThermalData<'a> {
 /// Options shared by the verbs.
 #[derive(Debug, Clone, Default)]
 pub struct VerbOptions {
-    /// Data file name recorded in the saved model.
-    pub source_file: String,
     /// Nonlinear solver options.
     pub nls: NlsOptions,
 }
@@ -226,7 +224,6 @@ pub fn identify_thermal(
                 fit.report,
                 BTreeMap::new(),
                 BTreeMap::new(),
-                &opts.source_file,
             ))
         }
         ThermalModel::LinearTemperature => {
@@ -257,7 +254,6 @@ pub fn identify_thermal(
                 fit.report,
                 BTreeMap::new(),
                 BTreeMap::new(),
-                &opts.source_file,
             ))
         }
         ThermalModel::SpeedDependent => {
@@ -364,7 +360,6 @@ pub fn identify_thermal(
                 fit.report,
                 BTreeMap::new(),
                 BTreeMap::new(),
-                &opts.source_file,
             ))
         }
     }

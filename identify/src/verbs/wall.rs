@@ -137,13 +137,7 @@ pub fn identify_wall(data: &WallData<'_>, opts: &WallOptions) -> Result<Identifi
         report.fixed.insert("thickness_um".into(), g.thickness_um);
         report.fixed.insert("length_um".into(), g.length_um);
     }
-    Ok(Identified::new(
-        "wall",
-        report,
-        derived,
-        BTreeMap::new(),
-        &opts.common.source_file,
-    ))
+    Ok(Identified::new("wall", report, derived, BTreeMap::new()))
 }
 
 #[cfg(test)]

@@ -1,0 +1,448 @@
+//! The one model-file format: a `[header]` (format, version, kind, provenance) and a `[model]` table whose
+//! shape depends on the kind. One [`ModelFile::load`] (checks format, version and kind before the body is
+//! read, so a file of another version is refused with the key named), one atomic [`ModelFile::save`]
+//! (temporary file + rename: nothing half-written). Schema and examples: `models/MODEL.md`.
+
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::{SystemTime, UNIX_EPOCH};
+
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+
+use crate::error::{ModelError, Result};
+
+/// The value of `header.format` in every millcomp model file.
+pub const FORMAT: &str = "millcomp-model";
+/// The `header.version` this build writes and reads.
+pub const VERSION: u32 = 1;
+
+/// Where a model came from: enough to reproduce it.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct Provenance {
+    /// The program and its version, e.g. `millcomp 0.1.0`.
+    pub program: String,
+    /// The command that made the model, e.g. `millcomp identify spindle step.csv --save m.toml`.
+    pub command: String,
+    /// UTC time the model was made, `YYYY-MM-DDThh:mm:ssZ`.
+    pub created_utc: String,
+    /// The data files the model was made from, with their SHA-256.
+    #[serde(default)]
+    pub inputs: Vec<InputFile>,
+}
+
+/// One input of a model and the SHA-256 of its bytes.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InputFile {
+    /// The path as given (or the name of embedded data).
+    pub path: String,
+    /// Lower-case hex SHA-256 of the bytes read.
+    pub sha256: String,
+}
+
+impl InputFile {
+    /// The input `path` with the SHA-256 of `bytes` (the bytes that were read from it).
+    pub fn from_bytes(path: &str, bytes: &[u8]) -> Self {
+        Self {
+            path: path.to_string(),
+            sha256: sha256_hex(bytes),
+        }
+    }
+
+    /// Reads the file and records its hash.
+    ///
+    /// # Errors
+    /// [`ModelError::Io`] when the file cannot be read.
+    pub fn from_path(path: &Path) -> Result<Self> {
+        let bytes = std::fs::read(path).map_err(|source| ModelError::Io {
+            path: path.to_path_buf(),
+            action: "reading (to record its SHA-256)".into(),
+            source,
+        })?;
+        Ok(Self::from_bytes(&path.display().to_string(), &bytes))
+    }
+}
+
+impl Provenance {
+    /// Provenance of a model made now by `program` (e.g. `millcomp 0.1.0`) running `command`.
+    pub fn now(program: &str, command: &str) -> Self {
+        Self {
+            program: program.to_string(),
+            command: command.to_string(),
+            created_utc: utc_now_rfc3339(),
+            inputs: Vec::new(),
+        }
+    }
+
+    /// Adds an input.
+    pub fn with_input(mut self, input: InputFile) -> Self {
+        self.inputs.push(input);
+        self
+    }
+}
+
+/// The `[header]` table of a model file.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Header {
+    /// Always [`FORMAT`].
+    pub format: String,
+    /// [`VERSION`].
+    pub version: u32,
+    /// What the `[model]` table holds: `spindle`, `stiffness`, `force`, `thermal_exponential`,
+    /// `thermal_linear_temp`, `thermal_speed`, `wall`, `response_surface`, `bundle`.
+    pub kind: String,
+    /// Where the model came from.
+    pub provenance: Provenance,
+}
+
+/// A model with its header: what is written to and read from disk.
+///
+/// # Examples
+/// ```
+/// use millcomp_models::{ModelFile, Provenance};
+/// #[derive(serde::Serialize, serde::Deserialize, Debug, PartialEq)]
+/// struct Gain { gain_um_per_v: f64 }
+/// let dir = tempfile::tempdir().unwrap();
+/// let path = dir.path().join("gain.toml");
+/// let file = ModelFile::new("gain", Gain { gain_um_per_v: 0.05 }, Provenance::now("millcomp 0.1.0", "example"));
+/// file.save(&path).unwrap();
+/// let back: ModelFile<Gain> = ModelFile::load(&path, &["gain"]).unwrap();
+/// assert_eq!(back.model.gain_um_per_v, 0.05);
+/// // a reader that needs another kind is told which kind the file holds
+/// let err = ModelFile::<Gain>::load(&path, &["spindle"]).unwrap_err();
+/// assert!(err.to_string().contains("header.kind"));
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModelFile<B> {
+    /// The header.
+    pub header: Header,
+    /// The model.
+    pub model: B,
+}
+
+impl<B: Serialize + DeserializeOwned> ModelFile<B> {
+    /// A model of `kind` with its provenance, at the current format and version.
+    pub fn new(kind: &str, model: B, provenance: Provenance) -> Self {
+        Self {
+            header: Header {
+                format: FORMAT.to_string(),
+                version: VERSION,
+                kind: kind.to_string(),
+                provenance,
+            },
+            model,
+        }
+    }
+
+    /// The TOML text of the file.
+    ///
+    /// # Errors
+    /// [`ModelError::Serialize`] when the model cannot be written as TOML (e.g. a map with non-string keys).
+    pub fn to_toml(&self) -> Result<String> {
+        toml::to_string(self).map_err(|source| ModelError::Serialize {
+            path: PathBuf::from("<memory>"),
+            source,
+        })
+    }
+
+    /// Parses a model file's text (`origin` names it in errors), checking the header first: format,
+    /// version, and that `kind` is one of `kinds` (any kind when `kinds` is empty).
+    ///
+    /// # Errors
+    /// [`ModelError::Parse`] for text that is not TOML or a `[model]` table of the wrong shape;
+    /// [`ModelError::Header`] for a missing header, another format or version;
+    /// [`ModelError::Kind`] for another kind.
+    pub fn from_toml(text: &str, origin: &Path, kinds: &[&str]) -> Result<Self> {
+        let parse_err = |source| ModelError::Parse {
+            path: origin.to_path_buf(),
+            source,
+        };
+        let doc: toml::Table = toml::from_str(text).map_err(parse_err)?;
+        check_header(&doc, origin, kinds)?;
+        toml::from_str(text).map_err(parse_err)
+    }
+
+    /// Reads a model file (see [`ModelFile::from_toml`]).
+    ///
+    /// # Errors
+    /// [`ModelError::Io`] when the file cannot be read, and those of [`ModelFile::from_toml`].
+    pub fn load(path: &Path, kinds: &[&str]) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|source| ModelError::Io {
+            path: path.to_path_buf(),
+            action: "reading".into(),
+            source,
+        })?;
+        Self::from_toml(&text, path, kinds)
+    }
+
+    /// Writes the file atomically: to a temporary file in the same directory, then renamed over `path`.
+    ///
+    /// # Errors
+    /// [`ModelError::Serialize`], or [`ModelError::Io`] naming the file; nothing is left half-written.
+    pub fn save(&self, path: &Path) -> Result<()> {
+        let text = self.to_toml().map_err(|e| match e {
+            ModelError::Serialize { source, .. } => ModelError::Serialize {
+                path: path.to_path_buf(),
+                source,
+            },
+            other => other,
+        })?;
+        write_atomic(path, |f| f.write_all(text.as_bytes()))
+    }
+}
+
+/// Checks `[header]` of a parsed file: present, format [`FORMAT`], version [`VERSION`], kind in `kinds`.
+fn check_header(doc: &toml::Table, origin: &Path, kinds: &[&str]) -> Result<()> {
+    let header_err = |key: &str, found: String, expected: String| ModelError::Header {
+        path: origin.to_path_buf(),
+        key: key.to_string(),
+        found,
+        expected,
+    };
+    let Some(toml::Value::Table(h)) = doc.get("header") else {
+        return Err(header_err(
+            "header",
+            "missing".into(),
+            format!(
+                "a [header] table with format = \"{FORMAT}\" (files of other formats, e.g. saved by an older \
+                 millcomp, must be made again)"
+            ),
+        ));
+    };
+    match h.get("format") {
+        Some(toml::Value::String(f)) if f == FORMAT => {}
+        other => {
+            return Err(header_err(
+                "header.format",
+                other.map_or("missing".into(), |v| v.to_string()),
+                format!("this build reads \"{FORMAT}\""),
+            ));
+        }
+    }
+    match h.get("version") {
+        Some(toml::Value::Integer(v)) if *v == i64::from(VERSION) => {}
+        other => {
+            return Err(header_err(
+                "header.version",
+                other.map_or("missing".into(), |v| v.to_string()),
+                format!("this build reads version {VERSION}"),
+            ));
+        }
+    }
+    let kind = match h.get("kind") {
+        Some(toml::Value::String(k)) => k.clone(),
+        other => {
+            return Err(header_err(
+                "header.kind",
+                other.map_or("missing".into(), |v| v.to_string()),
+                "a model kind (a string)".into(),
+            ));
+        }
+    };
+    if !kinds.is_empty() && !kinds.contains(&kind.as_str()) {
+        return Err(ModelError::Kind {
+            path: origin.to_path_buf(),
+            found: kind,
+            expected: kinds
+                .iter()
+                .map(|k| format!("`{k}`"))
+                .collect::<Vec<_>>()
+                .join(" or "),
+        });
+    }
+    Ok(())
+}
+
+/// Reads only the header of a model file (e.g. to dispatch on its kind).
+///
+/// # Errors
+/// As [`ModelFile::load`] for the header.
+pub fn read_header(path: &Path) -> Result<Header> {
+    #[derive(Deserialize)]
+    struct OnlyHeader {
+        header: Header,
+    }
+    let text = std::fs::read_to_string(path).map_err(|source| ModelError::Io {
+        path: path.to_path_buf(),
+        action: "reading".into(),
+        source,
+    })?;
+    let parse_err = |source| ModelError::Parse {
+        path: path.to_path_buf(),
+        source,
+    };
+    let doc: toml::Table = toml::from_str(&text).map_err(parse_err)?;
+    check_header(&doc, path, &[])?;
+    let h: OnlyHeader = toml::from_str(&text).map_err(parse_err)?;
+    Ok(h.header)
+}
+
+/// Writes `path` atomically: `fill` writes a temporary file in the same directory, which is synced and
+/// renamed over `path` only when `fill` succeeded. The one atomic writer of millcomp (tables, text and
+/// model files all go through it).
+///
+/// # Errors
+/// [`ModelError::Io`] naming `path`; the temporary file is removed on failure.
+pub fn write_atomic<F>(path: &Path, fill: F) -> Result<()>
+where
+    F: FnOnce(&mut std::fs::File) -> std::io::Result<()>,
+{
+    let io_err = |action: String, source| ModelError::Io {
+        path: path.to_path_buf(),
+        action,
+        source,
+    };
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let mut tmp = tempfile::Builder::new()
+        .prefix(".millcomp-")
+        .suffix(".partial")
+        .tempfile_in(&dir)
+        .map_err(|e| io_err(format!("creating a temporary file in {}", dir.display()), e))?;
+    fill(tmp.as_file_mut()).map_err(|e| io_err("writing".into(), e))?;
+    tmp.as_file_mut()
+        .flush()
+        .map_err(|e| io_err("writing".into(), e))?;
+    tmp.as_file()
+        .sync_all()
+        .map_err(|e| io_err("syncing".into(), e))?;
+    tmp.persist(path)
+        .map_err(|e| io_err("renaming the temporary file".into(), e.error))?;
+    Ok(())
+}
+
+/// Lower-case hex SHA-256 of `bytes`.
+///
+/// ```
+/// // FIPS 180-2 test vector: SHA-256("abc")
+/// assert_eq!(
+///     millcomp_models::sha256_hex(b"abc"),
+///     "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+/// );
+/// ```
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+/// Current UTC time as `YYYY-MM-DDThh:mm:ssZ`.
+pub fn utc_now_rfc3339() -> String {
+    let secs = SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map(|d| d.as_secs() as i64)
+        .unwrap_or(0);
+    rfc3339_from_unix(secs)
+}
+
+/// Formats Unix seconds as `YYYY-MM-DDThh:mm:ssZ` (proleptic Gregorian; H. Hinnant's `civil_from_days`
+/// algorithm).
+///
+/// ```
+/// // reference: `date -u -d @951782400` (GNU coreutils)
+/// assert_eq!(millcomp_models::file::rfc3339_from_unix(951_782_400), "2000-02-29T00:00:00Z");
+/// ```
+pub fn rfc3339_from_unix(secs: i64) -> String {
+    let days = secs.div_euclid(86_400);
+    let sod = secs.rem_euclid(86_400);
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let y = yoe + era * 400;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = if m <= 2 { y + 1 } else { y };
+    format!(
+        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}Z",
+        sod / 3600,
+        (sod % 3600) / 60,
+        sod % 60
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    struct Body {
+        a_um: f64,
+    }
+
+    fn file() -> ModelFile<Body> {
+        ModelFile::new(
+            "test",
+            Body { a_um: 1.5 },
+            Provenance::now("millcomp 0.1.0", "millcomp test")
+                .with_input(InputFile::from_bytes("data.csv", b"abc")),
+        )
+    }
+
+    #[test]
+    fn dates() {
+        // Reference: `date -u -d @0` and `date -u -d @1700000000` (GNU coreutils).
+        assert_eq!(rfc3339_from_unix(0), "1970-01-01T00:00:00Z");
+        assert_eq!(rfc3339_from_unix(1_700_000_000), "2023-11-14T22:13:20Z");
+    }
+
+    #[test]
+    fn round_trip_keeps_header_and_body() {
+        let f = file();
+        let text = f.to_toml().unwrap();
+        let back = ModelFile::<Body>::from_toml(&text, Path::new("m.toml"), &["test"]).unwrap();
+        assert_eq!(back, f);
+        assert_eq!(
+            back.header.provenance.inputs[0].sha256,
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+        );
+    }
+
+    #[test]
+    fn another_version_or_format_is_refused_naming_the_key() {
+        let text = file().to_toml().unwrap();
+        let p = Path::new("bundle.toml");
+        let e = ModelFile::<Body>::from_toml(&text.replace("version = 1", "version = 2"), p, &[])
+            .unwrap_err();
+        let msg = e.to_string();
+        assert!(
+            msg.contains("bundle.toml") && msg.contains("header.version"),
+            "{msg}"
+        );
+        let e = ModelFile::<Body>::from_toml(
+            &text.replace("millcomp-model", "millcomp-doe-model"),
+            p,
+            &[],
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("header.format"), "{e}");
+        let e = ModelFile::<Body>::from_toml("[model]\na_um = 1.0\n", p, &[]).unwrap_err();
+        assert!(e.to_string().contains("`header`"), "{e}");
+    }
+
+    #[test]
+    fn save_is_atomic_and_leaves_no_partial_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.toml");
+        file().save(&path).unwrap();
+        // a failing writer leaves the old file and no temporary file behind
+        let e = write_atomic(&path, |_| Err(std::io::Error::other("disk full"))).unwrap_err();
+        assert!(e.to_string().contains("m.toml"));
+        let names: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(names, vec!["m.toml".to_string()]);
+        let back = ModelFile::<Body>::load(&path, &[]).unwrap();
+        assert_eq!(back.model.a_um, 1.5);
+    }
+}

@@ -1,0 +1,338 @@
+//! Identified models: the estimates of a least-squares fit with their uncertainty ([`IdentifiedModel`],
+//! the `[model]` table of every kind `millcomp identify` saves), and the typed views the controllers
+//! consume ([`SpindleModel`], [`ForceModelParams`]). They carry no truth: only what was estimated from
+//! measurements, with covariances.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use nalgebra::DMatrix;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{ModelError, Result};
+
+/// Outcome of a fit (an outcome, not an error: every status comes with a full report).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FitStatus {
+    /// Converged (a tolerance was met) or solved exactly (linear, full rank).
+    Converged,
+    /// The iteration limit was reached before any tolerance was met.
+    MaxIter,
+    /// The data do not determine all parameters (the Jacobian is numerically rank deficient);
+    /// the estimate is the minimum-norm one along the unseen directions named in `warnings`.
+    RankDeficient,
+}
+
+/// A square matrix indexed by parameter name (serialised as `{"names": [...], "values": [[...]]}`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct NamedMatrix {
+    /// Row/column names, in parameter order.
+    pub names: Vec<String>,
+    /// Row-major values.
+    pub values: Vec<Vec<f64>>,
+}
+
+impl NamedMatrix {
+    /// Entry by names, `None` when a name is unknown.
+    pub fn get(&self, row: &str, col: &str) -> Option<f64> {
+        let i = self.names.iter().position(|n| n == row)?;
+        let j = self.names.iter().position(|n| n == col)?;
+        self.values.get(i)?.get(j).copied()
+    }
+
+    /// As an nalgebra matrix (parameter order of `names`; missing entries NaN).
+    pub fn to_matrix(&self) -> DMatrix<f64> {
+        let n = self.names.len();
+        DMatrix::from_fn(n, n, |i, j| {
+            self.values
+                .get(i)
+                .and_then(|r| r.get(j))
+                .copied()
+                .unwrap_or(f64::NAN)
+        })
+    }
+
+    /// From an nalgebra matrix whose rows and columns are `names`.
+    pub fn from_matrix(names: &[String], m: &DMatrix<f64>) -> Self {
+        NamedMatrix {
+            names: names.to_vec(),
+            values: (0..m.nrows())
+                .map(|i| (0..m.ncols()).map(|j| m[(i, j)]).collect())
+                .collect(),
+        }
+    }
+
+    /// The sub-matrix of `names` (in that order), `None` when a name is unknown.
+    pub fn sub(&self, names: &[&str]) -> Option<NamedMatrix> {
+        let values = names
+            .iter()
+            .map(|r| names.iter().map(|c| self.get(r, c)).collect())
+            .collect::<Option<Vec<Vec<f64>>>>()?;
+        Some(NamedMatrix {
+            names: names.iter().map(|s| s.to_string()).collect(),
+            values,
+        })
+    }
+}
+
+/// A derived quantity (function of fitted parameters) with delta-method uncertainty.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Derived {
+    /// Value.
+    pub value: f64,
+    /// Standard error by the delta method (gradient of the function at the estimate, through the
+    /// parameter covariance).
+    pub std_err: f64,
+    /// 95 % interval `value ± t·SE` with the fit's degrees of freedom.
+    pub ci95: [f64; 2],
+    /// The formula, for the record (e.g. `1/(cos²α/k_axial + sin²α/k_radial)`).
+    pub formula: String,
+}
+
+/// What `millcomp identify` saves: the estimates of one fit with their uncertainty (the `[model]` table
+/// of kinds `spindle`, `stiffness`, `force`, `thermal_*`, `wall`; `models/MODEL.md`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IdentifiedModel {
+    /// How the fit ended.
+    pub status: FitStatus,
+    /// Observations used.
+    pub n_obs: usize,
+    /// Residual degrees of freedom.
+    pub dof: usize,
+    /// RMS residual in `residual_unit`.
+    pub rms_residual: f64,
+    /// Unit of the residuals (`um`, `n`).
+    pub residual_unit: String,
+    /// Fit warnings, for the record.
+    #[serde(default)]
+    pub warnings: Vec<String>,
+    /// Estimates (names carry units).
+    pub params: BTreeMap<String, f64>,
+    /// Standard errors (`inf` for a parameter the data do not determine).
+    pub std_err: BTreeMap<String, f64>,
+    /// Known inputs held fixed in the fit (e.g. `tilt_deg`, `temp_ref_c`).
+    #[serde(default)]
+    pub fixed: BTreeMap<String, f64>,
+    /// Derived quantities with uncertainty.
+    #[serde(default)]
+    pub derived: BTreeMap<String, Derived>,
+    /// Parameter covariance (names in parameter order).
+    pub covariance: NamedMatrix,
+}
+
+impl IdentifiedModel {
+    /// A parameter or fixed input by name.
+    pub fn get(&self, name: &str) -> Option<f64> {
+        self.params
+            .get(name)
+            .or_else(|| self.fixed.get(name))
+            .copied()
+    }
+
+    /// A parameter or fixed input a consumer needs; `origin` and `kind` name the file in the error.
+    ///
+    /// # Errors
+    /// [`ModelError::MissingKey`] naming `model.params.<name>` and what the model has.
+    pub fn require(&self, name: &str, origin: &Path, kind: &str) -> Result<f64> {
+        self.get(name).ok_or_else(|| ModelError::MissingKey {
+            path: origin.to_path_buf(),
+            kind: kind.to_string(),
+            key: format!("model.params.{name}"),
+            available: self
+                .params
+                .keys()
+                .chain(self.fixed.keys())
+                .cloned()
+                .collect::<Vec<_>>()
+                .join(", "),
+        })
+    }
+}
+
+/// The PZT-actuated spindle as identified from a step response (kind `spindle`):
+/// `G(s) = K ωn² [p/(s+p)] e^{−sTd} / (s² + 2ζωn s + ωn²)`, volts → tool-tip µm (`000_…txt` §5.2.4).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SpindleModel {
+    /// Static gain K (µm at the tool tip per V).
+    pub gain_um_per_v: f64,
+    /// Damping ratio ζ.
+    pub zeta: f64,
+    /// Natural frequency ωn (rad/s).
+    pub wn_rad_s: f64,
+    /// Extra real pole p (rad/s), when it was fitted.
+    pub pole_rad_s: Option<f64>,
+    /// Dead time Td (s), when it was fitted.
+    pub dead_time_s: Option<f64>,
+    /// Order of the Padé approximant the dead time was fitted with (1 or 2), when there is one.
+    pub dead_time_pade_order: Option<u32>,
+    /// Covariance of the estimates.
+    pub covariance: NamedMatrix,
+}
+
+impl SpindleModel {
+    /// Kinds this view reads.
+    pub const KINDS: [&'static str; 1] = ["spindle"];
+
+    /// The typed view of an identified `spindle` model (`origin` names the file in errors).
+    ///
+    /// # Errors
+    /// [`ModelError::MissingKey`] when `gain_um_per_v`, `zeta` or `wn_rad_s` is absent;
+    /// [`ModelError::InvalidValue`] for a non-finite or non-positive one.
+    ///
+    /// # Examples
+    /// ```
+    /// use std::path::Path;
+    /// use millcomp_models::{IdentifiedModel, SpindleModel};
+    /// let text = r#"
+    /// status = "converged"
+    /// n_obs = 500
+    /// dof = 496
+    /// rms_residual = 0.005
+    /// residual_unit = "um"
+    /// [params]
+    /// gain_um_per_v = 0.05
+    /// zeta = 0.46
+    /// wn_rad_s = 1302.0
+    /// [std_err]
+    /// [covariance]
+    /// names = []
+    /// values = []
+    /// "#;
+    /// let m: IdentifiedModel = toml::from_str(text).unwrap();
+    /// let s = SpindleModel::from_identified(&m, Path::new("spindle.toml")).unwrap();
+    /// assert_eq!(s.wn_rad_s, 1302.0);
+    /// assert_eq!(s.pole_rad_s, None);
+    /// ```
+    pub fn from_identified(m: &IdentifiedModel, origin: &Path) -> Result<Self> {
+        let need = |name: &str| -> Result<f64> {
+            let v = m.require(name, origin, "spindle")?;
+            if v.is_finite() && v > 0.0 {
+                Ok(v)
+            } else {
+                Err(ModelError::InvalidValue {
+                    path: origin.to_path_buf(),
+                    key: format!("model.params.{name}"),
+                    value: v.to_string(),
+                    allowed: "finite and > 0".into(),
+                })
+            }
+        };
+        Ok(Self {
+            gain_um_per_v: need("gain_um_per_v")?,
+            zeta: need("zeta")?,
+            wn_rad_s: need("wn_rad_s")?,
+            pole_rad_s: m.params.get("pole_rad_s").copied(),
+            dead_time_s: m.params.get("dead_time_s").copied(),
+            dead_time_pade_order: m.fixed.get("dead_time_pade_order").map(|&o| o as u32),
+            covariance: m.covariance.clone(),
+        })
+    }
+}
+
+/// Force-model parameters identified from measured forces (kind `force`): the fitted subset of
+/// [`ForceModelParams::PARAMETERS`] with their covariance, and the values held fixed in the fit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ForceModelParams {
+    /// Fitted parameters by name (a subset of [`ForceModelParams::PARAMETERS`]).
+    pub fitted: BTreeMap<String, f64>,
+    /// Inputs held fixed in the fit (material constants, tool geometry, force scale).
+    pub fixed: BTreeMap<String, f64>,
+    /// Covariance of the fitted parameters.
+    pub covariance: NamedMatrix,
+}
+
+impl ForceModelParams {
+    /// Kinds this view reads.
+    pub const KINDS: [&'static str; 1] = ["force"];
+
+    /// The parameters of the ball-end force model an identification may fit: volumetric work W (MPa),
+    /// rake and flank friction, wearland (µm), runout (µm) (`000_…txt` ch. 2, 4).
+    pub const PARAMETERS: [&'static str; 5] =
+        ["w_mpa", "mu_rake", "mu_flank", "wearland_um", "runout_um"];
+
+    /// The typed view of an identified `force` model (`origin` names the file in errors).
+    ///
+    /// # Errors
+    /// [`ModelError::InvalidValue`] for a fitted parameter that is not one of
+    /// [`ForceModelParams::PARAMETERS`] or is not finite.
+    pub fn from_identified(m: &IdentifiedModel, origin: &Path) -> Result<Self> {
+        for (name, v) in &m.params {
+            if !Self::PARAMETERS.contains(&name.as_str()) {
+                return Err(ModelError::InvalidValue {
+                    path: origin.to_path_buf(),
+                    key: format!("model.params.{name}"),
+                    value: v.to_string(),
+                    allowed: format!("a force-model parameter ({})", Self::PARAMETERS.join(", ")),
+                });
+            }
+            if !v.is_finite() {
+                return Err(ModelError::InvalidValue {
+                    path: origin.to_path_buf(),
+                    key: format!("model.params.{name}"),
+                    value: v.to_string(),
+                    allowed: "a finite number".into(),
+                });
+            }
+        }
+        Ok(Self {
+            fitted: m.params.clone(),
+            fixed: m.fixed.clone(),
+            covariance: m.covariance.clone(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn model(params: &[(&str, f64)]) -> IdentifiedModel {
+        IdentifiedModel {
+            status: FitStatus::Converged,
+            n_obs: 10,
+            dof: 8,
+            rms_residual: 0.1,
+            residual_unit: "um".into(),
+            warnings: vec![],
+            params: params.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
+            std_err: BTreeMap::new(),
+            fixed: BTreeMap::new(),
+            derived: BTreeMap::new(),
+            covariance: NamedMatrix::default(),
+        }
+    }
+
+    #[test]
+    fn spindle_view_names_the_missing_key() {
+        let m = model(&[("gain_um_per_v", 0.05), ("zeta", 0.46)]);
+        let e = SpindleModel::from_identified(&m, Path::new("s.toml")).unwrap_err();
+        let msg = e.to_string();
+        assert!(
+            msg.contains("s.toml") && msg.contains("model.params.wn_rad_s"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn force_view_refuses_unknown_parameters() {
+        let m = model(&[("w_mpa", 2000.0), ("k_c", 1.0)]);
+        let e = ForceModelParams::from_identified(&m, Path::new("f.toml")).unwrap_err();
+        assert!(e.to_string().contains("model.params.k_c"), "{e}");
+        let ok = ForceModelParams::from_identified(&model(&[("w_mpa", 2000.0)]), Path::new("f"))
+            .unwrap();
+        assert_eq!(ok.fitted["w_mpa"], 2000.0);
+    }
+
+    #[test]
+    fn sub_matrix_keeps_the_named_order() {
+        let m = NamedMatrix {
+            names: vec!["a".into(), "b".into()],
+            values: vec![vec![1.0, 2.0], vec![2.0, 5.0]],
+        };
+        let s = m.sub(&["b", "a"]).unwrap();
+        assert_eq!(s.values, vec![vec![5.0, 2.0], vec![2.0, 1.0]]);
+        assert!(m.sub(&["c"]).is_none());
+    }
+}
