@@ -23,6 +23,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod actuator;
 pub mod effects;
 pub mod error;
 pub mod feed;
