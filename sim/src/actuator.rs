@@ -44,9 +44,9 @@ impl BoucWenParams {
     pub fn validate(&self) -> Result<(), SimError> {
         if !(self.alpha.is_finite() && (0.0..1.0).contains(&self.alpha)) {
             return Err(SimError::InvalidParameter {
-                name: "hysteresis.alpha".into(),
+                name: "hysteresis.alpha",
                 value: self.alpha,
-                allowed: "0 <= alpha < 1".into(),
+                allowed: "0 <= alpha < 1",
             });
         }
         check_nonneg("hysteresis.beta_per_v", self.beta_per_v)?;
@@ -137,9 +137,9 @@ impl LogCreepParams {
         check_positive("creep.first_tau_s", self.first_tau_s)?;
         if self.decades == 0 || self.decades > 12 {
             return Err(SimError::InvalidParameter {
-                name: "creep.decades".into(),
+                name: "creep.decades",
                 value: self.decades as f64,
-                allowed: "1 ..= 12".into(),
+                allowed: "1 ..= 12",
             });
         }
         Ok(())
