@@ -1,15 +1,16 @@
 //! Runs `diagnose` on a session file and a measured-groove CSV (what `millcomp diagnose` does,
-//! without the CLI):
+//! without the CLI's text report and plots — `millcomp diagnose … --report DIR` writes those):
 //!
 //! ```text
-//! cargo run -p millcomp-identify --example diagnose_session -- \
-//!     datasets/synthetic/tool_wear.toml datasets/synthetic/tool_wear.csv [--json] [--report DIR] \
+//! cargo run -p millcomp-diagnose --example diagnose_session -- \
+//!     datasets/synthetic/tool_wear.toml datasets/synthetic/tool_wear.csv [--json] \
 //!     [--forces FILE] [--alpha 0.01]
 //! ```
 
-use std::path::PathBuf;
+use std::path::Path;
 
-use millcomp_identify::diagnose::{DiagnoseOptions, ForceTrace, MeasuredGroove, diagnose};
+use millcomp_datasets::contracts::{read_force_trace, read_measured_groove};
+use millcomp_diagnose::{DiagnoseOptions, Measured, diagnose};
 use millcomp_sim::session::Session;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -23,19 +24,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .iter()
         .enumerate()
         .filter(|(i, a)| {
-            let after_flag =
-                *i > 0 && ["--report", "--forces", "--alpha"].contains(&args[i - 1].as_str());
+            let after_flag = *i > 0 && ["--forces", "--alpha"].contains(&args[i - 1].as_str());
             !a.starts_with("--") && !after_flag
         })
         .map(|(_, a)| a)
         .collect();
     let [session, csv] = positional[..] else {
-        return Err("usage: diagnose_session SESSION.toml MEASURED.csv [--json] [--report DIR] [--forces FILE] [--alpha A]".into());
+        return Err("usage: diagnose_session SESSION.toml MEASURED.csv [--json] [--forces FILE] [--alpha A]".into());
     };
     let session = Session::from_path(session)?;
-    let mut measured = MeasuredGroove::from_path(&PathBuf::from(csv))?;
+    let mut measured = Measured::new(csv.as_str(), read_measured_groove(Path::new(csv))?.points);
     if let Some(f) = value("--forces") {
-        measured.forces = Some(ForceTrace::from_path(&PathBuf::from(f))?);
+        let rows = read_force_trace(Path::new(&f))?;
+        measured = measured.with_forces(f, rows);
     }
     let opts = DiagnoseOptions {
         alpha: value("--alpha")
@@ -47,13 +48,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let rep = diagnose(&session, &measured, &opts)?;
     if args.iter().any(|a| a == "--json") {
         println!("{}", serde_json::to_string_pretty(&rep)?);
-    } else {
-        print!("{}", rep.human());
+        return Ok(());
     }
-    if let Some(dir) = value("--report") {
-        for f in rep.write_report(&PathBuf::from(dir))? {
-            eprintln!("wrote {}", f.display());
-        }
+    for st in &rep.steps {
+        println!(
+            "step: {} (p = {:.2e}), RMS {:.3} -> {:.3} µm, {:?}",
+            st.effect, st.p_value, st.rms_before_um, st.rms_after_um, st.params
+        );
     }
+    for n in &rep.notes {
+        println!("note: {n}");
+    }
+    println!(
+        "named: {}   RMS {:.3} -> {:.3} µm",
+        rep.named.join(", "),
+        rep.initial_rms_um,
+        rep.final_rms_um
+    );
     Ok(())
 }

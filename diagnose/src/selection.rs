@@ -1,109 +1,21 @@
-//! `millcomp diagnose`: find where simulation and measurement disagree, name the missing effect, add
-//! it, show the gap shrink (issue 7; the manual loop of `002_…txt` §7, automated).
-//!
-//! # Algorithm
-//! 1. Simulate the session's nominal model ([`SessionModel`]); check that the measured CSV is that
-//!    session's plan point by point ([`MeasuredGroove::check_against`]); residual = measured −
-//!    nominal; its structure against time, engaged length, position, machine X, speed, coolant,
-//!    predicted force and tilt ([`structure`]).
-//! 2. Forward selection. In each round, every candidate effect not yet in the model is added to
-//!    it and the augmented model — the candidate's free parameters *jointly* with those of the
-//!    effects already added (and the nominal offset if [`DiagnoseOptions::free_offset`]) — is
-//!    fitted by bounded nonlinear least squares on the identify engine, from a small grid of
-//!    starting values ([`candidates`]). Each is tested against the current model with the nested
-//!    F-test `F = ((RSS₀ − RSS₁)/q) / (RSS₁/(n − p₁))` (FisherSnedecor(q, n − p₁), statrs).
-//! 3. The candidate with the smallest p-value is added if `p < α/m` — **Bonferroni** over the m
-//!    candidates tried in that round (this is also Holm's first, most stringent comparison; the
-//!    remaining candidates are not tested at Holm's relaxed levels because after adding one effect
-//!    they are refitted and retested in the next round) — **and** BIC
-//!    (`n·ln(RSS/n) + k·ln n`) decreases, and the augmented fit is identifiable (full-rank
-//!    Jacobian; a candidate trading off against the model cannot be named). Repeat until no
-//!    candidate passes.
-//! 4. With a force trace ([`measured::ForceTrace`]), `flute_runout` is also tested on the
-//!    flute-to-flute force asymmetry ([`force_channel`]).
-//!
-//! # Nominal model: no free parameters by default
-//! The nominal model (force model, stiffness, effects listed in the session file) is taken as
-//! identified beforehand (`millcomp identify …`), as 002 took the machine's tool-length reference as
-//! given. A free constant depth offset is *not* part of it by default: a constant offset is exactly
-//! what `probe_tilt_offset` (and the ±3 µm axial runout of the reference tool, 002 Tab. 5) predicts,
-//! so a free offset would make that effect untestable; a free stiffness scale would likewise absorb
-//! `machine_compliance`. [`DiagnoseOptions::free_offset`] adds the offset for data whose zero is not
-//! trusted; `probe_tilt_offset` is then skipped with a note.
-//!
-//! # Why the F-test is honest enough here
-//! Time constants and length scales are not identified when their amplitude is zero (Davies'
-//! problem), so the F reference with q = the candidate's free-parameter count is approximate; the
-//! false-alarm rate over clean seeded sessions is measured in `tests/diagnose_sweeps.rs` (report).
-//!
-//! ```
-//! use millcomp_identify::diagnose::{DiagnoseOptions, diagnose, synthetic};
-//! // the committed `probe_tilt_offset` synthetic session, regenerated in memory
-//! let case = synthetic::cases().into_iter().find(|c| c.name == "probe_tilt_offset").unwrap();
-//! let data = synthetic::generate(&case).unwrap();
-//! let rep = diagnose(&data.session, &data.measured, &DiagnoseOptions::default()).unwrap();
-//! assert_eq!(rep.named, vec!["probe_tilt_offset".to_string()]);
-//! // the hidden tilt is 0.107° (002 §7.3); its 95 % interval covers it
-//! let ci = rep.steps[0].ci95["alpha_deg"];
-//! assert!(ci[0] < 0.107 && 0.107 < ci[1]);
-//! assert!(rep.final_rms_um < 0.5 * rep.initial_rms_um);
-//! ```
-
-pub mod candidates;
-pub mod context;
-mod fit;
-pub mod force_channel;
-pub mod measured;
-mod plots;
-pub mod structure;
-pub mod synthetic;
+//! Forward selection of candidate effects (the algorithm of the crate documentation): the
+//! [`Diagnoser`] fits every candidate jointly with the effects already added, tests it with the
+//! nested F-test ([`crate::nested`]) and adds the most significant one while Bonferroni, BIC and
+//! identifiability agree.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
 
+use millcomp_identify::{FitReport, IdentifyError};
 use millcomp_sim::session::Session;
-use serde::Serialize;
-use statrs::distribution::{ContinuousCDF, FisherSnedecor};
 
-pub use candidates::{CandidateSpec, FreeParam, Registry};
-pub use context::SessionModel;
-pub use force_channel::ForceChannelReport;
-pub use measured::{ForceTrace, MeasuredGroove};
-pub use structure::StructureItem;
-
-use crate::error::{IdentifyError, Result};
-use fit::{Term, fit_terms};
-
-/// Thresholds of the workflow, each argued.
-pub mod thresholds {
-    /// A candidate is fitted only if at least this many residual degrees of freedom remain
-    /// (`n − p₁ ≥ 5`). Below it the F reference is heavy-tailed (F(1, 4) has its 99 % point at
-    /// 21.2) and s² has a relative standard error √(2/dof) > 63 %: a test would have almost no
-    /// power and the intervals would be meaningless, so the candidate is skipped with a note.
-    pub const MIN_RESIDUAL_DOF: usize = 5;
-    /// Candidate Jacobian columns with max |∂r/∂θ| at or below this are "no sensitivity": sim's
-    /// effects return exact zeros where they are inactive (no coolant event, speeds below the
-    /// growth onset, X outside the slideway span), so any genuine sensitivity is many orders above.
-    pub const ZERO_SENSITIVITY: f64 = 1e-12;
-    /// Positions, engaged lengths and feed must match the session to 1 µm (mm columns): far below
-    /// the 0.1–1 mm spacing of measured points, above the rounding of any CSV writer.
-    pub const MATCH_ABS_MM: f64 = 1e-3;
-    /// Times must match to 10 ms (a point is cut in well under a second at these feeds;
-    /// rounding of t_s to 2 decimals still matches).
-    pub const MATCH_ABS_S: f64 = 1e-2;
-    /// Programmed depth and upfeed must match to 1 nm (µm columns; the profilometer resolves 1 nm,
-    /// 002 §7.2).
-    pub const MATCH_ABS_UM: f64 = 1e-3;
-    /// Tilt must match to 0.001°.
-    pub const MATCH_ABS_DEG: f64 = 1e-3;
-    /// A note warns that the final residual is still structured when a binned-means ANOVA p-value
-    /// (`structure`) is below 1e-4: with ~8 variables examined, white residuals trigger it with
-    /// probability < 1e-3, while a mis-specified form (e.g. a skewed bow fitted by a parabola)
-    /// leaves p-values many orders smaller.
-    pub const STRUCTURE_WARN_P: f64 = 1e-4;
-    /// Relative part of every match tolerance (round-off of printed values).
-    pub const MATCH_REL: f64 = 1e-6;
-}
+use crate::candidates::{CandidateSpec, FreeParam, Registry};
+use crate::error::{DiagnoseError, Result};
+use crate::fit::{Term, TermsFit, fit_terms};
+use crate::measured::Measured;
+use crate::nested::{Decision, nested_test};
+use crate::nominal::SessionModel;
+use crate::report::{DiagnoseReport, Round, Series, Skipped, Step, StructureReport};
+use crate::{force_channel, structure, thresholds};
 
 /// Options of [`diagnose`].
 #[derive(Debug, Clone, PartialEq)]
@@ -125,195 +37,6 @@ impl Default for DiagnoseOptions {
             free_offset: false,
         }
     }
-}
-
-/// The test of one candidate in one round.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Decision {
-    /// Candidate effect.
-    pub effect: String,
-    /// Nested F statistic.
-    pub f_statistic: f64,
-    /// Numerator dof (the candidate's free parameters).
-    pub df1: usize,
-    /// Denominator dof (n − parameters of the augmented model).
-    pub df2: usize,
-    /// p-value of the F-test.
-    pub p_value: f64,
-    /// α / m of the round.
-    pub threshold: f64,
-    /// BIC of the current model.
-    pub bic_before: f64,
-    /// BIC of the augmented model.
-    pub bic_after: f64,
-    /// RSS of the augmented model (µm² or N²).
-    pub rss_after: f64,
-    /// The augmented fit's Jacobian has full rank (all its parameters are determined by the data;
-    /// a candidate whose parameters trade off against the model's cannot be named).
-    pub identifiable: bool,
-    /// `p < threshold`, BIC decreased and the augmented model is identifiable.
-    pub significant: bool,
-}
-
-/// The nested F-test and BIC comparison of a model with `p0` free parameters (RSS `rss0`) against
-/// one with `q` more (RSS `rss1`) on `n` points, at threshold `alpha / m`.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn nested_test(
-    effect: &str,
-    n: usize,
-    p0: usize,
-    q: usize,
-    rss0: f64,
-    rss1: f64,
-    alpha: f64,
-    m: usize,
-) -> Decision {
-    let df2 = n.saturating_sub(p0 + q).max(1);
-    let nf = n as f64;
-    let f = if rss1 > 0.0 {
-        ((rss0 - rss1).max(0.0) / q as f64) / (rss1 / df2 as f64)
-    } else {
-        f64::INFINITY
-    };
-    let p = FisherSnedecor::new(q as f64, df2 as f64)
-        .map(|d| if f.is_finite() { d.sf(f) } else { 0.0 })
-        .unwrap_or(f64::NAN);
-    let bic = |rss: f64, k: usize| nf * (rss.max(1e-300) / nf).ln() + k as f64 * nf.ln();
-    let threshold = alpha / m.max(1) as f64;
-    let (b0, b1) = (bic(rss0, p0), bic(rss1, p0 + q));
-    Decision {
-        effect: effect.to_string(),
-        f_statistic: f,
-        df1: q,
-        df2,
-        p_value: p,
-        threshold,
-        bic_before: b0,
-        bic_after: b1,
-        rss_after: rss1,
-        identifiable: true,
-        significant: p < threshold && b1 < b0,
-    }
-}
-
-/// One accepted step of the forward selection (the DESIGN.md contract keys first).
-#[derive(Debug, Clone, Serialize)]
-pub struct Step {
-    /// Effect added.
-    pub effect: String,
-    /// p-value of its nested F-test.
-    pub p_value: f64,
-    /// RMS residual before the step (µm).
-    pub rms_before_um: f64,
-    /// RMS residual after the step (µm).
-    pub rms_after_um: f64,
-    /// Its fitted free parameters (names as in sim's `Effect::params`).
-    pub params: BTreeMap<String, f64>,
-    /// 95 % intervals of `params` (Student t, linearised; identify's [`crate::FitReport`]).
-    pub ci95: BTreeMap<String, [f64; 2]>,
-    /// Standard errors of `params`.
-    pub std_err: BTreeMap<String, f64>,
-    /// The effect's parameters held fixed.
-    pub fixed: BTreeMap<String, f64>,
-    /// F statistic.
-    pub f_statistic: f64,
-    /// Numerator dof.
-    pub df1: usize,
-    /// Denominator dof.
-    pub df2: usize,
-    /// α / candidates tried in this round.
-    pub threshold: f64,
-    /// Candidates tried in this round.
-    pub candidates_tried: usize,
-    /// BIC before.
-    pub bic_before: f64,
-    /// BIC after.
-    pub bic_after: f64,
-    /// Warnings of the joint fit (identifiability, bounds, residual diagnostics).
-    pub warnings: Vec<String>,
-}
-
-/// A candidate that was not tested, and why.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Skipped {
-    /// Effect name.
-    pub effect: String,
-    /// Why.
-    pub note: String,
-}
-
-/// One round of the forward selection: every candidate tried.
-#[derive(Debug, Clone, Serialize)]
-pub struct Round {
-    /// α / m.
-    pub threshold: f64,
-    /// Tests, in candidate order.
-    pub tested: Vec<Decision>,
-    /// The effect added in this round, if any.
-    pub added: Option<String>,
-}
-
-/// Residual structure before and after the diagnosis.
-#[derive(Debug, Clone, Serialize)]
-pub struct StructureReport {
-    /// Residual of the nominal model.
-    pub nominal: Vec<StructureItem>,
-    /// Residual of the final model.
-    #[serde(rename = "final")]
-    pub final_: Vec<StructureItem>,
-}
-
-/// Series kept for the plots (not serialised).
-#[derive(Debug, Clone, Default)]
-pub struct Series {
-    /// Groove of each point.
-    pub groove_id: Vec<i64>,
-    /// Measured depth (µm).
-    pub measured_um: Vec<f64>,
-    /// Prediction of the nominal model, then after each step (µm).
-    pub predictions_um: Vec<Vec<f64>>,
-}
-
-/// What `diagnose` found. Serialises to the DESIGN.md contract (`initial_rms_um`, `final_rms_um`,
-/// `steps[{effect, p_value, rms_before_um, rms_after_um, params}]`, `named`) plus extra keys.
-#[derive(Debug, Clone, Serialize)]
-pub struct DiagnoseReport {
-    /// RMS of measured − nominal (µm).
-    pub initial_rms_um: f64,
-    /// RMS of measured − final model (µm).
-    pub final_rms_um: f64,
-    /// Accepted steps, in order.
-    pub steps: Vec<Step>,
-    /// Effects named, in the order added (force channel after depth channel); `["none"]` if none.
-    pub named: Vec<String>,
-    /// Session name.
-    pub session: String,
-    /// Measured points.
-    pub n_points: usize,
-    /// α.
-    pub alpha: f64,
-    /// Multiple-testing correction used.
-    pub correction: String,
-    /// Free parameters of the nominal model (empty by default).
-    pub nominal_free_params: BTreeMap<String, f64>,
-    /// Final joint estimates per effect.
-    pub final_params: BTreeMap<String, BTreeMap<String, f64>>,
-    /// Final joint 95 % intervals per effect.
-    pub final_ci95: BTreeMap<String, BTreeMap<String, [f64; 2]>>,
-    /// Every round, with every candidate's test.
-    pub rounds: Vec<Round>,
-    /// Candidates not tested, with notes.
-    pub skipped: Vec<Skipped>,
-    /// Residual structure before/after.
-    pub residual_structure: StructureReport,
-    /// Force channel (when a force trace was given).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub force_channel: Option<ForceChannelReport>,
-    /// Notes.
-    pub notes: Vec<String>,
-    /// Plot series.
-    #[serde(skip)]
-    pub series: Series,
 }
 
 /// A prepared diagnosis of one session (nominal model simulated once; reuse for many measured
@@ -371,19 +94,27 @@ fn rms(rss: f64, n: usize) -> f64 {
 
 impl Diagnoser {
     /// Prepares a diagnosis with the standard candidates ([`Registry::standard`]).
+    ///
+    /// # Errors
+    /// As [`Diagnoser::with_registry`].
     pub fn new(session: &Session, opts: &DiagnoseOptions) -> Result<Self> {
         Self::with_registry(session, &Registry::standard(), opts)
     }
 
-    /// Prepares a diagnosis with a custom candidate registry.
+    /// Prepares a diagnosis with a custom candidate registry: simulates the nominal model once.
+    ///
+    /// # Errors
+    /// [`DiagnoseError::InvalidOption`] for `alpha` outside (0, 1),
+    /// [`DiagnoseError::UnknownCandidate`] / [`DiagnoseError::BadCandidate`] for candidates,
+    /// [`DiagnoseError::Session`] when sim cannot evaluate the session.
     pub fn with_registry(
         session: &Session,
         registry: &Registry,
         opts: &DiagnoseOptions,
     ) -> Result<Self> {
         if !(opts.alpha > 0.0 && opts.alpha < 1.0) {
-            return Err(IdentifyError::InvalidParameter {
-                name: "alpha".into(),
+            return Err(DiagnoseError::InvalidOption {
+                name: "alpha",
                 value: opts.alpha,
                 allowed: "0 < alpha < 1",
             });
@@ -399,14 +130,14 @@ impl Diagnoser {
         for name in &names {
             let spec = registry
                 .get(name)
-                .ok_or_else(|| IdentifyError::UnknownCandidate {
+                .ok_or_else(|| DiagnoseError::UnknownCandidate {
                     name: name.clone(),
                     allowed: registry.names().join(", "),
                 })?;
-            if let Err(e) = spec.free_indices() {
-                return Err(IdentifyError::UnknownCandidate {
-                    name: name.clone(),
-                    allowed: e,
+            if let Err(message) = spec.free_indices() {
+                return Err(DiagnoseError::BadCandidate {
+                    effect: name.clone(),
+                    message,
                 });
             }
             if candidates.iter().any(|c: &CandidateSpec| c.name() == name) {
@@ -443,10 +174,16 @@ impl Diagnoser {
     }
 
     /// Diagnoses one measured file of this session.
-    pub fn run(&self, measured: &MeasuredGroove) -> Result<DiagnoseReport> {
+    ///
+    /// # Errors
+    /// [`DiagnoseError::InvalidPoints`] when the points are not a measurement,
+    /// [`DiagnoseError::SessionMismatch`] when they (or the force-trace rows) are not this session's
+    /// plan point by point, [`DiagnoseError::NominalOffset`] when the free offset cannot be fitted.
+    pub fn run(&self, measured: &Measured) -> Result<DiagnoseReport> {
         let sm = &self.sm;
         measured.check_against(sm)?;
-        let y = &measured.depth_meas_um;
+        let y = &measured.depth_meas_um();
+        let spindle_temp_c = measured.spindle_temp_c();
         let n = y.len();
         let alpha = self.opts.alpha;
         let mut notes = Vec::new();
@@ -457,9 +194,13 @@ impl Diagnoser {
         let mut theta: Vec<f64> = Vec::new();
         let mut pred: Vec<f64> = sm.base_um.clone();
         let mut report_params = BTreeMap::new();
-        let mut last_report: Option<crate::report::FitReport> = None;
+        let mut last_report: Option<FitReport> = None;
         if self.opts.free_offset {
-            let t = Term::new(offset_spec()).map_err(|e| IdentifyError::Solver(e.to_string()))?;
+            let spec = offset_spec();
+            let t = Term::new(spec.clone()).map_err(|message| DiagnoseError::BadCandidate {
+                effect: spec.name().into(),
+                message,
+            })?;
             terms.push(t);
             match fit_terms(sm, y, &terms, &[], 1) {
                 Ok(f) => {
@@ -468,12 +209,14 @@ impl Diagnoser {
                     report_params.insert("offset_um".to_string(), f.theta[0]);
                     last_report = Some(f.report);
                 }
-                Err(e) => {
-                    return Err(IdentifyError::TooFewPoints {
-                        got: n,
-                        n_params: 1,
-                        needed: 2,
-                        what: format!("nominal offset: {}", e.join("; ")),
+                Err(fails) => {
+                    // one starting value: one failure
+                    let source = fails.into_iter().next().unwrap_or_else(|| {
+                        IdentifyError::Solver("no starting value was tried".into())
+                    });
+                    return Err(DiagnoseError::NominalOffset {
+                        n_points: n,
+                        source,
                     });
                 }
             }
@@ -483,9 +226,9 @@ impl Diagnoser {
         let initial_rms = rms(rss0, n);
         let resid = |p: &[f64]| -> Vec<f64> { y.iter().zip(p).map(|(a, b)| a - b).collect() };
         let structure_nominal =
-            structure::residual_structure(sm, &resid(&pred), measured.spindle_temp_c.as_deref());
+            structure::residual_structure(sm, &resid(&pred), spindle_temp_c.as_deref());
         let mut series = Series {
-            groove_id: measured.groove_id.clone(),
+            groove_id: measured.points.iter().map(|p| p.groove_id).collect(),
             measured_um: y.clone(),
             predictions_um: vec![pred.clone()],
         };
@@ -495,7 +238,7 @@ impl Diagnoser {
         let mut rounds: Vec<Round> = Vec::new();
         loop {
             let p0 = theta.len();
-            let mut tried: Vec<(Decision, fit::TermsFit, usize)> = Vec::new();
+            let mut tried: Vec<(Decision, TermsFit, usize)> = Vec::new();
             let mut drop: Vec<usize> = Vec::new();
             for (ci, spec) in remaining.iter().enumerate() {
                 let q = spec.free.len();
@@ -543,7 +286,11 @@ impl Diagnoser {
                         "{}: no fit converged in round {} ({})",
                         spec.name(),
                         rounds.len() + 1,
-                        fails.join("; ")
+                        fails
+                            .iter()
+                            .map(ToString::to_string)
+                            .collect::<Vec<_>>()
+                            .join("; ")
                     )),
                 }
             }
@@ -579,7 +326,10 @@ impl Diagnoser {
             }
             let (d, f, ci) = tried.swap_remove(best);
             let spec = remaining[ci].clone();
-            let term = Term::new(spec.clone()).map_err(IdentifyError::Solver)?;
+            let term = Term::new(spec.clone()).map_err(|message| DiagnoseError::BadCandidate {
+                effect: spec.name().into(),
+                message,
+            })?;
             let k0 = theta.len();
             let q = term.n_free();
             let mut params = BTreeMap::new();
@@ -650,11 +400,11 @@ impl Diagnoser {
             }
         }
         let structure_final =
-            structure::residual_structure(sm, &resid(&pred), measured.spindle_temp_c.as_deref());
+            structure::residual_structure(sm, &resid(&pred), spindle_temp_c.as_deref());
         let mut named: Vec<String> = steps.iter().map(|s| s.effect.clone()).collect();
         let force_channel = match &measured.forces {
             Some(tr) => {
-                let fc = force_channel::diagnose_forces(sm, measured, tr, alpha)?;
+                let fc = force_channel::diagnose_forces(sm, &measured.points, tr, alpha)?;
                 for s in &fc.steps {
                     if !named.contains(&s.effect) {
                         named.push(s.effect.clone());
@@ -680,7 +430,7 @@ impl Diagnoser {
                 ));
             }
         }
-        if measured.spindle_temp_c.is_some() {
+        if spindle_temp_c.is_some() {
             notes.push(
                 "spindle_temp_c is used in the residual structure only (the depth fits do not need it)"
                     .into(),
@@ -763,193 +513,4 @@ fn no_sensitivity_note(name: &str) -> String {
         _ => "its offset does not depend on its free parameters at any measured point",
     };
     format!("not testable on this session: {why} (the effect predicts no change)")
-}
-
-/// Diagnoses `measured` against the nominal model of `session` (module documentation).
-pub fn diagnose(
-    session: &Session,
-    measured: &MeasuredGroove,
-    opts: &DiagnoseOptions,
-) -> Result<DiagnoseReport> {
-    Diagnoser::new(session, opts)?.run(measured)
-}
-
-pub(crate) fn fmt_p(p: f64) -> String {
-    if p < 1e-300 {
-        "<1e-300".into()
-    } else if p < 1e-3 {
-        format!("{p:.1e}")
-    } else {
-        format!("{p:.4}")
-    }
-}
-
-impl DiagnoseReport {
-    /// The human-readable report.
-    pub fn human(&self) -> String {
-        let mut s = String::new();
-        let w = |s: &mut String, t: String| {
-            s.push_str(&t);
-            s.push('\n');
-        };
-        w(
-            &mut s,
-            format!(
-                "diagnose: session `{}`, {} points, alpha {} ({} over the candidates of each round, plus BIC)",
-                self.session, self.n_points, self.alpha, self.correction
-            ),
-        );
-        for (k, v) in &self.nominal_free_params {
-            w(&mut s, format!("nominal free parameter {k} = {v:.4}"));
-        }
-        w(
-            &mut s,
-            format!("RMS residual: nominal {:.3} µm", self.initial_rms_um),
-        );
-        let top: Vec<&StructureItem> = {
-            let mut v: Vec<&StructureItem> = self.residual_structure.nominal.iter().collect();
-            v.sort_by(|a, b| a.bins_p.unwrap_or(1.0).total_cmp(&b.bins_p.unwrap_or(1.0)));
-            v.into_iter().take(3).collect()
-        };
-        w(
-            &mut s,
-            "nominal residual structure (strongest first):".into(),
-        );
-        for it in top {
-            w(
-                &mut s,
-                format!(
-                    "  {:<15} r = {:>6}  binned means {}  (ANOVA p {})",
-                    it.variable,
-                    it.correlation
-                        .map(|r| format!("{r:+.2}"))
-                        .unwrap_or("-".into()),
-                    it.bins
-                        .iter()
-                        .map(|b| format!("{:+.2}", b.mean_um))
-                        .collect::<Vec<_>>()
-                        .join(" "),
-                    it.bins_p.map(fmt_p).unwrap_or("-".into())
-                ),
-            );
-        }
-        for (i, r) in self.rounds.iter().enumerate() {
-            w(
-                &mut s,
-                format!("round {} (threshold p < {:.2e}):", i + 1, r.threshold),
-            );
-            let mut t = r.tested.clone();
-            t.sort_by(|a, b| a.p_value.total_cmp(&b.p_value));
-            for d in &t {
-                w(
-                    &mut s,
-                    format!(
-                        "  {:<24} F({},{}) = {:>10.2}  p = {:<9}  ΔBIC = {:>9.1}  RMS {:.3} µm{}",
-                        d.effect,
-                        d.df1,
-                        d.df2,
-                        d.f_statistic,
-                        fmt_p(d.p_value),
-                        d.bic_after - d.bic_before,
-                        rms(d.rss_after, self.n_points),
-                        if r.added.as_deref() == Some(d.effect.as_str()) {
-                            "  <- added"
-                        } else if !d.identifiable {
-                            "  (not identifiable)"
-                        } else {
-                            ""
-                        }
-                    ),
-                );
-            }
-        }
-        for st in &self.steps {
-            w(
-                &mut s,
-                format!(
-                    "step: {} (p = {}), RMS {:.3} → {:.3} µm",
-                    st.effect,
-                    fmt_p(st.p_value),
-                    st.rms_before_um,
-                    st.rms_after_um
-                ),
-            );
-        }
-        if !self.final_params.is_empty() {
-            w(&mut s, "final joint estimates (95 % interval):".into());
-        }
-        for (e, ps) in &self.final_params {
-            for (k, v) in ps {
-                let ci = self
-                    .final_ci95
-                    .get(e)
-                    .and_then(|c| c.get(k))
-                    .map(|c| format!("[{:.4}, {:.4}]", c[0], c[1]))
-                    .unwrap_or("-".into());
-                w(&mut s, format!("  {e}.{k} = {v:.4}  {ci}"));
-            }
-        }
-        for sk in &self.skipped {
-            w(&mut s, format!("skipped {}: {}", sk.effect, sk.note));
-        }
-        if let Some(fc) = &self.force_channel {
-            w(
-                &mut s,
-                format!(
-                    "force channel ({} rows): RMS asymmetry residual {:.4} → {:.4} N",
-                    fc.n_rows, fc.initial_rms_n, fc.final_rms_n
-                ),
-            );
-            for d in &fc.tested {
-                w(
-                    &mut s,
-                    format!(
-                        "  {:<24} F({},{}) = {:.2}  p = {}  {}",
-                        d.effect,
-                        d.df1,
-                        d.df2,
-                        d.f_statistic,
-                        fmt_p(d.p_value),
-                        if d.significant {
-                            "named"
-                        } else {
-                            "not significant"
-                        }
-                    ),
-                );
-            }
-            for st in &fc.steps {
-                for (k, v) in &st.params {
-                    let ci = st.ci95.get(k).copied().unwrap_or([f64::NAN; 2]);
-                    w(
-                        &mut s,
-                        format!("  flute_runout.{k} = {v:.4}  [{:.4}, {:.4}]", ci[0], ci[1]),
-                    );
-                }
-            }
-            for n in &fc.notes {
-                w(&mut s, format!("  note: {n}"));
-            }
-        }
-        for n in &self.notes {
-            w(&mut s, format!("note: {n}"));
-        }
-        w(
-            &mut s,
-            format!(
-                "named: {}   RMS {:.3} → {:.3} µm",
-                self.named.join(", "),
-                self.initial_rms_um,
-                self.final_rms_um
-            ),
-        );
-        s
-    }
-
-    /// Writes SVG plots into `dir` (created if missing): `measured_vs_simulated.svg` and one
-    /// `residual_step{k}_{effect}.svg` per step (residual before and after it; `residual_step0_nominal.svg`
-    /// when no step was taken). Returns the files written.
-    pub fn write_report(&self, dir: &Path) -> Result<Vec<PathBuf>> {
-        plots::write_all(self, dir)
-    }
 }

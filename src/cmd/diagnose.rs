@@ -1,14 +1,17 @@
 //! `millcomp diagnose SESSION MEASURED.csv`: find where the nominal model and the measurement
 //! disagree, name the missing physical effect, add it and show the gap shrink
-//! (`millcomp_identify::diagnose`). The measured CSV is validated against the DESIGN contract by
-//! `millcomp-datasets` first, so errors name the file, column and row.
+//! (`millcomp-diagnose`). The measured CSV (and force trace) are read through the contract adapters
+//! of `millcomp-datasets` first, so errors name the file, column and row; the text report and the
+//! plots are `present::diagnose`.
 
 use anyhow::{Context, bail};
-use millcomp_identify::diagnose::{DiagnoseOptions, ForceTrace, MeasuredGroove, diagnose};
+use millcomp_datasets::contracts::{read_force_trace, read_measured_groove};
+use millcomp_diagnose::{DiagnoseOptions, Measured, diagnose};
 use millcomp_sim::session::Session;
 
 use crate::cli::DiagnoseArgs;
 use crate::cmd::print_json;
+use crate::present;
 
 pub fn run(args: DiagnoseArgs, json: bool) -> anyhow::Result<()> {
     if !(args.alpha > 0.0 && args.alpha < 1.0) {
@@ -16,11 +19,10 @@ pub fn run(args: DiagnoseArgs, json: bool) -> anyhow::Result<()> {
     }
     let session = Session::from_path(&args.session)
         .with_context(|| format!("reading session {}", args.session.display()))?;
-    let file = millcomp_datasets::contracts::read_measured_groove(&args.measured)?;
-    let mut measured =
-        MeasuredGroove::from_points(&args.measured.display().to_string(), &file.points);
+    let file = read_measured_groove(&args.measured)?;
+    let mut measured = Measured::new(args.measured.display().to_string(), file.points);
     if let Some(path) = &args.forces {
-        measured.forces = Some(ForceTrace::from_path(path)?);
+        measured = measured.with_forces(path.display().to_string(), read_force_trace(path)?);
     }
     let options = DiagnoseOptions {
         alpha: args.alpha,
@@ -38,11 +40,10 @@ pub fn run(args: DiagnoseArgs, json: bool) -> anyhow::Result<()> {
         Some(dir) => {
             std::fs::create_dir_all(dir)
                 .with_context(|| format!("creating report directory {}", dir.display()))?;
-            let mut files = report
-                .write_report(dir)
+            let mut files = present::diagnose::write_plots(&report, dir)
                 .with_context(|| format!("writing the report to {}", dir.display()))?;
             let text = dir.join("diagnose.txt");
-            millcomp_datasets::write_text_atomic(&text, &report.human())?;
+            millcomp_datasets::write_text_atomic(&text, &present::diagnose::text(&report))?;
             files.push(text);
             files
         }
@@ -51,7 +52,7 @@ pub fn run(args: DiagnoseArgs, json: bool) -> anyhow::Result<()> {
     if json {
         return print_json(&report);
     }
-    print!("{}", report.human());
+    print!("{}", present::diagnose::text(&report));
     for f in &plots {
         println!("report: {}", f.display());
     }

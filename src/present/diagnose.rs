@@ -1,128 +1,202 @@
-//! SVG plots of a diagnosis (plotters, SVG backend only): measured vs simulated depth, and the
-//! residual before/after each step, against the point index (grooves in plan order, separated by
-//! gaps; pauses between grooves would make a time axis mostly empty).
+//! The diagnose report for people: the text report (`millcomp diagnose`, `--report DIR/diagnose.txt`)
+//! and the SVG plots of `--report DIR` — measured vs simulated depth, and the residual before/after
+//! each step, against the point index (grooves in plan order, separated by gaps; pauses between
+//! grooves would make a time axis mostly empty).
 
 use std::path::{Path, PathBuf};
 
-use plotters::prelude::*;
+use anyhow::Context;
+use millcomp_diagnose::{DiagnoseReport, StructureItem};
 
-use super::DiagnoseReport;
-use crate::error::{IdentifyError, Result};
+use crate::present::plot::{GRAY, IndexCurve, Mark, index_plot};
 
-const PALETTE: [RGBColor; 4] = [
-    RGBColor(127, 127, 127),
-    RGBColor(31, 119, 180),
-    RGBColor(214, 39, 40),
-    RGBColor(44, 160, 44),
-];
-
-/// A curve drawn as one line per groove (broken between grooves) or as dots.
-struct Curve<'a> {
-    label: String,
-    values: &'a [f64],
-    dots: bool,
-    color: RGBColor,
-}
-
-fn io(what: &Path, e: impl std::fmt::Display) -> IdentifyError {
-    IdentifyError::Io {
-        what: what.display().to_string(),
-        message: e.to_string(),
+/// p-value as printed: `<1e-300`, `1.2e-5` below 1e-3, else 4 decimals.
+pub fn fmt_p(p: f64) -> String {
+    if p < 1e-300 {
+        "<1e-300".into()
+    } else if p < 1e-3 {
+        format!("{p:.1e}")
+    } else {
+        format!("{p:.4}")
     }
 }
 
-fn range(curves: &[Curve<'_>]) -> (f64, f64) {
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for c in curves {
-        for &v in c.values.iter().filter(|v| v.is_finite()) {
-            lo = lo.min(v);
-            hi = hi.max(v);
+fn rms(rss: f64, n: usize) -> f64 {
+    (rss / n.max(1) as f64).sqrt()
+}
+
+/// The human-readable report.
+pub fn text(rep: &DiagnoseReport) -> String {
+    let mut s = String::new();
+    let w = |s: &mut String, t: String| {
+        s.push_str(&t);
+        s.push('\n');
+    };
+    w(
+        &mut s,
+        format!(
+            "diagnose: session `{}`, {} points, alpha {} ({} over the candidates of each round, plus BIC)",
+            rep.session, rep.n_points, rep.alpha, rep.correction
+        ),
+    );
+    for (k, v) in &rep.nominal_free_params {
+        w(&mut s, format!("nominal free parameter {k} = {v:.4}"));
+    }
+    w(
+        &mut s,
+        format!("RMS residual: nominal {:.3} µm", rep.initial_rms_um),
+    );
+    let top: Vec<&StructureItem> = {
+        let mut v: Vec<&StructureItem> = rep.residual_structure.nominal.iter().collect();
+        v.sort_by(|a, b| a.bins_p.unwrap_or(1.0).total_cmp(&b.bins_p.unwrap_or(1.0)));
+        v.into_iter().take(3).collect()
+    };
+    w(
+        &mut s,
+        "nominal residual structure (strongest first):".into(),
+    );
+    for it in top {
+        w(
+            &mut s,
+            format!(
+                "  {:<15} r = {:>6}  binned means {}  (ANOVA p {})",
+                it.variable,
+                it.correlation
+                    .map(|r| format!("{r:+.2}"))
+                    .unwrap_or("-".into()),
+                it.bins
+                    .iter()
+                    .map(|b| format!("{:+.2}", b.mean_um))
+                    .collect::<Vec<_>>()
+                    .join(" "),
+                it.bins_p.map(fmt_p).unwrap_or("-".into())
+            ),
+        );
+    }
+    for (i, r) in rep.rounds.iter().enumerate() {
+        w(
+            &mut s,
+            format!("round {} (threshold p < {:.2e}):", i + 1, r.threshold),
+        );
+        let mut t = r.tested.clone();
+        t.sort_by(|a, b| a.p_value.total_cmp(&b.p_value));
+        for d in &t {
+            w(
+                &mut s,
+                format!(
+                    "  {:<24} F({},{}) = {:>10.2}  p = {:<9}  ΔBIC = {:>9.1}  RMS {:.3} µm{}",
+                    d.effect,
+                    d.df1,
+                    d.df2,
+                    d.f_statistic,
+                    fmt_p(d.p_value),
+                    d.bic_after - d.bic_before,
+                    rms(d.rss_after, rep.n_points),
+                    if r.added.as_deref() == Some(d.effect.as_str()) {
+                        "  <- added"
+                    } else if !d.identifiable {
+                        "  (not identifiable)"
+                    } else {
+                        ""
+                    }
+                ),
+            );
         }
     }
-    if !lo.is_finite() {
-        return (0.0, 1.0);
+    for st in &rep.steps {
+        w(
+            &mut s,
+            format!(
+                "step: {} (p = {}), RMS {:.3} → {:.3} µm",
+                st.effect,
+                fmt_p(st.p_value),
+                st.rms_before_um,
+                st.rms_after_um
+            ),
+        );
     }
-    let pad = 0.05 * (hi - lo).max(1e-6);
-    (lo - pad, hi + pad)
-}
-
-fn plot(
-    path: &Path,
-    title: &str,
-    y_label: &str,
-    groove: &[i64],
-    curves: &[Curve<'_>],
-) -> Result<()> {
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (960, 480)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| io(path, e))?;
-        let n = groove.len().max(2);
-        let (y0, y1) = range(curves);
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 20))
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(60)
-            .build_cartesian_2d(0f64..(n - 1) as f64, y0..y1)
-            .map_err(|e| io(path, e))?;
-        chart
-            .configure_mesh()
-            .x_desc("measured point (plan order; grooves separated)")
-            .y_desc(y_label)
-            .draw()
-            .map_err(|e| io(path, e))?;
-        for c in curves {
-            let color = c.color;
-            if c.dots {
-                chart
-                    .draw_series(
-                        c.values
-                            .iter()
-                            .enumerate()
-                            .map(|(i, &v)| Circle::new((i as f64, v), 2, color.filled())),
-                    )
-                    .map_err(|e| io(path, e))?
-                    .label(c.label.clone())
-                    .legend(move |(x, y)| Circle::new((x + 9, y), 3, color.filled()));
-            } else {
-                let mut start = 0;
-                let mut first = true;
-                while start < c.values.len() {
-                    let mut end = start + 1;
-                    while end < c.values.len() && groove[end] == groove[start] {
-                        end += 1;
+    if !rep.final_params.is_empty() {
+        w(&mut s, "final joint estimates (95 % interval):".into());
+    }
+    for (e, ps) in &rep.final_params {
+        for (k, v) in ps {
+            let ci = rep
+                .final_ci95
+                .get(e)
+                .and_then(|c| c.get(k))
+                .map(|c| format!("[{:.4}, {:.4}]", c[0], c[1]))
+                .unwrap_or("-".into());
+            w(&mut s, format!("  {e}.{k} = {v:.4}  {ci}"));
+        }
+    }
+    for sk in &rep.skipped {
+        w(&mut s, format!("skipped {}: {}", sk.effect, sk.note));
+    }
+    if let Some(fc) = &rep.force_channel {
+        w(
+            &mut s,
+            format!(
+                "force channel ({} rows): RMS asymmetry residual {:.4} → {:.4} N",
+                fc.n_rows, fc.initial_rms_n, fc.final_rms_n
+            ),
+        );
+        for d in &fc.tested {
+            w(
+                &mut s,
+                format!(
+                    "  {:<24} F({},{}) = {:.2}  p = {}  {}",
+                    d.effect,
+                    d.df1,
+                    d.df2,
+                    d.f_statistic,
+                    fmt_p(d.p_value),
+                    if d.significant {
+                        "named"
+                    } else {
+                        "not significant"
                     }
-                    let pts: Vec<(f64, f64)> =
-                        (start..end).map(|i| (i as f64, c.values[i])).collect();
-                    let s = chart
-                        .draw_series(LineSeries::new(pts, color.stroke_width(2)))
-                        .map_err(|e| io(path, e))?;
-                    if first {
-                        s.label(c.label.clone()).legend(move |(x, y)| {
-                            PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
-                        });
-                        first = false;
-                    }
-                    start = end;
-                }
+                ),
+            );
+        }
+        for st in &fc.steps {
+            for (k, v) in &st.params {
+                let ci = st.ci95.get(k).copied().unwrap_or([f64::NAN; 2]);
+                w(
+                    &mut s,
+                    format!("  flute_runout.{k} = {v:.4}  [{:.4}, {:.4}]", ci[0], ci[1]),
+                );
             }
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(|e| io(path, e))?;
-        root.present().map_err(|e| io(path, e))?;
+        for n in &fc.notes {
+            w(&mut s, format!("  note: {n}"));
+        }
     }
-    std::fs::write(path, svg).map_err(|e| io(path, e))
+    for n in &rep.notes {
+        w(&mut s, format!("note: {n}"));
+    }
+    w(
+        &mut s,
+        format!(
+            "named: {}   RMS {:.3} → {:.3} µm",
+            rep.named.join(", "),
+            rep.initial_rms_um,
+            rep.final_rms_um
+        ),
+    );
+    s
 }
 
-/// Writes all plots of `rep` into `dir`.
-pub(crate) fn write_all(rep: &DiagnoseReport, dir: &Path) -> Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
+/// Palette indices of the curves (present::plot): nominal blue, final red, measured gray.
+const BLUE: usize = 0;
+const RED: usize = 1;
+
+/// Writes the SVG plots of `rep` into `dir` (created if missing): `measured_vs_simulated.svg` and one
+/// `residual_step{k}_{effect}.svg` per step (residual before and after it; `residual_step0_nominal.svg`
+/// when no step was taken). Returns the files written.
+pub fn write_plots(rep: &DiagnoseReport, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let s = &rep.series;
+    let x_label = "measured point (plan order; grooves separated)";
     let mut out = Vec::new();
     let nominal = s.predictions_um.first().cloned().unwrap_or_default();
     let last = s.predictions_um.last().cloned().unwrap_or_default();
@@ -132,29 +206,30 @@ pub(crate) fn write_all(rep: &DiagnoseReport, dir: &Path) -> Result<Vec<PathBuf>
     } else {
         format!("nominal + {}", rep.named.join(" + "))
     };
-    plot(
+    index_plot(
         &p,
         &format!("{}: measured vs simulated depth", rep.session),
+        x_label,
         "depth (µm)",
         &s.groove_id,
         &[
-            Curve {
+            IndexCurve {
                 label: "nominal model".into(),
                 values: &nominal,
-                dots: false,
-                color: PALETTE[1],
+                mark: Mark::Line,
+                color: BLUE,
             },
-            Curve {
+            IndexCurve {
                 label: final_label,
                 values: &last,
-                dots: false,
-                color: PALETTE[2],
+                mark: Mark::Line,
+                color: RED,
             },
-            Curve {
+            IndexCurve {
                 label: "measured".into(),
                 values: &s.measured_um,
-                dots: true,
-                color: PALETTE[0],
+                mark: Mark::Dots,
+                color: GRAY,
             },
         ],
     )?;
@@ -164,19 +239,20 @@ pub(crate) fn write_all(rep: &DiagnoseReport, dir: &Path) -> Result<Vec<PathBuf>
     if rep.steps.is_empty() {
         let r = resid(&nominal);
         let p = dir.join("residual_step0_nominal.svg");
-        plot(
+        index_plot(
             &p,
             &format!(
                 "{}: residual of the nominal model (RMS {:.3} µm), nothing significant",
                 rep.session, rep.initial_rms_um
             ),
+            x_label,
             "measured − model (µm)",
             &s.groove_id,
-            &[Curve {
+            &[IndexCurve {
                 label: "residual".into(),
                 values: &r,
-                dots: true,
-                color: PALETTE[1],
+                mark: Mark::Dots,
+                color: BLUE,
             }],
         )?;
         out.push(p);
@@ -189,30 +265,31 @@ pub(crate) fn write_all(rep: &DiagnoseReport, dir: &Path) -> Result<Vec<PathBuf>
         let rb = resid(before);
         let ra = resid(after);
         let p = dir.join(format!("residual_step{}_{}.svg", k + 1, st.effect));
-        plot(
+        index_plot(
             &p,
             &format!(
                 "step {}: add {} (p = {}), RMS {:.3} → {:.3} µm",
                 k + 1,
                 st.effect,
-                super::fmt_p(st.p_value),
+                fmt_p(st.p_value),
                 st.rms_before_um,
                 st.rms_after_um
             ),
+            x_label,
             "measured − model (µm)",
             &s.groove_id,
             &[
-                Curve {
+                IndexCurve {
                     label: "before".into(),
                     values: &rb,
-                    dots: true,
-                    color: PALETTE[0],
+                    mark: Mark::Dots,
+                    color: GRAY,
                 },
-                Curve {
+                IndexCurve {
                     label: format!("after adding {}", st.effect),
                     values: &ra,
-                    dots: true,
-                    color: PALETTE[1],
+                    mark: Mark::Dots,
+                    color: BLUE,
                 },
             ],
         )?;

@@ -3,43 +3,31 @@
 //! `flute_runout_force.forces.csv`, and `README.md` listing what is hidden in each.
 //!
 //! ```text
-//! cargo run -p millcomp-identify --example gen_synthetic --release [-- OUT_DIR] [--diagnose]
+//! cargo run -p millcomp-synthetic --bin gen_synthetic --release [-- OUT_DIR]
 //! ```
-//! `OUT_DIR` defaults to `datasets/synthetic` of the workspace; `--diagnose` also runs `diagnose`
-//! on every case and prints what it names.
+//! `OUT_DIR` defaults to `datasets/synthetic` of the workspace. To see what `diagnose` names in
+//! every case: `cargo run -p millcomp-diagnose --example diagnose_synthetic --release`.
 
 use std::path::PathBuf;
 
-use millcomp_identify::diagnose::{DiagnoseOptions, diagnose, synthetic};
-
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let run_diagnose = args.iter().any(|a| a == "--diagnose");
-    let out = args
-        .iter()
-        .find(|a| !a.starts_with("--"))
+    let out = std::env::args()
+        .nth(1)
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../datasets/synthetic"));
     std::fs::create_dir_all(&out)?;
-    let cases = synthetic::cases();
+    let cases = millcomp_synthetic::cases();
     for case in &cases {
-        let data = synthetic::generate(case)?;
-        std::fs::write(out.join(format!("{}.toml", case.name)), &data.session_toml)?;
-        std::fs::write(out.join(format!("{}.csv", case.name)), &data.csv)?;
-        if let Some(f) = &data.forces_csv {
-            std::fs::write(out.join(format!("{}.forces.csv", case.name)), f)?;
+        let data = millcomp_synthetic::generate(case)?;
+        for (name, text) in data.files()? {
+            millcomp_datasets::write_text_atomic(&out.join(name), &text)?;
         }
-        print!("{:<45} {} rows", case.name, data.measured.len());
-        if run_diagnose {
-            let rep = diagnose(&data.session, &data.measured, &DiagnoseOptions::default())?;
-            print!(
-                "  named {:?}  RMS {:.3} -> {:.3} µm",
-                rep.named, rep.initial_rms_um, rep.final_rms_um
-            );
-        }
-        println!();
+        println!("{:<45} {} rows", case.name, data.points.len());
     }
-    std::fs::write(out.join("README.md"), synthetic::readme(&cases))?;
+    millcomp_datasets::write_text_atomic(
+        &out.join("README.md"),
+        &millcomp_synthetic::readme(&cases),
+    )?;
     println!("wrote {} cases to {}", cases.len(), out.display());
     Ok(())
 }
