@@ -469,6 +469,16 @@ mod tests {
             crate::write_table(&table, &p).unwrap();
             assert_eq!(read_measured_groove(&p).unwrap().points, m.points, "{name}");
         }
+        // the CSV text: the contract header, one line per point (moved from sim's session tests
+        // when sim's own CSV writer was deleted)
+        let mut buf = Vec::new();
+        crate::write_csv_to(&table, &mut buf).unwrap();
+        let text = String::from_utf8(buf).unwrap();
+        assert_eq!(
+            text.lines().next().unwrap(),
+            format!("{},{SPINDLE_TEMP_COLUMN}", header())
+        );
+        assert_eq!(text.lines().count(), m.points.len() + 1);
         // without temperatures there is no temperature column
         let mut cold = m.points.clone();
         for p in &mut cold {

@@ -336,56 +336,6 @@ pub fn check_groove_points(points: &[GroovePoint]) -> Result<(), SimError> {
     Ok(())
 }
 
-/// CSV header of the measured-groove contract (without the optional temperature column).
-pub const CSV_COLUMNS: [&str; 11] = [
-    "groove_id",
-    "t_s",
-    "x_mm",
-    "cut_length_mm",
-    "spindle_rpm",
-    "feed_mm_min",
-    "upfeed_um",
-    "tilt_deg",
-    "coolant_on",
-    "depth_cmd_um",
-    "depth_meas_um",
-];
-
-/// Write points as CSV (header + rows; `spindle_temp_c` column added when any point has it).
-pub fn write_csv<W: std::io::Write>(points: &[GroovePoint], mut w: W) -> std::io::Result<()> {
-    let temp = points.iter().any(|p| p.spindle_temp_c.is_some());
-    let mut header = CSV_COLUMNS.join(",");
-    if temp {
-        header.push_str(",spindle_temp_c");
-    }
-    writeln!(w, "{header}")?;
-    for p in points {
-        write!(
-            w,
-            "{},{},{},{},{},{},{},{},{},{},{}",
-            p.groove_id,
-            p.t_s,
-            p.x_mm,
-            p.cut_length_mm,
-            p.spindle_rpm,
-            p.feed_mm_min,
-            p.upfeed_um,
-            p.tilt_deg,
-            p.coolant_on,
-            p.depth_cmd_um,
-            p.depth_meas_um
-        )?;
-        if temp {
-            match p.spindle_temp_c {
-                Some(t) => write!(w, ",{t}")?,
-                None => write!(w, ",")?,
-            }
-        }
-        writeln!(w)?;
-    }
-    Ok(())
-}
-
 fn sess_err(key: impl Into<String>, message: impl Into<String>) -> SimError {
     SimError::Session {
         key: key.into(),
