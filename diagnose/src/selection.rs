@@ -24,7 +24,7 @@ pub struct DiagnoseOptions {
     pub alpha: f64,
     /// Candidate effect names to try (`None`: all registered ones).
     pub candidates: Option<Vec<String>>,
-    /// Add a free constant depth offset `offset_um` to the nominal model (default false; module
+    /// Add a free constant depth offset `offset_um` to the nominal model (default false; crate
     /// documentation).
     pub free_offset: bool,
 }

@@ -22,7 +22,7 @@ fn run(name: &str) -> DiagnoseReport {
 /// with 16 intervals over the committed cases a miss is expected about once (P(no miss) = 0.44).
 /// The seeds were fixed before the first run (7001 + case index) and are not re-drawn to hide a
 /// miss; instead the miss must be a chance one — within 3 standard errors — and the coverage over
-/// 100 seeds is checked in `diagnose_sweeps::full_power_and_coverage_per_case` (release run:
+/// 100 seeds is checked in `sweeps::full_power_and_coverage_per_case` (release run:
 /// slideway_straightness.amplitude_um 94/100).
 const KNOWN_MISSES: [(&str, &str); 1] = [("slideway_straightness", "amplitude_um")];
 
