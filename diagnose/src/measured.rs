@@ -210,7 +210,8 @@ impl ForceTrace {
     /// [`DiagnoseError::NonFinite`] for a NaN or infinite value, [`DiagnoseError::SessionMismatch`]
     /// for a row that matches no planned point.
     pub fn match_points(&self, sm: &SessionModel) -> Result<Vec<usize>> {
-        let columns: [(&'static str, fn(&FluteForcePoint) -> f64); 3] = [
+        type Field = fn(&FluteForcePoint) -> f64;
+        let columns: [(&'static str, Field); 3] = [
             ("x_mm", |r| r.x_mm),
             ("fz_peak_flute1_n", |r| r.fz_peak_flute1_n),
             ("fz_peak_flute2_n", |r| r.fz_peak_flute2_n),
