@@ -17,7 +17,7 @@ use crate::nominal::SessionModel;
 use crate::report::{DiagnoseReport, Round, Series, Skipped, Step, StructureReport};
 use crate::{force_channel, structure, thresholds};
 
-/// Options of [`diagnose`].
+/// Options of [`diagnose`](crate::diagnose).
 #[derive(Debug, Clone, PartialEq)]
 pub struct DiagnoseOptions {
     /// Family-wise significance level per round (Bonferroni over the candidates tried), default 0.01.
