@@ -7,7 +7,10 @@ fn millcomp() -> Command {
     Command::cargo_bin("millcomp").expect("binary built")
 }
 
-const GROOVE_HEADER: &str = "groove_id,t_s,x_mm,cut_length_mm,spindle_rpm,feed_mm_min,upfeed_um,tilt_deg,coolant_on,depth_cmd_um,depth_meas_um";
+/// The measured-groove header, from the one column list.
+fn groove_header() -> String {
+    millcomp_datasets::contracts::MEASURED_GROOVE_COLUMNS.join(",")
+}
 
 #[test]
 fn show_clayton_doe_prints_the_eight_trials_of_table_3_3() {
@@ -123,7 +126,8 @@ fn assert_nothing_written(dir: &tempfile::TempDir) {
 fn valid_measured_groove_passes_and_notes_unknown_columns() {
     let (a, dir) = check(
         &format!(
-            "{GROOVE_HEADER},operator\n1,0,0,0,10000,100,10,20,1,0,0.2,ann\n1,0.6,1,1,10000,100,10,20,1,4,3.1,ann\n"
+            "{},operator\n1,0,0,0,10000,100,10,20,1,0,0.2,ann\n1,0.6,1,1,10000,100,10,20,1,4,3.1,ann\n",
+            groove_header()
         ),
         "measured-groove",
     );
@@ -137,7 +141,7 @@ fn valid_measured_groove_passes_and_notes_unknown_columns() {
 
 #[test]
 fn missing_required_column_names_file_and_column() {
-    let header = GROOVE_HEADER.replace(",depth_meas_um", "");
+    let header = groove_header().replace(",depth_meas_um", "");
     let (a, dir) = check(
         &format!("{header}\n1,0,0,0,10000,100,10,20,1,0\n"),
         "measured-groove",
@@ -154,7 +158,8 @@ fn missing_required_column_names_file_and_column() {
 fn non_numeric_cell_names_file_column_and_row() {
     let (a, dir) = check(
         &format!(
-            "{GROOVE_HEADER}\n1,0,0,0,10000,100,10,20,1,0,0.2\n1,0.6,1,1,10000,100,ten,20,1,4,3.1\n"
+            "{}\n1,0,0,0,10000,100,10,20,1,0,0.2\n1,0.6,1,1,10000,100,ten,20,1,4,3.1\n",
+            groove_header()
         ),
         "measured-groove",
     );
@@ -169,7 +174,8 @@ fn non_numeric_cell_names_file_column_and_row() {
 fn nan_cell_names_file_column_and_row() {
     let (a, dir) = check(
         &format!(
-            "{GROOVE_HEADER}\n1,0,0,0,10000,100,10,20,1,0,0.2\n1,0.6,1,1,10000,100,10,20,1,4,NaN\n"
+            "{}\n1,0,0,0,10000,100,10,20,1,0,0.2\n1,0.6,1,1,10000,100,10,20,1,4,NaN\n",
+            groove_header()
         ),
         "measured-groove",
     );
@@ -186,7 +192,7 @@ fn empty_file_is_a_clear_error() {
         .stderr(predicate::str::contains("input.csv"))
         .stderr(predicate::str::contains("empty"));
     assert_nothing_written(&dir);
-    let (a, _dir) = check(&format!("{GROOVE_HEADER}\n"), "measured-groove");
+    let (a, _dir) = check(&format!("{}\n", groove_header()), "measured-groove");
     a.code(1).stderr(predicate::str::contains("no data rows"));
 }
 
@@ -194,7 +200,8 @@ fn empty_file_is_a_clear_error() {
 fn time_going_backwards_within_a_groove_is_rejected() {
     let (a, _dir) = check(
         &format!(
-            "{GROOVE_HEADER}\n1,5,0,0,10000,100,10,20,1,0,0.2\n1,4,1,1,10000,100,10,20,1,4,3.1\n"
+            "{}\n1,5,0,0,10000,100,10,20,1,0,0.2\n1,4,1,1,10000,100,10,20,1,4,3.1\n",
+            groove_header()
         ),
         "measured-groove",
     );

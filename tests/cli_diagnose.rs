@@ -148,3 +148,54 @@ fn force_trace_names_flute_runout() {
         .collect();
     assert!(named.contains(&"flute_runout"), "{named:?}");
 }
+
+/// The text report and the SVG plots of `--report DIR` (moved from the library's test
+/// `human_report_and_svg_plots` when the presentation moved into the binary).
+#[test]
+fn text_report_and_svg_plots_of_the_two_effect_session() {
+    let name = "coolant_thermal_drift+tool_wear";
+    let dir = tempfile::tempdir().unwrap();
+    let report = dir.path().join("report");
+    let out = millcomp()
+        .args([
+            "diagnose",
+            &synthetic(name, "toml"),
+            &synthetic(name, "csv"),
+        ])
+        .arg("--report")
+        .arg(&report)
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let h = String::from_utf8(out).unwrap();
+    assert!(
+        h.contains("named: coolant_thermal_drift, tool_wear")
+            || h.contains("named: tool_wear, coolant_thermal_drift"),
+        "{h}"
+    );
+    let steps = diagnose_json(name)["steps"].as_array().unwrap().len();
+    // the files in the order written: the plots, then diagnose.txt
+    let files: Vec<std::path::PathBuf> = h
+        .lines()
+        .filter_map(|l| l.strip_prefix("report: "))
+        .map(std::path::PathBuf::from)
+        .collect();
+    let (text, plots) = files.split_last().unwrap();
+    assert!(text.ends_with("diagnose.txt"), "{files:?}");
+    // measured vs simulated + one residual plot per step
+    assert_eq!(plots.len(), 1 + steps);
+    for f in plots {
+        let t = std::fs::read_to_string(f).unwrap();
+        assert!(t.starts_with("<svg"), "{}", f.display());
+        assert!(t.len() > 10_000, "{} is nearly empty", f.display());
+    }
+    assert!(
+        plots[1]
+            .file_name()
+            .unwrap()
+            .to_string_lossy()
+            .starts_with("residual_step1_")
+    );
+}

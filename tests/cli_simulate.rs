@@ -12,8 +12,6 @@ const EXAMPLE: &str = concat!(
     "/datasets/sessions/example.toml"
 );
 
-const CONTRACT_HEADER: &str = "groove_id,t_s,x_mm,cut_length_mm,spindle_rpm,feed_mm_min,upfeed_um,tilt_deg,coolant_on,depth_cmd_um,depth_meas_um";
-
 #[test]
 fn session_csv_follows_the_measured_groove_contract_and_round_trips() {
     let dir = tempfile::tempdir().unwrap();
@@ -28,7 +26,8 @@ fn session_csv_follows_the_measured_groove_contract_and_round_trips() {
         .success()
         .stdout(predicate::str::contains("written"));
     let text = std::fs::read_to_string(&out).unwrap();
-    assert!(text.starts_with(CONTRACT_HEADER), "{}", &text[..200]);
+    let header = millcomp_datasets::contracts::MEASURED_GROOVE_COLUMNS.join(",");
+    assert!(text.starts_with(&header), "{}", &text[..200]);
     assert!(std::fs::read_to_string(&plot).unwrap().contains("<svg"));
     // What simulate writes is what diagnose accepts.
     millcomp()
@@ -40,11 +39,12 @@ fn session_csv_follows_the_measured_groove_contract_and_round_trips() {
     // Noise-free output is the library's prediction, bit for bit.
     let session = millcomp_sim::session::Session::from_path(std::path::Path::new(EXAMPLE)).unwrap();
     let points = millcomp_sim::session::simulate_session(&session, &Default::default()).unwrap();
-    let table = millcomp_datasets::contracts::read_measured_groove(&out).unwrap();
-    let meas = table.f64s("depth_meas_um").unwrap();
-    assert_eq!(meas.len(), points.len());
-    for (m, p) in meas.iter().zip(&points) {
-        assert!((m - p.depth_meas_um).abs() <= 1e-12 * p.depth_meas_um.abs().max(1.0));
+    let read = millcomp_datasets::contracts::read_measured_groove(&out).unwrap();
+    assert_eq!(read.points.len(), points.len());
+    for (m, p) in read.points.iter().zip(&points) {
+        assert!(
+            (m.depth_meas_um - p.depth_meas_um).abs() <= 1e-12 * p.depth_meas_um.abs().max(1.0)
+        );
     }
 }
 
@@ -61,8 +61,10 @@ fn noise_seed_changes_the_profile_by_about_the_profilometer_noise() {
             .success();
         millcomp_datasets::contracts::read_measured_groove(&out)
             .unwrap()
-            .f64s("depth_meas_um")
-            .unwrap()
+            .points
+            .iter()
+            .map(|p| p.depth_meas_um)
+            .collect()
     };
     let clean = run(&[]);
     let noisy = run(&["--noise-seed", "7"]);

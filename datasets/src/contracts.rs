@@ -1,81 +1,343 @@
-//! Schemas of the files other tools exchange with millcomp (DESIGN.md "Contracts").
+//! The contracts: schemas of the files other tools exchange with millcomp (DESIGN.md "Contracts"),
+//! defined once here, and their adapters to the row types of `millcomp-sim`.
+//!
+//! * The **measured-groove CSV** (one row per measured point, [`MEASURED_GROOVE_COLUMNS`] plus the
+//!   optional `spindle_temp_c`): what `millcomp simulate SESSION` writes and `millcomp diagnose`
+//!   reads, as [`GroovePoint`]s.
+//! * The **flute force trace** (`NAME.forces.csv`, [`FORCE_TRACE_COLUMNS`]): per measured point the
+//!   peak z-force of each flute, as [`FluteForcePoint`]s; every row must match a measured point by
+//!   `groove_id` and `x_mm`.
+//!
+//! Both are read through the one table reader ([`read_table`], polars), so errors name the file, the
+//! column and the 1-based data row, and written through [`write_table`] / [`write_csv_to`].
+//!
+//! ```
+//! use millcomp_datasets::contracts::{MEASURED_GROOVE_COLUMNS, read_measured_groove_str};
+//! let csv = format!(
+//!     "{}\n0,0,0,0,10000,100,10,20,1,0,0.1\n0,0.6,1,1,10000,100,10,20,1,4,2.05\n",
+//!     MEASURED_GROOVE_COLUMNS.join(",")
+//! );
+//! let m = read_measured_groove_str("m.csv", &csv).unwrap();
+//! assert_eq!(m.points.len(), 2);
+//! assert_eq!(m.points[1].depth_meas_um, 2.05);
+//! assert_eq!(m.points[1].coolant_on, 1);
+//! ```
+//!
+//! [`write_table`]: crate::write_table
+//! [`write_csv_to`]: crate::table::write_csv_to
 
 use std::path::Path;
 
+use millcomp_sim::SimError;
+use millcomp_sim::session::{FluteForcePoint, GroovePoint, check_groove_points};
+
 use crate::error::DatasetError;
-use crate::table::{ColumnKind, ColumnSpec, Schema, Table, read_table};
+use crate::table::{
+    Column, ColumnData, ColumnKind, ColumnSpec, Schema, Table, read_csv_str, read_table,
+};
+
+/// Name, kind and meaning of every required measured-groove column, in contract order.
+const MEASURED_GROOVE: [(&str, ColumnKind, &str); 11] = [
+    ("groove_id", ColumnKind::Int, "groove number"),
+    (
+        "t_s",
+        ColumnKind::Float,
+        "session clock when this point was cut",
+    ),
+    ("x_mm", ColumnKind::Float, "position along the groove"),
+    (
+        "cut_length_mm",
+        ColumnKind::Float,
+        "cumulative engaged length of the tool",
+    ),
+    ("spindle_rpm", ColumnKind::Float, "spindle speed"),
+    ("feed_mm_min", ColumnKind::Float, "feed rate"),
+    ("upfeed_um", ColumnKind::Float, "feed per revolution"),
+    ("tilt_deg", ColumnKind::Float, "tool tilt"),
+    ("coolant_on", ColumnKind::Flag, "coolant flowing (0/1)"),
+    ("depth_cmd_um", ColumnKind::Float, "programmed depth"),
+    ("depth_meas_um", ColumnKind::Float, "measured groove depth"),
+];
+
+/// The optional measured-groove column (written when a point has a spindle temperature).
+pub const SPINDLE_TEMP_COLUMN: &str = "spindle_temp_c";
+
+/// Name, kind and meaning of every force-trace column, in contract order.
+const FORCE_TRACE: [(&str, ColumnKind, &str); 4] = [
+    (
+        "groove_id",
+        ColumnKind::Int,
+        "groove, as in the measured-groove CSV",
+    ),
+    (
+        "x_mm",
+        ColumnKind::Float,
+        "position along the groove (matches a measured point)",
+    ),
+    (
+        "fz_peak_flute1_n",
+        ColumnKind::Float,
+        "peak z-force of flute 1 (the flute closer to the axis, smaller chip)",
+    ),
+    (
+        "fz_peak_flute2_n",
+        ColumnKind::Float,
+        "peak z-force of flute 2 (the flute that runout makes cut more)",
+    ),
+];
+
+const fn names<const N: usize>(
+    spec: &[(&'static str, ColumnKind, &'static str); N],
+) -> [&'static str; N] {
+    let mut out = [""; N];
+    let mut i = 0;
+    while i < N {
+        out[i] = spec[i].0;
+        i += 1;
+    }
+    out
+}
 
 /// Columns of the measured-groove CSV, in contract order (what `diagnose` reads and `simulate`
-/// writes).
-pub const MEASURED_GROOVE_COLUMNS: [&str; 11] = [
-    "groove_id",
-    "t_s",
-    "x_mm",
-    "cut_length_mm",
-    "spindle_rpm",
-    "feed_mm_min",
-    "upfeed_um",
-    "tilt_deg",
-    "coolant_on",
-    "depth_cmd_um",
-    "depth_meas_um",
-];
+/// writes), without the optional [`SPINDLE_TEMP_COLUMN`].
+pub const MEASURED_GROOVE_COLUMNS: [&str; 11] = names(&MEASURED_GROOVE);
+
+/// Columns of the flute force trace, in contract order.
+pub const FORCE_TRACE_COLUMNS: [&str; 4] = names(&FORCE_TRACE);
 
 /// The measured-groove session schema: one row per measured point.
 pub fn measured_groove_schema() -> Schema {
-    use ColumnKind::{Flag, Float, Int};
+    let mut columns: Vec<ColumnSpec> = MEASURED_GROOVE
+        .iter()
+        .map(|(name, kind, what)| ColumnSpec::required(name, *kind, what))
+        .collect();
+    columns.push(ColumnSpec::optional(
+        SPINDLE_TEMP_COLUMN,
+        ColumnKind::Float,
+        "spindle temperature",
+    ));
+    Schema::new("measured_groove", columns)
+}
+
+/// The flute force-trace schema: one row per measured point.
+pub fn force_trace_schema() -> Schema {
     Schema::new(
-        "measured_groove",
-        vec![
-            ColumnSpec::required("groove_id", Int, "groove number"),
-            ColumnSpec::required("t_s", Float, "session clock when this point was cut"),
-            ColumnSpec::required("x_mm", Float, "position along the groove"),
-            ColumnSpec::required(
-                "cut_length_mm",
-                Float,
-                "cumulative engaged length of the tool",
-            ),
-            ColumnSpec::required("spindle_rpm", Float, "spindle speed"),
-            ColumnSpec::required("feed_mm_min", Float, "feed rate"),
-            ColumnSpec::required("upfeed_um", Float, "feed per revolution"),
-            ColumnSpec::required("tilt_deg", Float, "tool tilt"),
-            ColumnSpec::required("coolant_on", Flag, "coolant flowing (0/1)"),
-            ColumnSpec::required("depth_cmd_um", Float, "programmed depth"),
-            ColumnSpec::required("depth_meas_um", Float, "measured groove depth"),
-            ColumnSpec::optional("spindle_temp_c", Float, "spindle temperature"),
-        ],
+        "force_trace",
+        FORCE_TRACE
+            .iter()
+            .map(|(name, kind, what)| ColumnSpec::required(name, *kind, what))
+            .collect(),
     )
 }
 
-/// Reads and validates a measured-groove CSV: the schema, plus `t_s` strictly increasing within
-/// each groove.
-pub fn read_measured_groove(path: &Path) -> Result<Table, DatasetError> {
+/// A measured-groove file read into points.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeasuredGroove {
+    /// One point per data row, in file order.
+    pub points: Vec<GroovePoint>,
+    /// Columns present in the file but not in the contract, which were ignored.
+    pub ignored_columns: Vec<String>,
+}
+
+/// Reads and validates a measured-groove file (CSV or Parquet) as a table: the schema, plus `t_s`
+/// strictly increasing within each groove.
+///
+/// # Errors
+/// [`DatasetError`] naming the file, the column and the 1-based data row.
+pub fn read_measured_groove_table(path: &Path) -> Result<Table, DatasetError> {
     let table = read_table(path, &measured_groove_schema())?;
-    check_time_monotone(path, &table)?;
+    groove_points(path, &table)?;
     Ok(table)
 }
 
-fn check_time_monotone(path: &Path, table: &Table) -> Result<(), DatasetError> {
-    let ids = table.i64s("groove_id")?;
-    let t = table.f64s("t_s")?;
-    let mut last: std::collections::HashMap<i64, f64> = std::collections::HashMap::new();
-    for (i, (&id, &ti)) in ids.iter().zip(&t).enumerate() {
-        if let Some(&prev) = last.get(&id) {
-            if ti <= prev {
-                return Err(DatasetError::Invalid {
-                    file: path.to_path_buf(),
-                    column: "t_s".to_string(),
-                    row: i + 1,
-                    message: format!(
-                        "time {ti} s is not after the previous point of groove {id} ({prev} s); \
-                         t_s must increase within a groove"
-                    ),
-                });
-            }
-        }
-        last.insert(id, ti);
+/// Reads and validates a measured-groove file (CSV or Parquet) into points.
+///
+/// # Errors
+/// [`DatasetError`] naming the file, the column and the 1-based data row: a missing column, a cell
+/// that is not a finite number (or not 0/1 for `coolant_on`), time going backwards within a groove.
+pub fn read_measured_groove(path: &Path) -> Result<MeasuredGroove, DatasetError> {
+    let table = read_table(path, &measured_groove_schema())?;
+    measured_groove_from(path, table)
+}
+
+/// Reads measured-groove CSV text (embedded data, tests) into points; `origin` names it in messages.
+///
+/// # Errors
+/// As [`read_measured_groove`].
+pub fn read_measured_groove_str(origin: &str, text: &str) -> Result<MeasuredGroove, DatasetError> {
+    let table = read_csv_str(origin, text, &measured_groove_schema())?;
+    measured_groove_from(Path::new(origin), table)
+}
+
+fn measured_groove_from(path: &Path, table: Table) -> Result<MeasuredGroove, DatasetError> {
+    Ok(MeasuredGroove {
+        points: groove_points(path, &table)?,
+        ignored_columns: table.ignored_columns,
+    })
+}
+
+/// The points of a validated measured-groove table, checked as a measurement (sim's
+/// `check_groove_points`: time strictly increasing within a groove).
+fn groove_points(path: &Path, t: &Table) -> Result<Vec<GroovePoint>, DatasetError> {
+    let ids = t.i64s("groove_id")?;
+    let f = |name: &str| t.f64s(name);
+    let (ts, x, cut, rpm, feed, up, tilt) = (
+        f("t_s")?,
+        f("x_mm")?,
+        f("cut_length_mm")?,
+        f("spindle_rpm")?,
+        f("feed_mm_min")?,
+        f("upfeed_um")?,
+        f("tilt_deg")?,
+    );
+    let coolant = t.i64s("coolant_on")?;
+    let (cmd, meas) = (f("depth_cmd_um")?, f("depth_meas_um")?);
+    let temp = t
+        .column(SPINDLE_TEMP_COLUMN)
+        .map(|_| f(SPINDLE_TEMP_COLUMN))
+        .transpose()?;
+    let points: Vec<GroovePoint> = (0..t.n_rows())
+        .map(|i| GroovePoint {
+            groove_id: ids[i],
+            t_s: ts[i],
+            x_mm: x[i],
+            cut_length_mm: cut[i],
+            spindle_rpm: rpm[i],
+            feed_mm_min: feed[i],
+            upfeed_um: up[i],
+            tilt_deg: tilt[i],
+            // a Flag column holds only 0 and 1
+            coolant_on: u8::from(coolant[i] != 0),
+            depth_cmd_um: cmd[i],
+            depth_meas_um: meas[i],
+            spindle_temp_c: temp.as_ref().map(|v| v[i]),
+        })
+        .collect();
+    check_groove_points(&points).map_err(|e| invalid(path, e))?;
+    Ok(points)
+}
+
+fn invalid(path: &Path, e: SimError) -> DatasetError {
+    match e {
+        SimError::Point {
+            row,
+            column,
+            message,
+        } => DatasetError::Invalid {
+            file: path.to_path_buf(),
+            column: column.to_string(),
+            row: row + 1,
+            message,
+        },
+        other => DatasetError::Invalid {
+            file: path.to_path_buf(),
+            column: String::new(),
+            row: 0,
+            message: other.to_string(),
+        },
     }
-    Ok(())
+}
+
+/// The measured-groove table of `points` (contract columns; `spindle_temp_c` added when any point
+/// has it, empty cells are not allowed so a missing temperature is then NaN), for [`write_table`]
+/// or [`write_csv_to`].
+///
+/// [`write_table`]: crate::write_table
+/// [`write_csv_to`]: crate::table::write_csv_to
+///
+/// # Errors
+/// Never for points from one source; [`DatasetError::RaggedColumns`] cannot occur here but is the
+/// table builder's error type.
+pub fn measured_groove_table(origin: &str, points: &[GroovePoint]) -> Result<Table, DatasetError> {
+    let float = |f: fn(&GroovePoint) -> f64| ColumnData::Float(points.iter().map(f).collect());
+    let data: [ColumnData; 11] = [
+        ColumnData::Int(points.iter().map(|p| p.groove_id).collect()),
+        float(|p| p.t_s),
+        float(|p| p.x_mm),
+        float(|p| p.cut_length_mm),
+        float(|p| p.spindle_rpm),
+        float(|p| p.feed_mm_min),
+        float(|p| p.upfeed_um),
+        float(|p| p.tilt_deg),
+        ColumnData::Int(points.iter().map(|p| i64::from(p.coolant_on)).collect()),
+        float(|p| p.depth_cmd_um),
+        float(|p| p.depth_meas_um),
+    ];
+    let mut columns: Vec<Column> = MEASURED_GROOVE_COLUMNS
+        .iter()
+        .zip(data)
+        .map(|(name, data)| Column {
+            name: name.to_string(),
+            data,
+        })
+        .collect();
+    if points.iter().any(|p| p.spindle_temp_c.is_some()) {
+        columns.push(Column {
+            name: SPINDLE_TEMP_COLUMN.to_string(),
+            data: float(|p| p.spindle_temp_c.unwrap_or(f64::NAN)),
+        });
+    }
+    Table::from_columns(origin, columns)
+}
+
+/// Reads a flute force-trace file (CSV or Parquet).
+///
+/// # Errors
+/// [`DatasetError`] naming the file, the column and the 1-based data row.
+pub fn read_force_trace(path: &Path) -> Result<Vec<FluteForcePoint>, DatasetError> {
+    force_points(&read_table(path, &force_trace_schema())?)
+}
+
+/// Reads flute force-trace CSV text; `origin` names it in messages.
+///
+/// # Errors
+/// As [`read_force_trace`].
+pub fn read_force_trace_str(
+    origin: &str,
+    text: &str,
+) -> Result<Vec<FluteForcePoint>, DatasetError> {
+    force_points(&read_csv_str(origin, text, &force_trace_schema())?)
+}
+
+fn force_points(t: &Table) -> Result<Vec<FluteForcePoint>, DatasetError> {
+    let ids = t.i64s("groove_id")?;
+    let (x, f1, f2) = (
+        t.f64s("x_mm")?,
+        t.f64s("fz_peak_flute1_n")?,
+        t.f64s("fz_peak_flute2_n")?,
+    );
+    Ok((0..t.n_rows())
+        .map(|i| FluteForcePoint {
+            groove_id: ids[i],
+            x_mm: x[i],
+            fz_peak_flute1_n: f1[i],
+            fz_peak_flute2_n: f2[i],
+        })
+        .collect())
+}
+
+/// The force-trace table of `rows`, for [`write_table`](crate::write_table).
+///
+/// # Errors
+/// As [`measured_groove_table`].
+pub fn force_trace_table(origin: &str, rows: &[FluteForcePoint]) -> Result<Table, DatasetError> {
+    let data = [
+        ColumnData::Int(rows.iter().map(|r| r.groove_id).collect()),
+        ColumnData::Float(rows.iter().map(|r| r.x_mm).collect()),
+        ColumnData::Float(rows.iter().map(|r| r.fz_peak_flute1_n).collect()),
+        ColumnData::Float(rows.iter().map(|r| r.fz_peak_flute2_n).collect()),
+    ];
+    Table::from_columns(
+        origin,
+        FORCE_TRACE_COLUMNS
+            .iter()
+            .zip(data)
+            .map(|(name, data)| Column {
+                name: name.to_string(),
+                data,
+            })
+            .collect(),
+    )
 }
 
 #[cfg(test)]
@@ -88,7 +350,9 @@ mod tests {
         p
     }
 
-    const HEADER: &str = "groove_id,t_s,x_mm,cut_length_mm,spindle_rpm,feed_mm_min,upfeed_um,tilt_deg,coolant_on,depth_cmd_um,depth_meas_um";
+    fn header() -> String {
+        MEASURED_GROOVE_COLUMNS.join(",")
+    }
 
     #[test]
     fn accepts_contract_file_and_notes_unknown_columns() {
@@ -96,12 +360,18 @@ mod tests {
         let p = write(
             &dir,
             &format!(
-                "{HEADER},operator\n1,0,0,0,10000,100,10,20,1,0,0.1,ann\n1,1,0.1,0.1,10000,100,10,20,1,1,1.2,ann\n"
+                "{},operator\n1,0,0,0,10000,100,10,20,1,0,0.1,ann\n1,1,0.1,0.1,10000,100,10,20,1,1,1.2,ann\n",
+                header()
             ),
         );
-        let t = read_measured_groove(&p).unwrap();
+        let t = read_measured_groove_table(&p).unwrap();
         assert_eq!(t.n_rows(), 2);
         assert_eq!(t.ignored_columns, vec!["operator".to_string()]);
+        let m = read_measured_groove(&p).unwrap();
+        assert_eq!(m.points.len(), 2);
+        assert_eq!(m.ignored_columns, vec!["operator".to_string()]);
+        assert_eq!(m.points[1].depth_meas_um, 1.2);
+        assert_eq!(m.points[1].spindle_temp_c, None);
     }
 
     #[test]
@@ -110,12 +380,132 @@ mod tests {
         let p = write(
             &dir,
             &format!(
-                "{HEADER}\n1,5,0,0,10000,100,10,20,1,0,0\n2,1,0,0,10000,100,10,20,1,0,0\n1,4,0.1,0.1,10000,100,10,20,1,1,1\n"
+                "{}\n1,5,0,0,10000,100,10,20,1,0,0\n2,1,0,0,10000,100,10,20,1,0,0\n1,4,0.1,0.1,10000,100,10,20,1,1,1\n",
+                header()
             ),
+        );
+        let e = read_measured_groove_table(&p).unwrap_err();
+        assert!(
+            matches!(e, DatasetError::Invalid { row: 3, ref column, .. } if column == "t_s"),
+            "{e}"
         );
         let e = read_measured_groove(&p).unwrap_err();
         assert!(
             matches!(e, DatasetError::Invalid { row: 3, ref column, .. } if column == "t_s"),
+            "{e}"
+        );
+    }
+
+    /// The measured-groove errors `diagnose` relied on when it had its own reader (moved from
+    /// identify's `diagnose_bad_input::contract_csv_errors`; rows are now 1-based data rows).
+    #[test]
+    fn contract_csv_errors_name_column_and_row() {
+        let h = header();
+        // missing column
+        let e = read_measured_groove_str("m.csv", "groove_id,t_s\n0,0\n").unwrap_err();
+        assert!(
+            matches!(e, DatasetError::MissingColumn { ref column, .. } if column == "x_mm"),
+            "{e}"
+        );
+        // non-numeric cell, named by column and row (the second data row)
+        let e = read_measured_groove_str(
+            "m.csv",
+            &format!("{h}\n0,0,0,0,10000,100,10,20,0,0,0\n0,1,1,1,10000,100,10,20,0,4,abc\n"),
+        )
+        .unwrap_err();
+        let msg = e.to_string();
+        assert!(
+            msg.contains("depth_meas_um") && msg.contains("row 2"),
+            "{msg}"
+        );
+        // NaN
+        let e =
+            read_measured_groove_str("m.csv", &format!("{h}\n0,0,0,0,10000,100,10,20,0,0,NaN\n"))
+                .unwrap_err();
+        assert!(
+            matches!(e, DatasetError::NonFinite { ref column, row: 1, .. } if column == "depth_meas_um"),
+            "{e}"
+        );
+        // time going backwards within a groove
+        let e = read_measured_groove_str(
+            "m.csv",
+            &format!("{h}\n0,5,0,0,10000,100,10,20,0,0,0\n1,1,0,0,10000,100,10,20,0,0,0\n0,4,1,1,10000,100,10,20,0,4,4\n"),
+        )
+        .unwrap_err();
+        assert!(
+            matches!(e, DatasetError::Invalid { row: 3, ref column, .. } if column == "t_s"),
+            "{e}"
+        );
+        // coolant flag not 0/1
+        let e = read_measured_groove_str("m.csv", &format!("{h}\n0,0,0,0,10000,100,10,20,2,0,0\n"))
+            .unwrap_err();
+        assert!(e.to_string().contains("coolant_on"), "{e}");
+        // unknown extra columns are accepted
+        let m = read_measured_groove_str(
+            "m.csv",
+            &format!("{h},operator\n0,0,0,0,10000,100,10,20,0,0,0.1,7\n"),
+        )
+        .unwrap();
+        assert_eq!(m.points.len(), 1);
+    }
+
+    #[test]
+    fn points_round_trip_through_the_table_writer() {
+        let dir = tempfile::tempdir().unwrap();
+        let text = format!(
+            "{},{SPINDLE_TEMP_COLUMN}\n0,0,0,0,10000,100,10,20,1,0,0.1,21.5\n0,0.6,1,1.0000000000000002,10000,100,10,20,1,4,2.081899070919204,22\n",
+            header()
+        );
+        let m = read_measured_groove_str("m.csv", &text).unwrap();
+        assert_eq!(m.points[1].spindle_temp_c, Some(22.0));
+        let table = measured_groove_table("out", &m.points).unwrap();
+        assert_eq!(
+            table.names()[..11],
+            MEASURED_GROOVE_COLUMNS[..],
+            "contract order"
+        );
+        for name in ["out.csv", "out.parquet"] {
+            let p = dir.path().join(name);
+            crate::write_table(&table, &p).unwrap();
+            assert_eq!(read_measured_groove(&p).unwrap().points, m.points, "{name}");
+        }
+        // the CSV text: the contract header, one line per point (moved from sim's session tests
+        // when sim's own CSV writer was deleted)
+        let mut buf = Vec::new();
+        crate::write_csv_to(&table, &mut buf).unwrap();
+        let text = String::from_utf8(buf).unwrap();
+        assert_eq!(
+            text.lines().next().unwrap(),
+            format!("{},{SPINDLE_TEMP_COLUMN}", header())
+        );
+        assert_eq!(text.lines().count(), m.points.len() + 1);
+        // without temperatures there is no temperature column
+        let mut cold = m.points.clone();
+        for p in &mut cold {
+            p.spindle_temp_c = None;
+        }
+        let t = measured_groove_table("out", &cold).unwrap();
+        assert_eq!(t.names(), MEASURED_GROOVE_COLUMNS.to_vec());
+    }
+
+    #[test]
+    fn force_trace_reads_writes_and_names_missing_columns() {
+        let dir = tempfile::tempdir().unwrap();
+        let text = format!(
+            "{}\n0,0,-0.03152391715589805,0.06310137883878786\n0,1,0.9773717762192433,1.09254431731701\n",
+            FORCE_TRACE_COLUMNS.join(",")
+        );
+        let rows = read_force_trace_str("f.csv", &text).unwrap();
+        assert_eq!(rows.len(), 2);
+        assert_eq!(rows[1].fz_peak_flute2_n, 1.09254431731701);
+        let p = dir.path().join("f.csv");
+        crate::write_table(&force_trace_table("f", &rows).unwrap(), &p).unwrap();
+        assert_eq!(read_force_trace(&p).unwrap(), rows);
+        // moved from identify's `diagnose_bad_input::force_trace_rows_must_match_points`
+        let e =
+            read_force_trace_str("f.csv", "groove_id,x_mm,fz_peak_flute1_n\n0,0,1\n").unwrap_err();
+        assert!(
+            matches!(e, DatasetError::MissingColumn { ref column, .. } if column == "fz_peak_flute2_n"),
             "{e}"
         );
     }

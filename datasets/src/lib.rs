@@ -1,7 +1,8 @@
 //! Published tables from the seed documents as validated CSV, and the table I/O at millcomp's edges.
 //!
 //! * [`registry`]: every shipped table (embedded in the binary), with its schema and provenance.
-//! * [`contracts`]: schemas of the files exchanged with other tools (the measured-groove CSV).
+//! * [`contracts`]: the files exchanged with other tools (the measured-groove CSV, the flute force
+//!   trace), defined once, with adapters to and from `millcomp-sim`'s row types.
 //! * [`table`]: reading a user's CSV/Parquet file against a schema with errors that name the file,
 //!   column and 1-based row; writing tables and text atomically (temporary file + rename).
 //!
@@ -22,5 +23,5 @@ pub use error::DatasetError;
 pub use registry::{DATASETS, Dataset, dataset, load};
 pub use table::{
     Column, ColumnData, ColumnKind, ColumnSpec, Schema, Table, TableFormat, read_any, read_csv_str,
-    read_table, write_atomic, write_table, write_text_atomic,
+    read_table, write_atomic, write_csv_to, write_table, write_text_atomic,
 };

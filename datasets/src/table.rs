@@ -673,15 +673,29 @@ pub fn write_table(table: &Table, path: &Path) -> Result<(), DatasetError> {
     let format = TableFormat::from_path(path)?;
     let mut df = table.to_dataframe()?;
     write_atomic(path, |file| match format {
-        TableFormat::Csv => CsvWriter::new(file)
-            .include_header(true)
-            .finish(&mut df)
-            .map_err(|e| e.to_string()),
+        TableFormat::Csv => csv_to(&mut df, file),
         TableFormat::Parquet => ParquetWriter::new(file)
             .finish(&mut df)
             .map(|_| ())
             .map_err(|e| e.to_string()),
     })
+}
+
+/// Writes `table` as CSV (header + rows, the same text [`write_table`] writes to a `.csv` file) to
+/// `out`, e.g. standard output.
+pub fn write_csv_to<W: Write>(table: &Table, out: W) -> Result<(), DatasetError> {
+    let mut df = table.to_dataframe()?;
+    csv_to(&mut df, out).map_err(|message| DatasetError::Write {
+        file: PathBuf::from(&table.origin),
+        message,
+    })
+}
+
+fn csv_to<W: Write>(df: &mut DataFrame, out: W) -> Result<(), String> {
+    CsvWriter::new(out)
+        .include_header(true)
+        .finish(df)
+        .map_err(|e| e.to_string())
 }
 
 /// Writes bytes produced by `fill` to `path` atomically (temporary file + rename).

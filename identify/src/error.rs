@@ -125,33 +125,6 @@ pub enum IdentifyError {
     /// The argmin solver failed internally (not a non-convergence, which is a report status).
     #[error("solver error: {0}")]
     Solver(String),
-    /// `diagnose`: the measured data do not belong to the session (different grooves, points or
-    /// conditions). `row` is the 0-based data row, `None` when the whole file is at fault.
-    #[error("measured data do not match the session: {}column `{column}`: {message}", row.map(|r| format!("row {r}, ")).unwrap_or_default())]
-    SessionMismatch {
-        /// Offending column (`rows` when the row counts differ).
-        column: String,
-        /// 0-based data row, if one row is at fault.
-        row: Option<usize>,
-        /// What differs, with both values.
-        message: String,
-    },
-    /// `diagnose`: a candidate effect name that is not registered.
-    #[error("unknown candidate effect `{name}`; allowed {allowed}")]
-    UnknownCandidate {
-        /// The name given.
-        name: String,
-        /// Registered names.
-        allowed: String,
-    },
-    /// `diagnose`: the session file could not be simulated, or a report file could not be written.
-    #[error("{what}: {message}")]
-    Io {
-        /// File or item at fault.
-        what: String,
-        /// Cause.
-        message: String,
-    },
 }
 
 /// Result alias of the crate.

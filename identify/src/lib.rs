@@ -11,12 +11,10 @@
 //!   `Jacobian`); [`check_jacobian`] is the finite-difference test every analytic Jacobian has.
 //! * Errors ([`IdentifyError`]) are for input that cannot be fitted; a fit that ran always gives a
 //!   report whose `status` says how it ended.
-//! * The discrepancy workflow ([`diagnose`]): simulate a session's nominal model, name the missing
-//!   effect by forward selection with nested F-tests (Bonferroni + BIC), add it, show the gap shrink.
+//! * The discrepancy workflow built on this engine is its own crate, `millcomp-diagnose`.
 #![warn(missing_docs)]
 
 pub mod columns;
-pub mod diagnose;
 pub mod error;
 pub mod jaccheck;
 pub mod linear;

@@ -62,6 +62,17 @@ pub enum SimError {
         /// What is wrong.
         message: String,
     },
+    /// A measured point is not a valid measurement (non-finite value, flag not 0/1, time going
+    /// backwards within a groove).
+    #[error("point {row}, `{column}`: {message}")]
+    Point {
+        /// 0-based index of the point.
+        row: usize,
+        /// The offending field (the measured-groove column name).
+        column: &'static str,
+        /// What is wrong.
+        message: String,
+    },
     /// A file could not be read.
     #[error("cannot read `{path}`: {message}")]
     Io {

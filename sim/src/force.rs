@@ -50,6 +50,10 @@ use crate::tool::BallEndTool;
 /// `tests/groove.rs::s7_groove_force_scale_reproduces_fig_7_6`.
 pub const S7_GROOVE_FORCE_SCALE: f64 = 3.7396;
 
+/// Angles per revolution at which the per-revolution peak z-force is sampled
+/// ([`BallEndForceModel::peak_z_force_n`]; also the per-flute peaks of a force trace).
+pub const PEAK_SAMPLES_PER_REV: usize = 720;
+
 /// How the flank (ploughing) pressure depends on the material.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "law", rename_all = "snake_case")]
@@ -467,9 +471,10 @@ impl BallEndForceModel {
         ])
     }
 
-    /// Maximum z-force over a revolution (N) — the quantity the thesis' peak-and-hold captures (§6.2).
+    /// Maximum z-force over a revolution (N) — the quantity the thesis' peak-and-hold captures (§6.2),
+    /// sampled at [`PEAK_SAMPLES_PER_REV`] angles.
     pub fn peak_z_force_n(&self, cond: &CutConditions) -> Result<f64, SimError> {
-        let rev = self.revolution(cond, 720)?;
+        let rev = self.revolution(cond, PEAK_SAMPLES_PER_REV)?;
         Ok(rev.iter().map(|f| f[2]).fold(f64::NEG_INFINITY, f64::max))
     }
 

@@ -13,7 +13,7 @@
 //! | [`filters`], [`sensors`] | 500 Hz low-pass, peak-and-hold, 0.0005/0.9995, notch chain; force/gauge | unit tests |
 //! | [`groove`], [`feed`] | steppable groove plant; feed changes with axis acceleration, workpiece exit | 16.0 µm deflection at 80 µm (published 17) |
 //! | [`thinwall`] | steppable thin-wall plant (004), the 004 threshold rule, joint K_r/tool calibration | 87.6/106.7/126.1 vs 85.9/106.7/127.8 µm; threshold 2.19 % (published 2.19 %) |
-//! | [`effects`], [`session`] | the seven named effects; TOML sessions → measured-groove CSV rows | seed figures |
+//! | [`effects`], [`session`] | the seven named effects; TOML sessions, their timeline and per-point contexts → measured-groove points | seed figures |
 //!
 //! ```
 //! use millcomp_sim::groove::GrooveConfig;

@@ -1,6 +1,9 @@
 //! Groove sessions: a TOML file describing tool, material, stiffness, effects and a plan of grooves and
-//! pauses (schema in `sim/SESSION.md`), and [`simulate_session`], which predicts every measured point as a
-//! row of the DESIGN.md measured-groove CSV contract.
+//! pauses (schema in `sim/SESSION.md`); the plan played out once ([`Session::timeline`],
+//! [`Session::contexts`]: the nominal context of every measured point); and [`simulate_session`], which
+//! predicts every measured point as a [`GroovePoint`] — one row of the measured-groove contract, whose
+//! columns and file adapters live in `millcomp-datasets` (`contracts`). [`FluteForcePoint`] is one row of
+//! the per-flute force trace.
 //!
 //! Prediction per point (quasi-static, per-revolution peak force as in `000_…txt` §6.2):
 //! `depth_meas = depth_cmd − δz + Σ effect offsets (+ noise)`, with `δz = Fz,peak(depth_cmd − δz)·(1/kz)`
@@ -266,52 +269,69 @@ pub struct GroovePoint {
     pub spindle_temp_c: Option<f64>,
 }
 
-/// CSV header of the measured-groove contract (without the optional temperature column).
-pub const CSV_COLUMNS: [&str; 11] = [
-    "groove_id",
-    "t_s",
-    "x_mm",
-    "cut_length_mm",
-    "spindle_rpm",
-    "feed_mm_min",
-    "upfeed_um",
-    "tilt_deg",
-    "coolant_on",
-    "depth_cmd_um",
-    "depth_meas_um",
-];
+/// One row of a flute force trace: the peak z-force of each flute over the revolution in which a
+/// measured point was cut (the per-flute peak-and-hold of `000_…txt` §6.2). Flute runout shows in the
+/// asymmetry between the two flutes (§4), which a depth profile barely shows.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct FluteForcePoint {
+    /// Groove index, as in the measured-groove points.
+    pub groove_id: i64,
+    /// Position along the groove (mm); matches a measured point.
+    pub x_mm: f64,
+    /// Peak z-force of flute 1, the flute closer to the axis (smaller chip) (N).
+    pub fz_peak_flute1_n: f64,
+    /// Peak z-force of flute 2, the flute that runout makes cut more (N).
+    pub fz_peak_flute2_n: f64,
+}
 
-/// Write points as CSV (header + rows; `spindle_temp_c` column added when any point has it).
-pub fn write_csv<W: std::io::Write>(points: &[GroovePoint], mut w: W) -> std::io::Result<()> {
-    let temp = points.iter().any(|p| p.spindle_temp_c.is_some());
-    let mut header = CSV_COLUMNS.join(",");
-    if temp {
-        header.push_str(",spindle_temp_c");
-    }
-    writeln!(w, "{header}")?;
-    for p in points {
-        write!(
-            w,
-            "{},{},{},{},{},{},{},{},{},{},{}",
-            p.groove_id,
-            p.t_s,
-            p.x_mm,
-            p.cut_length_mm,
-            p.spindle_rpm,
-            p.feed_mm_min,
-            p.upfeed_um,
-            p.tilt_deg,
-            p.coolant_on,
-            p.depth_cmd_um,
-            p.depth_meas_um
-        )?;
-        if temp {
-            match p.spindle_temp_c {
-                Some(t) => write!(w, ",{t}")?,
-                None => write!(w, ",")?,
+/// Checks measured-groove points as a measurement: every value finite, `coolant_on` 0 or 1, and
+/// `t_s` strictly increasing within each groove. The error ([`SimError::Point`]) names the 0-based
+/// point index and the field.
+pub fn check_groove_points(points: &[GroovePoint]) -> Result<(), SimError> {
+    let mut last: std::collections::HashMap<i64, f64> = std::collections::HashMap::new();
+    for (row, p) in points.iter().enumerate() {
+        let fields = [
+            ("t_s", p.t_s),
+            ("x_mm", p.x_mm),
+            ("cut_length_mm", p.cut_length_mm),
+            ("spindle_rpm", p.spindle_rpm),
+            ("feed_mm_min", p.feed_mm_min),
+            ("upfeed_um", p.upfeed_um),
+            ("tilt_deg", p.tilt_deg),
+            ("depth_cmd_um", p.depth_cmd_um),
+            ("depth_meas_um", p.depth_meas_um),
+            ("spindle_temp_c", p.spindle_temp_c.unwrap_or(0.0)),
+        ];
+        for (column, v) in fields {
+            if !v.is_finite() {
+                return Err(SimError::Point {
+                    row,
+                    column,
+                    message: format!("{v} is not a finite number"),
+                });
             }
         }
-        writeln!(w)?;
+        if p.coolant_on > 1 {
+            return Err(SimError::Point {
+                row,
+                column: "coolant_on",
+                message: format!("{} is not 0 or 1", p.coolant_on),
+            });
+        }
+        if let Some(&prev) = last.get(&p.groove_id) {
+            if p.t_s <= prev {
+                return Err(SimError::Point {
+                    row,
+                    column: "t_s",
+                    message: format!(
+                        "time {} s is not after the previous point of groove {} ({prev} s); \
+                         t_s must increase within a groove",
+                        p.t_s, p.groove_id
+                    ),
+                });
+            }
+        }
+        last.insert(p.groove_id, p.t_s);
     }
     Ok(())
 }
@@ -612,155 +632,287 @@ impl PeakTable {
     }
 }
 
-/// Simulate a session: one [`GroovePoint`] per measured point, in plan order.
+/// The session's time line, replayed once from the plan (`sim/SESSION.md` "Semantics"): when each
+/// plan item starts, and the coolant and spindle events that effects read ([`EffectContext`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Timeline {
+    /// Start of each plan item (s), in plan order (grooves and pauses).
+    pub item_start_s: Vec<f64>,
+    /// Coolant switch events `(t_s, on)`, sorted; the coolant is off before the first.
+    pub coolant_events: Vec<(f64, bool)>,
+    /// Spindle speed events `(t_s, rpm)`, sorted; 0 rpm before the first.
+    pub spindle_events: Vec<(f64, f64)>,
+}
+
+/// One planned measured point before any effect and without noise: where and when it is cut, its cut
+/// conditions, and the nominal depth, force and compliance at which effects are evaluated.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointContext {
+    /// Groove index in the plan (0-based, grooves only).
+    pub groove_id: i64,
+    /// Session clock when the point is cut (s).
+    pub t_s: f64,
+    /// Position along the groove (mm).
+    pub x_mm: f64,
+    /// Machine X of the point (mm) = groove `x_offset_mm` + `x_mm`.
+    pub machine_x_mm: f64,
+    /// Cumulative engaged length of the tool (mm).
+    pub cut_length_mm: f64,
+    /// Spindle speed (rpm).
+    pub spindle_rpm: f64,
+    /// Feed rate (mm/min).
+    pub feed_mm_min: f64,
+    /// Upfeed (µm/rev).
+    pub upfeed_um: f64,
+    /// Tool tilt (deg).
+    pub tilt_deg: f64,
+    /// Coolant flowing at this point.
+    pub coolant_on: bool,
+    /// Programmed depth (µm).
+    pub depth_cmd_um: f64,
+    /// Nominal depth: programmed depth minus the static z-deflection `δz` (µm), noise-free and
+    /// without effects (may be negative where the tool does not reach the surface).
+    pub depth_nominal_um: f64,
+    /// Nominal actual depth `max(depth_nominal_um, 0)` (µm).
+    pub depth_actual_um: f64,
+    /// Nominal per-revolution peak z-force at the actual depth (N).
+    pub force_z_n: f64,
+    /// z-force per µm² of extra chip on the peak flute (N/µm²): scale·µ·Kc·cos(φ/2).
+    pub chip_force_z_n_per_um2: f64,
+    /// z-compliance of the tilted tool (µm/N).
+    pub z_compliance_um_per_n: f64,
+    /// Number of [`Timeline::coolant_events`] at or before `t_s`.
+    pub n_coolant_events: usize,
+    /// Number of [`Timeline::spindle_events`] at or before `t_s`.
+    pub n_spindle_events: usize,
+}
+
+/// A session's plan played out once: the time line and the nominal context of every planned
+/// measured point, in plan order. [`simulate_session`] adds the effects and the noise to it; a
+/// nominal model of the session (e.g. `millcomp-diagnose`) evaluates candidate effects on it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SessionContexts {
+    /// The time line.
+    pub timeline: Timeline,
+    /// One context per planned measured point, in plan order.
+    pub points: Vec<PointContext>,
+}
+
+impl SessionContexts {
+    /// Number of planned measured points.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Whether the plan measures no points.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// What an effect sees at point `i` (panics if `i` is out of range).
+    pub fn effect_context(&self, i: usize) -> EffectContext<'_> {
+        let p = &self.points[i];
+        EffectContext {
+            t_s: p.t_s,
+            x_mm: p.x_mm,
+            machine_x_mm: p.machine_x_mm,
+            cut_length_mm: p.cut_length_mm,
+            spindle_rpm: p.spindle_rpm,
+            tilt_deg: p.tilt_deg,
+            upfeed_um: p.upfeed_um,
+            depth_cmd_um: p.depth_cmd_um,
+            depth_actual_um: p.depth_actual_um,
+            force_z_n: p.force_z_n,
+            chip_force_z_n_per_um2: p.chip_force_z_n_per_um2,
+            z_compliance_um_per_n: p.z_compliance_um_per_n,
+            coolant_events: &self.timeline.coolant_events[..p.n_coolant_events],
+            spindle_events: &self.timeline.spindle_events[..p.n_spindle_events],
+        }
+    }
+
+    /// Depth offsets (µm) of `effect` at every planned point.
+    pub fn offsets_um(&self, effect: &dyn Effect) -> Vec<f64> {
+        (0..self.len())
+            .map(|i| effect.depth_offset_um(&self.effect_context(i)))
+            .collect()
+    }
+}
+
+impl Session {
+    /// The time line of the plan: item start times, coolant and spindle events (a groove starts at
+    /// `start_s` or when the previous item ends, whichever is later).
+    pub fn timeline(&self) -> Timeline {
+        let mut coolant_events: Vec<(f64, bool)> = Vec::new();
+        let mut spindle_events: Vec<(f64, f64)> = Vec::new();
+        let mut item_start_s = Vec::with_capacity(self.plan.len());
+        let mut t = 0.0f64;
+        let mut coolant = false;
+        for item in &self.plan {
+            match item {
+                PlanItem::Groove(g) => {
+                    let t0 = g.start_s.unwrap_or(t).max(t);
+                    if let Some(c) = g.coolant {
+                        if c != coolant || coolant_events.is_empty() {
+                            coolant_events.push((t0, c));
+                            coolant = c;
+                        }
+                    }
+                    spindle_events.push((t0, g.spindle_rpm));
+                    item_start_s.push(t0);
+                    t = t0 + g.duration_s();
+                }
+                PlanItem::Pause(p) => {
+                    if let Some(c) = p.coolant {
+                        if c != coolant || coolant_events.is_empty() {
+                            coolant_events.push((t, c));
+                            coolant = c;
+                        }
+                    }
+                    spindle_events.push((t, p.spindle_rpm));
+                    item_start_s.push(t);
+                    t += p.duration_s;
+                }
+            }
+        }
+        Timeline {
+            item_start_s,
+            coolant_events,
+            spindle_events,
+        }
+    }
+
+    /// Validates the session and plays its plan out: the time line and the nominal context of every
+    /// measured point (module documentation: `δz` by fixed-point iteration on a per-groove table of
+    /// peak z-force vs actual depth).
+    pub fn contexts(&self) -> Result<SessionContexts, SimError> {
+        self.validate()?;
+        let model = self.force_model()?;
+        let stiffness = self.stiffness()?;
+        let timeline = self.timeline();
+        let mut points = Vec::new();
+        let mut cut_length = 0.0f64;
+        let mut groove_id = 0i64;
+        for (item, &t0) in self.plan.iter().zip(&timeline.item_start_s) {
+            let PlanItem::Groove(g) = item else { continue };
+            let upfeed = g.upfeed();
+            let base = CutConditions {
+                depth_um: 0.0,
+                upfeed_um_per_rev: upfeed,
+                speed_rpm: g.spindle_rpm,
+                tilt_deg: g.tilt_deg,
+            };
+            let compliance = stiffness.z_compliance_um_per_n(g.tilt_deg)?;
+            // max programmed depth on a fine grid
+            let nfine = 1000usize;
+            let mut max_d: f64 = 0.0;
+            for k in 0..=nfine {
+                max_d = max_d.max(
+                    g.depth
+                        .depth_at(g.length_mm * k as f64 / nfine as f64, g.length_mm),
+                );
+            }
+            let table = PeakTable::new(&model, base, max_d)?;
+            let v_mm_s = g.feed() / 60.0;
+            let n_pts = (g.length_mm / g.measure_every_mm + 1e-9).floor() as usize;
+            let mut x_prev = 0.0;
+            for j in 0..=n_pts {
+                let x = (j as f64 * g.measure_every_mm).min(g.length_mm);
+                // engaged length between the previous point and this one
+                let sub = 20usize;
+                for s in 0..sub {
+                    let xa = x_prev + (x - x_prev) * (s as f64 + 0.5) / sub as f64;
+                    if g.depth.depth_at(xa, g.length_mm) > 0.0 {
+                        cut_length += (x - x_prev) / sub as f64;
+                    }
+                }
+                x_prev = x;
+                let tp = t0 + x / v_mm_s;
+                let d_cmd = g.depth.depth_at(x, g.length_mm);
+                let mut delta = 0.0;
+                for _ in 0..200 {
+                    let next = table.at(d_cmd - delta) * compliance;
+                    if (next - delta).abs() < 1e-10 {
+                        delta = next;
+                        break;
+                    }
+                    delta = next;
+                }
+                let d_act = (d_cmd - delta).max(0.0);
+                let phi = model.contact_angle_rad(d_act);
+                let n_coolant_events = timeline.coolant_events.partition_point(|e| e.0 <= tp);
+                let n_spindle_events = timeline.spindle_events.partition_point(|e| e.0 <= tp);
+                points.push(PointContext {
+                    groove_id,
+                    t_s: tp,
+                    x_mm: x,
+                    machine_x_mm: g.x_offset_mm + x,
+                    cut_length_mm: cut_length,
+                    spindle_rpm: g.spindle_rpm,
+                    feed_mm_min: g.feed(),
+                    upfeed_um: upfeed,
+                    tilt_deg: g.tilt_deg,
+                    coolant_on: timeline.coolant_events[..n_coolant_events]
+                        .last()
+                        .map(|e| e.1)
+                        .unwrap_or(false),
+                    depth_cmd_um: d_cmd,
+                    depth_nominal_um: d_cmd - delta,
+                    depth_actual_um: d_act,
+                    force_z_n: table.at(d_act),
+                    chip_force_z_n_per_um2: model.params.force_scale
+                        * model.material.mu_rake
+                        * model.specific_cutting_pressure_mpa()
+                        * 1e-6
+                        * (0.5 * phi).cos(),
+                    z_compliance_um_per_n: compliance,
+                    n_coolant_events,
+                    n_spindle_events,
+                });
+            }
+            groove_id += 1;
+        }
+        Ok(SessionContexts { timeline, points })
+    }
+}
+
+/// Simulate a session: one [`GroovePoint`] per measured point, in plan order — the nominal contexts
+/// ([`Session::contexts`]) plus the offsets of the session's effects, plus seeded noise.
 pub fn simulate_session(
     session: &Session,
     opts: &SimOptions,
 ) -> Result<Vec<GroovePoint>, SimError> {
     session.validate()?;
-    let model = session.force_model()?;
-    let stiffness = session.stiffness()?;
     let effects = session.effects()?;
     let mut noise = match opts.noise {
         Some(n) => NoiseSource::new(n.seed, n.sigma)?,
         None => NoiseSource::none(),
     };
-    // first pass: the time line of coolant and spindle events
-    let mut coolant_events: Vec<(f64, bool)> = Vec::new();
-    let mut spindle_events: Vec<(f64, f64)> = Vec::new();
-    let mut t = 0.0f64;
-    let mut coolant = false;
-    let mut starts = Vec::new();
-    for item in &session.plan {
-        match item {
-            PlanItem::Groove(g) => {
-                let t0 = g.start_s.unwrap_or(t).max(t);
-                if let Some(c) = g.coolant {
-                    if c != coolant || coolant_events.is_empty() {
-                        coolant_events.push((t0, c));
-                        coolant = c;
-                    }
-                }
-                spindle_events.push((t0, g.spindle_rpm));
-                starts.push(t0);
-                t = t0 + g.duration_s();
-            }
-            PlanItem::Pause(p) => {
-                if let Some(c) = p.coolant {
-                    if c != coolant || coolant_events.is_empty() {
-                        coolant_events.push((t, c));
-                        coolant = c;
-                    }
-                }
-                spindle_events.push((t, p.spindle_rpm));
-                starts.push(t);
-                t += p.duration_s;
+    let contexts = session.contexts()?;
+    let mut out = Vec::with_capacity(contexts.len());
+    for (i, p) in contexts.points.iter().enumerate() {
+        let ctx = contexts.effect_context(i);
+        let mut offset = 0.0;
+        let mut temp = None;
+        for e in &effects {
+            offset += e.depth_offset_um(&ctx);
+            if let Some(r) = e.spindle_temp_rise_c(&ctx) {
+                temp = Some(AMBIENT_C + r);
             }
         }
-    }
-    // second pass: points
-    let mut out = Vec::new();
-    let mut cut_length = 0.0f64;
-    let mut groove_id = 0i64;
-    for (item, &t0) in session.plan.iter().zip(&starts) {
-        let PlanItem::Groove(g) = item else { continue };
-        let upfeed = g.upfeed();
-        let base = CutConditions {
-            depth_um: 0.0,
-            upfeed_um_per_rev: upfeed,
-            speed_rpm: g.spindle_rpm,
-            tilt_deg: g.tilt_deg,
-        };
-        let compliance = stiffness.z_compliance_um_per_n(g.tilt_deg)?;
-        // max programmed depth on a fine grid
-        let nfine = 1000usize;
-        let mut max_d: f64 = 0.0;
-        for k in 0..=nfine {
-            max_d = max_d.max(
-                g.depth
-                    .depth_at(g.length_mm * k as f64 / nfine as f64, g.length_mm),
-            );
-        }
-        let table = PeakTable::new(&model, base, max_d)?;
-        let v_mm_s = g.feed() / 60.0;
-        let n_pts = (g.length_mm / g.measure_every_mm + 1e-9).floor() as usize;
-        let mut x_prev = 0.0;
-        for j in 0..=n_pts {
-            let x = (j as f64 * g.measure_every_mm).min(g.length_mm);
-            // engaged length between the previous point and this one
-            let sub = 20usize;
-            for s in 0..sub {
-                let xa = x_prev + (x - x_prev) * (s as f64 + 0.5) / sub as f64;
-                if g.depth.depth_at(xa, g.length_mm) > 0.0 {
-                    cut_length += (x - x_prev) / sub as f64;
-                }
-            }
-            x_prev = x;
-            let tp = t0 + x / v_mm_s;
-            let d_cmd = g.depth.depth_at(x, g.length_mm);
-            let mut delta = 0.0;
-            for _ in 0..200 {
-                let next = table.at(d_cmd - delta) * compliance;
-                if (next - delta).abs() < 1e-10 {
-                    delta = next;
-                    break;
-                }
-                delta = next;
-            }
-            let d_act = (d_cmd - delta).max(0.0);
-            let fz = table.at(d_act);
-            let phi = model.contact_angle_rad(d_act);
-            let chip_fz = model.params.force_scale
-                * model.material.mu_rake
-                * model.specific_cutting_pressure_mpa()
-                * 1e-6
-                * (0.5 * phi).cos();
-            let ce_end = coolant_events.partition_point(|e| e.0 <= tp);
-            let se_end = spindle_events.partition_point(|e| e.0 <= tp);
-            let ctx = EffectContext {
-                t_s: tp,
-                x_mm: x,
-                machine_x_mm: g.x_offset_mm + x,
-                cut_length_mm: cut_length,
-                spindle_rpm: g.spindle_rpm,
-                tilt_deg: g.tilt_deg,
-                upfeed_um: upfeed,
-                depth_cmd_um: d_cmd,
-                depth_actual_um: d_act,
-                force_z_n: fz,
-                chip_force_z_n_per_um2: chip_fz,
-                z_compliance_um_per_n: compliance,
-                coolant_events: &coolant_events[..ce_end],
-                spindle_events: &spindle_events[..se_end],
-            };
-            let mut offset = 0.0;
-            let mut temp = None;
-            for e in &effects {
-                offset += e.depth_offset_um(&ctx);
-                if let Some(r) = e.spindle_temp_rise_c(&ctx) {
-                    temp = Some(AMBIENT_C + r);
-                }
-            }
-            let coolant_on = coolant_events[..ce_end]
-                .last()
-                .map(|e| e.1)
-                .unwrap_or(false);
-            out.push(GroovePoint {
-                groove_id,
-                t_s: tp,
-                x_mm: x,
-                cut_length_mm: cut_length,
-                spindle_rpm: g.spindle_rpm,
-                feed_mm_min: g.feed(),
-                upfeed_um: upfeed,
-                tilt_deg: g.tilt_deg,
-                coolant_on: u8::from(coolant_on),
-                depth_cmd_um: d_cmd,
-                depth_meas_um: d_cmd - delta + offset + noise.sample(),
-                spindle_temp_c: temp,
-            });
-        }
-        groove_id += 1;
+        out.push(GroovePoint {
+            groove_id: p.groove_id,
+            t_s: p.t_s,
+            x_mm: p.x_mm,
+            cut_length_mm: p.cut_length_mm,
+            spindle_rpm: p.spindle_rpm,
+            feed_mm_min: p.feed_mm_min,
+            upfeed_um: p.upfeed_um,
+            tilt_deg: p.tilt_deg,
+            coolant_on: u8::from(p.coolant_on),
+            depth_cmd_um: p.depth_cmd_um,
+            depth_meas_um: p.depth_nominal_um + offset + noise.sample(),
+            spindle_temp_c: temp,
+        });
     }
     Ok(out)
 }

@@ -3,7 +3,7 @@ mod common;
 
 use millcomp_sim::SimError;
 use millcomp_sim::sensors::NoiseSpec;
-use millcomp_sim::session::{CSV_COLUMNS, Session, SimOptions, simulate_session, write_csv};
+use millcomp_sim::session::{Session, SimOptions, check_groove_points, simulate_session};
 
 const EXAMPLE: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -31,11 +31,63 @@ fn example_session_parses_and_simulates() {
     assert!((g1.t_s - 612.0).abs() < 1e-9);
     // the last groove starts at 3000 s as planned
     assert!((pts.iter().find(|p| p.groove_id == 3).unwrap().t_s - 3000.0).abs() < 1e-9);
-    let mut buf = Vec::new();
-    write_csv(&pts, &mut buf).unwrap();
-    let text = String::from_utf8(buf).unwrap();
-    assert_eq!(text.lines().next().unwrap(), CSV_COLUMNS.join(","));
-    assert_eq!(text.lines().count(), pts.len() + 1);
+    // (the CSV text of these points is the datasets crate's: `contracts` tests)
+}
+
+#[test]
+fn timeline_and_contexts_of_the_example_plan() {
+    let s = Session::from_path(EXAMPLE).unwrap();
+    let tl = s.timeline();
+    // example.toml: groove 0 (20 mm at 100 mm/min = 12 s) from 0 s, pause 600 s, groove 1 at 612 s
+    // (12 s), pause 1200 s, groove 2 at 1824 s (12 s), groove 3 at start_s = 3000 s
+    let expected = [0.0, 12.0, 612.0, 624.0, 1824.0, 3000.0];
+    assert_eq!(tl.item_start_s.len(), expected.len());
+    for (t, e) in tl.item_start_s.iter().zip(expected) {
+        // 1e-9 s: the durations are 20 mm / (100/60 mm/s), exact up to round-off
+        assert!((t - e).abs() < 1e-9, "{:?}", tl.item_start_s);
+    }
+    // coolant switched on with groove 0 and never again; the spindle runs 10 000 rpm throughout
+    assert_eq!(tl.coolant_events, vec![(0.0, true)]);
+    assert_eq!(tl.spindle_events.len(), 6);
+    assert!(tl.spindle_events.iter().all(|e| e.1 == 10_000.0));
+    let ctx = s.contexts().unwrap();
+    assert_eq!(ctx.timeline, tl);
+    assert_eq!(ctx.len(), 4 * 41);
+    // the simulated points are the contexts plus the session's effects (noise-free)
+    let pts = simulate_session(&s, &SimOptions::default()).unwrap();
+    let effects = s.effects().unwrap();
+    for (i, (p, c)) in pts.iter().zip(&ctx.points).enumerate() {
+        assert_eq!((p.groove_id, p.t_s, p.x_mm), (c.groove_id, c.t_s, c.x_mm));
+        assert_eq!(p.coolant_on, u8::from(c.coolant_on));
+        let e = ctx.effect_context(i);
+        assert_eq!(e.coolant_events.len(), c.n_coolant_events);
+        let offset: f64 = effects.iter().map(|f| f.depth_offset_um(&e)).sum();
+        assert_eq!(p.depth_meas_um, c.depth_nominal_um + offset);
+        assert_eq!(c.depth_actual_um, c.depth_nominal_um.max(0.0));
+    }
+    let wear = &effects[1];
+    assert_eq!(wear.name(), "tool_wear");
+    assert_eq!(ctx.offsets_um(wear.as_ref()).len(), ctx.len());
+}
+
+#[test]
+fn measured_points_are_checked_as_a_measurement() {
+    let s = Session::from_path(EXAMPLE).unwrap();
+    let pts = simulate_session(&s, &SimOptions::default()).unwrap();
+    check_groove_points(&pts).unwrap();
+    let point_err = |pts: &[millcomp_sim::session::GroovePoint]| match check_groove_points(pts) {
+        Err(SimError::Point { row, column, .. }) => (row, column),
+        other => panic!("expected a point error, got {other:?}"),
+    };
+    let mut back = pts.clone();
+    back[5].t_s = back[4].t_s;
+    assert_eq!(point_err(&back), (5, "t_s"));
+    let mut nan = pts.clone();
+    nan[7].depth_meas_um = f64::NAN;
+    assert_eq!(point_err(&nan), (7, "depth_meas_um"));
+    let mut flag = pts.clone();
+    flag[0].coolant_on = 2;
+    assert_eq!(point_err(&flag), (0, "coolant_on"));
 }
 
 #[test]

@@ -16,7 +16,7 @@ pub fn run(cmd: DatasetsCommand, json: bool) -> anyhow::Result<()> {
 
 fn check(file: &std::path::Path, schema: &str, json: bool) -> anyhow::Result<()> {
     let table = if schema == "measured-groove" || schema == "measured_groove" {
-        millcomp_datasets::contracts::read_measured_groove(file)?
+        millcomp_datasets::contracts::read_measured_groove_table(file)?
     } else {
         let d = millcomp_datasets::dataset(schema)
             .context("--as takes `measured-groove` or a dataset name")?;

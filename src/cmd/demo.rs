@@ -391,10 +391,12 @@ const DIAG_NAME: &str = "datasets/synthetic/coolant_thermal_drift";
 
 /// Stage 3: diagnose the shipped session with a hidden effect.
 fn diagnose_stage(out: &Path, md: &mut String) -> anyhow::Result<Stage> {
-    use millcomp_identify::diagnose::{DiagnoseOptions, MeasuredGroove, diagnose};
+    use millcomp_diagnose::{DiagnoseOptions, Measured, diagnose};
     let session = millcomp_sim::session::Session::from_toml_str(DIAG_SESSION)
         .with_context(|| format!("{DIAG_NAME}.toml"))?;
-    let measured = MeasuredGroove::from_csv_str(&format!("{DIAG_NAME}.csv"), DIAG_MEASURED)?;
+    let csv = format!("{DIAG_NAME}.csv");
+    let file = millcomp_datasets::contracts::read_measured_groove_str(&csv, DIAG_MEASURED)?;
+    let measured = Measured::new(csv, file.points);
     let rep = diagnose(&session, &measured, &DiagnoseOptions::default())
         .with_context(|| format!("diagnose {DIAG_NAME}"))?;
     let path = out.join("diagnose.json");

@@ -1,14 +1,17 @@
 //! `millcomp diagnose SESSION MEASURED.csv`: find where the nominal model and the measurement
 //! disagree, name the missing physical effect, add it and show the gap shrink
-//! (`millcomp_identify::diagnose`). The measured CSV is validated against the DESIGN contract by
-//! `millcomp-datasets` first, so errors name the file, column and row.
+//! (`millcomp-diagnose`). The measured CSV (and force trace) are read through the contract adapters
+//! of `millcomp-datasets` first, so errors name the file, column and row; the text report and the
+//! plots are `present::diagnose`.
 
 use anyhow::{Context, bail};
-use millcomp_identify::diagnose::{DiagnoseOptions, ForceTrace, MeasuredGroove, diagnose};
-use millcomp_sim::session::{GroovePoint, Session};
+use millcomp_datasets::contracts::{read_force_trace, read_measured_groove};
+use millcomp_diagnose::{DiagnoseOptions, Measured, diagnose};
+use millcomp_sim::session::Session;
 
 use crate::cli::DiagnoseArgs;
 use crate::cmd::print_json;
+use crate::present;
 
 pub fn run(args: DiagnoseArgs, json: bool) -> anyhow::Result<()> {
     if !(args.alpha > 0.0 && args.alpha < 1.0) {
@@ -16,11 +19,10 @@ pub fn run(args: DiagnoseArgs, json: bool) -> anyhow::Result<()> {
     }
     let session = Session::from_path(&args.session)
         .with_context(|| format!("reading session {}", args.session.display()))?;
-    let table = millcomp_datasets::contracts::read_measured_groove(&args.measured)?;
-    let points = groove_points(&table)?;
-    let mut measured = MeasuredGroove::from_points(&args.measured.display().to_string(), &points);
+    let file = read_measured_groove(&args.measured)?;
+    let mut measured = Measured::new(args.measured.display().to_string(), file.points);
     if let Some(path) = &args.forces {
-        measured.forces = Some(ForceTrace::from_path(path)?);
+        measured = measured.with_forces(path.display().to_string(), read_force_trace(path)?);
     }
     let options = DiagnoseOptions {
         alpha: args.alpha,
@@ -38,11 +40,10 @@ pub fn run(args: DiagnoseArgs, json: bool) -> anyhow::Result<()> {
         Some(dir) => {
             std::fs::create_dir_all(dir)
                 .with_context(|| format!("creating report directory {}", dir.display()))?;
-            let mut files = report
-                .write_report(dir)
+            let mut files = present::diagnose::write_plots(&report, dir)
                 .with_context(|| format!("writing the report to {}", dir.display()))?;
             let text = dir.join("diagnose.txt");
-            millcomp_datasets::write_text_atomic(&text, &report.human())?;
+            millcomp_datasets::write_text_atomic(&text, &present::diagnose::text(&report))?;
             files.push(text);
             files
         }
@@ -51,51 +52,15 @@ pub fn run(args: DiagnoseArgs, json: bool) -> anyhow::Result<()> {
     if json {
         return print_json(&report);
     }
-    print!("{}", report.human());
+    print!("{}", present::diagnose::text(&report));
     for f in &plots {
         println!("report: {}", f.display());
     }
-    for c in &table.ignored_columns {
+    for c in &file.ignored_columns {
         println!(
             "note: unknown column `{c}` in {} ignored",
             args.measured.display()
         );
     }
     Ok(())
-}
-
-fn groove_points(t: &millcomp_datasets::Table) -> anyhow::Result<Vec<GroovePoint>> {
-    let ids = t.i64s("groove_id")?;
-    let f = |name: &str| t.f64s(name);
-    let (ts, x, cut, rpm, feed, up, tilt) = (
-        f("t_s")?,
-        f("x_mm")?,
-        f("cut_length_mm")?,
-        f("spindle_rpm")?,
-        f("feed_mm_min")?,
-        f("upfeed_um")?,
-        f("tilt_deg")?,
-    );
-    let coolant = t.i64s("coolant_on")?;
-    let (cmd, meas) = (f("depth_cmd_um")?, f("depth_meas_um")?);
-    let temp = t
-        .column("spindle_temp_c")
-        .map(|_| f("spindle_temp_c"))
-        .transpose()?;
-    Ok((0..t.n_rows())
-        .map(|i| GroovePoint {
-            groove_id: ids[i],
-            t_s: ts[i],
-            x_mm: x[i],
-            cut_length_mm: cut[i],
-            spindle_rpm: rpm[i],
-            feed_mm_min: feed[i],
-            upfeed_um: up[i],
-            tilt_deg: tilt[i],
-            coolant_on: coolant[i] as u8,
-            depth_cmd_um: cmd[i],
-            depth_meas_um: meas[i],
-            spindle_temp_c: temp.as_ref().map(|v| v[i]),
-        })
-        .collect())
 }

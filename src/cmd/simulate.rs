@@ -2,8 +2,9 @@
 //! (DESIGN.md contract), noise-free unless `--noise-seed` is given, plus an SVG plot.
 
 use anyhow::{Context, bail};
+use millcomp_datasets::contracts::measured_groove_table;
 use millcomp_sim::sensors::NoiseSpec;
-use millcomp_sim::session::{GroovePoint, Session, SimOptions, simulate_session, write_csv};
+use millcomp_sim::session::{GroovePoint, Session, SimOptions, simulate_session};
 use serde_json::json;
 
 use std::path::Path;
@@ -37,9 +38,13 @@ pub fn run(args: SimulateArgs, json: bool) -> anyhow::Result<()> {
             args.file.display()
         );
     }
+    let table = measured_groove_table(&session.name, &points)?;
     if let Some(out) = &args.out {
-        millcomp_datasets::write_atomic(out, |f| write_csv(&points, f).map_err(|e| e.to_string()))
-            .with_context(|| format!("writing {}", out.display()))?;
+        // always CSV (the help's "Output CSV"), whatever the extension
+        millcomp_datasets::write_atomic(out, |f| {
+            millcomp_datasets::write_csv_to(&table, f).map_err(|e| e.to_string())
+        })
+        .with_context(|| format!("writing {}", out.display()))?;
     }
     if let Some(plot) = &args.plot {
         plot_profiles(plot, &session.name, &points)?;
@@ -56,7 +61,7 @@ pub fn run(args: SimulateArgs, json: bool) -> anyhow::Result<()> {
         }));
     }
     if args.out.is_none() {
-        write_csv(&points, std::io::stdout().lock())?;
+        millcomp_datasets::write_csv_to(&table, std::io::stdout().lock())?;
         return Ok(());
     }
     println!("session {}: {} points", session.name, points.len());

@@ -1,5 +1,6 @@
 //! Presentation: the one place where results become text tables and plots. Libraries return data; the
 //! verbs in `cmd/` hand it here to be printed or drawn.
 
+pub mod diagnose;
 pub mod doe;
 pub mod plot;

@@ -5,8 +5,6 @@ use std::collections::BTreeMap;
 
 use millcomp_identify::FitReport;
 
-pub mod diagnose;
-
 /// Tolerances, each argued.
 pub mod tol {
     /// Number of synthetic data sets per verb in the recovery studies (the issue asks for ≥ 200).

@@ -3,27 +3,15 @@
 //! cover the truth and the residual RMS shrinks by ≥ 50 %; the two-effect session names both; the
 //! clean session names `none`; the robustness variants (other functional forms) still name the
 //! right effect first; the force trace names `flute_runout`. Truth values come from
-//! `synthetic::cases()` (each citing its seed section) — the generator of the committed files,
-//! which `committed_files_are_up_to_date` checks.
+//! `millcomp_synthetic::cases()` (each citing its seed section) — the generator of the committed
+//! files, which the synthetic crate's `committed_files_are_up_to_date` checks.
 
-mod common;
+use millcomp_diagnose::{DiagnoseReport, Registry, diagnose};
+use millcomp_synthetic::SyntheticCase;
 
-use common::diagnose::{ALPHA, NOISE_RMS_MAX_UM, RMS_SHRINK, load_case, synthetic_dir};
-use millcomp_identify::diagnose::{DiagnoseOptions, DiagnoseReport, Registry, diagnose, synthetic};
-
-fn opts() -> DiagnoseOptions {
-    DiagnoseOptions {
-        alpha: ALPHA,
-        ..DiagnoseOptions::default()
-    }
-}
-
-fn case(name: &str) -> synthetic::SyntheticCase {
-    synthetic::cases()
-        .into_iter()
-        .find(|c| c.name == name)
-        .unwrap_or_else(|| panic!("no synthetic case {name}"))
-}
+use crate::common::{
+    ALPHA, NOISE_RMS_MAX_UM, RMS_SHRINK, case, load_case, measured_of, opts, show,
+};
 
 fn run(name: &str) -> DiagnoseReport {
     let (s, m) = load_case(name);
@@ -34,12 +22,12 @@ fn run(name: &str) -> DiagnoseReport {
 /// with 16 intervals over the committed cases a miss is expected about once (P(no miss) = 0.44).
 /// The seeds were fixed before the first run (7001 + case index) and are not re-drawn to hide a
 /// miss; instead the miss must be a chance one — within 3 standard errors — and the coverage over
-/// 100 seeds is checked in `diagnose_sweeps::full_power_and_coverage_per_case` (release run:
+/// 100 seeds is checked in `sweeps::full_power_and_coverage_per_case` (release run:
 /// slideway_straightness.amplitude_um 94/100).
 const KNOWN_MISSES: [(&str, &str); 1] = [("slideway_straightness", "amplitude_um")];
 
 /// Every free parameter of every hidden effect: the final joint 95 % interval covers the truth.
-fn assert_covers(rep: &DiagnoseReport, c: &synthetic::SyntheticCase) {
+fn assert_covers(rep: &DiagnoseReport, c: &SyntheticCase) {
     let reg = Registry::standard();
     for h in &c.hidden {
         let spec = reg.get(h.expect).unwrap();
@@ -80,7 +68,7 @@ fn single(name: &str) {
         rep.named,
         vec![c.hidden[0].expect.to_string()],
         "{}",
-        rep.human()
+        show(&rep)
     );
     assert_covers(&rep, &c);
     assert!(
@@ -145,7 +133,7 @@ fn two_effect_session_names_both() {
         named,
         vec!["coolant_thermal_drift", "tool_wear"],
         "{}",
-        rep.human()
+        show(&rep)
     );
     assert_covers(&rep, &c);
     assert!(rep.final_rms_um <= RMS_SHRINK * rep.initial_rms_um);
@@ -173,7 +161,7 @@ fn clean_session_names_none() {
 fn robust(name: &str) {
     let c = case(name);
     let rep = run(name);
-    assert_eq!(rep.named[0], c.hidden[0].expect, "{}", rep.human());
+    assert_eq!(rep.named[0], c.hidden[0].expect, "{}", show(&rep));
     assert!(
         rep.steps[0].rms_after_um <= RMS_SHRINK * rep.initial_rms_um,
         "{name}: first step RMS {} -> {}",
@@ -221,8 +209,8 @@ fn clean_force_trace_names_nothing_on_the_force_channel() {
     // the clean session with a force trace simulated at the session's own runout
     let mut c = case("flute_runout_force");
     c.hidden.clear();
-    let d = synthetic::generate(&c).unwrap();
-    let rep = diagnose(&d.session, &d.measured, &opts()).unwrap();
+    let d = millcomp_synthetic::generate(&c).unwrap();
+    let rep = diagnose(&d.session, &measured_of(&d), &opts()).unwrap();
     let fc = rep.force_channel.unwrap();
     assert!(fc.steps.is_empty(), "{:?}", fc.tested);
     assert_eq!(rep.named, vec!["none"]);
@@ -248,58 +236,4 @@ fn json_has_exactly_the_contract_keys() {
     );
     assert!(p.values().all(|x| x.is_f64()));
     assert_eq!(v["named"], serde_json::json!(["tool_wear"]));
-}
-
-#[test]
-fn human_report_and_svg_plots() {
-    let rep = run("coolant_thermal_drift+tool_wear");
-    let h = rep.human();
-    assert!(
-        h.contains("named: coolant_thermal_drift, tool_wear")
-            || h.contains("named: tool_wear, coolant_thermal_drift"),
-        "{h}"
-    );
-    let dir = tempfile::tempdir().unwrap();
-    let files = rep.write_report(dir.path()).unwrap();
-    // measured vs simulated + one residual plot per step
-    assert_eq!(files.len(), 1 + rep.steps.len());
-    for f in &files {
-        let t = std::fs::read_to_string(f).unwrap();
-        assert!(t.starts_with("<svg"), "{}", f.display());
-        assert!(t.len() > 10_000, "{} is nearly empty", f.display());
-    }
-    assert!(
-        files[1]
-            .file_name()
-            .unwrap()
-            .to_string_lossy()
-            .starts_with("residual_step1_")
-    );
-}
-
-#[test]
-fn committed_files_are_up_to_date() {
-    let dir = synthetic_dir();
-    let cases = synthetic::cases();
-    for c in &cases {
-        let d = synthetic::generate(c).unwrap();
-        let csv = std::fs::read_to_string(dir.join(format!("{}.csv", c.name))).unwrap();
-        assert!(
-            csv == d.csv,
-            "{}.csv differs from the generator: rerun gen_synthetic",
-            c.name
-        );
-        let toml = std::fs::read_to_string(dir.join(format!("{}.toml", c.name))).unwrap();
-        assert!(
-            toml == d.session_toml,
-            "{}.toml differs from the generator",
-            c.name
-        );
-        if let Some(f) = &d.forces_csv {
-            let t = std::fs::read_to_string(dir.join(format!("{}.forces.csv", c.name))).unwrap();
-            assert!(&t == f, "{}.forces.csv differs", c.name);
-        }
-    }
-    let readme = std::fs::read_to_string(dir.join("README.md")).unwrap();
-    assert_eq!(readme, synthetic::readme(&cases));
 }

@@ -8,14 +8,14 @@
 //! residual in the module tests.
 
 use argmin::core::{Error as ArgminError, Jacobian, Operator};
+use millcomp_identify::{
+    FitReport, IdentifyError, NlsOptions, ParamSpec, ResidualModel, fit_nonlinear,
+};
 use millcomp_sim::effects::Effect;
 use nalgebra::{DMatrix, DVector};
 
-use super::candidates::CandidateSpec;
-use super::context::SessionModel;
-use crate::error::Result;
-use crate::nonlinear::{NlsOptions, ParamSpec, ResidualModel, fit_nonlinear};
-use crate::report::FitReport;
+use crate::candidates::CandidateSpec;
+use crate::nominal::SessionModel;
 
 /// One effect in a model: the effect (fixed values) and the indices of its free parameters.
 #[derive(Debug, Clone)]
@@ -25,7 +25,7 @@ pub(crate) struct Term {
 }
 
 impl Term {
-    pub fn new(spec: CandidateSpec) -> std::result::Result<Self, String> {
+    pub fn new(spec: CandidateSpec) -> Result<Self, String> {
         let free_idx = spec.free_indices()?;
         Ok(Term { spec, free_idx })
     }
@@ -35,7 +35,7 @@ impl Term {
     }
 
     /// The effect with its free parameters set to `theta`.
-    pub fn configured(&self, theta: &[f64]) -> std::result::Result<Box<dyn Effect>, ArgminError> {
+    pub fn configured(&self, theta: &[f64]) -> Result<Box<dyn Effect>, ArgminError> {
         let mut e = self.spec.effect.clone();
         let mut p: Vec<f64> = e.params().iter().map(|(_, v)| *v).collect();
         for (k, &i) in self.free_idx.iter().enumerate() {
@@ -87,10 +87,7 @@ pub(crate) struct DepthModel<'a> {
 }
 
 impl DepthModel<'_> {
-    fn configured(
-        &self,
-        theta: &DVector<f64>,
-    ) -> std::result::Result<Vec<Box<dyn Effect>>, ArgminError> {
+    fn configured(&self, theta: &DVector<f64>) -> Result<Vec<Box<dyn Effect>>, ArgminError> {
         let mut out = Vec::with_capacity(self.terms.len());
         let mut k = 0;
         for t in self.terms {
@@ -102,7 +99,7 @@ impl DepthModel<'_> {
     }
 
     /// Model prediction (µm) at `theta`.
-    pub fn predict(&self, theta: &DVector<f64>) -> std::result::Result<Vec<f64>, ArgminError> {
+    pub fn predict(&self, theta: &DVector<f64>) -> Result<Vec<f64>, ArgminError> {
         let effects = self.configured(theta)?;
         Ok((0..self.sm.len())
             .map(|i| {
@@ -116,7 +113,7 @@ impl DepthModel<'_> {
 impl Operator for DepthModel<'_> {
     type Param = DVector<f64>;
     type Output = DVector<f64>;
-    fn apply(&self, theta: &DVector<f64>) -> std::result::Result<DVector<f64>, ArgminError> {
+    fn apply(&self, theta: &DVector<f64>) -> Result<DVector<f64>, ArgminError> {
         let pred = self.predict(theta)?;
         Ok(DVector::from_iterator(
             pred.len(),
@@ -128,7 +125,7 @@ impl Operator for DepthModel<'_> {
 impl Jacobian for DepthModel<'_> {
     type Param = DVector<f64>;
     type Jacobian = DMatrix<f64>;
-    fn jacobian(&self, theta: &DVector<f64>) -> std::result::Result<DMatrix<f64>, ArgminError> {
+    fn jacobian(&self, theta: &DVector<f64>) -> Result<DMatrix<f64>, ArgminError> {
         let effects = self.configured(theta)?;
         let n = self.sm.len();
         let mut jac = DMatrix::zeros(n, theta.len());
@@ -172,14 +169,14 @@ pub(crate) fn nls_options() -> NlsOptions {
 
 /// Fits `terms` to `y`: the first terms start at `current` (their previous estimates), the last
 /// `n_new` terms at every combination of their specs' starting values. Returns the fit with the
-/// smallest RSS, or the list of failure messages when no start could be fitted.
+/// smallest RSS, or the engine's error for every start when no start could be fitted.
 pub(crate) fn fit_terms(
     sm: &SessionModel,
     y: &[f64],
     terms: &[Term],
     current: &[f64],
     n_new: usize,
-) -> std::result::Result<TermsFit, Vec<String>> {
+) -> Result<TermsFit, Vec<IdentifyError>> {
     let n_old = terms.len() - n_new;
     // starting grid of the new terms' parameters (cartesian product)
     let mut grid: Vec<Vec<f64>> = vec![current.to_vec()];
@@ -205,13 +202,18 @@ pub(crate) fn fit_terms(
                     best = Some(f);
                 }
             }
-            Err(e) => failures.push(e.to_string()),
+            Err(e) => failures.push(e),
         }
     }
     best.ok_or(failures)
 }
 
-fn fit_once(sm: &SessionModel, y: &[f64], terms: &[Term], start: &[f64]) -> Result<TermsFit> {
+fn fit_once(
+    sm: &SessionModel,
+    y: &[f64],
+    terms: &[Term],
+    start: &[f64],
+) -> Result<TermsFit, IdentifyError> {
     let mut specs = Vec::new();
     let mut k = 0;
     for t in terms {
@@ -221,13 +223,12 @@ fn fit_once(sm: &SessionModel, y: &[f64], terms: &[Term], start: &[f64]) -> Resu
     let model = DepthModel { sm, y, terms };
     let fit = fit_nonlinear(model, &specs, &nls_options(), "diagnose", "um")?;
     let model = DepthModel { sm, y, terms };
-    let prediction =
-        model
-            .predict(&fit.theta)
-            .map_err(|e| crate::IdentifyError::ModelEvaluation {
-                model: "diagnose".into(),
-                cause: e.to_string(),
-            })?;
+    let prediction = model
+        .predict(&fit.theta)
+        .map_err(|e| IdentifyError::ModelEvaluation {
+            model: "diagnose".into(),
+            cause: e.to_string(),
+        })?;
     let rss = prediction
         .iter()
         .zip(y)
@@ -244,12 +245,12 @@ fn fit_once(sm: &SessionModel, y: &[f64], terms: &[Term], start: &[f64]) -> Resu
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::diagnose::candidates::Registry;
-    use crate::jaccheck::check_jacobian;
+    use crate::candidates::Registry;
+    use millcomp_identify::check_jacobian;
 
     #[test]
     fn depth_model_jacobian_matches_finite_differences() {
-        let s = crate::diagnose::synthetic::base_session("t", "test");
+        let s = millcomp_synthetic::base_session("t", "test");
         let sm = SessionModel::new(&s).unwrap();
         let y = vec![0.0; sm.len()];
         let reg = Registry::standard();

@@ -12,7 +12,7 @@
 use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, FisherSnedecor, StudentsT};
 
-use super::context::SessionModel;
+use crate::nominal::SessionModel;
 
 /// Variables with at most this many distinct values are binned by value.
 pub const MAX_DISCRETE: usize = 6;
@@ -147,7 +147,7 @@ pub fn residual_structure(
     resid: &[f64],
     spindle_temp_c: Option<&[f64]>,
 ) -> Vec<StructureItem> {
-    let pts = &sm.points;
+    let pts = sm.points();
     let mut vars: Vec<(&str, Vec<f64>)> = vec![
         ("t_s", pts.iter().map(|p| p.t_s).collect()),
         (

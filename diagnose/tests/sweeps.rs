@@ -3,24 +3,20 @@
 //! coverage and the RMS shrink. The quick test runs in debug; the full studies are `#[ignore]`d:
 //!
 //! ```text
-//! cargo test -p millcomp-identify --release --test diagnose_sweeps -- --ignored --nocapture
+//! cargo test -p millcomp-diagnose --release --test main sweeps -- --ignored --nocapture
 //! ```
 //!
-//! Sweeps use `synthetic::resample` (nominal + hidden offsets over the session contexts + seeded
-//! N(0, 0.1 µm²) noise; the contexts reproduce `simulate_session`, unit test
-//! `contexts_reproduce_simulate_session`), so one nominal simulation serves all seeds.
+//! Sweeps use `millcomp_synthetic::resample` (nominal + hidden offsets over the session contexts +
+//! seeded N(0, 0.1 µm²) noise; the nominal model reproduces `simulate_session`, test
+//! `nominal::contexts_reproduce_simulate_session`), so one nominal simulation serves all seeds.
 
-mod common;
+use millcomp_diagnose::{DiagnoseOptions, Diagnoser, Registry};
 
-use common::diagnose::{ALPHA, CLEAN_FULL, CLEAN_QUICK, COVERAGE_SETS, RMS_SHRINK};
-use millcomp_identify::diagnose::{DiagnoseOptions, Diagnoser, Registry, synthetic};
+use crate::common::{ALPHA, CLEAN_FULL, CLEAN_QUICK, COVERAGE_SETS, RMS_SHRINK, case, resampled};
 
 fn false_alarms(n: usize, alpha: f64, seed0: u64) -> (usize, Vec<String>) {
-    let c = synthetic::cases()
-        .into_iter()
-        .find(|c| c.name == "clean")
-        .unwrap();
-    let d = synthetic::generate(&c).unwrap();
+    let c = case("clean");
+    let d = millcomp_synthetic::generate(&c).unwrap();
     let dg = Diagnoser::new(
         &d.session,
         &DiagnoseOptions {
@@ -33,12 +29,7 @@ fn false_alarms(n: usize, alpha: f64, seed0: u64) -> (usize, Vec<String>) {
     let mut count = 0;
     let mut which = Vec::new();
     for k in 0..n {
-        let m = synthetic::resample(
-            dg.session_model(),
-            &zero,
-            synthetic::DEPTH_NOISE_UM,
-            seed0 + k as u64,
-        );
+        let m = resampled(dg.session_model(), &zero, seed0 + k as u64);
         let rep = dg.run(&m).unwrap();
         if rep.named != vec!["none".to_string()] {
             count += 1;
@@ -79,11 +70,11 @@ fn full_false_alarm_rate_stays_near_alpha() {
 #[ignore = "full power/coverage study (several minutes in release)"]
 fn full_power_and_coverage_per_case() {
     let reg = Registry::standard();
-    for c in synthetic::cases() {
+    for c in millcomp_synthetic::cases() {
         if c.hidden.is_empty() || c.force_trace {
             continue;
         }
-        let d = synthetic::generate(&c).unwrap();
+        let d = millcomp_synthetic::generate(&c).unwrap();
         let dg = Diagnoser::new(
             &d.session,
             &DiagnoseOptions {
@@ -93,11 +84,11 @@ fn full_power_and_coverage_per_case() {
         )
         .unwrap();
         let sm = dg.session_model();
-        let offsets = synthetic::hidden_offsets(&c, sm).unwrap();
+        let offsets = millcomp_synthetic::hidden_offsets(&c, &sm.contexts).unwrap();
         let (mut first, mut exact, mut all_named, mut shrink) = (0, 0, 0, 0);
         let mut cover: std::collections::BTreeMap<String, (usize, usize)> = Default::default();
         for k in 0..COVERAGE_SETS {
-            let m = synthetic::resample(sm, &offsets, synthetic::DEPTH_NOISE_UM, 50_000 + k as u64);
+            let m = resampled(sm, &offsets, 50_000 + k as u64);
             let rep = dg.run(&m).unwrap();
             let expect: Vec<&str> = c.hidden.iter().map(|h| h.expect).collect();
             if expect.contains(&rep.named[0].as_str()) {

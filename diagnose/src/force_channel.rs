@@ -11,21 +11,24 @@
 //! Its Jacobian is a central finite difference ([`fd_jacobian`]): the peak over sampled angles has
 //! no closed-form derivative.
 
-use argmin::core::{Error as ArgminError, Jacobian, Operator};
-use millcomp_sim::force::{BallEndForceModel, CutConditions};
-use nalgebra::{DMatrix, DVector};
-use serde::Serialize;
 use std::collections::BTreeMap;
 
-use super::context::SessionModel;
-use super::measured::{ForceTrace, MeasuredGroove};
-use super::{Decision, nested_test};
-use crate::error::{IdentifyError, Result};
-use crate::jaccheck::fd_jacobian;
-use crate::nonlinear::{ParamSpec, ResidualModel, fit_nonlinear};
+use argmin::core::{Error as ArgminError, Jacobian, Operator};
+use millcomp_identify::{NonlinearFit, ParamSpec, ResidualModel, fd_jacobian, fit_nonlinear};
+use millcomp_sim::SimError;
+use millcomp_sim::force::{BallEndForceModel, CutConditions};
+use millcomp_sim::session::GroovePoint;
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+
+use crate::error::{DiagnoseError, Result};
+use crate::measured::ForceTrace;
+use crate::nested::{Decision, nested_test};
+use crate::nominal::SessionModel;
+use crate::{fit, thresholds};
 
 /// Samples per revolution for the per-flute peaks (as sim's `peak_z_force_n`).
-pub const SAMPLES_PER_REV: usize = 720;
+pub const SAMPLES_PER_REV: usize = millcomp_sim::force::PEAK_SAMPLES_PER_REV;
 
 /// Per-flute peak asymmetry model.
 #[derive(Debug, Clone)]
@@ -38,15 +41,16 @@ pub struct AsymmetryModel {
 
 impl AsymmetryModel {
     /// Predicted asymmetry (N) per row with extra runout `extra_um`.
-    pub fn predict(&self, extra_um: f64) -> std::result::Result<Vec<f64>, ArgminError> {
+    ///
+    /// # Errors
+    /// sim's error when the force model cannot be evaluated at a row's conditions.
+    pub fn predict(&self, extra_um: f64) -> std::result::Result<Vec<f64>, SimError> {
         let mut m = self.model.clone();
         m.tool.runout_um = (self.base_runout_um + extra_um).max(0.0);
         self.conds
             .iter()
             .map(|c| {
-                let p = m
-                    .per_flute_peaks(c, SAMPLES_PER_REV)
-                    .map_err(|e| ArgminError::msg(e.to_string()))?;
+                let p = m.per_flute_peaks(c, SAMPLES_PER_REV)?;
                 Ok(p[1][2] - p[0][2])
             })
             .collect()
@@ -57,7 +61,9 @@ impl Operator for AsymmetryModel {
     type Param = DVector<f64>;
     type Output = DVector<f64>;
     fn apply(&self, theta: &DVector<f64>) -> std::result::Result<DVector<f64>, ArgminError> {
-        let p = self.predict(theta[0])?;
+        let p = self
+            .predict(theta[0])
+            .map_err(|e| ArgminError::msg(e.to_string()))?;
         Ok(DVector::from_iterator(
             p.len(),
             p.iter().zip(&self.y).map(|(a, b)| a - b),
@@ -127,28 +133,31 @@ pub struct ForceChannelReport {
     pub notes: Vec<String>,
 }
 
-/// Runs the force channel on `trace` (rows matched to the session's points).
+/// Runs the force channel on `trace` (rows matched to the session's points), with the depths
+/// actually cut taken from the `measured` points (checked against the session beforehand).
+///
+/// # Errors
+/// As [`ForceTrace::match_points`]; [`DiagnoseError::Session`] when sim cannot evaluate the force
+/// model at the measured conditions.
 pub fn diagnose_forces(
     sm: &SessionModel,
-    measured: &MeasuredGroove,
+    measured: &[GroovePoint],
     trace: &ForceTrace,
     alpha: f64,
 ) -> Result<ForceChannelReport> {
     let idx = trace.match_points(sm)?;
-    let model = sm
-        .session
-        .force_model()
-        .map_err(|e| IdentifyError::ModelEvaluation {
-            model: "force channel".into(),
-            cause: e.to_string(),
-        })?;
+    let force_err = |source| DiagnoseError::Session {
+        what: "force model",
+        source,
+    };
+    let model = sm.session.force_model().map_err(force_err)?;
     let radius = model.tool.radius_um;
     let conds: Vec<CutConditions> = idx
         .iter()
         .map(|&i| {
-            let p = &sm.points[i];
+            let p = &sm.points()[i];
             CutConditions {
-                depth_um: measured.depth_meas_um[i].clamp(0.0, radius),
+                depth_um: measured[i].depth_meas_um.clamp(0.0, radius),
                 upfeed_um_per_rev: p.upfeed_um,
                 speed_rpm: p.spindle_rpm,
                 tilt_deg: p.tilt_deg,
@@ -156,10 +165,9 @@ pub fn diagnose_forces(
         })
         .collect();
     let y: Vec<f64> = trace
-        .fz_peak_flute2_n
+        .rows
         .iter()
-        .zip(&trace.fz_peak_flute1_n)
-        .map(|(a, b)| a - b)
+        .map(|r| r.fz_peak_flute2_n - r.fz_peak_flute1_n)
         .collect();
     let am = AsymmetryModel {
         base_runout_um: model.tool.runout_um,
@@ -168,12 +176,7 @@ pub fn diagnose_forces(
         y: y.clone(),
     };
     let n = y.len();
-    let nominal = am
-        .predict(0.0)
-        .map_err(|e| IdentifyError::ModelEvaluation {
-            model: "force channel".into(),
-            cause: e.to_string(),
-        })?;
+    let nominal = am.predict(0.0).map_err(force_err)?;
     let rss0: f64 = nominal.iter().zip(&y).map(|(p, m)| (p - m).powi(2)).sum();
     let rms = |rss: f64| (rss / n.max(1) as f64).sqrt();
     let mut rep = ForceChannelReport {
@@ -185,14 +188,14 @@ pub fn diagnose_forces(
         tested: Vec::new(),
         notes: Vec::new(),
     };
-    if n < 1 + super::thresholds::MIN_RESIDUAL_DOF {
+    if n < 1 + thresholds::MIN_RESIDUAL_DOF {
         rep.notes.push(format!(
             "flute_runout skipped: {n} force rows, the fit needs at least {}",
-            1 + super::thresholds::MIN_RESIDUAL_DOF
+            1 + thresholds::MIN_RESIDUAL_DOF
         ));
         return Ok(rep);
     }
-    let mut best: Option<crate::nonlinear::NonlinearFit> = None;
+    let mut best: Option<NonlinearFit> = None;
     let mut best_rss = f64::INFINITY;
     for start in [0.5, 3.0, 10.0] {
         let spec = [ParamSpec::bounded(
@@ -204,7 +207,7 @@ pub fn diagnose_forces(
         match fit_nonlinear(
             am.clone(),
             &spec,
-            &super::fit::nls_options(),
+            &fit::nls_options(),
             "diagnose_force",
             "n",
         ) {

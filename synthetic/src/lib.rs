@@ -1,5 +1,9 @@
+//! # millcomp-synthetic (dev tool)
+//!
 //! Seeded synthetic measured sessions with hidden effects (`datasets/synthetic/`), written by
-//! `cargo run -p millcomp-identify --example gen_synthetic --release`.
+//! `cargo run -p millcomp-synthetic --bin gen_synthetic --release`, and the variants the tests of
+//! `millcomp-diagnose` use ([`resample`], [`hidden_offsets`]). Not library code of millcomp: nothing
+//! but tests, examples and this generator depend on it.
 //!
 //! Every case uses the same session plan ([`base_session`]): 14 grooves of 20 mm in S7, measured
 //! every 1 mm (294 points) over ≈ 2.8 h, built so that the effects of `002_…txt` §7 are
@@ -14,26 +18,85 @@
 //! used to simulate `NAME.csv` and are listed in the generated README. Standard hidden effects
 //! are simulated by sim's `simulate_session` (with its seeded profilometer noise, σ = 0.1 µm —
 //! 002 §7.2 profilometer, repeatability ±2·STD < 0.15 µm per groove in §7.9); robustness variants
-//! (other functional forms) are added over [`SessionModel`] contexts with their own seeded noise.
+//! (other functional forms) are added over sim's nominal contexts ([`Session::contexts`]) with
+//! their own seeded noise. Files are written through `millcomp-datasets` (the measured-groove and
+//! force-trace contracts).
+//!
+//! ```
+//! let case = millcomp_synthetic::cases().into_iter().find(|c| c.name == "tool_wear").unwrap();
+//! assert_eq!(case.seed, 7005);
+//! let data = millcomp_synthetic::generate(&case).unwrap();
+//! // 14 grooves × 21 points
+//! assert_eq!(data.points.len(), 294);
+//! ```
+#![warn(missing_docs)]
 
 use std::collections::BTreeMap;
 
+use millcomp_datasets::DatasetError;
+use millcomp_datasets::contracts::{force_trace_table, measured_groove_table};
 use millcomp_sim::SimError;
 use millcomp_sim::effects::{Effect, EffectContext, effect_from_params, first_order_response};
-use millcomp_sim::force::CutConditions;
+use millcomp_sim::force::{CutConditions, PEAK_SAMPLES_PER_REV};
 use millcomp_sim::groove::DepthProfile;
 use millcomp_sim::sensors::NoiseSpec;
 use millcomp_sim::session::{
-    EffectSpec, ForceModelSpec, GroovePoint, GrooveSpec, MaterialSpec, PauseSpec, PlanItem,
-    Session, SimOptions, StiffnessSpec, ToolSpec, simulate_session, write_csv,
+    EffectSpec, FluteForcePoint, ForceModelSpec, GroovePoint, GrooveSpec, MaterialSpec, PauseSpec,
+    PlanItem, Session, SessionContexts, SimOptions, StiffnessSpec, ToolSpec, simulate_session,
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
-use super::context::SessionModel;
-use super::measured::{ForceTrace, MeasuredGroove};
-use crate::error::{IdentifyError, Result};
+/// Why a synthetic case could not be generated or written.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SyntheticError {
+    /// sim rejected a hidden effect's parameters, the session or the force model.
+    #[error("case `{case}`: {what}")]
+    Sim {
+        /// The case.
+        case: String,
+        /// What was being evaluated.
+        what: String,
+        /// sim's error.
+        #[source]
+        source: SimError,
+    },
+    /// The noise distribution could not be built.
+    #[error("noise σ = {sigma}")]
+    Noise {
+        /// The standard deviation given.
+        sigma: f64,
+        /// rand_distr's error.
+        #[source]
+        source: rand_distr::NormalError,
+    },
+    /// A table or text could not be built or written.
+    #[error("`{file}`")]
+    Table {
+        /// The file.
+        file: String,
+        /// The table writer's error.
+        #[source]
+        source: DatasetError,
+    },
+    /// The session could not be serialised as TOML.
+    #[error("`{file}`")]
+    Toml {
+        /// The file.
+        file: String,
+        /// toml's error.
+        #[source]
+        source: toml::ser::Error,
+    },
+}
+
+/// Result alias of the crate.
+pub type Result<T> = std::result::Result<T, SyntheticError>;
+
+/// The generator's command (named in the generated files).
+pub const COMMAND: &str = "cargo run -p millcomp-synthetic --bin gen_synthetic --release";
 
 /// Profilometer noise σ (µm): 002 §7.9 reports < 0.15 µm standard deviation over 10 profiles.
 pub const DEPTH_NOISE_UM: f64 = 0.1;
@@ -78,7 +141,10 @@ impl Hidden {
     }
 
     /// The truth as an effect.
-    pub fn effect(&self) -> Result<Box<dyn Effect>> {
+    ///
+    /// # Errors
+    /// sim's error when the truth parameters are not valid for the effect.
+    pub fn effect(&self) -> std::result::Result<Box<dyn Effect>, SimError> {
         match &self.truth {
             Truth::Sim { name, params } => sim_effect(name, params),
             Truth::Custom(e) => Ok(e.clone()),
@@ -86,12 +152,12 @@ impl Hidden {
     }
 }
 
-fn sim_effect(name: &str, params: &[(&'static str, f64)]) -> Result<Box<dyn Effect>> {
+fn sim_effect(
+    name: &str,
+    params: &[(&'static str, f64)],
+) -> std::result::Result<Box<dyn Effect>, SimError> {
     let map: BTreeMap<String, f64> = params.iter().map(|(k, v)| (k.to_string(), *v)).collect();
-    effect_from_params(name, &map).map_err(|e| IdentifyError::ModelEvaluation {
-        model: format!("synthetic truth {name}"),
-        cause: e.to_string(),
-    })
+    effect_from_params(name, &map)
 }
 
 /// One synthetic session.
@@ -111,19 +177,54 @@ pub struct SyntheticCase {
     pub robustness: bool,
 }
 
-/// Generated files and data of one case.
+/// Generated data of one case.
 #[derive(Debug, Clone)]
 pub struct SyntheticData {
+    /// The case name (file stem).
+    pub name: String,
     /// The session `diagnose` reads (nominal model, no hidden effect).
     pub session: Session,
     /// `NAME.toml` text.
     pub session_toml: String,
-    /// The measured data (with the force trace, if any).
-    pub measured: MeasuredGroove,
-    /// `NAME.csv` text.
-    pub csv: String,
-    /// `NAME.forces.csv` text.
-    pub forces_csv: Option<String>,
+    /// The measured points (`NAME.csv`).
+    pub points: Vec<GroovePoint>,
+    /// The per-flute force trace (`NAME.forces.csv`), when the case has one.
+    pub forces: Option<Vec<FluteForcePoint>>,
+}
+
+impl SyntheticData {
+    /// The files of the case, as (file name, contents): `NAME.toml`, `NAME.csv` (the
+    /// measured-groove contract) and, with a force trace, `NAME.forces.csv` — the CSV text the
+    /// table writer of `millcomp-datasets` writes.
+    ///
+    /// # Errors
+    /// [`SyntheticError::Table`] when a table cannot be built or written.
+    pub fn files(&self) -> Result<Vec<(String, String)>> {
+        let csv = |file: String, table: std::result::Result<_, DatasetError>| {
+            let mut buf = Vec::new();
+            table
+                .and_then(|t| millcomp_datasets::write_csv_to(&t, &mut buf))
+                .map_err(|source| SyntheticError::Table {
+                    file: file.clone(),
+                    source,
+                })?;
+            let text = String::from_utf8(buf).unwrap_or_default();
+            Ok::<_, SyntheticError>((file, text))
+        };
+        let name = &self.name;
+        let mut out = vec![(format!("{name}.toml"), self.session_toml.clone())];
+        out.push(csv(
+            format!("{name}.csv"),
+            measured_groove_table(name, &self.points),
+        )?);
+        if let Some(rows) = &self.forces {
+            out.push(csv(
+                format!("{name}.forces.csv"),
+                force_trace_table(name, rows),
+            )?);
+        }
+        Ok(out)
+    }
 }
 
 struct G {
@@ -579,21 +680,35 @@ pub fn cases() -> Vec<SyntheticCase> {
         .collect()
 }
 
-/// Offsets (µm) of the case's hidden effects at every planned point, noise-free.
-pub fn hidden_offsets(case: &SyntheticCase, sm: &SessionModel) -> Result<Vec<f64>> {
-    let mut out = vec![0.0; sm.len()];
+/// Offsets (µm) of the case's hidden effects at every planned point of `contexts` (sim's nominal
+/// contexts of the session), noise-free.
+///
+/// # Errors
+/// [`SyntheticError::Sim`] when a hidden effect's parameters are not valid.
+pub fn hidden_offsets(case: &SyntheticCase, contexts: &SessionContexts) -> Result<Vec<f64>> {
+    let mut out = vec![0.0; contexts.len()];
     for h in &case.hidden {
-        let e = h.effect()?;
-        for (o, v) in out.iter_mut().zip(sm.offsets_um(e.as_ref())) {
+        let e = h.effect().map_err(|source| SyntheticError::Sim {
+            case: case.name.clone(),
+            what: format!("hidden effect {}", h.expect),
+            source,
+        })?;
+        for (o, v) in out.iter_mut().zip(contexts.offsets_um(e.as_ref())) {
             *o += v;
         }
     }
     Ok(out)
 }
 
-/// Measured data for a session model with given hidden offsets and a fresh noise seed (fast path
-/// for seeded sweeps: no re-simulation; `SessionModel` contexts reproduce `simulate_session`).
-pub fn resample(sm: &SessionModel, offsets_um: &[f64], sigma_um: f64, seed: u64) -> MeasuredGroove {
+/// Measured points for seeded sweeps without re-simulation: `base` (noise-free predictions of the
+/// planned points, e.g. the nominal model's) with `offsets_um[i]` + N(0, σ²) noise (seeded) added
+/// to the depth of point `i` (points beyond `offsets_um` are left as they are); no temperature.
+pub fn resample(
+    base: &[GroovePoint],
+    offsets_um: &[f64],
+    sigma_um: f64,
+    seed: u64,
+) -> Vec<GroovePoint> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let normal = Normal::new(0.0, sigma_um.max(0.0))
         .unwrap_or_else(|_| Normal::new(0.0, 0.0).expect("σ = 0 is valid"));
@@ -601,18 +716,30 @@ pub fn resample(sm: &SessionModel, offsets_um: &[f64], sigma_um: f64, seed: u64)
         .iter()
         .map(|o| o + normal.sample(&mut rng))
         .collect();
-    MeasuredGroove::from_points(&format!("seed {seed}"), &sm.points_with(&extra))
-}
-
-fn sim_err(e: SimError) -> IdentifyError {
-    IdentifyError::ModelEvaluation {
-        model: "synthetic".into(),
-        cause: e.to_string(),
-    }
+    base.iter()
+        .zip(extra.iter().chain(std::iter::repeat(&0.0)))
+        .map(|(p, e)| GroovePoint {
+            depth_meas_um: p.depth_meas_um + e,
+            spindle_temp_c: None,
+            ..*p
+        })
+        .collect()
 }
 
 /// Generates one case.
+///
+/// # Errors
+/// [`SyntheticError::Sim`] when sim rejects the session or a hidden effect,
+/// [`SyntheticError::Toml`] when the session cannot be serialised.
 pub fn generate(case: &SyntheticCase) -> Result<SyntheticData> {
+    let sim_err = |what: &str| {
+        let what = what.to_string();
+        move |source| SyntheticError::Sim {
+            case: case.name.clone(),
+            what,
+            source,
+        }
+    };
     let session = base_session(
         &case.name,
         "Synthetic measured session (millcomp gen_synthetic). This file is the NOMINAL model only; \
@@ -639,13 +766,14 @@ pub fn generate(case: &SyntheticCase) -> Result<SyntheticData> {
             }),
         },
     )
-    .map_err(sim_err)?;
-    let clean = simulate_session(&truth, &SimOptions::default()).map_err(sim_err)?;
-    let sm = SessionModel::new(&session)?;
+    .map_err(sim_err("simulate the truth"))?;
+    let clean =
+        simulate_session(&truth, &SimOptions::default()).map_err(sim_err("simulate the truth"))?;
+    let contexts = session.contexts().map_err(sim_err("nominal contexts"))?;
     let mut points: Vec<GroovePoint> = noisy;
     let mut truth_depth: Vec<f64> = clean.iter().map(|p| p.depth_meas_um).collect();
     for e in &custom {
-        for (i, o) in sm.offsets_um(e.as_ref()).into_iter().enumerate() {
+        for (i, o) in contexts.offsets_um(e.as_ref()).into_iter().enumerate() {
             points[i].depth_meas_um += o;
             truth_depth[i] += o;
         }
@@ -655,17 +783,7 @@ pub fn generate(case: &SyntheticCase) -> Result<SyntheticData> {
         // file's columns do not reveal what is hidden
         p.spindle_temp_c = None;
     }
-    let mut buf = Vec::new();
-    write_csv(&points, &mut buf).map_err(|e| IdentifyError::Io {
-        what: format!("{}.csv", case.name),
-        message: e.to_string(),
-    })?;
-    let csv = String::from_utf8(buf).map_err(|e| IdentifyError::Io {
-        what: format!("{}.csv", case.name),
-        message: e.to_string(),
-    })?;
-    let mut measured = MeasuredGroove::from_points(&format!("{}.csv", case.name), &points);
-    let mut forces_csv = None;
+    let mut forces = None;
     if case.force_trace {
         let extra: f64 = case
             .hidden
@@ -675,16 +793,15 @@ pub fn generate(case: &SyntheticCase) -> Result<SyntheticData> {
             .filter(|(k, _)| *k == "runout_um")
             .map(|(_, v)| v)
             .sum();
-        let mut model = session.force_model().map_err(sim_err)?;
+        let mut model = session.force_model().map_err(sim_err("force model"))?;
         model.tool.runout_um += extra;
         let mut rng = ChaCha8Rng::seed_from_u64(case.seed ^ 0xF0);
-        let normal =
-            Normal::new(0.0, FORCE_NOISE_N).map_err(|e| IdentifyError::Solver(e.to_string()))?;
-        let mut tr = ForceTrace {
-            source: format!("{}.forces.csv", case.name),
-            ..ForceTrace::default()
-        };
-        for (i, p) in sm.points.iter().enumerate() {
+        let normal = Normal::new(0.0, FORCE_NOISE_N).map_err(|source| SyntheticError::Noise {
+            sigma: FORCE_NOISE_N,
+            source,
+        })?;
+        let mut rows = Vec::with_capacity(contexts.len());
+        for (i, p) in contexts.points.iter().enumerate() {
             let c = CutConditions {
                 depth_um: truth_depth[i].clamp(0.0, model.tool.radius_um),
                 upfeed_um_per_rev: p.upfeed_um,
@@ -692,32 +809,35 @@ pub fn generate(case: &SyntheticCase) -> Result<SyntheticData> {
                 tilt_deg: p.tilt_deg,
             };
             let pk = model
-                .per_flute_peaks(&c, super::force_channel::SAMPLES_PER_REV)
-                .map_err(sim_err)?;
-            tr.groove_id.push(p.groove_id);
-            tr.x_mm.push(p.x_mm);
-            tr.fz_peak_flute1_n.push(pk[0][2] + normal.sample(&mut rng));
-            tr.fz_peak_flute2_n.push(pk[1][2] + normal.sample(&mut rng));
+                .per_flute_peaks(&c, PEAK_SAMPLES_PER_REV)
+                .map_err(sim_err("per-flute peaks"))?;
+            let flute1 = pk[0][2] + normal.sample(&mut rng);
+            let flute2 = pk[1][2] + normal.sample(&mut rng);
+            rows.push(FluteForcePoint {
+                groove_id: p.groove_id,
+                x_mm: p.x_mm,
+                fz_peak_flute1_n: flute1,
+                fz_peak_flute2_n: flute2,
+            });
         }
-        forces_csv = Some(tr.to_csv());
-        measured.forces = Some(tr);
+        forces = Some(rows);
     }
-    let body = toml::to_string(&session).map_err(|e| IdentifyError::Io {
-        what: format!("{}.toml", case.name),
-        message: e.to_string(),
+    let body = toml::to_string(&session).map_err(|source| SyntheticError::Toml {
+        file: format!("{}.toml", case.name),
+        source,
     })?;
     let session_toml = format!(
         "# Synthetic groove session `{}` (schema: sim/SESSION.md), written by\n\
-         # `cargo run -p millcomp-identify --example gen_synthetic --release` (seed {}).\n\
+         # `{COMMAND}` (seed {}).\n\
          # Nominal model only: what is hidden in {}.csv is listed in README.md.\n\n{body}",
         case.name, case.seed, case.name
     );
     Ok(SyntheticData {
+        name: case.name.clone(),
         session,
         session_toml,
-        measured,
-        csv,
-        forces_csv,
+        points,
+        forces,
     })
 }
 
@@ -725,8 +845,8 @@ pub fn generate(case: &SyntheticCase) -> Result<SyntheticData> {
 pub fn readme(cases: &[SyntheticCase]) -> String {
     let mut s = String::from(
         "# datasets/synthetic/ — measured groove sessions with hidden effects (SYNTHETIC)\n\n\
-         Generated by `cargo run -p millcomp-identify --example gen_synthetic --release` \
-         (`identify/examples/gen_synthetic.rs`, cases in `identify/src/diagnose/synthetic.rs`); \
+         Generated by `cargo run -p millcomp-synthetic --bin gen_synthetic --release` \
+         (`synthetic/src/bin/gen_synthetic.rs`, cases in `synthetic/src/lib.rs`); \
          deterministic (seeded), regenerate after changing sim. Each case is `NAME.toml` \
          (session file, nominal model only — schema `sim/SESSION.md`) beside `NAME.csv` \
          (measured-groove CSV contract, DESIGN.md); NAME says what is hidden (`clean`: nothing). \
@@ -794,21 +914,7 @@ pub fn readme(cases: &[SyntheticCase]) -> String {
          per measured point: `groove_id, x_mm, fz_peak_flute1_n, fz_peak_flute2_n` — the peak z-force \
          of each flute over the revolution in which the point was cut (flute 2 is the one runout \
          makes cut more), from sim's force model at the true depth with tool runout 2 + 3 µm, plus \
-         noise. `diagnose` tests `flute_runout` on `flute2 − flute1` (identify/src/diagnose/force_channel.rs).\n",
+         noise. `diagnose` tests `flute_runout` on `flute2 − flute1` (diagnose/src/force_channel.rs).\n",
     );
     s
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn session_toml_round_trips() {
-        let c = cases().into_iter().find(|c| c.name == "clean").unwrap();
-        let d = generate(&c).unwrap();
-        let back = Session::from_toml_str(&d.session_toml).unwrap();
-        assert_eq!(back, d.session);
-        assert_eq!(d.measured.len(), 294);
-    }
 }

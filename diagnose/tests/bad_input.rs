@@ -1,27 +1,18 @@
 //! Bad input to `diagnose` (issue 7): measured data that do not belong to the session, too few
-//! points for a candidate (skipped with a note, not a crash), untestable candidates, the contract's
-//! CSV errors, bad options.
+//! points for a candidate (skipped with a note, not a crash), untestable candidates, points that
+//! are not a measurement, bad options. (The contract's CSV errors are the reader's: tests of
+//! `millcomp_datasets::contracts`.)
 
-mod common;
-
-use common::diagnose::{ALPHA, load_case, synthetic_dir};
-use millcomp_identify::IdentifyError;
-use millcomp_identify::diagnose::{
-    DiagnoseOptions, ForceTrace, MeasuredGroove, SessionModel, diagnose, synthetic,
-};
+use millcomp_diagnose::{DiagnoseError, DiagnoseOptions, Measured, SessionModel, diagnose};
+use millcomp_sim::SimError;
 use millcomp_sim::groove::DepthProfile;
 use millcomp_sim::session::{EffectSpec, GrooveSpec, PlanItem, Session};
 
-fn opts() -> DiagnoseOptions {
-    DiagnoseOptions {
-        alpha: ALPHA,
-        ..DiagnoseOptions::default()
-    }
-}
+use crate::common::{ALPHA, load_case, opts, resampled, show, synthetic_dir};
 
-fn mismatch_column(e: &IdentifyError) -> (String, Option<usize>) {
+fn mismatch_column(e: &DiagnoseError) -> (String, Option<usize>) {
     match e {
-        IdentifyError::SessionMismatch { column, row, .. } => (column.clone(), *row),
+        DiagnoseError::SessionMismatch { column, row, .. } => (column.clone(), *row),
         other => panic!("expected SessionMismatch, got {other}"),
     }
 }
@@ -44,45 +35,30 @@ fn missing_groove_changed_point_or_conditions_are_named_by_row_and_column() {
     let (s, m) = load_case("tool_wear");
     // last groove missing
     let mut short = m.clone();
-    let keep = short.groove_id.iter().filter(|&&g| g < 13).count();
-    for v in [
-        &mut short.t_s,
-        &mut short.x_mm,
-        &mut short.cut_length_mm,
-        &mut short.spindle_rpm,
-        &mut short.feed_mm_min,
-        &mut short.upfeed_um,
-        &mut short.tilt_deg,
-        &mut short.depth_cmd_um,
-        &mut short.depth_meas_um,
-    ] {
-        v.truncate(keep);
-    }
-    short.groove_id.truncate(keep);
-    short.coolant_on.truncate(keep);
+    short.points.retain(|p| p.groove_id < 13);
     let e = diagnose(&s, &short, &opts()).unwrap_err();
     assert_eq!(mismatch_column(&e).0, "rows");
     // a point moved along the groove
     let mut moved = m.clone();
-    moved.x_mm[17] += 0.5;
+    moved.points[17].x_mm += 0.5;
     let e = diagnose(&s, &moved, &opts()).unwrap_err();
     assert_eq!(mismatch_column(&e), ("x_mm".to_string(), Some(17)));
     // a groove renumbered
     let mut renum = m.clone();
-    for g in renum.groove_id.iter_mut().filter(|g| **g == 5) {
-        *g = 50;
+    for p in renum.points.iter_mut().filter(|p| p.groove_id == 5) {
+        p.groove_id = 50;
     }
     let e = diagnose(&s, &renum, &opts()).unwrap_err();
     assert_eq!(mismatch_column(&e), ("groove_id".to_string(), Some(5 * 21)));
     // a different spindle speed and coolant state
     let mut rpm = m.clone();
-    rpm.spindle_rpm[40] = 30_000.0;
+    rpm.points[40].spindle_rpm = 30_000.0;
     assert_eq!(
         mismatch_column(&diagnose(&s, &rpm, &opts()).unwrap_err()),
         ("spindle_rpm".to_string(), Some(40))
     );
     let mut cool = m.clone();
-    cool.coolant_on[0] = 1;
+    cool.points[0].coolant_on = 1;
     assert_eq!(
         mismatch_column(&diagnose(&s, &cool, &opts()).unwrap_err()),
         ("coolant_on".to_string(), Some(0))
@@ -93,19 +69,53 @@ fn missing_groove_changed_point_or_conditions_are_named_by_row_and_column() {
 fn force_trace_rows_must_match_points() {
     let (s, mut m) = load_case("flute_runout_force");
     let tr = m.forces.as_mut().unwrap();
-    tr.x_mm[3] = 0.37;
+    tr.rows[3].x_mm = 0.37;
     let e = diagnose(&s, &m, &opts()).unwrap_err();
     assert_eq!(mismatch_column(&e), ("x_mm".to_string(), Some(3)));
-    let e =
-        ForceTrace::from_csv_str("f.csv", "groove_id,x_mm,fz_peak_flute1_n\n0,0,1\n").unwrap_err();
+    // a NaN force is named by column and row (the file reader's check is in datasets' tests)
+    let (s, mut m) = load_case("flute_runout_force");
+    m.forces.as_mut().unwrap().rows[8].fz_peak_flute2_n = f64::NAN;
+    let e = diagnose(&s, &m, &opts()).unwrap_err();
     assert!(
-        matches!(e, IdentifyError::MissingColumn { ref column, .. } if column == "fz_peak_flute2_n")
+        matches!(
+            e,
+            DiagnoseError::NonFinite {
+                column: "fz_peak_flute2_n",
+                row: 8,
+                ..
+            }
+        ),
+        "{e}"
+    );
+}
+
+#[test]
+fn points_that_are_not_a_measurement_are_named() {
+    let (s, m) = load_case("tool_wear");
+    let point = |e: &DiagnoseError| match e {
+        DiagnoseError::InvalidPoints {
+            source: SimError::Point { row, column, .. },
+            ..
+        } => (*row, *column),
+        other => panic!("expected InvalidPoints, got {other}"),
+    };
+    let mut nan = m.clone();
+    nan.points[0].depth_meas_um = f64::NAN;
+    assert_eq!(
+        point(&diagnose(&s, &nan, &opts()).unwrap_err()),
+        (0, "depth_meas_um")
+    );
+    let mut back = m.clone();
+    back.points[3].t_s = back.points[1].t_s;
+    assert_eq!(
+        point(&diagnose(&s, &back, &opts()).unwrap_err()),
+        (3, "t_s")
     );
 }
 
 /// One groove of `len_mm` measured every 1 mm (len + 1 points), 36 000 rpm, coolant on.
 fn tiny_session(len_mm: f64) -> Session {
-    let mut s = synthetic::base_session("tiny", "tiny");
+    let mut s = millcomp_synthetic::base_session("tiny", "tiny");
     s.plan = vec![PlanItem::Groove(GrooveSpec {
         start_s: Some(0.0),
         spindle_rpm: 36_000.0,
@@ -124,11 +134,11 @@ fn tiny_session(len_mm: f64) -> Session {
     s
 }
 
-fn with_probe_tilt(s: &Session, seed: u64) -> MeasuredGroove {
+fn with_probe_tilt(s: &Session, seed: u64) -> Measured {
     let sm = SessionModel::new(s).unwrap();
     // the 002 §7.4 probe-tilt offset, 4.67 µm
     let off = vec![4.67; sm.len()];
-    synthetic::resample(&sm, &off, synthetic::DEPTH_NOISE_UM, seed)
+    resampled(&sm, &off, seed)
 }
 
 #[test]
@@ -161,7 +171,7 @@ fn too_few_points_skips_candidates_with_a_note() {
         let k = rep.skipped.iter().find(|k| k.effect == name).unwrap();
         assert!(k.note.contains("too few points"), "{name}: {}", k.note);
     }
-    assert_eq!(rep.named[0], "probe_tilt_offset", "{}", rep.human());
+    assert_eq!(rep.named[0], "probe_tilt_offset", "{}", show(&rep));
 }
 
 #[test]
@@ -233,7 +243,7 @@ fn candidate_subset_free_offset_and_bad_options() {
 
     for alpha in [0.0, 1.0, f64::NAN, -0.1] {
         let e = diagnose(&s, &m, &DiagnoseOptions { alpha, ..opts() }).unwrap_err();
-        assert!(matches!(e, IdentifyError::InvalidParameter { ref name, .. } if name == "alpha"));
+        assert!(matches!(e, DiagnoseError::InvalidOption { name, .. } if name == "alpha"));
     }
     let e = diagnose(
         &s,
@@ -244,63 +254,6 @@ fn candidate_subset_free_offset_and_bad_options() {
         },
     )
     .unwrap_err();
-    assert!(matches!(e, IdentifyError::UnknownCandidate { ref name, .. } if name == "gremlins"));
+    assert!(matches!(e, DiagnoseError::UnknownCandidate { ref name, .. } if name == "gremlins"));
     assert!(e.to_string().contains("tool_wear"));
-}
-
-const HEADER: &str = "groove_id,t_s,x_mm,cut_length_mm,spindle_rpm,feed_mm_min,upfeed_um,tilt_deg,coolant_on,depth_cmd_um,depth_meas_um";
-
-#[test]
-fn contract_csv_errors() {
-    // missing column
-    let e = MeasuredGroove::from_csv_str("m.csv", "groove_id,t_s\n0,0\n").unwrap_err();
-    assert!(
-        matches!(e, IdentifyError::MissingColumn { ref column, .. } if column == "x_mm"),
-        "{e}"
-    );
-    // non-numeric cell, named by column and row
-    let e = MeasuredGroove::from_csv_str(
-        "m.csv",
-        &format!("{HEADER}\n0,0,0,0,10000,100,10,20,0,0,0\n0,1,1,1,10000,100,10,20,0,4,abc\n"),
-    )
-    .unwrap_err();
-    let msg = e.to_string();
-    assert!(
-        msg.contains("depth_meas_um") && msg.contains("row 1"),
-        "{msg}"
-    );
-    // NaN
-    let e = MeasuredGroove::from_csv_str(
-        "m.csv",
-        &format!("{HEADER}\n0,0,0,0,10000,100,10,20,0,0,NaN\n"),
-    )
-    .unwrap_err();
-    assert!(
-        matches!(e, IdentifyError::NonFinite { ref column, row: 0, .. } if column == "depth_meas_um"),
-        "{e}"
-    );
-    // time going backwards within a groove
-    let e = MeasuredGroove::from_csv_str(
-        "m.csv",
-        &format!("{HEADER}\n0,5,0,0,10000,100,10,20,0,0,0\n1,1,0,0,10000,100,10,20,0,0,0\n0,4,1,1,10000,100,10,20,0,4,4\n"),
-    )
-    .unwrap_err();
-    assert!(
-        matches!(e, IdentifyError::NonMonotoneTime { row: 2, .. }),
-        "{e}"
-    );
-    // coolant flag not 0/1
-    let e = MeasuredGroove::from_csv_str(
-        "m.csv",
-        &format!("{HEADER}\n0,0,0,0,10000,100,10,20,2,0,0\n"),
-    )
-    .unwrap_err();
-    assert!(e.to_string().contains("coolant_on"), "{e}");
-    // unknown extra columns are accepted
-    let m = MeasuredGroove::from_csv_str(
-        "m.csv",
-        &format!("{HEADER},operator\n0,0,0,0,10000,100,10,20,0,0,0.1,7\n"),
-    )
-    .unwrap();
-    assert_eq!(m.len(), 1);
 }

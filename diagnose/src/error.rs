@@ -1,0 +1,98 @@
+//! The one error type of the crate.
+//!
+//! Errors are for input that cannot be diagnosed at all: a session sim cannot evaluate, measured
+//! points that are not a measurement or do not belong to the session, bad options. A diagnosis that
+//! ran is a [`DiagnoseReport`](crate::DiagnoseReport) — candidates that could not be tested or
+//! fitted are listed there with a note — not an error.
+//!
+//! Row numbers are 0-based indices into the measured points (the first data row below a CSV
+//! header is row 0).
+
+use millcomp_identify::IdentifyError;
+use millcomp_sim::SimError;
+
+/// Everything that makes a diagnosis impossible, each variant naming what is at fault.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum DiagnoseError {
+    /// sim could not evaluate the session (its plan, force model or effects).
+    #[error("the session's {what} could not be evaluated")]
+    Session {
+        /// What was being evaluated (`plan`, `effects`, `force model`).
+        what: &'static str,
+        /// sim's error.
+        #[source]
+        source: SimError,
+    },
+    /// The measured points are not a measurement: a non-finite value, `coolant_on` not 0 or 1, or
+    /// time going backwards within a groove.
+    #[error("{origin}: invalid measured points")]
+    InvalidPoints {
+        /// The measured file or label.
+        origin: String,
+        /// sim's check of the points, naming the point and the field.
+        #[source]
+        source: SimError,
+    },
+    /// A force-trace value is NaN or infinite.
+    #[error("{origin}: column `{column}` row {row}: value {value} is not finite (NaN or infinite)")]
+    NonFinite {
+        /// The force-trace file or label.
+        origin: String,
+        /// Offending column.
+        column: &'static str,
+        /// 0-based row.
+        row: usize,
+        /// The value found.
+        value: f64,
+    },
+    /// The measured data do not belong to the session (different grooves, points or conditions).
+    /// `row` is the 0-based data row, `None` when the whole file is at fault.
+    #[error("measured data do not match the session: {}column `{column}`: {message}", row.map(|r| format!("row {r}, ")).unwrap_or_default())]
+    SessionMismatch {
+        /// Offending column (`rows` when the row counts differ).
+        column: String,
+        /// 0-based data row, if one row is at fault.
+        row: Option<usize>,
+        /// What differs, with both values.
+        message: String,
+    },
+    /// A candidate effect name that is not registered.
+    #[error("unknown candidate effect `{name}`; allowed {allowed}")]
+    UnknownCandidate {
+        /// The name given.
+        name: String,
+        /// Registered names.
+        allowed: String,
+    },
+    /// A registered candidate frees a parameter its effect does not have.
+    #[error("candidate `{effect}`: {message}")]
+    BadCandidate {
+        /// The candidate effect.
+        effect: String,
+        /// Which parameter is unknown.
+        message: String,
+    },
+    /// An option outside its allowed range.
+    #[error("{name} = {value} is out of range: allowed {allowed}")]
+    InvalidOption {
+        /// Option name.
+        name: &'static str,
+        /// The value given.
+        value: f64,
+        /// Human-readable allowed range.
+        allowed: &'static str,
+    },
+    /// The free nominal offset (`DiagnoseOptions::free_offset`) could not be fitted.
+    #[error("the free nominal offset could not be fitted to {n_points} measured points")]
+    NominalOffset {
+        /// Measured points.
+        n_points: usize,
+        /// The identify engine's error.
+        #[source]
+        source: IdentifyError,
+    },
+}
+
+/// Result alias of the crate.
+pub type Result<T> = std::result::Result<T, DiagnoseError>;
