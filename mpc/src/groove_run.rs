@@ -21,7 +21,7 @@
 use std::time::Instant;
 
 use millcomp_sim::feed::FeedProfile;
-use millcomp_sim::filters::{Biquad, FirstOrderFilter, PeakHold};
+use millcomp_sim::filters::{Biquad, FirstOrderFilter, PeakHold, SlidingMax};
 use millcomp_sim::groove::{GrooveConfig, GrooveStage, GrooveStepOutput};
 use millcomp_sim::material::Material;
 use millcomp_sim::sensors::NoiseSpec;
@@ -34,7 +34,6 @@ use crate::pid::{AntiWindup, Pid, PidGains};
 use crate::predictor::{ForcePredictor, ResponseSurface};
 use crate::report::{Metrics, ModelSummary, RunOutput, RunReport, Trace};
 use crate::scenario::{ControllerKind, Fault, GrooveScenario, Scenario};
-use crate::signal::SlidingMax;
 use crate::spindle_mpc::{OUT_ERROR, OUT_GAUGE, default_spindle_config};
 use crate::stats::SolverStats;
 use crate::truth::{CalibratedStiffness, ForceErrors, calibrate_stiffness};

@@ -39,7 +39,6 @@ pub mod replay;
 pub mod report;
 pub mod runner;
 pub mod scenario;
-pub mod signal;
 pub mod spindle_mpc;
 pub mod stats;
 pub mod thinwall_run;

@@ -16,11 +16,11 @@
 //! The groove profile is the depth cut at each x (the bottom left behind the tool).
 
 use serde::{Deserialize, Serialize};
-use std::collections::VecDeque;
 use std::f64::consts::PI;
 
 use crate::error::{SimError, check_positive, check_range};
 use crate::feed::{FeedChange, FeedProfile, WorkpieceExit};
+use crate::filters::SlidingMax;
 use crate::force::{
     BallEndForceModel, CutConditions, ForceParams, PreparedCut, S7_GROOVE_FORCE_SCALE,
 };
@@ -376,44 +376,6 @@ pub struct GrooveStepOutput {
     pub done: bool,
 }
 
-/// Sliding maximum over a fixed number of samples (monotone deque).
-#[derive(Debug, Clone)]
-struct SlidingMax {
-    window: usize,
-    k: usize,
-    q: VecDeque<(usize, f64)>,
-}
-
-impl SlidingMax {
-    fn new(window: usize) -> Self {
-        Self {
-            window: window.max(1),
-            k: 0,
-            q: VecDeque::with_capacity(window.max(1) + 1),
-        }
-    }
-    #[inline]
-    fn push(&mut self, x: f64) -> f64 {
-        while let Some(&(_, v)) = self.q.back() {
-            if v <= x {
-                self.q.pop_back();
-            } else {
-                break;
-            }
-        }
-        self.q.push_back((self.k, x));
-        while let Some(&(i, _)) = self.q.front() {
-            if i + self.window <= self.k {
-                self.q.pop_front();
-            } else {
-                break;
-            }
-        }
-        self.k += 1;
-        self.q.front().map(|p| p.1).unwrap_or(x)
-    }
-}
-
 /// The steppable groove plant.
 #[derive(Debug, Clone)]
 pub struct GrooveStage {
@@ -540,7 +502,7 @@ impl GrooveStage {
         }
         let f = self.prepared.forces(self.omega_rad_s * self.t_s);
         let fz = f[2] * engagement;
-        let peak = self.peak.push(fz);
+        let peak = self.peak.step(fz);
         let deflection_now = self.deflection_um;
         self.deflection_um = peak * self.compliance_um_per_n;
         let coupling = self.cfg.spindle.force_coupling_n_per_um * tip_um;
@@ -618,14 +580,6 @@ pub fn profile(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn sliding_max_window() {
-        let mut s = SlidingMax::new(3);
-        let xs = [1.0, 5.0, 2.0, 1.0, 0.5, 0.2, 4.0];
-        let ys: Vec<f64> = xs.iter().map(|x| s.push(*x)).collect();
-        assert_eq!(ys, vec![1.0, 5.0, 5.0, 5.0, 2.0, 1.0, 4.0]);
-    }
 
     #[test]
     fn depth_profiles() {
