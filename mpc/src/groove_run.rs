@@ -97,13 +97,13 @@ pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, MpcError> {
         .ok_or_else(|| crate::error::invalid("groove", "missing", "a [groove] table"))?;
     let mut truth = GrooveConfig::thesis(g.tilt_deg, g.wearland_um)?;
     truth.force_model.material = Material::by_name(&g.material)?;
-    truth.speed_rpm = g.speed_rpm;
-    truth.upfeed_um_per_rev = g.upfeed_um_per_rev;
-    truth.length_mm = g.length_mm;
-    truth.depth_profile = g.depth.clone();
-    truth.feed_changes = g.feed_steps.clone();
-    truth.feed_accel_mm_s2 = g.feed_accel_mm_s2;
-    truth.exit = g.exit;
+    truth.program.speed_rpm = g.speed_rpm;
+    truth.program.upfeed_um_per_rev = g.upfeed_um_per_rev;
+    truth.program.length_mm = g.length_mm;
+    truth.program.depth_profile = g.depth.clone();
+    truth.program.feed_changes = g.feed_steps.clone();
+    truth.program.feed_accel_mm_s2 = g.feed_accel_mm_s2;
+    truth.program.exit = g.exit;
     truth.force_noise = (s.truth.force_noise_n > 0.0).then_some(NoiseSpec {
         seed: s.seed.wrapping_mul(31).wrapping_add(1),
         sigma: s.truth.force_noise_n,
@@ -201,15 +201,21 @@ impl DeflectionPlan {
     /// Tabulate every `dx_mm` along the groove.
     pub fn new(setup: &GrooveSetup, dx_mm: f64) -> Result<Self, MpcError> {
         let t = &setup.truth;
-        let c = setup.model_stiffness.z_compliance_um_per_n(t.tilt_deg)?;
+        let c = setup
+            .model_stiffness
+            .z_compliance_um_per_n(t.program.tilt_deg)?;
         let feed = t.feed_profile()?;
         let radius = t.force_model.tool.radius_um;
-        let n = (t.length_mm / dx_mm).ceil() as usize + 1;
+        let n = (t.program.length_mm / dx_mm).ceil() as usize + 1;
         let mut values = Vec::with_capacity(n);
         let mut extrapolated = 0;
         for i in 0..n {
-            let x = (i as f64 * dx_mm).min(t.length_mm);
-            let d = t.depth_profile.depth_at(x, t.length_mm).clamp(0.0, radius);
+            let x = (i as f64 * dx_mm).min(t.program.length_mm);
+            let d = t
+                .program
+                .depth_profile
+                .depth_at(x, t.program.length_mm)
+                .clamp(0.0, radius);
             let e = t.engagement(x);
             let cond = t.conditions_at(d, feed.upfeed_at_x(x));
             let f = if d > 0.0 && e > 0.0 {
@@ -423,7 +429,7 @@ impl GrooveCtl for MpcCtl {
 /// Build the MPC for a groove setup (the scenario's `control.mpc` if given, else the default spindle design).
 pub fn groove_mpc(setup: &GrooveSetup, s: &Scenario) -> Result<MpcController, MpcError> {
     let tc = s.control.dt_s * s.control.mpc_every as f64;
-    let sin_a = setup.truth.tilt_deg.to_radians().sin();
+    let sin_a = setup.truth.program.tilt_deg.to_radians().sin();
     let single = setup.model_spindle.to_lti()?.discretize_zoh(tc)?;
     let n = single.n_states();
     let mut c = nalgebra::DMatrix::zeros(2, n);
@@ -444,7 +450,7 @@ pub fn groove_mpc(setup: &GrooveSetup, s: &Scenario) -> Result<MpcController, Mp
             // measured error channel: σ ≈ compliance × σ of the filtered per-revolution force peak
             let comp = setup
                 .model_stiffness
-                .z_compliance_um_per_n(setup.truth.tilt_deg)?;
+                .z_compliance_um_per_n(setup.truth.program.tilt_deg)?;
             let sf = (s.truth.force_noise_n * 0.5).max(0.005);
             c.kalman.measurement_noise = vec![
                 (s.truth.gauge_noise_um.max(0.005)).powi(2),
@@ -501,10 +507,11 @@ fn apply_faults(
 /// [`CHANGE_WINDOW_BEFORE_MM`], to the edge).
 pub fn change_windows(t: &GrooveConfig) -> Vec<(f64, f64)> {
     let mut w: Vec<(f64, f64)> = t
+        .program
         .depth_profile
         .change_points_mm()
         .into_iter()
-        .chain(t.feed_changes.iter().map(|f| f.x_mm))
+        .chain(t.program.feed_changes.iter().map(|f| f.x_mm))
         .map(|x| (x - CHANGE_WINDOW_BEFORE_MM, x + CHANGE_WINDOW_AFTER_MM))
         .collect();
     w.extend(exit_window(t));
@@ -513,7 +520,8 @@ pub fn change_windows(t: &GrooveConfig) -> Vec<(f64, f64)> {
 
 /// The exit zone (mm): from [`CHANGE_WINDOW_BEFORE_MM`] before the engagement starts to drop to the edge.
 fn exit_window(t: &GrooveConfig) -> Option<(f64, f64)> {
-    t.exit
+    t.program
+        .exit
         .map(|e| (e.x_mm - e.length_mm - CHANGE_WINDOW_BEFORE_MM, e.x_mm))
 }
 
@@ -523,7 +531,7 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcEr
     let setup = groove_setup(s)?;
     let t = &setup.truth;
     let dt = s.control.dt_s;
-    let sin_a = t.tilt_deg.to_radians().sin();
+    let sin_a = t.program.tilt_deg.to_radians().sin();
     let plan = DeflectionPlan::new(&setup, 0.01)?;
     let v_max = t.spindle.voltage_max_v;
     let mut notes = Vec::new();
@@ -555,7 +563,7 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcEr
             Box::new(PidCtl {
                 force_lp: Biquad::low_pass(500.0, std::f64::consts::FRAC_1_SQRT_2, dt)?,
                 gauge_lp: Biquad::low_pass(500.0, std::f64::consts::FRAC_1_SQRT_2, dt)?,
-                peak: PeakHold::thesis(t.speed_rpm)?,
+                peak: PeakHold::thesis(t.program.speed_rpm)?,
                 smooth: FirstOrderFilter::thesis(dt)?,
                 pid: Pid::new(
                     gains,
@@ -565,7 +573,9 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcEr
                     v_max,
                     dt,
                 ),
-                tip_per_n: setup.model_stiffness.pzt_compliance_um_per_n(t.tilt_deg)?,
+                tip_per_n: setup
+                    .model_stiffness
+                    .pzt_compliance_um_per_n(t.program.tilt_deg)?,
                 dt_s: dt,
             })
         }
@@ -579,7 +589,7 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcEr
         ControllerKind::Mpc => {
             let mpc = groove_mpc(&setup, s)?;
             let n = mpc.config().horizon;
-            let steps_per_rev = (60.0 / t.speed_rpm / dt).round() as usize;
+            let steps_per_rev = (60.0 / t.program.speed_rpm / dt).round() as usize;
             Box::new(MpcCtl {
                 mpc,
                 plan: plan.clone(),
@@ -589,12 +599,14 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcEr
                     dt,
                 )?,
                 peak: SlidingMax::new(steps_per_rev),
-                compliance: setup.model_stiffness.z_compliance_um_per_n(t.tilt_deg)?,
+                compliance: setup
+                    .model_stiffness
+                    .z_compliance_um_per_n(t.program.tilt_deg)?,
                 sin_a,
                 every: s.control.mpc_every,
                 tc_s: dt * s.control.mpc_every as f64,
-                rev_s: 60.0 / t.speed_rpm,
-                tooth_s: 60.0 / t.speed_rpm / t.force_model.tool.flutes as f64,
+                rev_s: 60.0 / t.program.speed_rpm,
+                tooth_s: 60.0 / t.program.speed_rpm / t.force_model.tool.flutes as f64,
                 k: 0,
                 v_hold: 0.0,
                 window: PreviewWindow::zeros(n, 2),
@@ -699,8 +711,10 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcEr
             break;
         }
     }
-    let kz_model = setup.model_stiffness.z_stiffness_n_per_um(t.tilt_deg)?;
-    let kz_truth = t.stiffness.z_stiffness_n_per_um(t.tilt_deg)?;
+    let kz_model = setup
+        .model_stiffness
+        .z_stiffness_n_per_um(t.program.tilt_deg)?;
+    let kz_truth = t.stiffness.z_stiffness_n_per_um(t.program.tilt_deg)?;
     let report = RunReport {
         scenario: s.name.clone(),
         stage: "groove".into(),
