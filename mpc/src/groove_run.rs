@@ -1,46 +1,28 @@
 //! Closed-loop runs on sim's groove stage (`millcomp_sim::groove::GrooveStage`, PZT spindle,
-//! `000_…txt` ch. 6–7) with every controller.
+//! `000_…txt` ch. 6–7) with every controller of [`crate::groove`].
 //!
-//! Stage sign conventions (sim): depth cut `d = d_cmd − δz + tip·sin α`, + = deeper; the PZT moves the tip
-//! radially, so a z-correction δz needs a tip travel δz / sin α (eq. 26). Error = d − d_cmd.
-//!
-//! Controllers (all see only the measured force, the gauge, the plan and their *own* models):
-//! - `none`: 0 V;
-//! - `open-loop` (ch. 6): predicted per-revolution peak z-force of the planned cut (controller's force model
-//!   at the programmed depth and feed) × the controller's z-compliance = predicted deflection; the tip is
-//!   driven to it open loop through the spindle's static gain. The thesis pre-shifted the machine path; sim's
-//!   groove stage has no programmable path table yet, so the pre-shift is applied through the actuator (the
-//!   same quasi-static correction; the 20 kHz actuator is far faster than the 12 s ramp);
-//! - `pid`, `pid-aw`, `pid-design` (ch. 7): measured force → 500 Hz 2nd-order filter → nested peak-and-hold
-//!   → first-order 0.0005/0.9995 filter → × compliance / sin α = wanted tip; gauge → 500 Hz filter; PID on the
-//!   difference (eq. 25) at the 20 kHz stage rate;
-//! - `mpc`: every `mpc_every` steps (2 kHz), [`crate::spindle_mpc`] design with preview of the planned
-//!   deflection, measured deflection = one-revolution sliding peak of the 2 kHz-low-passed force ×
-//!   compliance.
+//! The truth plant is sim's stage configured from the scenario; the controllers get the program, their
+//! own models (identified stiffness, perturbed or identified force model, spindle model) and the
+//! measured signals only. Error = depth cut − programmed depth.
 
 use std::time::Instant;
 
-use millcomp_sim::feed::FeedProfile;
-use millcomp_sim::filters::{Biquad, FirstOrderFilter, PeakHold, SlidingMax};
 use millcomp_sim::groove::{GrooveConfig, GrooveStage, GrooveStepOutput};
 use millcomp_sim::material::Material;
 use millcomp_sim::sensors::NoiseSpec;
 use millcomp_sim::spindle::PztSpindle;
 use millcomp_sim::stiffness::TiltedToolStiffness;
 
-use crate::controller::{MpcController, PreviewWindow};
 use crate::error::MpcError;
-use crate::pid::{AntiWindup, Pid, PidGains};
+use crate::groove::{
+    DeflectionPlan, GrooveController, GrooveMeasurement, GrooveMpcSettings, MpcGrooveController,
+    NoneController, OpenLoopController, PidController,
+};
+use crate::pid::{AntiWindup, PidGains};
 use crate::predictor::{ForcePredictor, ResponseSurface};
 use crate::report::{Metrics, ModelSummary, RunOutput, RunReport, Trace};
 use crate::scenario::{ControllerKind, Fault, GrooveScenario, Scenario};
-use crate::spindle_mpc::{OUT_ERROR, OUT_GAUGE, default_spindle_config};
-use crate::stats::SolverStats;
 use crate::truth::{CalibratedStiffness, ForceErrors, calibrate_stiffness};
-
-/// Cut-off of the MPC's force pre-filter (Hz): well above the 333 Hz flute frequency so the per-revolution
-/// peak is kept, low enough to take the 0.04 N sensor noise down by ~2×.
-pub const MPC_FORCE_PREFILTER_HZ: f64 = 2000.0;
 
 /// Window around a process change in which its peak error is taken: from 0.5 mm before (preview, early
 /// moves) to 2 mm after (≈ 1.2 s: many filter time constants of the PID chain).
@@ -185,294 +167,41 @@ pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, MpcError> {
     })
 }
 
-/// The planned deflection seen by the controllers: `δ̂(x) = Fz,peak(predictor, d_cmd(x), f(x)) · e(x) ·
-/// c_z,model` with the programmed depth `d_cmd`, the upfeed `f` of the planned feed motion (feed changes
-/// with the axis acceleration) and the engagement `e` (workpiece exit), tabulated along x.
-#[derive(Debug, Clone)]
-pub struct DeflectionPlan {
-    dx_mm: f64,
-    values_um: Vec<f64>,
-    feed: FeedProfile,
-    /// Tabulated points where the force predictor extrapolated beyond its fitted range.
-    pub extrapolated_points: usize,
+/// The controllers' preview of a groove setup, tabulated every `dx_mm`.
+pub fn deflection_plan(setup: &GrooveSetup, dx_mm: f64) -> Result<DeflectionPlan, MpcError> {
+    DeflectionPlan::new(
+        &setup.truth.program,
+        &setup.model_force,
+        &setup.model_stiffness,
+        setup.truth.force_model.tool.radius_um,
+        dx_mm,
+    )
 }
 
-impl DeflectionPlan {
-    /// Tabulate every `dx_mm` along the groove.
-    pub fn new(setup: &GrooveSetup, dx_mm: f64) -> Result<Self, MpcError> {
-        let t = &setup.truth;
-        let c = setup
-            .model_stiffness
-            .z_compliance_um_per_n(t.program.tilt_deg)?;
-        let feed = t.feed_profile()?;
-        let radius = t.force_model.tool.radius_um;
-        let n = (t.program.length_mm / dx_mm).ceil() as usize + 1;
-        let mut values = Vec::with_capacity(n);
-        let mut extrapolated = 0;
-        for i in 0..n {
-            let x = (i as f64 * dx_mm).min(t.program.length_mm);
-            let d = t
-                .program
-                .depth_profile
-                .depth_at(x, t.program.length_mm)
-                .clamp(0.0, radius);
-            let e = t.engagement(x);
-            let cond = t.conditions_at(d, feed.upfeed_at_x(x));
-            let f = if d > 0.0 && e > 0.0 {
-                if setup
-                    .model_force
-                    .response_surface()
-                    .is_some_and(|r| r.extrapolates(&cond))
-                {
-                    extrapolated += 1;
-                }
-                setup.model_force.peak_z_force_n(&cond)? * e
-            } else {
-                0.0
-            };
-            // a tool cannot be pushed out of the cut by more than it is engaged: at the first few µm of
-            // a ramp the flank force alone would predict more deflection than depth
-            values.push((f * c).min(d));
-        }
-        Ok(Self {
-            dx_mm,
-            values_um: values,
-            feed,
-            extrapolated_points: extrapolated,
-        })
+/// The groove MPC's settings from a scenario: its `[control]` table, the amplifier limit and the
+/// sensors' noise levels.
+pub fn mpc_settings(setup: &GrooveSetup, s: &Scenario) -> GrooveMpcSettings {
+    GrooveMpcSettings {
+        dt_s: s.control.dt_s,
+        mpc_every: s.control.mpc_every,
+        horizon: s.control.horizon,
+        slew_v_per_cycle: s.control.slew_v_per_cycle,
+        voltage_max_v: setup.truth.spindle.voltage_max_v,
+        config: s.control.mpc.clone(),
+        force_noise_n: s.truth.force_noise_n,
+        gauge_noise_um: s.truth.gauge_noise_um,
     }
-
-    /// Number of tabulated points.
-    pub fn n_points(&self) -> usize {
-        self.values_um.len()
-    }
-
-    /// Planned position at time `t_s` (mm).
-    pub fn x_at(&self, t_s: f64) -> f64 {
-        self.feed.x_at(t_s)
-    }
-
-    /// Planned z-deflection (µm) at time `t_s` as the stage produces it: the deflection follows the peak
-    /// force of the last revolution (`000_…txt` §6.2), and the force peaks once per tooth: a rise appears
-    /// when the next tooth reaches its peak — on average half a tooth period after the change — and a fall
-    /// once the last tooth peak before it has left the one-revolution window — on average a revolution
-    /// less half a tooth period after it. Evaluated as the maximum of the planned per-revolution
-    /// deflection over `[t − T_rev + T_tooth/2, t − T_tooth/2]` (9 samples, ends included).
-    pub fn deflection_at_time(&self, t_s: f64, rev_s: f64, tooth_s: f64) -> f64 {
-        let t1 = t_s - 0.5 * tooth_s;
-        let t0 = (t_s - rev_s + 0.5 * tooth_s).min(t1);
-        (0..=8)
-            .map(|i| {
-                let t = t0 + (t1 - t0) * i as f64 / 8.0;
-                self.deflection_at(self.x_at(t.max(0.0)))
-            })
-            .fold(0.0, f64::max)
-    }
-
-    /// Planned z-deflection (µm) at `x_mm` (linear interpolation).
-    pub fn deflection_at(&self, x_mm: f64) -> f64 {
-        let u = (x_mm / self.dx_mm).max(0.0);
-        let i = u.floor() as usize;
-        if i + 1 >= self.values_um.len() {
-            return *self.values_um.last().unwrap_or(&0.0);
-        }
-        let f = u - i as f64;
-        self.values_um[i] * (1.0 - f) + self.values_um[i + 1] * f
-    }
-}
-
-/// A groove controller stepped at the stage rate.
-trait GrooveCtl {
-    /// Command (V) for the step starting at `t_s`, given the last stage output (None at the start).
-    fn command(&mut self, last: Option<&GrooveStepOutput>, t_s: f64) -> f64;
-    /// QP statistics (MPC only).
-    fn solver_stats(&self) -> Option<SolverStats> {
-        None
-    }
-}
-
-struct NoneCtl;
-impl GrooveCtl for NoneCtl {
-    fn command(&mut self, _: Option<&GrooveStepOutput>, _: f64) -> f64 {
-        0.0
-    }
-}
-
-struct OpenLoopCtl {
-    plan: DeflectionPlan,
-    tip_per_z: f64,
-    v_per_um: f64,
-    v_max: f64,
-}
-impl GrooveCtl for OpenLoopCtl {
-    fn command(&mut self, _: Option<&GrooveStepOutput>, t_s: f64) -> f64 {
-        let dz = self.plan.deflection_at(self.plan.x_at(t_s));
-        (dz * self.tip_per_z * self.v_per_um).clamp(0.0, self.v_max)
-    }
-}
-
-struct PidCtl {
-    force_lp: Biquad,
-    gauge_lp: Biquad,
-    peak: PeakHold,
-    smooth: FirstOrderFilter,
-    pid: Pid,
-    tip_per_n: f64,
-    dt_s: f64,
-}
-impl GrooveCtl for PidCtl {
-    fn command(&mut self, last: Option<&GrooveStepOutput>, _: f64) -> f64 {
-        let Some(o) = last else { return 0.0 };
-        let f = self.force_lp.step(o.force_meas_n);
-        let p = self.peak.step(f, self.dt_s);
-        let p = if p.is_finite() { p } else { 0.0 };
-        let fs = self.smooth.step(p);
-        let g = self.gauge_lp.step(o.gauge_um);
-        let e = fs * self.tip_per_n - g;
-        self.pid.step(e)
-    }
-}
-
-struct MpcCtl {
-    mpc: MpcController,
-    plan: DeflectionPlan,
-    force_lp: Biquad,
-    peak: SlidingMax,
-    compliance: f64,
-    sin_a: f64,
-    every: usize,
-    tc_s: f64,
-    rev_s: f64,
-    tooth_s: f64,
-    k: usize,
-    v_hold: f64,
-    window: PreviewWindow,
-    pending_failures: Vec<(f64, usize)>,
-    stale: [StaleDetector; 2],
-}
-
-/// Flags a sensor whose reading has not changed (bit-identical) for `limit` consecutive samples: with the
-/// published sensor noise this cannot happen to a live channel (a dropout / frozen ADC).
-#[derive(Debug, Clone, Copy)]
-struct StaleDetector {
-    last: f64,
-    repeats: usize,
-    limit: usize,
-}
-impl StaleDetector {
-    fn new(limit: usize) -> Self {
-        Self {
-            last: f64::NAN,
-            repeats: 0,
-            limit,
-        }
-    }
-    fn stale(&mut self, x: f64) -> bool {
-        if x == self.last {
-            self.repeats += 1;
-        } else {
-            self.repeats = 0;
-            self.last = x;
-        }
-        self.repeats >= self.limit
-    }
-}
-
-impl GrooveCtl for MpcCtl {
-    fn command(&mut self, last: Option<&GrooveStepOutput>, t_s: f64) -> f64 {
-        let (force, gauge) = last
-            .map(|o| (o.force_meas_n, o.gauge_um))
-            .unwrap_or((0.0, 0.0));
-        let force_stale = self.stale[0].stale(force);
-        let gauge_stale = self.stale[1].stale(gauge);
-        let fpk = self.peak.step(self.force_lp.step(force));
-        let run_now = self.k % self.every == 0;
-        self.k += 1;
-        if !run_now {
-            return self.v_hold;
-        }
-        self.pending_failures.retain(|&(t, n)| {
-            if t_s >= t {
-                self.mpc.inject_solver_failures(n);
-                false
-            } else {
-                true
-            }
-        });
-        let n = self.mpc.config().horizon;
-        let (rev, tooth) = (self.rev_s, self.tooth_s);
-        self.window.offset_now[OUT_ERROR] = -self.plan.deflection_at_time(t_s, rev, tooth);
-        for j in 0..n {
-            let t = t_s + (j + 1) as f64 * self.tc_s;
-            self.window.offsets[j * 2 + OUT_ERROR] = -self.plan.deflection_at_time(t, rev, tooth);
-        }
-        // a stale sensor is left out of the measurement update (prediction from the model and the plan)
-        let y = [
-            if gauge_stale { f64::NAN } else { gauge },
-            if gauge_stale || force_stale {
-                f64::NAN
-            } else {
-                self.sin_a * gauge - self.compliance * fpk
-            },
-        ];
-        // dimension errors cannot happen here (window built for this controller); on one, hold
-        if let Ok(s) = self.mpc.step(&y, &self.window) {
-            self.v_hold = s.u[0];
-        }
-        self.v_hold
-    }
-    fn solver_stats(&self) -> Option<SolverStats> {
-        Some(self.mpc.stats())
-    }
-}
-
-/// Build the MPC for a groove setup (the scenario's `control.mpc` if given, else the default spindle design).
-pub fn groove_mpc(setup: &GrooveSetup, s: &Scenario) -> Result<MpcController, MpcError> {
-    let tc = s.control.dt_s * s.control.mpc_every as f64;
-    let sin_a = setup.truth.program.tilt_deg.to_radians().sin();
-    let single = setup.model_spindle.to_lti()?.discretize_zoh(tc)?;
-    let n = single.n_states();
-    let mut c = nalgebra::DMatrix::zeros(2, n);
-    for j in 0..n {
-        c[(OUT_GAUGE, j)] = single.c[(0, j)];
-        c[(OUT_ERROR, j)] = sin_a * single.c[(0, j)];
-    }
-    let model =
-        millcomp_sim::DiscreteLti::new(single.a, single.b, c, nalgebra::DMatrix::zeros(2, 1), tc)?;
-    let cfg = match &s.control.mpc {
-        Some(m) => m.clone(),
-        None => {
-            let mut c = default_spindle_config(
-                s.control.horizon,
-                setup.truth.spindle.voltage_max_v,
-                s.control.slew_v_per_cycle,
-            );
-            // measured error channel: σ ≈ compliance × σ of the filtered per-revolution force peak
-            let comp = setup
-                .model_stiffness
-                .z_compliance_um_per_n(setup.truth.program.tilt_deg)?;
-            let sf = (s.truth.force_noise_n * 0.5).max(0.005);
-            c.kalman.measurement_noise = vec![
-                (s.truth.gauge_noise_um.max(0.005)).powi(2),
-                (comp * sf).powi(2).max(1e-4),
-            ];
-            // the deflection mismatch (force-model error × planned deflection) changes slowly except at
-            // process changes, which the preview already carries: a (0.003 µm)²/cycle random walk gives a
-            // ≈ 5 ms (≈ one revolution) disturbance time constant against ≈ 0.035 µm measurement noise,
-            // smoothing the per-revolution steps of the measured peak
-            c.kalman.disturbance_noise = 1e-5;
-            c
-        }
-    };
-    MpcController::new(&model, &cfg)
 }
 
 fn apply_faults(
     o: &GrooveStepOutput,
     faults: &[Fault],
     stuck: &mut Option<(f64, f64)>,
-) -> GrooveStepOutput {
-    let mut m = *o;
+) -> GrooveMeasurement {
+    let mut m = GrooveMeasurement {
+        force_meas_n: o.force_meas_n,
+        gauge_um: o.gauge_um,
+    };
     let t = o.t_s;
     let mut stuck_now = false;
     for f in faults {
@@ -499,6 +228,18 @@ fn apply_faults(
         // keep the last good value as the candidate to freeze at
     }
     m
+}
+
+/// Inject the solver failures that are due at `t_s` (fault injection) and drop them from `pending`.
+fn inject_due_failures(pending: &mut Vec<(f64, usize)>, t_s: f64, ctl: &mut dyn GrooveController) {
+    pending.retain(|&(t, n)| {
+        if t_s >= t {
+            ctl.inject_solver_failures(n);
+            false
+        } else {
+            true
+        }
+    });
 }
 
 /// The x-windows (mm) around the process changes of a groove in which their peak error is taken: each
@@ -531,23 +272,22 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcEr
     let setup = groove_setup(s)?;
     let t = &setup.truth;
     let dt = s.control.dt_s;
-    let sin_a = t.program.tilt_deg.to_radians().sin();
-    let plan = DeflectionPlan::new(&setup, 0.01)?;
+    let plan = deflection_plan(&setup, 0.01)?;
     let v_max = t.spindle.voltage_max_v;
     let mut notes = Vec::new();
-    let mut ctl: Box<dyn GrooveCtl> = match kind {
-        ControllerKind::None => Box::new(NoneCtl),
+    let mut ctl: Box<dyn GrooveController> = match kind {
+        ControllerKind::None => Box::new(NoneController),
         ControllerKind::OpenLoop => {
             notes.push(
                 "open-loop pre-shift applied through the PZT (sim's stage has no path table yet)"
                     .into(),
             );
-            Box::new(OpenLoopCtl {
-                plan: plan.clone(),
-                tip_per_z: 1.0 / sin_a,
-                v_per_um: 1.0 / setup.model_spindle.gain_um_per_v,
+            Box::new(OpenLoopController::new(
+                plan.clone(),
+                &t.program,
+                &setup.model_spindle,
                 v_max,
-            })
+            ))
         }
         ControllerKind::Pid | ControllerKind::PidAntiWindup | ControllerKind::PidDesign => {
             let gains = if kind == ControllerKind::PidDesign {
@@ -560,24 +300,15 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcEr
             } else {
                 AntiWindup::None
             };
-            Box::new(PidCtl {
-                force_lp: Biquad::low_pass(500.0, std::f64::consts::FRAC_1_SQRT_2, dt)?,
-                gauge_lp: Biquad::low_pass(500.0, std::f64::consts::FRAC_1_SQRT_2, dt)?,
-                peak: PeakHold::thesis(t.program.speed_rpm)?,
-                smooth: FirstOrderFilter::thesis(dt)?,
-                pid: Pid::new(
-                    gains,
-                    aw,
-                    setup.model_spindle.loop_v_per_unit,
-                    0.0,
-                    v_max,
-                    dt,
-                ),
-                tip_per_n: setup
-                    .model_stiffness
-                    .pzt_compliance_um_per_n(t.program.tilt_deg)?,
-                dt_s: dt,
-            })
+            Box::new(PidController::new(
+                gains,
+                aw,
+                &t.program,
+                &setup.model_spindle,
+                &setup.model_stiffness,
+                v_max,
+                dt,
+            )?)
         }
         ControllerKind::Threshold => {
             return Err(MpcError::InvalidConfig {
@@ -586,39 +317,16 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcEr
                 allowed: "the thin-wall stage (threshold is the 004 thin-wall baseline)".into(),
             });
         }
-        ControllerKind::Mpc => {
-            let mpc = groove_mpc(&setup, s)?;
-            let n = mpc.config().horizon;
-            let steps_per_rev = (60.0 / t.program.speed_rpm / dt).round() as usize;
-            Box::new(MpcCtl {
-                mpc,
-                plan: plan.clone(),
-                force_lp: Biquad::low_pass(
-                    MPC_FORCE_PREFILTER_HZ,
-                    std::f64::consts::FRAC_1_SQRT_2,
-                    dt,
-                )?,
-                peak: SlidingMax::new(steps_per_rev),
-                compliance: setup
-                    .model_stiffness
-                    .z_compliance_um_per_n(t.program.tilt_deg)?,
-                sin_a,
-                every: s.control.mpc_every,
-                tc_s: dt * s.control.mpc_every as f64,
-                rev_s: 60.0 / t.program.speed_rpm,
-                tooth_s: 60.0 / t.program.speed_rpm / t.force_model.tool.flutes as f64,
-                k: 0,
-                v_hold: 0.0,
-                window: PreviewWindow::zeros(n, 2),
-                pending_failures: s.solver_failures(),
-                // 1 ms of a bit-identical gauge reading, 2 ms of an identical force reading
-                stale: [
-                    StaleDetector::new((2e-3 / dt) as usize),
-                    StaleDetector::new((1e-3 / dt) as usize),
-                ],
-            })
-        }
+        ControllerKind::Mpc => Box::new(MpcGrooveController::new(
+            plan.clone(),
+            &t.program,
+            &setup.model_spindle,
+            &setup.model_stiffness,
+            t.force_model.tool.flutes,
+            &mpc_settings(&setup, s),
+        )?),
     };
+    let mut pending_failures = s.solver_failures();
     // process changes inside the groove: depth steps / plunges, feed changes, the exit
     let windows = change_windows(t);
     let exit_window = exit_window(t);
@@ -665,6 +373,7 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcEr
             .as_ref()
             .map(|o| apply_faults(o, &s.faults, &mut stuck));
         let t_now = k as f64 * dt;
+        inject_due_failures(&mut pending_failures, t_now, ctl.as_mut());
         let v = ctl.command(obs.as_ref(), t_now);
         if !v.is_finite() {
             finite = false;

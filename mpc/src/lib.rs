@@ -30,6 +30,7 @@
 pub mod config;
 pub mod controller;
 pub mod error;
+pub mod groove;
 pub mod groove_run;
 pub mod kalman;
 pub mod pid;
@@ -41,6 +42,7 @@ pub mod runner;
 pub mod scenario;
 pub mod spindle_mpc;
 pub mod stats;
+pub mod thin_wall;
 pub mod thinwall_run;
 pub mod truth;
 
