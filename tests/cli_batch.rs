@@ -1,4 +1,4 @@
-//! End-to-end tests of `millcomp batch`: the real closed loop (millcomp-mpc's runner) on short grooves,
+//! End-to-end tests of `millcomp batch`: the real closed loop (millcomp-closedloop's runner) on short grooves,
 //! shards as separate processes, merge, resume and bad input.
 
 use std::path::Path;

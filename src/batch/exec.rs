@@ -7,7 +7,7 @@ use std::sync::Mutex;
 
 use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use millcomp_mpc::ControllerKind;
+use millcomp_closedloop::ControllerKind;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -62,7 +62,7 @@ pub trait ClosedLoop: Sync {
     fn run(&self, scenario: &ScenarioSpec, controller: &str) -> anyhow::Result<(RunMetrics, f64)>;
 }
 
-/// The real closed loop: `millcomp_mpc::run_scenario` on the published scenario with the factors applied.
+/// The real closed loop: `millcomp_closedloop::run_scenario` on the published scenario with the factors applied.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct MpcClosedLoop;
 
@@ -70,7 +70,7 @@ impl ClosedLoop for MpcClosedLoop {
     fn run(&self, scenario: &ScenarioSpec, controller: &str) -> anyhow::Result<(RunMetrics, f64)> {
         let s = build_scenario(scenario)?;
         let kind: ControllerKind = controller.parse()?;
-        let r = millcomp_mpc::run_scenario(&s, kind)?;
+        let r = millcomp_closedloop::run_scenario(&s, kind)?;
         let m = &r.metrics;
         let metrics = RunMetrics {
             pp_error_um: m.pp_error_um,

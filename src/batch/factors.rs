@@ -3,10 +3,10 @@
 use std::collections::BTreeMap;
 
 use anyhow::{Context, bail};
+use millcomp_closedloop::Scenario;
+use millcomp_closedloop::model_errors::ForceErrors;
+use millcomp_closedloop::scenario::{FeedStep, StageKind, ThinWallScenario};
 use millcomp_datasets::{ColumnData, Table};
-use millcomp_mpc::Scenario;
-use millcomp_mpc::scenario::{FeedStep, StageKind, ThinWallScenario};
-use millcomp_mpc::truth::ForceErrors;
 use millcomp_sim::groove::DepthProfile;
 use serde::{Deserialize, Serialize};
 

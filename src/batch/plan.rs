@@ -1,7 +1,7 @@
 //! The batch plan (scenarios × controllers), its fingerprint and deterministic shards.
 
 use anyhow::{Context, bail};
-use millcomp_mpc::ControllerKind;
+use millcomp_closedloop::ControllerKind;
 use serde::{Deserialize, Serialize};
 
 use super::factors::{BASE_SCENARIO_FILE, BASE_SCENARIO_TOML, ScenarioSpec};

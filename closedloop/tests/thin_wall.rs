@@ -5,10 +5,8 @@
 //! the controllers' force coefficient off by up to 15 %, the identified tool stiffness, 0.001 N force noise
 //! and the stage's ±0.5 µm positioning accuracy.
 
-mod common;
-
-use common::*;
-use millcomp_mpc::{ControllerKind, RunReport, run_scenario};
+use crate::common::*;
+use millcomp_closedloop::{ControllerKind, RunReport, run_scenario};
 
 /// Published values, 004 Table 5.
 const NOMINAL_UM: [f64; 3] = [80.0, 100.0, 120.0];

@@ -1,10 +1,8 @@
 //! Injected faults: a force spike, a stuck sensor, a QP solver that stops at its iteration cap.
 
-mod common;
-
-use common::*;
-use millcomp_mpc::scenario::Fault;
-use millcomp_mpc::{ControllerKind, run_scenario};
+use crate::common::*;
+use millcomp_closedloop::scenario::Fault;
+use millcomp_closedloop::{ControllerKind, run_scenario};
 
 #[test]
 fn faults_keep_commands_finite_in_limits_and_are_counted() {

@@ -1,7 +1,7 @@
 //! The closed-loop runner: the entry points the CLI (`millcomp simulate SCENARIO --controller …`) calls.
 //!
 //! ```no_run
-//! use millcomp_mpc::runner::{run_scenario, ControllerKind, Scenario};
+//! use millcomp_closedloop::runner::{run_scenario, ControllerKind, Scenario};
 //! let s = Scenario::load("datasets/scenarios/groove_s7_20deg.toml").unwrap();
 //! let report = run_scenario(&s, "mpc".parse::<ControllerKind>().unwrap()).unwrap();
 //! println!("{}", serde_json::to_string_pretty(&report).unwrap());
@@ -9,19 +9,22 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::MpcError;
-use crate::groove_run::run_groove;
+use crate::error::ClosedLoopError;
+use crate::groove::run_groove;
 use crate::report::{RunOutput, RunReport};
 pub use crate::scenario::{ControllerKind, Scenario, StageKind};
-use crate::thinwall_run::run_thin_wall;
+use crate::thin_wall::run_thin_wall;
 
 /// Run a scenario with one controller; the report of the `simulate --json` contract.
-pub fn run_scenario(s: &Scenario, kind: ControllerKind) -> Result<RunReport, MpcError> {
+pub fn run_scenario(s: &Scenario, kind: ControllerKind) -> Result<RunReport, ClosedLoopError> {
     Ok(run_scenario_with_trace(s, kind)?.report)
 }
 
 /// Run a scenario with one controller, keeping the decimated time trace (for `--out run.csv` / plots).
-pub fn run_scenario_with_trace(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcError> {
+pub fn run_scenario_with_trace(
+    s: &Scenario,
+    kind: ControllerKind,
+) -> Result<RunOutput, ClosedLoopError> {
     s.validate()?;
     match s.stage {
         StageKind::Groove => run_groove(s, kind),
@@ -52,7 +55,7 @@ pub fn stiffness_sweep(
     s: &Scenario,
     errors: &[f64],
     kinds: &[ControllerKind],
-) -> Result<Vec<SweepPoint>, MpcError> {
+) -> Result<Vec<SweepPoint>, ClosedLoopError> {
     let none = run_scenario(s, ControllerKind::None)?.metrics.pp_error_um;
     let mut out = Vec::new();
     for &e in errors {

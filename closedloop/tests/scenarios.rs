@@ -1,8 +1,6 @@
 //! Every scenario file in datasets/scenarios parses and validates; bad input gives errors naming the key.
 
-mod common;
-
-use millcomp_mpc::{ControllerKind, MpcError, Scenario};
+use millcomp_closedloop::{ClosedLoopError, ControllerKind, Scenario};
 
 #[test]
 fn all_shipped_scenarios_load() {
@@ -21,9 +19,9 @@ fn all_shipped_scenarios_load() {
     assert!(n >= 6, "{n} scenarios");
 }
 
-fn key_of(e: MpcError) -> String {
+fn key_of(e: ClosedLoopError) -> String {
     match e {
-        MpcError::InvalidConfig { key, .. } => key,
+        ClosedLoopError::InvalidConfig { key, .. } => key,
         other => panic!("expected InvalidConfig, got {other:?}"),
     }
 }
@@ -43,7 +41,7 @@ fn bad_input_names_the_key() {
     );
     assert!(matches!(
         "lqg".parse::<ControllerKind>(),
-        Err(MpcError::UnknownController { .. })
+        Err(ClosedLoopError::UnknownController { .. })
     ));
     // horizon 0
     let t = base.replace("horizon = 20", "horizon = 0");
@@ -77,10 +75,10 @@ fn bad_input_names_the_key() {
 
 #[test]
 fn identified_model_paths_are_checked() {
-    let mut s = common::scenario("groove_s7_20deg.toml");
+    let mut s = crate::common::scenario("groove_s7_20deg.toml");
     s.control.spindle_model = Some("/nonexistent/spindle.toml".into());
-    match millcomp_mpc::run_scenario(&s, ControllerKind::Mpc) {
-        Err(MpcError::Io { path, .. }) => assert_eq!(path, "/nonexistent/spindle.toml"),
+    match millcomp_closedloop::run_scenario(&s, ControllerKind::Mpc) {
+        Err(ClosedLoopError::Io { path, .. }) => assert_eq!(path, "/nonexistent/spindle.toml"),
         other => panic!("{other:?}"),
     }
 }

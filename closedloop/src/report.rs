@@ -1,12 +1,7 @@
-//! Run reports (the `simulate --json` contract) and run traces (`--out run.csv`).
+//! Run reports (the `simulate --json` contract) and run traces (the CLI writes them with `--out run.csv`).
 
-use std::io::Write;
-use std::path::Path;
-
+use millcomp_mpc::SolverStats;
 use serde::{Deserialize, Serialize};
-
-use crate::error::MpcError;
-use crate::stats::SolverStats;
 
 /// Error metrics of one run. Error = actual − desired (µm; groove: depth cut − programmed depth, + = deeper
 /// than programmed; thin wall: measured − nominal thickness).
@@ -134,22 +129,6 @@ impl Trace {
             columns: columns.iter().map(|s| s.to_string()).collect(),
             rows: Vec::new(),
         }
-    }
-
-    /// Write as CSV.
-    pub fn write_csv(&self, path: impl AsRef<Path>) -> Result<(), MpcError> {
-        let p = path.as_ref();
-        let io = |e: std::io::Error| MpcError::Io {
-            path: p.display().to_string(),
-            message: e.to_string(),
-        };
-        let mut f = std::io::BufWriter::new(std::fs::File::create(p).map_err(io)?);
-        writeln!(f, "{}", self.columns.join(",")).map_err(io)?;
-        for r in &self.rows {
-            let line: Vec<String> = r.iter().map(|v| format!("{v}")).collect();
-            writeln!(f, "{}", line.join(",")).map_err(io)?;
-        }
-        f.flush().map_err(io)
     }
 
     /// Column values by name.

@@ -1,14 +1,15 @@
 //! Record and replay the spindle MPC's per-cycle QPs (the millcomp side of `bench/mpc-vs-casadi`).
 //!
 //! ```text
-//! cargo run --release -p millcomp-mpc --example qp_replay -- record HORIZON CYCLES OUT.json [SEED]
-//! cargo run --release -p millcomp-mpc --example qp_replay -- replay IN.json [OUT_FIRST_MOVES.json]
+//! cargo run --release -p millcomp-closedloop --example qp_replay -- record HORIZON CYCLES OUT.json [SEED]
+//! cargo run --release -p millcomp-closedloop --example qp_replay -- replay IN.json [OUT_FIRST_MOVES.json]
 //! ```
 //! `replay` prints `{"median_us": …, "p99_us": …, "failures": …, "median_iterations": …, "n": …, "m": …}`
 //! and optionally writes the first moves as a JSON array.
 
 use std::process::ExitCode;
 
+use millcomp_closedloop::recording::record_spindle_sequence;
 use millcomp_mpc::replay::{QpSequence, replay_clarabel};
 
 fn run() -> Result<(), String> {
@@ -18,7 +19,7 @@ fn run() -> Result<(), String> {
             let horizon: usize = args[1].parse().map_err(|e| format!("HORIZON `{}`: {e}", args[1]))?;
             let cycles: usize = args[2].parse().map_err(|e| format!("CYCLES `{}`: {e}", args[2]))?;
             let seed: u64 = args.get(4).map(|s| s.parse().unwrap_or(1)).unwrap_or(1);
-            let seq = millcomp_mpc::replay::record_spindle_sequence(horizon, cycles, seed).map_err(|e| e.to_string())?;
+            let seq = record_spindle_sequence(horizon, cycles, seed).map_err(|e| e.to_string())?;
             let text = serde_json::to_string(&seq).map_err(|e| e.to_string())?;
             std::fs::write(&args[3], text).map_err(|e| format!("cannot write `{}`: {e}", args[3]))?;
             Ok(())

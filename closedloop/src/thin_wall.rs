@@ -1,11 +1,12 @@
 //! Closed-loop runs on sim's thin-wall stage (`millcomp_sim::thinwall::ThinWallStage`, `004_…txt`) with
-//! every controller of [`crate::thin_wall`].
+//! every controller of
+//! [`millcomp_mpc::thin_wall`].
 //!
 //! Per wall, the truth is sim's stage configured from the scenario (force noise, stage accuracy); the
 //! controllers' model is the same wall with the identified tool stiffness (a simulated calibration:
 //! loads 0.5–5 N on the tool, deflection read on the stage's 0.1 µm grating ruler, σ 0.05 µm, 3
 //! trials), E = 100 GPa (Table 4) and the force coefficient with the scenario's force error, planned by
-//! [`crate::thin_wall::plan_wall`].
+//! [`millcomp_mpc::thin_wall::plan_wall`].
 
 use std::time::Instant;
 
@@ -15,23 +16,26 @@ use rand_chacha::ChaCha8Rng;
 use millcomp_sim::sensors::NoiseSpec;
 use millcomp_sim::thinwall::{ThinWallConfig, ThinWallStage, ThinWallStepOutput};
 
-use crate::error::MpcError;
-use crate::report::{Metrics, ModelSummary, RunOutput, RunReport, Trace, WallReport};
-use crate::scenario::{ControllerKind, Fault, Scenario, ThinWallScenario};
-use crate::stats::SolverStats;
-use crate::thin_wall::{
+use millcomp_mpc::SolverStats;
+use millcomp_mpc::thin_wall::{
     MpcThinWallController, NoneController, OpenLoopController, PiController, STAGE_MAX_UM,
-    STAGE_MIN_UM, ThinWallController, ThinWallMeasurement, ThresholdController, WallPlan,
-    estimated_deflection_um, plan_wall,
+    STAGE_MIN_UM, ThinWallController, ThresholdController, WallPlan, estimated_deflection_um,
+    plan_wall,
 };
-use crate::truth::{ForceErrors, StiffnessCalibration, fit_compliance};
+
+use crate::calibration::{StiffnessCalibration, fit_compliance};
+use crate::error::{ClosedLoopError, invalid};
+use crate::faults::{SolverFailures, thin_wall_measurement};
+use crate::model_errors::ForceErrors;
+use crate::report::{Metrics, ModelSummary, RunOutput, RunReport, Trace, WallReport};
+use crate::scenario::{ControllerKind, Scenario, ThinWallScenario};
 
 fn truth_config(
     s: &Scenario,
     tw: &ThinWallScenario,
     nominal: f64,
     wall_index: usize,
-) -> Result<ThinWallConfig, MpcError> {
+) -> Result<ThinWallConfig, ClosedLoopError> {
     let mut c = ThinWallConfig::paper(nominal)?;
     c.height_um = tw.height_um;
     c.ae_um = tw.ae_um;
@@ -53,7 +57,7 @@ fn thin_wall_controller(
     kind: ControllerKind,
     plan: &WallPlan,
     horizon: usize,
-) -> Result<Box<dyn ThinWallController>, MpcError> {
+) -> Result<Box<dyn ThinWallController>, ClosedLoopError> {
     Ok(match kind {
         ControllerKind::None => Box::new(NoneController),
         ControllerKind::OpenLoop => Box::new(OpenLoopController::new(plan.clone())),
@@ -66,57 +70,21 @@ fn thin_wall_controller(
     })
 }
 
-fn thin_wall_refuses(kind: ControllerKind) -> MpcError {
-    MpcError::InvalidConfig {
+fn thin_wall_refuses(kind: ControllerKind) -> ClosedLoopError {
+    ClosedLoopError::InvalidConfig {
         key: "controller".into(),
         value: kind.name().into(),
         allowed: "none, open-loop, pid, threshold, mpc on the thin-wall stage".into(),
     }
 }
 
-/// The measurement of the previous step with the scenario's faults applied to the force channel (a
-/// fault lasts at least one step).
-fn apply_faults(
-    o: &ThinWallStepOutput,
-    faults: &[Fault],
-    dt: f64,
-    stuck: &mut Option<f64>,
-) -> ThinWallMeasurement {
-    let mut f = o.force_meas_n;
-    let mut stuck_now = false;
-    for fault in faults {
-        match *fault {
-            Fault::ForceSpike {
-                t_s,
-                magnitude_n,
-                duration_s,
-            } if o.t_s >= t_s && o.t_s < t_s + duration_s.max(dt) => f += magnitude_n,
-            Fault::StuckSensor { t_s, duration_s }
-                if o.t_s >= t_s && o.t_s < t_s + duration_s.max(dt) =>
-            {
-                stuck_now = true
-            }
-            _ => {}
-        }
-    }
-    if stuck_now {
-        f = *stuck.get_or_insert(f);
-    } else {
-        *stuck = Some(f);
-    }
-    ThinWallMeasurement {
-        force_meas_n: f,
-        stage_um: o.stage_um,
-    }
-}
-
 /// Run every wall of a thin-wall scenario with one controller.
-pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcError> {
+pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, ClosedLoopError> {
     let wall_clock = Instant::now();
     let tw = s
         .thin_wall
         .as_ref()
-        .ok_or_else(|| crate::error::invalid("thin_wall", "missing", "a [thin_wall] table"))?;
+        .ok_or_else(|| invalid("thin_wall", "missing", "a [thin_wall] table"))?;
     if matches!(
         kind,
         ControllerKind::PidAntiWindup | ControllerKind::PidDesign
@@ -175,7 +143,7 @@ pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Mp
         let plan = plan_wall(&model)?;
         let dt = plan.dt_s;
         let mut ctl = thin_wall_controller(kind, &plan, s.control.horizon)?;
-        let mut pending = s.solver_failures();
+        let mut pending = SolverFailures::new(s);
         let mut st = ThinWallStage::new(truth.clone())?;
         let mut last: Option<ThinWallStepOutput> = None;
         let mut prev_stage = 0.0;
@@ -185,16 +153,9 @@ pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Mp
             // measurement of the previous step, with faults
             let meas = last
                 .as_ref()
-                .map(|o| apply_faults(o, &s.faults, dt, &mut stuck));
+                .map(|o| thin_wall_measurement(o, &s.faults, dt, &mut stuck));
             let t_now = k as f64 * dt;
-            pending.retain(|&(t, n)| {
-                if t_now >= t {
-                    ctl.inject_solver_failures(n);
-                    false
-                } else {
-                    true
-                }
-            });
+            pending.inject_due(t_now, |n| ctl.inject_solver_failures(n));
             let est = estimated_deflection_um(&plan, k, meas.as_ref());
             let cmd = ctl.command(k, meas.as_ref());
             // stage travel (assumed ±: −20 … +60 µm around the programmed path) for every controller

@@ -1,6 +1,6 @@
 //! Scenario files (TOML, `datasets/scenarios/*.toml`): which stage, the planned process, how the truth
 //! differs from the controllers' models, controller settings, injected faults. Schema in
-//! `mpc/SCENARIOS.md`. Unknown keys and invalid values are errors naming the key.
+//! `closedloop/SCENARIOS.md`. Unknown keys and invalid values are errors naming the key.
 
 use std::path::Path;
 use std::str::FromStr;
@@ -10,9 +10,12 @@ use serde::{Deserialize, Serialize};
 use millcomp_sim::feed::{FeedChange, WorkpieceExit};
 use millcomp_sim::groove::{DEFAULT_FEED_ACCEL_MM_S2, DepthProfile};
 
-use crate::config::MpcConfig;
-use crate::error::{MpcError, invalid};
-use crate::truth::{ForceErrors, StiffnessCalibration};
+use millcomp_mpc::config::MAX_HORIZON;
+use millcomp_mpc::{MpcConfig, MpcError};
+
+use crate::calibration::StiffnessCalibration;
+use crate::error::{ClosedLoopError, invalid};
+use crate::model_errors::ForceErrors;
 
 /// The controllers the runner knows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -70,9 +73,9 @@ impl ControllerKind {
 }
 
 impl FromStr for ControllerKind {
-    type Err = MpcError;
+    type Err = ClosedLoopError;
     /// ```
-    /// use millcomp_mpc::scenario::ControllerKind;
+    /// use millcomp_closedloop::scenario::ControllerKind;
     /// assert_eq!("open-loop".parse::<ControllerKind>().unwrap(), ControllerKind::OpenLoop);
     /// assert!("lqr".parse::<ControllerKind>().is_err());
     /// ```
@@ -81,7 +84,7 @@ impl FromStr for ControllerKind {
             .iter()
             .position(|n| *n == s)
             .map(|i| Self::ALL[i])
-            .ok_or_else(|| MpcError::UnknownController {
+            .ok_or_else(|| ClosedLoopError::UnknownController {
                 name: s.to_string(),
                 allowed: CONTROLLER_NAMES.join(", "),
             })
@@ -297,7 +300,7 @@ pub struct ControlSpec {
     #[serde(default)]
     pub force_model: Option<String>,
     /// Response-surface force predictor (a model saved by `millcomp doe analyze --save`, TOML path) used
-    /// in the controllers' preview; its factors must be process parameters (`mpc/SCENARIOS.md`).
+    /// in the controllers' preview; its factors must be process parameters (`closedloop/SCENARIOS.md`).
     #[serde(default)]
     pub force_response_surface: Option<String>,
 }
@@ -410,7 +413,7 @@ impl Scenario {
     }
 }
 
-fn finite_pos(key: &str, v: f64) -> Result<(), MpcError> {
+fn finite_pos(key: &str, v: f64) -> Result<(), ClosedLoopError> {
     if v.is_finite() && v > 0.0 {
         Ok(())
     } else {
@@ -420,8 +423,8 @@ fn finite_pos(key: &str, v: f64) -> Result<(), MpcError> {
 
 impl Scenario {
     /// Parse TOML text (`path` is only used in messages) and validate.
-    pub fn from_toml_str(text: &str, path: &str) -> Result<Self, MpcError> {
-        let s: Scenario = toml::from_str(text).map_err(|e| MpcError::Scenario {
+    pub fn from_toml_str(text: &str, path: &str) -> Result<Self, ClosedLoopError> {
+        let s: Scenario = toml::from_str(text).map_err(|e| ClosedLoopError::Scenario {
             path: path.to_string(),
             message: e.to_string(),
         })?;
@@ -430,9 +433,9 @@ impl Scenario {
     }
 
     /// Read and validate a scenario file.
-    pub fn load(path: impl AsRef<Path>) -> Result<Self, MpcError> {
+    pub fn load(path: impl AsRef<Path>) -> Result<Self, ClosedLoopError> {
         let p = path.as_ref();
-        let text = std::fs::read_to_string(p).map_err(|e| MpcError::Io {
+        let text = std::fs::read_to_string(p).map_err(|e| ClosedLoopError::Io {
             path: p.display().to_string(),
             message: e.to_string(),
         })?;
@@ -440,10 +443,10 @@ impl Scenario {
     }
 
     /// Validate every value; errors name the key.
-    pub fn validate(&self) -> Result<(), MpcError> {
+    pub fn validate(&self) -> Result<(), ClosedLoopError> {
         for (i, c) in self.controllers.iter().enumerate() {
             c.parse::<ControllerKind>().map_err(|e| match e {
-                MpcError::UnknownController { name, allowed } => invalid(
+                ClosedLoopError::UnknownController { name, allowed } => invalid(
                     format!("controllers[{i}]"),
                     name,
                     format!("one of {allowed}"),
@@ -596,11 +599,11 @@ impl Scenario {
         if c.mpc_every == 0 {
             return Err(invalid("control.mpc_every", 0, ">= 1"));
         }
-        if c.horizon == 0 || c.horizon > crate::config::MAX_HORIZON {
+        if c.horizon == 0 || c.horizon > MAX_HORIZON {
             return Err(invalid(
                 "control.horizon",
                 c.horizon,
-                format!("1 ..= {}", crate::config::MAX_HORIZON),
+                format!("1 ..= {}", MAX_HORIZON),
             ));
         }
         finite_pos("control.slew_v_per_cycle", c.slew_v_per_cycle)?;
@@ -610,12 +613,12 @@ impl Scenario {
                     key,
                     value,
                     allowed,
-                } => MpcError::InvalidConfig {
+                } => ClosedLoopError::InvalidConfig {
                     key: format!("control.mpc.{key}"),
                     value,
                     allowed,
                 },
-                other => other,
+                other => ClosedLoopError::Mpc(other),
             })?;
         }
         for (i, f) in self.faults.iter().enumerate() {
@@ -657,9 +660,9 @@ tilt_deg = 20.0
 depth = { kind = "ramp", from_um = 0.0, to_um = 80.0 }
 "#;
 
-    fn key(e: MpcError) -> String {
+    fn key(e: ClosedLoopError) -> String {
         match e {
-            MpcError::InvalidConfig { key, .. } => key,
+            ClosedLoopError::InvalidConfig { key, .. } => key,
             other => panic!("{other:?}"),
         }
     }
@@ -724,7 +727,7 @@ depth = { kind = "ramp", from_um = 0.0, to_um = 80.0 }
         }
         let t = GROOVE.replace("tilt_deg = 20.0", "tilt_deg = 20.0\nbogus = 1");
         assert!(
-            matches!(Scenario::from_toml_str(&t, "x").unwrap_err(), MpcError::Scenario { message, .. } if message.contains("bogus"))
+            matches!(Scenario::from_toml_str(&t, "x").unwrap_err(), ClosedLoopError::Scenario { message, .. } if message.contains("bogus"))
         );
     }
 }

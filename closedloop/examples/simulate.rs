@@ -2,16 +2,18 @@
 //! `--sweep` adds the residual-error-vs-stiffness-error sweep (MPC and PID).
 //!
 //! ```text
-//! cargo run --release -p millcomp-mpc --example simulate -- datasets/scenarios/groove_s7_20deg.toml
-//! cargo run --release -p millcomp-mpc --example simulate -- datasets/scenarios/groove_s7_30deg.toml mpc pid
-//! cargo run --release -p millcomp-mpc --example simulate -- datasets/scenarios/groove_s7_20deg.toml --sweep
+//! cargo run --release -p millcomp-closedloop --example simulate -- datasets/scenarios/groove_s7_20deg.toml
+//! cargo run --release -p millcomp-closedloop --example simulate -- datasets/scenarios/groove_s7_30deg.toml mpc pid
+//! cargo run --release -p millcomp-closedloop --example simulate -- datasets/scenarios/groove_s7_20deg.toml --sweep
 //! ```
 
 use std::process::ExitCode;
 
-use millcomp_mpc::{ControllerKind, MpcError, Scenario, run_scenario, stiffness_sweep};
+use millcomp_closedloop::{
+    ClosedLoopError, ControllerKind, Scenario, run_scenario, stiffness_sweep,
+};
 
-fn run() -> Result<(), MpcError> {
+fn run() -> Result<(), ClosedLoopError> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(path) = args.first() else {
         eprintln!("usage: simulate SCENARIO.toml [CONTROLLER …] [--sweep]");

@@ -1,7 +1,8 @@
 //! Per-cycle QP solve of the spindle MPC (update_q + update_b + Clarabel solve), horizon 20 and 40,
-//! cycling through a recorded closed-loop sequence (`replay::record_spindle_sequence`).
+//! cycling through a recorded closed-loop sequence (`recording::record_spindle_sequence`).
 use criterion::{Criterion, criterion_group, criterion_main};
-use millcomp_mpc::replay::{ReplaySolver, record_spindle_sequence};
+use millcomp_closedloop::recording::record_spindle_sequence;
+use millcomp_mpc::replay::ReplaySolver;
 
 fn per_cycle_solve(c: &mut Criterion) {
     let mut group = c.benchmark_group("mpc_per_cycle_solve");

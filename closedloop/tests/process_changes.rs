@@ -3,12 +3,10 @@
 //! a reactive compensation cuts undersize because its actuating value is not reduced fast enough.
 //! Issue 6: MPC's peak error at most half of PID's, and no undersize at the exit beyond 1 µm.
 
-mod common;
+use crate::common::*;
+use millcomp_closedloop::{ControllerKind, RunReport, run_scenario};
 
-use common::*;
-use millcomp_mpc::{ControllerKind, RunReport, run_scenario};
-
-fn run(s: &millcomp_mpc::Scenario, k: ControllerKind) -> RunReport {
+fn run(s: &millcomp_closedloop::Scenario, k: ControllerKind) -> RunReport {
     let r = run_scenario(s, k).unwrap();
     assert!(r.commands_finite && r.commands_in_limits, "{k}: commands");
     r
@@ -16,7 +14,7 @@ fn run(s: &millcomp_mpc::Scenario, k: ControllerKind) -> RunReport {
 
 /// Shorten a scenario around its change at x = 10 mm to keep the debug test fast: the cut from 7 mm on
 /// is what the change window (9.5–12 mm) needs after the MPC/PID transients of the start (< 1 s) decay.
-fn around_change(mut s: millcomp_mpc::Scenario) -> millcomp_mpc::Scenario {
+fn around_change(mut s: millcomp_closedloop::Scenario) -> millcomp_closedloop::Scenario {
     if let Some(g) = s.groove.as_mut() {
         g.length_mm = g.length_mm.min(13.0);
     }
@@ -79,7 +77,7 @@ fn response_surface_predictor_drives_the_preview() {
     use millcomp_sim::groove::GrooveConfig;
 
     let mut s = around_change(scenario("groove_s7_20deg_feed_step.toml"));
-    s.truth.force_errors = Some(millcomp_mpc::truth::ForceErrors {
+    s.truth.force_errors = Some(millcomp_closedloop::model_errors::ForceErrors {
         w_mpa: 0.05,
         mu_rake: 0.0,
         mu_flank: 0.0,

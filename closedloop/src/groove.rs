@@ -1,5 +1,6 @@
 //! Closed-loop runs on sim's groove stage (`millcomp_sim::groove::GrooveStage`, PZT spindle,
-//! `000_…txt` ch. 6–7) with every controller of [`crate::groove`].
+//! `000_…txt` ch. 6–7) with every controller of
+//! [`millcomp_mpc::groove`].
 //!
 //! The truth plant is sim's stage configured from the scenario; the controllers get the program, their
 //! own models (identified stiffness, perturbed or identified force model, spindle model) and the
@@ -13,16 +14,20 @@ use millcomp_sim::sensors::NoiseSpec;
 use millcomp_sim::spindle::PztSpindle;
 use millcomp_sim::stiffness::TiltedToolStiffness;
 
-use crate::error::MpcError;
-use crate::groove::{
-    DeflectionPlan, GrooveController, GrooveMeasurement, GrooveMpcSettings, MpcGrooveController,
-    NoneController, OpenLoopController, PidController,
+use millcomp_mpc::groove::{
+    DeflectionPlan, GrooveController, GrooveMpcSettings, MpcGrooveController, NoneController,
+    OpenLoopController, PidController,
 };
-use crate::pid::{AntiWindup, PidGains};
-use crate::predictor::{ForcePredictor, ResponseSurface};
+use millcomp_mpc::pid::{AntiWindup, PidGains};
+use millcomp_mpc::predictor::ForcePredictor;
+
+use crate::calibration::{CalibratedStiffness, calibrate_stiffness};
+use crate::error::{ClosedLoopError, invalid};
+use crate::faults::{SolverFailures, groove_measurement};
+use crate::model_errors::ForceErrors;
+use crate::model_files::{load_response_surface, load_saved};
 use crate::report::{Metrics, ModelSummary, RunOutput, RunReport, Trace};
-use crate::scenario::{ControllerKind, Fault, GrooveScenario, Scenario};
-use crate::truth::{CalibratedStiffness, ForceErrors, calibrate_stiffness};
+use crate::scenario::{ControllerKind, GrooveScenario, Scenario};
 
 /// Window around a process change in which its peak error is taken: from 0.5 mm before (preview, early
 /// moves) to 2 mm after (≈ 1.2 s: many filter time constants of the PID chain).
@@ -59,24 +64,12 @@ fn deepest(g: &GrooveScenario) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Read an identified model saved by `millcomp identify` (TOML).
-fn load_saved(path: &str) -> Result<millcomp_identify::SavedModel, MpcError> {
-    let text = std::fs::read_to_string(path).map_err(|e| MpcError::Io {
-        path: path.to_string(),
-        message: e.to_string(),
-    })?;
-    millcomp_identify::SavedModel::from_toml(&text).map_err(|e| MpcError::Scenario {
-        path: path.to_string(),
-        message: e.to_string(),
-    })
-}
-
-/// Build the truth plant and the controllers' models for a groove scenario (see `mpc/SCENARIOS.md`).
-pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, MpcError> {
+/// Build the truth plant and the controllers' models for a groove scenario (see `closedloop/SCENARIOS.md`).
+pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, ClosedLoopError> {
     let g = s
         .groove
         .as_ref()
-        .ok_or_else(|| crate::error::invalid("groove", "missing", "a [groove] table"))?;
+        .ok_or_else(|| invalid("groove", "missing", "a [groove] table"))?;
     let mut truth = GrooveConfig::thesis(g.tilt_deg, g.wearland_um)?;
     truth.force_model.material = Material::by_name(&g.material)?;
     truth.program.speed_rpm = g.speed_rpm;
@@ -116,7 +109,7 @@ pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, MpcError> {
         .unwrap_or_else(|| ForceErrors::draw(s.truth.force_error_max, s.seed));
     let model_force = match (&s.control.force_model, &s.control.force_response_surface) {
         (Some(_), Some(_)) => {
-            return Err(crate::error::invalid(
+            return Err(invalid(
                 "control.force_response_surface",
                 "given together with control.force_model",
                 "one force predictor: either an identified model or a response surface",
@@ -126,19 +119,19 @@ pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, MpcError> {
             load_saved(path)?
                 .apply_to_force_model(&truth.force_model)
                 .map_err(|e| {
-                    crate::error::invalid(
+                    invalid(
                         "control.force_model",
                         path,
                         format!("a saved `force` model: {e}"),
                     )
                 })?,
         ),
-        (None, Some(path)) => ForcePredictor::ResponseSurface(ResponseSurface::load(path)?),
+        (None, Some(path)) => ForcePredictor::ResponseSurface(load_response_surface(path)?),
         (None, None) => ForcePredictor::Mechanistic(force_errors.apply(&truth.force_model)?),
     };
     let model_spindle = match &s.control.spindle_model {
         Some(path) => load_saved(path)?.to_spindle().map_err(|e| {
-            crate::error::invalid(
+            invalid(
                 "control.spindle_model",
                 path,
                 format!("a saved `spindle` model: {e}"),
@@ -168,14 +161,14 @@ pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, MpcError> {
 }
 
 /// The controllers' preview of a groove setup, tabulated every `dx_mm`.
-pub fn deflection_plan(setup: &GrooveSetup, dx_mm: f64) -> Result<DeflectionPlan, MpcError> {
-    DeflectionPlan::new(
+pub fn deflection_plan(setup: &GrooveSetup, dx_mm: f64) -> Result<DeflectionPlan, ClosedLoopError> {
+    Ok(DeflectionPlan::new(
         &setup.truth.program,
         &setup.model_force,
         &setup.model_stiffness,
         setup.truth.force_model.tool.radius_um,
         dx_mm,
-    )
+    )?)
 }
 
 /// The groove MPC's settings from a scenario: its `[control]` table, the amplifier limit and the
@@ -191,55 +184,6 @@ pub fn mpc_settings(setup: &GrooveSetup, s: &Scenario) -> GrooveMpcSettings {
         force_noise_n: s.truth.force_noise_n,
         gauge_noise_um: s.truth.gauge_noise_um,
     }
-}
-
-fn apply_faults(
-    o: &GrooveStepOutput,
-    faults: &[Fault],
-    stuck: &mut Option<(f64, f64)>,
-) -> GrooveMeasurement {
-    let mut m = GrooveMeasurement {
-        force_meas_n: o.force_meas_n,
-        gauge_um: o.gauge_um,
-    };
-    let t = o.t_s;
-    let mut stuck_now = false;
-    for f in faults {
-        match *f {
-            Fault::ForceSpike {
-                t_s,
-                magnitude_n,
-                duration_s,
-            } if t >= t_s && t < t_s + duration_s => {
-                m.force_meas_n += magnitude_n;
-            }
-            Fault::StuckSensor { t_s, duration_s } if t >= t_s && t < t_s + duration_s => {
-                stuck_now = true
-            }
-            _ => {}
-        }
-    }
-    if stuck_now {
-        let (f, g) = *stuck.get_or_insert((m.force_meas_n, m.gauge_um));
-        m.force_meas_n = f;
-        m.gauge_um = g;
-    } else {
-        *stuck = Some((m.force_meas_n, m.gauge_um));
-        // keep the last good value as the candidate to freeze at
-    }
-    m
-}
-
-/// Inject the solver failures that are due at `t_s` (fault injection) and drop them from `pending`.
-fn inject_due_failures(pending: &mut Vec<(f64, usize)>, t_s: f64, ctl: &mut dyn GrooveController) {
-    pending.retain(|&(t, n)| {
-        if t_s >= t {
-            ctl.inject_solver_failures(n);
-            false
-        } else {
-            true
-        }
-    });
 }
 
 /// The x-windows (mm) around the process changes of a groove in which their peak error is taken: each
@@ -267,7 +211,7 @@ fn exit_window(t: &GrooveConfig) -> Option<(f64, f64)> {
 }
 
 /// Run a groove scenario with one controller.
-pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcError> {
+pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, ClosedLoopError> {
     let wall = Instant::now();
     let setup = groove_setup(s)?;
     let t = &setup.truth;
@@ -311,7 +255,7 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcEr
             )?)
         }
         ControllerKind::Threshold => {
-            return Err(MpcError::InvalidConfig {
+            return Err(ClosedLoopError::InvalidConfig {
                 key: "controller".into(),
                 value: "threshold".into(),
                 allowed: "the thin-wall stage (threshold is the 004 thin-wall baseline)".into(),
@@ -326,7 +270,7 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcEr
             &mpc_settings(&setup, s),
         )?),
     };
-    let mut pending_failures = s.solver_failures();
+    let mut pending_failures = SolverFailures::new(s);
     // process changes inside the groove: depth steps / plunges, feed changes, the exit
     let windows = change_windows(t);
     let exit_window = exit_window(t);
@@ -371,9 +315,9 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, MpcEr
     loop {
         let obs = last
             .as_ref()
-            .map(|o| apply_faults(o, &s.faults, &mut stuck));
+            .map(|o| groove_measurement(o, &s.faults, &mut stuck));
         let t_now = k as f64 * dt;
-        inject_due_failures(&mut pending_failures, t_now, ctl.as_mut());
+        pending_failures.inject_due(t_now, |n| ctl.inject_solver_failures(n));
         let v = ctl.command(obs.as_ref(), t_now);
         if !v.is_finite() {
             finite = false;

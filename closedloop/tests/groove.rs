@@ -3,12 +3,10 @@
 //! Published references (000_…txt): uncompensated ≈ 16–17 µm (§6.3, §7.2.2); open loop 16 → 5 µm pp
 //! (70 %, §6.3); closed-loop PID 65–80 % (§7.2.2, §7.3.4).
 
-mod common;
+use crate::common::*;
+use millcomp_closedloop::{ControllerKind, RunReport, run_scenario};
 
-use common::*;
-use millcomp_mpc::{ControllerKind, RunReport, run_scenario};
-
-fn run(s: &millcomp_mpc::Scenario, k: ControllerKind) -> RunReport {
+fn run(s: &millcomp_closedloop::Scenario, k: ControllerKind) -> RunReport {
     let r = run_scenario(s, k).unwrap();
     assert!(r.commands_finite && r.commands_in_limits, "{k}: commands");
     r
@@ -85,7 +83,8 @@ fn residual_error_follows_the_stiffness_error() {
     // sweep (SCENARIOS.md): a controller stiffness 20 % too low makes every force-feedback controller
     // over-compensate by ≈ 20 % of the 16–18 µm deflection; at 0 the MPC is at its ≈ 1.4 µm floor
     let s = scenario("groove_s7_20deg.toml");
-    let pts = millcomp_mpc::stiffness_sweep(&s, &[-0.2, 0.0], &[ControllerKind::Mpc]).unwrap();
+    let pts =
+        millcomp_closedloop::stiffness_sweep(&s, &[-0.2, 0.0], &[ControllerKind::Mpc]).unwrap();
     assert_eq!(pts.len(), 2);
     assert!(
         (pts[0].kz_error_rel + 0.19).abs() < 0.02,
