@@ -35,6 +35,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod batch;
 pub mod calibration;
 pub mod error;
 pub mod faults;

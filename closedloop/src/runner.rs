@@ -16,11 +16,35 @@ pub use crate::scenario::{ControllerKind, Scenario, StageKind};
 use crate::thin_wall::run_thin_wall;
 
 /// Run a scenario with one controller; the report of the `simulate --json` contract.
+///
+/// # Errors
+/// The scenario's validation errors; [`ClosedLoopError::InvalidConfig`] for a controller the stage does
+/// not have (`threshold` on a groove, `pid-aw`/`pid-design` on the thin wall); unreadable or invalid
+/// model files the scenario names ([`ClosedLoopError::Io`], [`ClosedLoopError::Scenario`]); the
+/// controllers' and the plant's construction errors.
+///
+/// # Examples
+/// ```
+/// use millcomp_closedloop::{ControllerKind, Scenario, run_scenario};
+/// let text = include_str!("../../datasets/scenarios/groove_s7_20deg.toml");
+/// let mut s = Scenario::from_toml_str(text, "groove_s7_20deg.toml").unwrap();
+/// s.groove.as_mut().unwrap().length_mm = 1.0; // the first 1 mm (0.6 s) of the 20° groove
+/// let r = run_scenario(&s, ControllerKind::Pid).unwrap();
+/// assert_eq!((r.stage.as_str(), r.controller.as_str()), ("groove", "pid"));
+/// assert!(r.commands_finite && r.commands_in_limits);
+/// assert!(r.solver.is_none()); // QP statistics are the MPC's
+/// // 0.6 s of cut at 20 kHz: 12 000 stage steps of 50 µs
+/// assert!((r.simulated_s - 0.6).abs() < 1e-3, "{}", r.simulated_s);
+/// assert!(run_scenario(&s, ControllerKind::Threshold).is_err());
+/// ```
 pub fn run_scenario(s: &Scenario, kind: ControllerKind) -> Result<RunReport, ClosedLoopError> {
     Ok(run_scenario_with_trace(s, kind)?.report)
 }
 
 /// Run a scenario with one controller, keeping the decimated time trace (for `--out run.csv` / plots).
+///
+/// # Errors
+/// As [`run_scenario`].
 pub fn run_scenario_with_trace(
     s: &Scenario,
     kind: ControllerKind,
@@ -51,6 +75,9 @@ pub struct SweepPoint {
 
 /// Residual error vs stiffness error: run `kinds` with the controllers' stiffness scaled by `1 + e` for each
 /// `e` in `errors` (everything else as in the scenario).
+///
+/// # Errors
+/// As [`run_scenario`].
 pub fn stiffness_sweep(
     s: &Scenario,
     errors: &[f64],

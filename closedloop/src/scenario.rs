@@ -423,6 +423,10 @@ fn finite_pos(key: &str, v: f64) -> Result<(), ClosedLoopError> {
 
 impl Scenario {
     /// Parse TOML text (`path` is only used in messages) and validate.
+    ///
+    /// # Errors
+    /// [`ClosedLoopError::Scenario`] for TOML that does not parse or an unknown key (the parser's
+    /// message names it), and the errors of [`Scenario::validate`].
     pub fn from_toml_str(text: &str, path: &str) -> Result<Self, ClosedLoopError> {
         let s: Scenario = toml::from_str(text).map_err(|e| ClosedLoopError::Scenario {
             path: path.to_string(),
@@ -433,6 +437,23 @@ impl Scenario {
     }
 
     /// Read and validate a scenario file.
+    ///
+    /// # Errors
+    /// [`ClosedLoopError::Io`] when the file cannot be read, and those of [`Scenario::from_toml_str`].
+    ///
+    /// # Examples
+    /// ```
+    /// use millcomp_closedloop::scenario::{Scenario, StageKind};
+    /// let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../datasets/scenarios/");
+    /// let s = Scenario::load(format!("{dir}groove_s7_30deg.toml")).unwrap();
+    /// assert_eq!(s.stage, StageKind::Groove);
+    /// let g = s.groove.as_ref().unwrap();
+    /// // the published 30° S7 groove: 0 → 80 µm over 20 mm, calibrated to the ≈ 16 µm uncompensated
+    /// // error of 000 §7.2.2
+    /// assert_eq!((g.tilt_deg, g.length_mm), (30.0, 20.0));
+    /// assert_eq!(g.calibrate_uncompensated_um, Some(16.0));
+    /// assert!(Scenario::load(format!("{dir}no_such.toml")).is_err());
+    /// ```
     pub fn load(path: impl AsRef<Path>) -> Result<Self, ClosedLoopError> {
         let p = path.as_ref();
         let text = std::fs::read_to_string(p).map_err(|e| ClosedLoopError::Io {
@@ -443,6 +464,10 @@ impl Scenario {
     }
 
     /// Validate every value; errors name the key.
+    ///
+    /// # Errors
+    /// [`ClosedLoopError::InvalidConfig`] naming the key (`groove.tilt_deg`, `controllers[1]`,
+    /// `control.mpc.limits.u_min[0]`, …) and what is allowed.
     pub fn validate(&self) -> Result<(), ClosedLoopError> {
         for (i, c) in self.controllers.iter().enumerate() {
             c.parse::<ControllerKind>().map_err(|e| match e {

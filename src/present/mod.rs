@@ -1,4 +1,5 @@
 //! Presentation: the one place where results become text tables and plots. Libraries return data; the
 //! verbs in `cmd/` hand it here to be printed or drawn.
 
+pub mod batch;
 pub mod plot;

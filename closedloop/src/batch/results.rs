@@ -1,18 +1,19 @@
 //! Results of a batch: the table (one row per run), the per-controller summary, the DOE analysis of each
-//! metric with the controller as a factor, and the plots. Every file is written atomically.
+//! metric with the controller as a factor, and the merge of slices. Every file is written atomically.
+//! Plots are the caller's: write the tables ([`write_tables`]), add the plot files to the summary, then
+//! write it ([`write_summary`]).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, bail};
 use millcomp_datasets::{Column, ColumnData, Table};
-use millcomp_doe::{AnalysisInput, ModelSpec, TermRow};
+use millcomp_doe::{AnalysisInput, DoeError, ModelSpec, TermRow};
 use serde::Serialize;
 
-use super::exec::{METRICS, RunRecord, load_record, read_plan, read_shard};
+use super::exec::{METRICS, RunRecord, load_record, read_plan, read_shard, write_text};
 use super::factors::FactorValue;
 use super::plan::{Plan, Shard};
-use crate::present::plot::{Series, line_plot};
+use crate::error::{ClosedLoopError, error_chain};
 
 /// The ANOVA of one metric.
 #[derive(Debug, Clone, Serialize)]
@@ -79,14 +80,18 @@ fn median(v: &mut [f64]) -> f64 {
     }
 }
 
-fn is_label(plan: &Plan, name: &str) -> bool {
+/// Whether factor `name` holds labels (text) rather than numbers in this plan.
+pub fn is_label(plan: &Plan, name: &str) -> bool {
     plan.scenarios
         .iter()
         .any(|s| matches!(s.factors.get(name), Some(FactorValue::Text(_))))
 }
 
 /// The results table: `run`, `scenario`, the factors, `controller`, every metric; rows in run order.
-pub fn results_table(plan: &Plan, records: &[RunRecord]) -> anyhow::Result<Table> {
+///
+/// # Errors
+/// [`ClosedLoopError::Dataset`] if the columns do not make a table (they always do).
+pub fn results_table(plan: &Plan, records: &[RunRecord]) -> Result<Table, ClosedLoopError> {
     let mut cols = vec![
         Column {
             name: "run".into(),
@@ -170,7 +175,7 @@ pub fn by_controller(
 }
 
 /// Factors that vary over the scenarios of these records.
-fn varying_factors(plan: &Plan, records: &[RunRecord]) -> Vec<String> {
+pub fn varying_factors(plan: &Plan, records: &[RunRecord]) -> Vec<String> {
     plan.factor_names
         .iter()
         .filter(|f| {
@@ -200,7 +205,7 @@ pub fn anova(
     let table = match results_table(plan, records) {
         Ok(t) => t,
         Err(e) => {
-            notes.push(format!("analysis skipped: {e:#}"));
+            notes.push(format!("analysis skipped: {}", error_chain(&e)));
             return out;
         }
     };
@@ -240,7 +245,7 @@ pub fn anova(
     }
     let main = factors.join(" + ");
     for metric in METRICS {
-        let attempt = |formula: &str| -> anyhow::Result<AnovaEntry> {
+        let attempt = |formula: &str| -> Result<AnovaEntry, DoeError> {
             let input = AnalysisInput::from_table(
                 &columns,
                 metric,
@@ -262,146 +267,64 @@ pub fn anova(
             Err(e1) => match attempt(&main) {
                 Ok(e) => {
                     notes.push(format!(
-                        "{metric}: controller interactions not estimable ({e1:#}); main effects only"
+                        "{metric}: controller interactions not estimable ({}); main effects only",
+                        error_chain(&e1)
                     ));
                     out.insert(metric.to_string(), e);
                 }
-                Err(e2) => notes.push(format!("{metric}: no analysis ({e2:#})")),
+                Err(e2) => notes.push(format!("{metric}: no analysis ({})", error_chain(&e2))),
             },
         }
     }
     out
 }
 
-/// Plots: each metric by controller (sorted values over the scenarios), and the peak-to-peak error by
-/// each varying factor (mean per level and controller).
-pub fn plots(plan: &Plan, records: &[RunRecord], dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let mut files = Vec::new();
-    for metric in METRICS.iter().filter(|m| **m != "solver_fallbacks") {
-        let series: Vec<Series> = plan
-            .controllers
-            .iter()
-            .map(|c| {
-                let mut v: Vec<f64> = records
-                    .iter()
-                    .filter(|r| &r.controller == c)
-                    .filter_map(|r| r.metrics.get(metric))
-                    .collect();
-                v.sort_by(f64::total_cmp);
-                let n = v.len().max(1) as f64;
-                Series {
-                    label: c.clone(),
-                    points: v
-                        .iter()
-                        .enumerate()
-                        .map(|(i, y)| ((i as f64 + 0.5) / n, *y))
-                        .collect(),
-                }
-            })
-            .collect();
-        let path = dir.join(format!("{metric}_by_controller.svg"));
-        line_plot(
-            &path,
-            &format!("{metric} by controller (sorted over scenarios)"),
-            "fraction of scenarios",
-            metric,
-            &series,
-        )?;
-        files.push(path);
-    }
-    for f in varying_factors(plan, records) {
-        let label = is_label(plan, &f);
-        let mut levels: Vec<FactorValue> = Vec::new();
-        for s in &plan.scenarios {
-            if let Some(v) = s.factors.get(&f)
-                && !levels.contains(v)
-            {
-                levels.push(v.clone());
-            }
-        }
-        levels.sort_by(|a, b| match (a, b) {
-            (FactorValue::Num(x), FactorValue::Num(y)) => x.total_cmp(y),
-            _ => a.text().cmp(&b.text()),
-        });
-        let x_of = |v: &FactorValue, i: usize| match v {
-            FactorValue::Num(x) if !label => *x,
-            _ => i as f64,
-        };
-        let series: Vec<Series> = plan
-            .controllers
-            .iter()
-            .map(|c| Series {
-                label: c.clone(),
-                points: levels
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(i, lv)| {
-                        let v: Vec<f64> = records
-                            .iter()
-                            .filter(|r| {
-                                &r.controller == c
-                                    && plan.scenarios[r.scenario].factors.get(&f) == Some(lv)
-                            })
-                            .map(|r| r.metrics.pp_error_um)
-                            .collect();
-                        (!v.is_empty())
-                            .then(|| (x_of(lv, i), v.iter().sum::<f64>() / v.len() as f64))
-                    })
-                    .collect(),
-            })
-            .collect();
-        let x_label = if label {
-            format!(
-                "{f} ({})",
-                levels
-                    .iter()
-                    .enumerate()
-                    .map(|(i, l)| format!("{i}={}", l.text()))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
-        } else {
-            f.clone()
-        };
-        let path = dir.join(format!("pp_error_um_by_{f}.svg"));
-        line_plot(
-            &path,
-            &format!("mean pp_error_um by {f}"),
-            &x_label,
-            "pp_error_um",
-            &series,
-        )?;
-        files.push(path);
-    }
-    Ok(files)
-}
-
-/// Writes `results.csv`, `results.parquet`, `summary.json` and `plots/` into `out`; returns the summary.
-pub fn write_results(
+/// Writes `results.csv` and `results.parquet` into `out` (listed in the summary's `files`) and fills the
+/// summary's medians and analysis. Add further files (plots) to `summary.files`, then call
+/// [`write_summary`].
+///
+/// # Errors
+/// [`ClosedLoopError::CreateDir`], [`ClosedLoopError::Write`] naming the file.
+pub fn write_tables(
     plan: &Plan,
     records: &[RunRecord],
     out: &Path,
     mut summary: BatchSummary,
-) -> anyhow::Result<BatchSummary> {
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+) -> Result<BatchSummary, ClosedLoopError> {
+    create_dir(out)?;
     let table = results_table(plan, records)?;
     for name in ["results.csv", "results.parquet"] {
         let path = out.join(name);
-        millcomp_datasets::write_table(&table, &path)
-            .with_context(|| format!("writing {}", path.display()))?;
+        millcomp_datasets::write_table(&table, &path).map_err(|source| ClosedLoopError::Write {
+            path: path.clone(),
+            source,
+        })?;
         summary.files.push(path.display().to_string());
     }
     summary.by_controller = by_controller(plan, records);
     summary.anova = anova(plan, records, &mut summary.notes);
-    for p in plots(plan, records, &out.join("plots"))? {
-        summary.files.push(p.display().to_string());
-    }
+    Ok(summary)
+}
+
+/// Writes `summary.json` into `out` (and lists it last in `files`).
+///
+/// # Errors
+/// [`ClosedLoopError::Write`].
+pub fn write_summary(
+    out: &Path,
+    mut summary: BatchSummary,
+) -> Result<BatchSummary, ClosedLoopError> {
     let path = out.join("summary.json");
     summary.files.push(path.display().to_string());
-    millcomp_datasets::write_text_atomic(&path, &serde_json::to_string_pretty(&summary)?)
-        .with_context(|| format!("writing {}", path.display()))?;
+    write_text(&path, &serde_json::to_string_pretty(&summary)?)?;
     Ok(summary)
+}
+
+fn create_dir(dir: &Path) -> Result<(), ClosedLoopError> {
+    std::fs::create_dir_all(dir).map_err(|source| ClosedLoopError::CreateDir {
+        path: dir.to_path_buf(),
+        source,
+    })
 }
 
 /// An empty summary for `plan`.
@@ -426,26 +349,39 @@ pub fn new_summary(plan: &Plan, n_runs: usize, shard: Option<Shard>) -> BatchSum
     }
 }
 
-/// `batch merge DIR... --out OUT`: joins the slices of one batch. Errors when the slices come from
-/// different batches (fingerprints differ) or runs are missing.
-pub fn merge(dirs: &[PathBuf], out: &Path) -> anyhow::Result<BatchSummary> {
-    let start = std::time::Instant::now();
+/// The slices of one batch joined ([`merge`]): its plan, every run's record in run order, and an
+/// empty summary to fill with [`write_tables`] and [`write_summary`].
+#[derive(Debug, Clone)]
+pub struct MergedBatch {
+    /// The plan.
+    pub plan: Plan,
+    /// Every run's record, in run order.
+    pub records: Vec<RunRecord>,
+    /// The summary of the merged results (nothing filled in yet).
+    pub summary: BatchSummary,
+}
+
+/// `batch merge DIR... --out OUT`: joins the slices of one batch and writes its `plan.json` into `out`.
+///
+/// # Errors
+/// [`ClosedLoopError::MergeNoDirs`], [`ClosedLoopError::MergeDifferentBatch`] when the slices come from
+/// different batches (fingerprints differ), [`ClosedLoopError::MergeMissing`] when runs are missing,
+/// and the errors of [`read_plan`] and of writing `out`.
+pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergedBatch, ClosedLoopError> {
     let Some(first) = dirs.first() else {
-        bail!("batch merge: give the slice directories to merge");
+        return Err(ClosedLoopError::MergeNoDirs);
     };
     let plan = read_plan(first)?;
     let mut records: BTreeMap<usize, RunRecord> = BTreeMap::new();
     for d in dirs {
         let p = read_plan(d)?;
         if p.fingerprint != plan.fingerprint {
-            bail!(
-                "batch merge: {} is a slice of a different batch (fingerprint {}) than {} (fingerprint {}): \
-                 merge only slices of one plan",
-                d.display(),
-                p.fingerprint,
-                first.display(),
-                plan.fingerprint
-            );
+            return Err(ClosedLoopError::MergeDifferentBatch {
+                dir: d.clone(),
+                fingerprint: p.fingerprint,
+                first: first.clone(),
+                first_fingerprint: plan.fingerprint,
+            });
         }
         let shard = read_shard(d).unwrap_or(Shard::ALL);
         for r in plan.shard_runs(shard) {
@@ -458,19 +394,20 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> anyhow::Result<BatchSummary> {
         .filter(|i| !records.contains_key(i))
         .collect();
     if !missing.is_empty() {
-        bail!(
-            "batch merge: {} of {} runs are missing (e.g. runs {:?}); run the missing shards (they resume) and merge again",
-            missing.len(),
-            plan.n_runs(),
-            &missing[..missing.len().min(8)]
-        );
+        return Err(ClosedLoopError::MergeMissing {
+            missing: missing.len(),
+            planned: plan.n_runs(),
+            examples: missing[..missing.len().min(8)].to_vec(),
+        });
     }
     let records: Vec<RunRecord> = records.into_values().collect();
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let mut summary = new_summary(&plan, records.len(), None);
+    create_dir(out)?;
+    let summary = new_summary(&plan, records.len(), None);
     let plan_text = serde_json::to_string_pretty(&plan)?;
     millcomp_datasets::write_text_atomic(&out.join("plan.json"), &plan_text)?;
-    summary = write_results(&plan, &records, out, summary)?;
-    summary.wall_clock_s = start.elapsed().as_secs_f64();
-    Ok(summary)
+    Ok(MergedBatch {
+        plan,
+        records,
+        summary,
+    })
 }

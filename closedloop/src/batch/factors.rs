@@ -2,17 +2,18 @@
 
 use std::collections::BTreeMap;
 
-use anyhow::{Context, bail};
-use millcomp_closedloop::Scenario;
-use millcomp_closedloop::model_errors::ForceErrors;
-use millcomp_closedloop::scenario::{FeedStep, StageKind, ThinWallScenario};
 use millcomp_datasets::{ColumnData, Table};
 use millcomp_sim::groove::DepthProfile;
 use serde::{Deserialize, Serialize};
 
+use crate::error::ClosedLoopError;
+use crate::model_errors::ForceErrors;
+use crate::scenario::{FeedStep, Scenario, StageKind, ThinWallScenario};
+
 /// The published scenario unnamed factors take their values from: the S7 groove at 20° tilt,
 /// 0–80 µm over 20 mm (`000_…txt` ch. 6–7), shipped as `datasets/scenarios/groove_s7_20deg.toml`.
-pub const BASE_SCENARIO_TOML: &str = include_str!("../../datasets/scenarios/groove_s7_20deg.toml");
+pub const BASE_SCENARIO_TOML: &str =
+    include_str!("../../../datasets/scenarios/groove_s7_20deg.toml");
 /// File name of [`BASE_SCENARIO_TOML`] (for messages and the plan record).
 pub const BASE_SCENARIO_FILE: &str = "datasets/scenarios/groove_s7_20deg.toml";
 
@@ -98,8 +99,16 @@ fn is_label_factor(name: &str) -> bool {
 }
 
 /// Reads the scenarios of a table (a CSV/Parquet file or a generated design): one row per scenario,
-/// one column per factor. Unknown columns are errors naming the column.
-pub fn scenarios_from_table(table: &Table) -> anyhow::Result<(Vec<String>, Vec<ScenarioSpec>)> {
+/// one column per factor ([`FACTORS`]; [`BOOKKEEPING`] columns and a design's `name_coded` columns are
+/// skipped). Every scenario is built once, so a bad value is reported before anything runs.
+///
+/// # Errors
+/// [`ClosedLoopError::UnknownFactor`], [`ClosedLoopError::NoFactors`],
+/// [`ClosedLoopError::NoScenarios`], [`ClosedLoopError::FactorNotNumber`], and
+/// [`ClosedLoopError::Row`] naming the row of a value the scenario cannot take.
+pub fn scenarios_from_table(
+    table: &Table,
+) -> Result<(Vec<String>, Vec<ScenarioSpec>), ClosedLoopError> {
     let mut names = Vec::new();
     for c in &table.columns {
         if BOOKKEEPING.contains(&c.name.as_str()) {
@@ -112,25 +121,28 @@ pub fn scenarios_from_table(table: &Table) -> anyhow::Result<(Vec<String>, Vec<S
             continue;
         }
         if !FACTORS.iter().any(|(n, _)| *n == c.name) {
-            bail!(
-                "{}: unknown factor `{}` (allowed: {})",
-                table.origin,
-                c.name,
-                FACTORS
+            return Err(ClosedLoopError::UnknownFactor {
+                origin: table.origin.clone(),
+                name: c.name.clone(),
+                allowed: FACTORS
                     .iter()
                     .map(|(n, _)| *n)
                     .collect::<Vec<_>>()
-                    .join(", ")
-            );
+                    .join(", "),
+            });
         }
         names.push(c.name.clone());
     }
     if names.is_empty() {
-        bail!("{}: no factor columns", table.origin);
+        return Err(ClosedLoopError::NoFactors {
+            origin: table.origin.clone(),
+        });
     }
     let n = table.n_rows();
     if n == 0 {
-        bail!("{}: no scenarios (no data rows)", table.origin);
+        return Err(ClosedLoopError::NoScenarios {
+            origin: table.origin.clone(),
+        });
     }
     let mut specs: Vec<ScenarioSpec> = (0..n)
         .map(|index| ScenarioSpec {
@@ -148,13 +160,14 @@ pub fn scenarios_from_table(table: &Table) -> anyhow::Result<(Vec<String>, Vec<S
                 (ColumnData::Text(v), true) => FactorValue::Text(v[row].trim().to_string()),
                 (ColumnData::Text(v), false) => match v[row].trim().parse::<f64>() {
                     Ok(x) if x.is_finite() => FactorValue::Num(x),
-                    _ => bail!(
-                        "{}: factor `{}`, row {}: `{}` is not a number",
-                        table.origin,
-                        c.name,
-                        row + 1,
-                        v[row]
-                    ),
+                    _ => {
+                        return Err(ClosedLoopError::FactorNotNumber {
+                            origin: table.origin.clone(),
+                            factor: c.name.clone(),
+                            row: row + 1,
+                            value: v[row].clone(),
+                        });
+                    }
                 },
             };
             spec.factors.insert(c.name.clone(), v);
@@ -162,26 +175,57 @@ pub fn scenarios_from_table(table: &Table) -> anyhow::Result<(Vec<String>, Vec<S
     }
     // Build every scenario once now, so a bad value is reported before anything runs.
     for s in &specs {
-        build_scenario(s).with_context(|| format!("{}: row {}", table.origin, s.index + 1))?;
+        build_scenario(s).map_err(|e| ClosedLoopError::Row {
+            origin: table.origin.clone(),
+            row: s.index + 1,
+            source: Box::new(e),
+        })?;
     }
     Ok((names, specs))
 }
 
-fn num(spec: &ScenarioSpec, name: &str) -> anyhow::Result<Option<f64>> {
+/// The error of a factor value the scenario cannot take.
+fn bad(factor: &str, message: String) -> ClosedLoopError {
+    ClosedLoopError::InvalidFactor {
+        factor: factor.to_string(),
+        message,
+    }
+}
+
+fn num(spec: &ScenarioSpec, name: &str) -> Result<Option<f64>, ClosedLoopError> {
     match spec.factors.get(name) {
         None => Ok(None),
         Some(FactorValue::Num(x)) if x.is_finite() => Ok(Some(*x)),
-        Some(v) => bail!("factor `{name}`: `{}` is not a finite number", v.text()),
+        Some(v) => Err(bad(name, format!("`{}` is not a finite number", v.text()))),
     }
 }
 
 /// The published base scenario with this scenario's factors applied (validated).
-pub fn build_scenario(spec: &ScenarioSpec) -> anyhow::Result<Scenario> {
+///
+/// # Errors
+/// [`ClosedLoopError::InvalidFactor`] for a value a factor cannot take, the scenario's own validation
+/// errors naming the key.
+///
+/// ```
+/// use millcomp_closedloop::batch::factors::{FactorValue, ScenarioSpec, build_scenario};
+/// let spec = ScenarioSpec {
+///     index: 0,
+///     factors: [("tilt_deg".to_string(), FactorValue::Num(30.0))].into_iter().collect(),
+/// };
+/// let s = build_scenario(&spec).unwrap();
+/// assert_eq!(s.name, "batch_0000");
+/// let g = s.groove.unwrap();
+/// // the factor, and the published groove_s7_20deg.toml for the rest (20 mm, 10 µm/rev)
+/// assert_eq!((g.tilt_deg, g.length_mm, g.upfeed_um_per_rev), (30.0, 20.0, 10.0));
+/// ```
+pub fn build_scenario(spec: &ScenarioSpec) -> Result<Scenario, ClosedLoopError> {
     let mut s = Scenario::from_toml_str(BASE_SCENARIO_TOML, BASE_SCENARIO_FILE)?;
     s.name = format!("batch_{:04}", spec.index);
     s.controllers.clear();
     let Some(g) = s.groove.as_mut() else {
-        bail!("{BASE_SCENARIO_FILE}: the base scenario has no [groove] table");
+        return Err(ClosedLoopError::NoGrooveInBase {
+            file: BASE_SCENARIO_FILE.to_string(),
+        });
     };
     if let Some(v) = num(spec, "tilt_deg")? {
         g.tilt_deg = v;
@@ -209,10 +253,12 @@ pub fn build_scenario(spec: &ScenarioSpec) -> anyhow::Result<Scenario> {
         Some(FactorValue::Text(m)) if ["S7", "1018", "6061"].contains(&m.as_str()) => {
             g.material = m.clone();
         }
-        Some(v) => bail!(
-            "factor `material`: `{}` is not one of S7, 1018, 6061",
-            v.text()
-        ),
+        Some(v) => {
+            return Err(bad(
+                "material",
+                format!("`{}` is not one of S7, 1018, 6061", v.text()),
+            ));
+        }
     }
     match num(spec, "feed_step")? {
         None => {}
@@ -223,21 +269,24 @@ pub fn build_scenario(spec: &ScenarioSpec) -> anyhow::Result<Scenario> {
                 upfeed_um_per_rev: 2.0 * g.upfeed_um_per_rev,
             }];
         }
-        Some(x) => bail!("factor `feed_step`: {x} is not 0 or 1"),
+        Some(x) => return Err(bad("feed_step", format!("{x} is not 0 or 1"))),
     }
     if let Some(v) = num(spec, "stiffness_error_pct")? {
         s.truth.stiffness_error = v / 100.0;
     }
     if let Some(v) = num(spec, "force_model_error_pct")? {
         if !(0.0..=50.0).contains(&v) {
-            bail!("factor `force_model_error_pct`: {v} is outside 0..=50");
+            return Err(bad(
+                "force_model_error_pct",
+                format!("{v} is outside 0..=50"),
+            ));
         }
         s.truth.force_error_max = v / 100.0;
         s.truth.force_errors = None;
     }
     if let Some(v) = num(spec, "force_w_error_pct")? {
         if !(-50.0..=50.0).contains(&v) {
-            bail!("factor `force_w_error_pct`: {v} is outside -50..=50");
+            return Err(bad("force_w_error_pct", format!("{v} is outside -50..=50")));
         }
         s.truth.force_errors = Some(ForceErrors {
             w_mpa: v / 100.0,
@@ -248,14 +297,17 @@ pub fn build_scenario(spec: &ScenarioSpec) -> anyhow::Result<Scenario> {
     }
     if let Some(v) = num(spec, "noise_scale")? {
         if v < 0.0 {
-            bail!("factor `noise_scale`: {v} is negative (allowed >= 0)");
+            return Err(bad(
+                "noise_scale",
+                format!("{v} is negative (allowed >= 0)"),
+            ));
         }
         s.truth.force_noise_n *= v;
         s.truth.gauge_noise_um *= v;
     }
     if let Some(v) = num(spec, "seed")? {
         if v < 0.0 || v.fract() != 0.0 {
-            bail!("factor `seed`: {v} is not a non-negative integer");
+            return Err(bad("seed", format!("{v} is not a non-negative integer")));
         }
         s.seed = v as u64;
     }
@@ -266,7 +318,12 @@ pub fn build_scenario(spec: &ScenarioSpec) -> anyhow::Result<Scenario> {
             s.stage = StageKind::ThinWall;
             s.thin_wall = Some(default_thin_wall()?);
         }
-        Some(v) => bail!("factor `stage`: `{}` is not groove or thin_wall", v.text()),
+        Some(v) => {
+            return Err(bad(
+                "stage",
+                format!("`{}` is not groove or thin_wall", v.text()),
+            ));
+        }
     }
     if let Some(v) = num(spec, "wall_um")? {
         if s.thin_wall.is_none() {
@@ -280,14 +337,15 @@ pub fn build_scenario(spec: &ScenarioSpec) -> anyhow::Result<Scenario> {
     Ok(s)
 }
 
-/// The thin-wall stage's published defaults (`004_…txt` Tables 2–4, via the MPC crate's serde defaults).
-fn default_thin_wall() -> anyhow::Result<ThinWallScenario> {
+/// The thin-wall stage's published defaults (`004_…txt` Tables 2–4, via the scenario's serde defaults).
+fn default_thin_wall() -> Result<ThinWallScenario, ClosedLoopError> {
     Ok(serde_json::from_str::<ThinWallScenario>("{}")?)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::error::error_chain;
 
     fn spec(pairs: &[(&str, FactorValue)]) -> ScenarioSpec {
         ScenarioSpec {
@@ -335,10 +393,10 @@ mod tests {
     #[test]
     fn bad_values_name_the_factor() {
         let e = build_scenario(&spec(&[("material", FactorValue::Text("brass".into()))]));
-        assert!(format!("{:#}", e.unwrap_err()).contains("material"));
+        assert!(error_chain(&e.unwrap_err()).contains("material"));
         let e = build_scenario(&spec(&[("feed_step", FactorValue::Num(2.0))]));
-        assert!(format!("{:#}", e.unwrap_err()).contains("feed_step"));
+        assert!(error_chain(&e.unwrap_err()).contains("feed_step"));
         let e = build_scenario(&spec(&[("tilt_deg", FactorValue::Num(0.0))]));
-        assert!(format!("{:#}", e.unwrap_err()).contains("tilt_deg"));
+        assert!(error_chain(&e.unwrap_err()).contains("tilt_deg"));
     }
 }

@@ -5,16 +5,17 @@
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
-use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use millcomp_closedloop::ControllerKind;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::factors::{ScenarioSpec, build_scenario};
 use super::plan::{Plan, RunId, Shard};
+use crate::error::{ClosedLoopError, error_chain};
+use crate::runner::run_scenario;
+use crate::scenario::ControllerKind;
 
-/// The error metrics of one closed-loop run (µm), as the MPC crate reports them.
+/// The error metrics of one closed-loop run (µm), as the runner reports them.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RunMetrics {
     /// Peak-to-peak error.
@@ -59,18 +60,29 @@ impl RunMetrics {
 /// A closed-loop simulation of one scenario with one controller.
 pub trait ClosedLoop: Sync {
     /// Runs `scenario` with `controller` and returns its metrics plus the simulated seconds.
-    fn run(&self, scenario: &ScenarioSpec, controller: &str) -> anyhow::Result<(RunMetrics, f64)>;
+    ///
+    /// # Errors
+    /// Whatever keeps the run from completing (a bad scenario, an unknown controller).
+    fn run(
+        &self,
+        scenario: &ScenarioSpec,
+        controller: &str,
+    ) -> Result<(RunMetrics, f64), ClosedLoopError>;
 }
 
-/// The real closed loop: `millcomp_closedloop::run_scenario` on the published scenario with the factors applied.
+/// The real closed loop: [`run_scenario`] on the published scenario with the factors applied.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct MpcClosedLoop;
 
 impl ClosedLoop for MpcClosedLoop {
-    fn run(&self, scenario: &ScenarioSpec, controller: &str) -> anyhow::Result<(RunMetrics, f64)> {
+    fn run(
+        &self,
+        scenario: &ScenarioSpec,
+        controller: &str,
+    ) -> Result<(RunMetrics, f64), ClosedLoopError> {
         let s = build_scenario(scenario)?;
         let kind: ControllerKind = controller.parse()?;
-        let r = millcomp_closedloop::run_scenario(&s, kind)?;
+        let r = run_scenario(&s, kind)?;
         let m = &r.metrics;
         let metrics = RunMetrics {
             pp_error_um: m.pp_error_um,
@@ -133,19 +145,23 @@ fn run_file(out: &Path, run: usize) -> PathBuf {
 }
 
 /// `DIR/plan.json` — writes it, or checks that an existing one is the same batch.
-pub fn claim_dir(out: &Path, plan: &Plan, shard: Shard) -> anyhow::Result<()> {
-    std::fs::create_dir_all(runs_dir(out))
-        .with_context(|| format!("creating {}", runs_dir(out).display()))?;
+///
+/// # Errors
+/// [`ClosedLoopError::AnotherBatch`] when `out` holds a different batch; I/O errors naming the file.
+pub fn claim_dir(out: &Path, plan: &Plan, shard: Shard) -> Result<(), ClosedLoopError> {
+    std::fs::create_dir_all(runs_dir(out)).map_err(|source| ClosedLoopError::CreateDir {
+        path: runs_dir(out),
+        source,
+    })?;
     let path = out.join("plan.json");
     if path.exists() {
         let old = read_plan(out)?;
         if old.fingerprint != plan.fingerprint {
-            bail!(
-                "{} belongs to another batch (fingerprint {} ≠ {}): use another --out directory",
-                path.display(),
-                old.fingerprint,
-                plan.fingerprint
-            );
+            return Err(ClosedLoopError::AnotherBatch {
+                path,
+                old: old.fingerprint,
+                new: plan.fingerprint.clone(),
+            });
         }
     }
     #[derive(Serialize)]
@@ -155,41 +171,56 @@ pub fn claim_dir(out: &Path, plan: &Plan, shard: Shard) -> anyhow::Result<()> {
         shard: Shard,
     }
     let text = serde_json::to_string_pretty(&PlanFile { plan, shard })?;
-    millcomp_datasets::write_text_atomic(&path, &text)
-        .with_context(|| format!("writing {}", path.display()))?;
-    Ok(())
+    write_text(&path, &text)
+}
+
+/// Writes `text` to `path` atomically.
+pub(crate) fn write_text(path: &Path, text: &str) -> Result<(), ClosedLoopError> {
+    millcomp_datasets::write_text_atomic(path, text).map_err(|source| ClosedLoopError::Write {
+        path: path.to_path_buf(),
+        source,
+    })
 }
 
 /// Reads `DIR/plan.json` and checks its fingerprint against its content.
-pub fn read_plan(dir: &Path) -> anyhow::Result<Plan> {
+///
+/// # Errors
+/// [`ClosedLoopError::ReadPlan`], [`ClosedLoopError::ParsePlan`], and
+/// [`ClosedLoopError::PlanEdited`] when the fingerprint does not match the content.
+pub fn read_plan(dir: &Path) -> Result<Plan, ClosedLoopError> {
     let path = dir.join("plan.json");
-    let text = std::fs::read_to_string(&path).with_context(|| {
-        format!(
-            "reading {} (is it a batch output directory?)",
-            path.display()
-        )
-    })?;
-    let plan: Plan =
-        serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
+    let text = match std::fs::read_to_string(&path) {
+        Ok(t) => t,
+        Err(source) => return Err(ClosedLoopError::ReadPlan { path, source }),
+    };
+    let plan: Plan = match serde_json::from_str(&text) {
+        Ok(p) => p,
+        Err(source) => return Err(ClosedLoopError::ParsePlan { path, source }),
+    };
     let fp = plan.compute_fingerprint()?;
     if fp != plan.fingerprint {
-        bail!(
-            "{}: the plan was edited (its fingerprint {} does not match its content {fp})",
-            path.display(),
-            plan.fingerprint
-        );
+        return Err(ClosedLoopError::PlanEdited {
+            path,
+            stored: plan.fingerprint,
+            computed: fp,
+        });
     }
     Ok(plan)
 }
 
 /// Reads the shard number stored in `DIR/plan.json`.
-pub fn read_shard(dir: &Path) -> anyhow::Result<Shard> {
+///
+/// # Errors
+/// [`ClosedLoopError::Read`], [`ClosedLoopError::Json`], [`ClosedLoopError::NoShard`].
+pub fn read_shard(dir: &Path) -> Result<Shard, ClosedLoopError> {
     let path = dir.join("plan.json");
-    let text =
-        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    let text = match std::fs::read_to_string(&path) {
+        Ok(t) => t,
+        Err(source) => return Err(ClosedLoopError::Read { path, source }),
+    };
     let v: serde_json::Value = serde_json::from_str(&text)?;
     serde_json::from_value(v.get("shard").cloned().unwrap_or_default())
-        .with_context(|| format!("{}: no valid `shard`", path.display()))
+        .map_err(|source| ClosedLoopError::NoShard { path, source })
 }
 
 /// The finished record of run `run` in `dir`, if there is a valid one for this plan.
@@ -203,15 +234,29 @@ pub fn load_record(dir: &Path, plan: &Plan, run: RunId) -> Option<RunRecord> {
         .then_some(r)
 }
 
-/// Runs every run of `shard` not already finished in `out`, in parallel, with a progress bar on stderr
-/// when `progress` is true.
+/// Runs every run of `shard` not already finished in `out`, in parallel (the current rayon pool), with
+/// a progress bar on stderr when `progress` is true. Each finished run is stored at once in
+/// `out/runs/run-NNNNNN.json`; a second call resumes.
+///
+/// # Errors
+/// Those of [`claim_dir`], and [`ClosedLoopError::RunsFailed`] listing every run that failed (the
+/// others are kept and not run again).
+///
+/// ```no_run
+/// use millcomp_closedloop::batch::exec::{MpcClosedLoop, run_shard};
+/// use millcomp_closedloop::batch::plan::{Plan, Shard};
+/// # fn plan() -> Plan { unimplemented!() }
+/// let plan: Plan = plan();
+/// let outcome = run_shard(&plan, Shard::ALL, "out".as_ref(), &MpcClosedLoop, false).unwrap();
+/// assert_eq!(outcome.records.len(), plan.n_runs());
+/// ```
 pub fn run_shard(
     plan: &Plan,
     shard: Shard,
     out: &Path,
     runner: &dyn ClosedLoop,
     progress: bool,
-) -> anyhow::Result<ShardOutcome> {
+) -> Result<ShardOutcome, ClosedLoopError> {
     let start = std::time::Instant::now();
     claim_dir(out, plan, shard)?;
     let runs = plan.shard_runs(shard);
@@ -257,11 +302,7 @@ pub fn run_shard(
                         wall_clock_s: t0.elapsed().as_secs_f64(),
                     };
                     let path = run_file(out, r.index);
-                    millcomp_datasets::write_text_atomic(
-                        &path,
-                        &serde_json::to_string_pretty(&rec)?,
-                    )
-                    .with_context(|| format!("writing {}", path.display()))?;
+                    write_text(&path, &serde_json::to_string_pretty(&rec)?)?;
                     Ok(rec)
                 });
             bar.inc(1);
@@ -269,9 +310,10 @@ pub fn run_shard(
                 Ok(rec) => Some(rec),
                 Err(e) => {
                     let msg = format!(
-                        "scenario {} (row {}), controller {controller}: {e:#}",
+                        "scenario {} (row {}), controller {controller}: {}",
                         r.scenario,
-                        r.scenario + 1
+                        r.scenario + 1,
+                        error_chain(&e)
                     );
                     if let Ok(mut v) = errors.lock() {
                         v.push(msg);
@@ -284,13 +326,12 @@ pub fn run_shard(
     bar.finish_and_clear();
     let errors = errors.into_inner().unwrap_or_default();
     if !errors.is_empty() {
-        bail!(
-            "{} of {} runs failed (finished runs are kept in {} and are not run again):\n  {}",
-            errors.len(),
-            todo.len(),
-            runs_dir(out).display(),
-            errors.join("\n  ")
-        );
+        return Err(ClosedLoopError::RunsFailed {
+            failed: errors.len(),
+            attempted: todo.len(),
+            dir: runs_dir(out),
+            errors,
+        });
     }
     let simulated_s = fresh.iter().map(|r| r.simulated_s).sum();
     let n_ran = fresh.len();

@@ -1,10 +1,11 @@
 //! The batch plan (scenarios × controllers), its fingerprint and deterministic shards.
 
-use anyhow::{Context, bail};
-use millcomp_closedloop::ControllerKind;
+use millcomp_datasets::Table;
 use serde::{Deserialize, Serialize};
 
-use super::factors::{BASE_SCENARIO_FILE, BASE_SCENARIO_TOML, ScenarioSpec};
+use super::factors::{BASE_SCENARIO_FILE, BASE_SCENARIO_TOML, FactorValue, ScenarioSpec};
+use crate::error::ClosedLoopError;
+use crate::scenario::ControllerKind;
 
 /// Format tag of `plan.json`.
 pub const PLAN_FORMAT: &str = "millcomp-batch-plan/1";
@@ -50,41 +51,54 @@ pub fn fnv1a64(bytes: &[u8]) -> u64 {
 }
 
 /// Parses and validates a controller list (`pid,mpc`).
-pub fn parse_controllers(list: &str) -> anyhow::Result<Vec<String>> {
+///
+/// # Errors
+/// [`ClosedLoopError::Controllers`] (caused by the unknown name), [`ClosedLoopError::ControllerListedTwice`],
+/// [`ClosedLoopError::NoControllers`].
+///
+/// ```
+/// use millcomp_closedloop::batch::plan::parse_controllers;
+/// assert_eq!(parse_controllers("pid, mpc").unwrap(), vec!["pid", "mpc"]);
+/// assert!(parse_controllers("pid,pid").is_err());
+/// ```
+pub fn parse_controllers(list: &str) -> Result<Vec<String>, ClosedLoopError> {
     let mut out: Vec<String> = Vec::new();
     for name in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
-        let kind: ControllerKind = name.parse().context("--controllers")?;
+        let kind: ControllerKind = name.parse().map_err(|e| ClosedLoopError::Controllers {
+            source: Box::new(e),
+        })?;
         if out.iter().any(|c| c == kind.name()) {
-            bail!("--controllers: `{name}` is listed twice");
+            return Err(ClosedLoopError::ControllerListedTwice {
+                name: name.to_string(),
+            });
         }
         out.push(kind.name().to_string());
     }
     if out.is_empty() {
-        bail!("--controllers: give at least one controller, e.g. pid,mpc");
+        return Err(ClosedLoopError::NoControllers);
     }
     Ok(out)
 }
 
 impl Plan {
     /// A plan with its fingerprint.
+    ///
+    /// # Errors
+    /// [`ClosedLoopError::ThresholdOnGroove`] when `threshold` is asked for on a groove scenario.
     pub fn new(
         factor_names: Vec<String>,
         scenarios: Vec<ScenarioSpec>,
         controllers: Vec<String>,
-    ) -> anyhow::Result<Self> {
+    ) -> Result<Self, ClosedLoopError> {
         // `threshold` is the 004 thin-wall baseline: refuse it on groove scenarios before anything runs
         if controllers.iter().any(|c| c == "threshold") {
             for sc in &scenarios {
                 let thin = matches!(
                     sc.factors.get("stage"),
-                    Some(super::factors::FactorValue::Text(t)) if t == "thin_wall"
+                    Some(FactorValue::Text(t)) if t == "thin_wall"
                 );
                 if !thin {
-                    bail!(
-                        "--controllers: `threshold` (the 004 thin-wall baseline) runs only on thin-wall \
-                         scenarios, but scenario row {} is a groove (set factor stage = thin_wall)",
-                        sc.index + 1
-                    );
+                    return Err(ClosedLoopError::ThresholdOnGroove { row: sc.index + 1 });
                 }
             }
         }
@@ -100,8 +114,37 @@ impl Plan {
         Ok(p)
     }
 
+    /// The plan of a scenario table (a CSV/Parquet file or a generated design: one row per scenario,
+    /// one column per factor, see [`super::factors::scenarios_from_table`]) and a validated controller
+    /// list ([`parse_controllers`]).
+    ///
+    /// # Errors
+    /// Those of [`super::factors::scenarios_from_table`] and [`Plan::new`].
+    ///
+    /// ```
+    /// use millcomp_closedloop::batch::plan::Plan;
+    /// use millcomp_datasets::{Column, ColumnData, Table};
+    /// let t = Table::from_columns(
+    ///     "example",
+    ///     vec![Column { name: "tilt_deg".into(), data: ColumnData::Float(vec![20.0, 40.0]) }],
+    /// )
+    /// .unwrap();
+    /// let plan = Plan::from_table(&t, vec!["pid".into(), "mpc".into()]).unwrap();
+    /// // 2 scenarios × 2 controllers; run 3 is scenario 1 with `mpc`
+    /// assert_eq!(plan.n_runs(), 4);
+    /// assert_eq!((plan.run_id(3).scenario, plan.run_id(3).controller), (1, 1));
+    /// assert_eq!(plan.fingerprint.len(), 16);
+    /// ```
+    pub fn from_table(table: &Table, controllers: Vec<String>) -> Result<Self, ClosedLoopError> {
+        let (names, specs) = super::factors::scenarios_from_table(table)?;
+        Self::new(names, specs, controllers)
+    }
+
     /// The fingerprint this plan should carry.
-    pub fn compute_fingerprint(&self) -> anyhow::Result<String> {
+    ///
+    /// # Errors
+    /// [`ClosedLoopError::Json`] if the plan cannot be serialised (it always can).
+    pub fn compute_fingerprint(&self) -> Result<String, ClosedLoopError> {
         let mut copy = self.clone();
         copy.fingerprint.clear();
         let mut bytes = serde_json::to_vec(&copy)?;
@@ -148,54 +191,87 @@ impl Shard {
     pub const ALL: Shard = Shard { index: 0, count: 1 };
 
     /// Checks `index < count`, `count >= 1`; `what` names where the numbers came from.
-    pub fn new(index: usize, count: usize, what: &str) -> anyhow::Result<Self> {
+    ///
+    /// # Errors
+    /// [`ClosedLoopError::NoShards`], [`ClosedLoopError::ShardOutOfRange`].
+    pub fn new(index: usize, count: usize, what: &str) -> Result<Self, ClosedLoopError> {
         if count == 0 {
-            bail!("{what}: the number of shards must be at least 1");
+            return Err(ClosedLoopError::NoShards {
+                what: what.to_string(),
+            });
         }
         if index >= count {
-            bail!(
-                "{what}: shard index {index} is out of range for {count} shards (allowed 0..={})",
-                count - 1
-            );
+            return Err(ClosedLoopError::ShardOutOfRange {
+                what: what.to_string(),
+                index,
+                count,
+            });
         }
         Ok(Shard { index, count })
     }
 
     /// Parses `K/N` (0-based K).
-    pub fn parse(text: &str) -> anyhow::Result<Self> {
+    ///
+    /// # Errors
+    /// [`ClosedLoopError::ShardSyntax`], [`ClosedLoopError::ShardNumber`] and those of [`Shard::new`].
+    ///
+    /// ```
+    /// use millcomp_closedloop::batch::plan::Shard;
+    /// assert_eq!(Shard::parse("1/4").unwrap(), Shard { index: 1, count: 4 });
+    /// assert!(Shard::parse("4/4").unwrap_err().to_string().contains("out of range"));
+    /// ```
+    pub fn parse(text: &str) -> Result<Self, ClosedLoopError> {
         let (k, n) = text
             .split_once('/')
-            .with_context(|| format!("--shard `{text}`: expected K/N, e.g. 0/4"))?;
-        let k: usize = k
-            .trim()
-            .parse()
-            .with_context(|| format!("--shard `{text}`: K is not a non-negative integer"))?;
-        let n: usize = n
-            .trim()
-            .parse()
-            .with_context(|| format!("--shard `{text}`: N is not a positive integer"))?;
+            .ok_or_else(|| ClosedLoopError::ShardSyntax {
+                text: text.to_string(),
+            })?;
+        let number = |v: &str, which, kind| {
+            v.trim()
+                .parse::<usize>()
+                .map_err(|source| ClosedLoopError::ShardNumber {
+                    text: text.to_string(),
+                    which,
+                    kind,
+                    source,
+                })
+        };
+        let k = number(k, "K", "non-negative")?;
+        let n = number(n, "N", "positive")?;
         Self::new(k, n, &format!("--shard {text}"))
     }
 
     /// The shard from the environment of an array job: Slurm (`SLURM_ARRAY_TASK_ID`, 0-based with
     /// `--array=0-(N-1)`, minus `SLURM_ARRAY_TASK_MIN` when set, and `SLURM_ARRAY_TASK_COUNT`) or a
     /// Kubernetes Indexed Job (`JOB_COMPLETION_INDEX` with the count from `MILLCOMP_SHARD_COUNT`).
-    pub fn from_env(get: impl Fn(&str) -> Option<String>) -> anyhow::Result<Option<Self>> {
-        let parse = |name: &str| -> anyhow::Result<Option<usize>> {
+    ///
+    /// # Errors
+    /// [`ClosedLoopError::ShardEnvNumber`], [`ClosedLoopError::ShardEnv`] and those of [`Shard::new`].
+    pub fn from_env(get: impl Fn(&str) -> Option<String>) -> Result<Option<Self>, ClosedLoopError> {
+        let parse = |name: &str| -> Result<Option<usize>, ClosedLoopError> {
             match get(name) {
                 None => Ok(None),
-                Some(v) => Ok(Some(v.trim().parse::<usize>().with_context(|| {
-                    format!("environment variable {name}=`{v}` is not a non-negative integer")
+                Some(v) => Ok(Some(v.trim().parse::<usize>().map_err(|source| {
+                    ClosedLoopError::ShardEnvNumber {
+                        name: name.to_string(),
+                        value: v.clone(),
+                        source,
+                    }
                 })?)),
             }
         };
+        let env = |message: &str| ClosedLoopError::ShardEnv {
+            message: message.to_string(),
+        };
         if let Some(id) = parse("SLURM_ARRAY_TASK_ID")? {
-            let count = parse("SLURM_ARRAY_TASK_COUNT")?.context(
-                "SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not (give --shard K/N)",
-            )?;
+            let count = parse("SLURM_ARRAY_TASK_COUNT")?.ok_or_else(|| {
+                env("SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not (give --shard K/N)")
+            })?;
             let min = parse("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0);
-            let k = id.checked_sub(min).with_context(|| {
-                format!("SLURM_ARRAY_TASK_ID={id} is below SLURM_ARRAY_TASK_MIN={min}")
+            let k = id.checked_sub(min).ok_or_else(|| {
+                env(&format!(
+                    "SLURM_ARRAY_TASK_ID={id} is below SLURM_ARRAY_TASK_MIN={min}"
+                ))
             })?;
             return Ok(Some(Self::new(
                 k,
@@ -204,9 +280,11 @@ impl Shard {
             )?));
         }
         if let Some(k) = parse("JOB_COMPLETION_INDEX")? {
-            let count = parse("MILLCOMP_SHARD_COUNT")?.context(
-                "JOB_COMPLETION_INDEX is set but MILLCOMP_SHARD_COUNT is not (set it to the Job's completions, or give --shard K/N)",
-            )?;
+            let count = parse("MILLCOMP_SHARD_COUNT")?.ok_or_else(|| {
+                env(
+                    "JOB_COMPLETION_INDEX is set but MILLCOMP_SHARD_COUNT is not (set it to the Job's completions, or give --shard K/N)",
+                )
+            })?;
             return Ok(Some(Self::new(
                 k,
                 count,
@@ -220,6 +298,7 @@ impl Shard {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::error::error_chain;
 
     #[test]
     fn fnv_matches_reference_vectors() {
@@ -249,7 +328,7 @@ mod tests {
 
     #[test]
     fn shard_errors_are_clear() {
-        assert!(format!("{:#}", Shard::parse("4/4").unwrap_err()).contains("out of range"));
+        assert!(error_chain(&Shard::parse("4/4").unwrap_err()).contains("out of range"));
         assert!(Shard::parse("x/4").is_err());
         assert!(Shard::parse("0/0").is_err());
         let env = |k: &str| match k {
@@ -268,7 +347,7 @@ mod tests {
     #[test]
     fn unknown_controller_is_named() {
         let e = parse_controllers("pid,lqr").unwrap_err();
-        assert!(format!("{e:#}").contains("lqr"));
+        assert!(error_chain(&e).contains("lqr"));
         assert_eq!(parse_controllers("pid, mpc").unwrap(), vec!["pid", "mpc"]);
     }
 }
