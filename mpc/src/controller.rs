@@ -172,7 +172,7 @@ impl MpcController {
     }
 
     /// Make the next `cycles` solves fail genuinely (Clarabel's iteration cap set to 1 → `MaxIterations`).
-    /// Fault injection for tests and scenario fault cases.
+    /// Fault injection (tests, injected-fault cases of a harness).
     pub fn inject_solver_failures(&mut self, cycles: usize) {
         self.inject_failures += cycles;
     }

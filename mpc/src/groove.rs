@@ -288,7 +288,7 @@ impl GrooveController for PidController {
     }
 }
 
-/// How the groove MPC is set up: timing, horizon and amplifier limits (the scenario's `[control]`), an
+/// How the groove MPC is set up: timing, horizon and amplifier limits (the control settings), an
 /// optional full configuration, and the sensors' noise levels its Kalman filter assumes.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GrooveMpcSettings {

@@ -242,13 +242,25 @@ pub fn load_record(dir: &Path, plan: &Plan, run: RunId) -> Option<RunRecord> {
 /// Those of [`claim_dir`], and [`ClosedLoopError::RunsFailed`] listing every run that failed (the
 /// others are kept and not run again).
 ///
-/// ```no_run
+/// # Examples
+/// ```
 /// use millcomp_closedloop::batch::exec::{MpcClosedLoop, run_shard};
 /// use millcomp_closedloop::batch::plan::{Plan, Shard};
-/// # fn plan() -> Plan { unimplemented!() }
-/// let plan: Plan = plan();
-/// let outcome = run_shard(&plan, Shard::ALL, "out".as_ref(), &MpcClosedLoop, false).unwrap();
-/// assert_eq!(outcome.records.len(), plan.n_runs());
+/// use millcomp_datasets::{Column, ColumnData, Table};
+/// // one very short groove (0.3 mm of the published 20° groove), PID and MPC
+/// let col = |name: &str, v: f64| Column { name: name.into(), data: ColumnData::Float(vec![v]) };
+/// let t = Table::from_columns("example", vec![col("length_mm", 0.3)]).unwrap();
+/// let plan = Plan::from_table(&t, vec!["pid".into(), "mpc".into()]).unwrap();
+/// let dir = std::env::temp_dir().join(format!("millcomp-run-shard-doc-{}", std::process::id()));
+/// let first = run_shard(&plan, Shard::ALL, &dir, &MpcClosedLoop, false).unwrap();
+/// assert_eq!((first.n_runs, first.n_ran, first.n_resumed), (2, 2, 0));
+/// // 0.3 mm at 1.667 mm/s: 0.18 s of machining per run
+/// assert!((first.simulated_s - 2.0 * 0.18).abs() < 1e-3, "{}", first.simulated_s);
+/// // a second call finds both runs finished: it resumes, nothing runs again
+/// let again = run_shard(&plan, Shard::ALL, &dir, &MpcClosedLoop, false).unwrap();
+/// assert_eq!((again.n_ran, again.n_resumed), (0, 2));
+/// assert_eq!(again.records, first.records);
+/// std::fs::remove_dir_all(&dir).ok();
 /// ```
 pub fn run_shard(
     plan: &Plan,

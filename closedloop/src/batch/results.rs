@@ -367,6 +367,36 @@ pub struct MergedBatch {
 /// [`ClosedLoopError::MergeNoDirs`], [`ClosedLoopError::MergeDifferentBatch`] when the slices come from
 /// different batches (fingerprints differ), [`ClosedLoopError::MergeMissing`] when runs are missing,
 /// and the errors of [`read_plan`] and of writing `out`.
+///
+/// # Examples
+/// ```
+/// use millcomp_closedloop::batch::exec::{MpcClosedLoop, run_shard};
+/// use millcomp_closedloop::batch::plan::{Plan, Shard};
+/// use millcomp_closedloop::batch::results::merge;
+/// use millcomp_datasets::{Column, ColumnData, Table};
+/// // two very short grooves (0.3 mm at 20° and 40°) with PID and MPC: 4 runs in two slices
+/// let col = |name: &str, v: Vec<f64>| Column { name: name.into(), data: ColumnData::Float(v) };
+/// let t = Table::from_columns(
+///     "example",
+///     vec![col("length_mm", vec![0.3, 0.3]), col("tilt_deg", vec![20.0, 40.0])],
+/// )
+/// .unwrap();
+/// let plan = Plan::from_table(&t, vec!["pid".into(), "mpc".into()]).unwrap();
+/// let dir = std::env::temp_dir().join(format!("millcomp-merge-doc-{}", std::process::id()));
+/// let slices: Vec<_> = (0..2).map(|k| dir.join(format!("shard-{k}"))).collect();
+/// for (k, d) in slices.iter().enumerate() {
+///     let shard = Shard::new(k, 2, "example").unwrap();
+///     // round robin over the run index: slice k runs k and k + 2
+///     assert_eq!(run_shard(&plan, shard, d, &MpcClosedLoop, false).unwrap().n_ran, 2);
+/// }
+/// let merged = merge(&slices, &dir.join("merged")).unwrap();
+/// assert_eq!(merged.records.iter().map(|r| r.run).collect::<Vec<_>>(), [0, 1, 2, 3]);
+/// assert_eq!((merged.summary.n_runs, merged.summary.n_runs_planned), (4, 4));
+/// // one slice alone leaves runs missing
+/// let e = merge(&slices[..1], &dir.join("bad")).unwrap_err();
+/// assert!(e.to_string().contains("2 of 4 runs are missing"), "{e}");
+/// std::fs::remove_dir_all(&dir).ok();
+/// ```
 pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergedBatch, ClosedLoopError> {
     let Some(first) = dirs.first() else {
         return Err(ClosedLoopError::MergeNoDirs);
