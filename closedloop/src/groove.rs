@@ -1,6 +1,5 @@
 //! Closed-loop runs on sim's groove stage (`millcomp_sim::groove::GrooveStage`, PZT spindle,
-//! `000_…txt` ch. 6–7) with every controller of
-//! [`millcomp_mpc::groove`].
+//! `000_…txt` ch. 6–7) with every controller of [`millcomp_mpc::groove`].
 //!
 //! The truth plant is sim's stage configured from the scenario; the controllers get the program, their
 //! own models (identified stiffness, perturbed or identified force model, spindle model) and the

@@ -1,6 +1,5 @@
 //! Closed-loop runs on sim's thin-wall stage (`millcomp_sim::thinwall::ThinWallStage`, `004_…txt`) with
-//! every controller of
-//! [`millcomp_mpc::thin_wall`].
+//! every controller of [`millcomp_mpc::thin_wall`].
 //!
 //! Per wall, the truth is sim's stage configured from the scenario (force noise, stage accuracy); the
 //! controllers' model is the same wall with the identified tool stiffness (a simulated calibration:
