@@ -1,5 +1,5 @@
 //! Batch throughput: simulated machining seconds per wall-clock second with MPC at the loop rate, on one
-//! and on two cores (issue 8). The work is what `millcomp batch` does per run — `millcomp_mpc::run_scenario`
+//! and on two cores (issue 8). The work is what `millcomp batch` does per run — `millcomp_closedloop::run_scenario`
 //! of the published 20° S7 groove (2 kHz MPC, 20 kHz stage), here shortened to 2 mm (1.2 s of machining)
 //! and replicated over 8 seeds — distributed over a rayon pool of 1 or 2 threads.
 //!
@@ -7,7 +7,7 @@
 //! 1 → 2 core speed-up side by side.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use millcomp_mpc::{ControllerKind, Scenario, run_scenario};
+use millcomp_closedloop::{ControllerKind, Scenario, run_scenario};
 use rayon::prelude::*;
 
 const BASE: &str = include_str!("../datasets/scenarios/groove_s7_20deg.toml");

@@ -7,7 +7,6 @@ use clap::Parser;
 
 mod cli;
 mod cmd;
-mod columns;
 mod present;
 
 use cli::Cli;

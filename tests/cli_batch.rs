@@ -1,4 +1,4 @@
-//! End-to-end tests of `millcomp batch`: the real closed loop (millcomp-mpc's runner) on short grooves,
+//! End-to-end tests of `millcomp batch`: the real closed loop (millcomp-closedloop's runner) on short grooves,
 //! shards as separate processes, merge, resume and bad input.
 
 use std::path::Path;
@@ -280,7 +280,7 @@ fn thin_wall_stage_runs_in_a_batch() {
     ]);
     assert_eq!(doc["n_runs"], 4);
     // 004 Table 5: the iterative (threshold) compensation leaves ≈ 2 % of the wall; the MPC, which also
-    // compensates the tool's deflection, leaves less (mpc/tests/thin_wall.rs: ≤ 1 % per wall)
+    // compensates the tool's deflection, leaves less (closedloop/tests/thin_wall.rs: ≤ 1 % per wall)
     let med = |c: &str| doc["by_controller"][c]["pp_error_um"].as_f64().unwrap();
     assert!(
         med("mpc") < med("threshold"),

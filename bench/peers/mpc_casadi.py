@@ -2,7 +2,7 @@
 """Peer for bench/mpc-vs-casadi: solve a recorded millcomp MPC QP sequence with CasADi `conic`
 (qpOASES and DAQP) and compare with millcomp's Clarabel replay.
 
-Input: the sequence JSON written by `qp_replay record` (millcomp-mpc example):
+Input: the sequence JSON written by `qp_replay record` (millcomp-closedloop example):
     min 1/2 z'Pz + q_k'z  s.t.  A z + s = b_k, s >= 0        (P: upper triangle, CSC)
 which CasADi receives as
     conic(h = P + P' - diag(P), g = q_k, a = A, lba = -inf, uba = b_k, lbx = -inf, ubx = +inf).

@@ -4,7 +4,7 @@ with qpOASES and DAQP. The sequence itself is stored in the golden, so the Rust 
 same data with Clarabel.
 
 Regenerate:
-    cargo run --release -p millcomp-mpc --example qp_replay -- record 10 50 /tmp/seq.json 7
+    cargo run --release -p millcomp-closedloop --example qp_replay -- record 10 50 /tmp/seq.json 7
     python bench/peers/mpc_goldens.py /tmp/seq.json mpc/tests/golden/casadi_qp_first_moves.json
 """
 import json

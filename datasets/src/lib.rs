@@ -14,6 +14,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod adapters;
 pub mod contracts;
 pub mod error;
 pub mod registry;

@@ -698,34 +698,23 @@ fn csv_to<W: Write>(df: &mut DataFrame, out: W) -> Result<(), String> {
         .map_err(|e| e.to_string())
 }
 
-/// Writes bytes produced by `fill` to `path` atomically (temporary file + rename).
+/// Writes bytes produced by `fill` to `path` atomically (temporary file + rename; the one atomic writer,
+/// `millcomp_models::write_atomic`).
 pub fn write_atomic<F>(path: &Path, fill: F) -> Result<(), DatasetError>
 where
     F: FnOnce(&mut File) -> Result<(), String>,
 {
-    let werr = |message: String| DatasetError::Write {
-        file: path.to_path_buf(),
-        message,
-    };
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".millcomp-")
-        .suffix(".partial")
-        .tempfile_in(&dir)
-        .map_err(|e| {
-            werr(format!(
-                "cannot create a temporary file in {}: {e}",
-                dir.display()
-            ))
-        })?;
-    fill(tmp.as_file_mut()).map_err(werr)?;
-    tmp.as_file_mut().flush().map_err(|e| werr(e.to_string()))?;
-    tmp.as_file().sync_all().map_err(|e| werr(e.to_string()))?;
-    tmp.persist(path).map_err(|e| werr(e.error.to_string()))?;
-    Ok(())
+    millcomp_models::write_atomic(path, |f| fill(f).map_err(std::io::Error::other)).map_err(|e| {
+        DatasetError::Write {
+            file: path.to_path_buf(),
+            message: match e {
+                millcomp_models::ModelError::Io { action, source, .. } => {
+                    format!("{action}: {source}")
+                }
+                other => other.to_string(),
+            },
+        }
+    })
 }
 
 /// Writes text to `path` atomically.

@@ -299,8 +299,7 @@ impl MpcConfig {
 
     /// Parse from TOML text and validate the dimension-free parts (see [`Self::validate_keys`]).
     pub fn from_toml_str(text: &str) -> Result<Self, MpcError> {
-        let c: Self = toml::from_str(text).map_err(|e| MpcError::Scenario {
-            path: "<mpc config>".into(),
+        let c: Self = toml::from_str(text).map_err(|e| MpcError::ConfigToml {
             message: e.to_string(),
         })?;
         c.validate_keys()?;

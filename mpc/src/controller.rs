@@ -84,6 +84,13 @@ impl MpcController {
     /// Build the controller (validates `cfg` against the model, computes the Kalman gain, builds the QP
     /// and the Clarabel solver once).
     ///
+    /// # Errors
+    /// [`MpcError::InvalidConfig`] naming the key for a configuration the model cannot take (weights,
+    /// limits, soft outputs, disturbance channels of the wrong size or sign),
+    /// [`MpcError::DimensionMismatch`], [`MpcError::Numerical`] when the Kalman gain does not converge,
+    /// [`MpcError::SolverSetup`] when Clarabel refuses the problem data.
+    ///
+    /// # Examples
     /// ```
     /// use millcomp_mpc::{MpcConfig, MpcController, PreviewWindow};
     /// use millcomp_sim::ContinuousLti;
@@ -165,13 +172,33 @@ impl MpcController {
     }
 
     /// Make the next `cycles` solves fail genuinely (Clarabel's iteration cap set to 1 → `MaxIterations`).
-    /// Fault injection for tests and scenario fault cases.
+    /// Fault injection (tests, injected-fault cases of a harness).
     pub fn inject_solver_failures(&mut self, cycles: usize) {
         self.inject_failures += cycles;
     }
 
     /// One control cycle. `y` are the measured outputs of this cycle (NaN entries → measurement skipped).
-    /// Errors only on dimension mismatches; a solver failure is an outcome ([`MpcStep::fallback`]).
+    /// A solver failure is an outcome ([`MpcStep::fallback`]), not an error.
+    ///
+    /// # Errors
+    /// [`MpcError::DimensionMismatch`] when `y` or the window do not have the model's number of outputs
+    /// (the window: `horizon × n_outputs` offsets and references).
+    ///
+    /// # Examples
+    /// ```
+    /// use millcomp_mpc::{MpcConfig, MpcController, MpcError, PreviewWindow};
+    /// use millcomp_sim::ContinuousLti;
+    /// // an integrator-like first-order plant at 1 kHz, input 0–1, at most 0.2 per cycle
+    /// let plant = ContinuousLti::from_transfer_function(&[1.0], &[0.01, 1.0]).unwrap()
+    ///     .discretize_zoh(1e-3).unwrap();
+    /// let mut mpc = MpcController::new(&plant, &MpcConfig::siso(10, 0.0, 1.0, 0.2)).unwrap();
+    /// let mut win = PreviewWindow::zeros(10, 1);
+    /// win.reference.iter_mut().for_each(|r| *r = 0.5);
+    /// let s = mpc.step(&[0.0], &win).unwrap();
+    /// // from rest the first move is slew-limited: 0.2, the most the configuration allows
+    /// assert!((s.u[0] - 0.2).abs() < 1e-9 && !s.fallback);
+    /// assert!(matches!(mpc.step(&[0.0, 1.0], &win), Err(MpcError::DimensionMismatch { .. })));
+    /// ```
     pub fn step(&mut self, y: &[f64], window: &PreviewWindow) -> Result<MpcStep, MpcError> {
         let ny = self.model.n_outputs();
         if y.len() != ny || window.offset_now.len() != ny {

@@ -1,16 +1,17 @@
 //! The one error type of `millcomp-mpc`.
 //!
-//! Every variant names what is at fault (a configuration key such as `limits.u_min[0]`, a scenario key, a
-//! matrix, a file) and, where it makes sense, what is allowed — so the CLI can print it verbatim.
+//! Every variant names what is at fault (a configuration key such as `limits.u_min[0]`, a matrix, the
+//! force predictor) and, where it makes sense, what is allowed — so the CLI can print it verbatim.
 //! A solver that did not converge is *not* an error: it is an outcome counted in
 //! [`crate::stats::SolverStats::fallbacks`].
 
 use thiserror::Error;
 
-/// Errors of the MPC crate (bad configuration, bad scenario, inconsistent models, I/O).
+/// Errors of the controllers (bad configuration, inconsistent models, solver set-up).
 #[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum MpcError {
-    /// A configuration or scenario value is out of its allowed range.
+    /// A configuration value is out of its allowed range.
     #[error("invalid value for `{key}` = {value}: allowed {allowed}")]
     InvalidConfig {
         /// Dotted key path, e.g. `limits.u_min[0]` or `mpc.horizon`.
@@ -46,28 +47,18 @@ pub enum MpcError {
         /// Clarabel's message.
         detail: String,
     },
-    /// Unknown controller name.
-    #[error("unknown controller `{name}`: allowed {allowed}")]
-    UnknownController {
-        /// The name given.
-        name: String,
-        /// Allowed names, comma separated.
-        allowed: String,
-    },
-    /// A scenario file key is missing, has the wrong type or an invalid value.
-    #[error("scenario `{path}`: {message}")]
-    Scenario {
-        /// File (or `<string>`).
-        path: String,
-        /// Parser/validator message naming the key.
+    /// An MPC configuration in TOML does not parse (the parser's message names the key).
+    #[error("MPC configuration (TOML): {message}")]
+    ConfigToml {
+        /// The parser's message.
         message: String,
     },
-    /// A file could not be read or written.
-    #[error("cannot access `{path}`: {message}")]
-    Io {
-        /// The path.
+    /// The response-surface force predictor could not evaluate a point.
+    #[error("force predictor `{path}`: {message}")]
+    Predictor {
+        /// Where the response surface came from (a file, or `<test>`).
         path: String,
-        /// The OS message.
+        /// The response surface's message.
         message: String,
     },
     /// An error from the physics crate (bad plant parameter).

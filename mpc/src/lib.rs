@@ -1,9 +1,13 @@
 //! # millcomp-mpc — deflection compensation controllers
 //!
-//! A linear, offset-free model-predictive controller with preview of the planned process, solved every
-//! control cycle with [Clarabel](https://clarabel.org) (QP built once, only `q`/`b` updated per cycle), and
-//! the published baselines it is compared against (PID with the thesis' signal chain, open-loop
-//! path pre-shifting, thin-wall iterative compensation with a 0.5 µm threshold).
+//! The controllers only: a linear, offset-free model-predictive controller with preview of the planned
+//! process, solved every control cycle with [Clarabel](https://clarabel.org) (QP built once, only
+//! `q`/`b` updated per cycle), and the published baselines it is compared against (PID with the
+//! thesis' signal chain, open-loop compensation, the thin wall's 0.5 µm threshold compensation, none).
+//! They are built from the controllers' own models (identified stiffness, force predictor, spindle
+//! model) and the planned process, and read the measured signals through sim's filters
+//! (`millcomp_sim::filters`: the 500 Hz low-pass, the nested peak-and-hold, the one sliding peak
+//! detector). They never see the truth plant: running them against it is `millcomp-closedloop`'s job.
 //!
 //! Core pieces:
 //! - [`MpcConfig`] (serde; keys documented in `mpc/CONFIG.md`), validated with errors naming the key;
@@ -11,45 +15,54 @@
 //!   Kalman filter;
 //! - [`qp::CondensedQp`]: the condensed QP and its persistent Clarabel solver;
 //! - [`MpcController`]: one call per cycle, [`MpcController::step`], with fallback and clamping;
-//! - [`SolverStats`]: `solves`, `median_us`, `p99_us`, `fallbacks`.
+//! - [`SolverStats`]: `solves`, `median_us`, `p99_us`, `fallbacks`;
+//! - [`replay`]: a recorded QP sequence and its replay with Clarabel (`bench/mpc-vs-casadi`).
 //!
-//! Closed loop (what `millcomp simulate SCENARIO --controller …` calls):
-//! - [`Scenario::load`] (TOML in `datasets/scenarios/`, schema and truth-vs-model in `mpc/SCENARIOS.md`);
-//! - [`ControllerKind`] (`"none" | "open-loop" | "pid" | "pid-aw" | "pid-design" | "threshold" | "mpc"`,
-//!   `FromStr`);
-//! - [`run_scenario`] → [`RunReport`] (`stage`, `controller`, `metrics{pp_error_um, rms_error_um,
-//!   max_error_um, min_error_um, actuator_travel_um[, thickness_um, thickness_error_pct]}`, `solver`
-//!   for MPC), [`run_scenario_with_trace`] adds the time trace for `--out run.csv`;
-//! - [`stiffness_sweep`]: residual error vs stiffness error.
+//! Controllers per stage:
+//! - [`groove`] (PZT spindle, `000_…txt` ch. 6–7): [`groove::GrooveController`] with
+//!   [`groove::NoneController`], [`groove::OpenLoopController`], [`groove::PidController`] and
+//!   [`groove::MpcGrooveController`], previewing a [`groove::DeflectionPlan`] computed from the program
+//!   (sim's `GrooveProgram`), the [`predictor::ForcePredictor`] and the controllers' stiffness;
+//!   [`spindle_mpc`] is the spindle MPC design, [`pid`] the published PID;
+//! - [`thin_wall`] (linear-motor stage, `004_…txt`): [`thin_wall::ThinWallController`] with the none,
+//!   open-loop, threshold, PI and MPC controllers on the controllers' [`thin_wall::WallPlan`].
 //!
-//! Benchmarks: `benches/solve.rs` (criterion, per-cycle solve at horizon 20/40) and
-//! `bash bench/mpc-vs-casadi` (Clarabel vs CasADi qpOASES/DAQP on a recorded QP sequence,
-//! [`replay`]).
+//! ```
+//! use millcomp_mpc::groove::{GrooveController, GrooveMeasurement, OpenLoopController, DeflectionPlan};
+//! use millcomp_mpc::predictor::ForcePredictor;
+//! use millcomp_sim::groove::{GrooveConfig, GrooveProgram};
+//! use millcomp_sim::stiffness::TiltedToolStiffness;
+//! // the controllers' models: sim's force model and the Table 5-1 stiffness, the thesis' 20° program
+//! let program = GrooveProgram::thesis(20.0);
+//! let force = ForcePredictor::Mechanistic(GrooveConfig::thesis(20.0, 8.0).unwrap().force_model);
+//! let stiffness = TiltedToolStiffness::default();
+//! let plan = DeflectionPlan::new(&program, &force, &stiffness, 400.0, 0.01).unwrap();
+//! let spindle = millcomp_sim::PztSpindle::default();
+//! let mut open_loop = OpenLoopController::new(plan.clone(), &program, &spindle, 1000.0);
+//! // half-way (6 s, x = 10 mm, 40 µm programmed depth) it drives the tip to the planned deflection
+//! let v = open_loop.command(None, 6.0);
+//! let tip_um = v * spindle.gain_um_per_v;
+//! let dz = plan.deflection_at(10.0);
+//! assert!((tip_um * 20f64.to_radians().sin() - dz).abs() < 1e-9);
+//! assert!(dz > 0.0 && v < 1000.0);
+//! ```
 #![warn(missing_docs)]
 
 pub mod config;
 pub mod controller;
 pub mod error;
-pub mod groove_run;
+pub mod groove;
 pub mod identified;
 pub mod kalman;
 pub mod pid;
 pub mod predictor;
 pub mod qp;
 pub mod replay;
-pub mod report;
-pub mod runner;
-pub mod scenario;
-pub mod signal;
 pub mod spindle_mpc;
 pub mod stats;
-pub mod thinwall_run;
-pub mod truth;
+pub mod thin_wall;
 
 pub use config::MpcConfig;
 pub use controller::{MpcController, MpcStep, PreviewWindow};
 pub use error::MpcError;
-pub use report::{Metrics, RunOutput, RunReport, WallReport};
-pub use runner::{run_scenario, run_scenario_with_trace, stiffness_sweep};
-pub use scenario::{ControllerKind, Scenario};
 pub use stats::SolverStats;

@@ -1,6 +1,6 @@
 //! Force predictors for the controllers' preview: what peak z-force the planned cut will produce.
 //!
-//! Two kinds, chosen per scenario (`mpc/SCENARIOS.md`):
+//! Two kinds, chosen per scenario (`closedloop/SCENARIOS.md`):
 //! - **mechanistic** — the ball-end force model of `millcomp-sim` with the controllers' parameters (the
 //!   perturbed truth, or a model identified by `millcomp identify force`);
 //! - **response surface** — a polynomial in the process parameters fitted to measured peak forces by
@@ -10,9 +10,7 @@
 //!   the workpiece in N. Points outside the fitted ranges are extrapolated and counted; a negative
 //!   prediction (a polynomial below its data) is taken as 0 N.
 
-use std::path::Path;
-
-use millcomp_models::{FactorCoding, ModelFile};
+use millcomp_models::FactorCoding;
 use millcomp_sim::force::{BallEndForceModel, CutConditions};
 
 use crate::error::{MpcError, invalid};
@@ -35,24 +33,6 @@ pub struct ResponseSurface {
 }
 
 impl ResponseSurface {
-    /// Load and check a saved model: numeric factors only, each a known process parameter.
-    pub fn load(path: &str) -> Result<Self, MpcError> {
-        let file = ModelFile::<millcomp_models::ResponseSurface>::load(
-            Path::new(path),
-            &millcomp_models::ResponseSurface::KINDS,
-        )
-        .map_err(|e| MpcError::Scenario {
-            path: path.to_string(),
-            message: format!(
-                "not a `doe analyze --save` response surface: {e}{}",
-                std::error::Error::source(&e)
-                    .map(|c| format!(": {c}"))
-                    .unwrap_or_default()
-            ),
-        })?;
-        Self::new(file.model, path)
-    }
-
     /// Wrap an in-memory model (`path` is only used in messages).
     pub fn new(model: millcomp_models::ResponseSurface, path: &str) -> Result<Self, MpcError> {
         let mut factors = Vec::new();
@@ -111,7 +91,7 @@ impl ResponseSurface {
         let f = self
             .model
             .predict(&self.point(c))
-            .map_err(|e| MpcError::Scenario {
+            .map_err(|e| MpcError::Predictor {
                 path: self.path.clone(),
                 message: e.to_string(),
             })?;

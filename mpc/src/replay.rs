@@ -1,28 +1,17 @@
-//! Recorded QP sequences: export the identical per-cycle QPs of a closed-loop run (fixed P, A, cones;
-//! per-cycle q, b) as JSON, and replay them with Clarabel — the millcomp side of `bench/mpc-vs-casadi`.
-//!
-//! The recording loop ([`record_spindle_sequence`]) runs the spindle MPC of [`crate::spindle_mpc`] in closed
-//! loop against the nominal spindle with a groove-like deflection: a 0 → 17 µm ramp (`000_…txt` ch. 6: 17 µm
-//! predicted at the 80 µm end of the 20° groove), a per-flute ripple at 10 000 rpm with 2 flutes (±10 %),
-//! a feed-rate doubling halfway (deflection × 1.6: `003_…txt` §3 doubles the feed; with the chip-thickness
-//! exponent of the force model the peak force grows by ≈ 60 %), the planned deflection 10 % low (model
-//! error), and seeded Gaussian noise on both measurements.
+//! Recorded QP sequences: the identical per-cycle QPs of a closed-loop run (fixed P, A, cones; per-cycle
+//! q, b) as JSON ([`QpSequence`]), and their replay with Clarabel exactly as the controller solves them
+//! ([`replay_clarabel`]) — the millcomp side of `bench/mpc-vs-casadi`. Recording a sequence in closed
+//! loop is the harness's job (`millcomp_closedloop::recording`).
 
 use std::time::Instant;
 
 use clarabel::solver::{DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus, SupportedConeT};
-use rand::SeedableRng;
-use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
 
-use crate::config::{MpcConfig, SolverConfig};
-use crate::controller::{MpcController, PreviewWindow};
+use crate::config::SolverConfig;
 use crate::error::MpcError;
-use crate::qp::QpData;
-use crate::qp::clarabel_settings;
-use crate::spindle_mpc::{OUT_ERROR, default_spindle_config, spindle_prediction_model};
+use crate::qp::{QpData, clarabel_settings};
 use crate::stats::percentile;
-use millcomp_sim::PztSpindle;
 
 /// Sparse matrix in CSC form (JSON friendly).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -79,106 +68,45 @@ pub struct ReplayResult {
     pub median_iterations: f64,
 }
 
-fn csc_json(colptr: &[usize], rowval: &[usize], nzval: &[f64], m: usize, n: usize) -> CscJson {
-    CscJson {
-        m,
-        n,
-        colptr: colptr.to_vec(),
-        rowval: rowval.to_vec(),
-        nzval: nzval.to_vec(),
+impl CscJson {
+    /// From the CSC arrays of an `m × n` matrix.
+    pub fn new(colptr: &[usize], rowval: &[usize], nzval: &[f64], m: usize, n: usize) -> Self {
+        Self {
+            m,
+            n,
+            colptr: colptr.to_vec(),
+            rowval: rowval.to_vec(),
+            nzval: nzval.to_vec(),
+        }
     }
 }
 
-/// The nominal spindle used for recordings (ζ 0.46, ωn 1302 rad/s, 50 µm/1000 V, extra pole 37 000 rad/s;
-/// `000_…txt` §5.2.2/5.2.4 and sim's provisional fit).
-pub fn bench_spindle() -> PztSpindle {
-    PztSpindle::new(0.05, 0.46, 1302.0, Some(37_000.0), None)
-        .expect("constant parameters are valid")
-}
-
-/// Control period of the spindle MPC (2 kHz).
-pub const BENCH_DT_S: f64 = 5e-4;
-
-/// Record `cycles` closed-loop QPs of the spindle MPC with the given horizon (see the module docs).
-pub fn record_spindle_sequence(
-    horizon: usize,
-    cycles: usize,
-    seed: u64,
-) -> Result<QpSequence, MpcError> {
-    let cfg = default_spindle_config(horizon, 1000.0, 100.0);
-    record_spindle_sequence_with(&cfg, cycles, seed)
-}
-
-/// As [`record_spindle_sequence`] with an explicit configuration (two outputs: gauge, depth error).
-pub fn record_spindle_sequence_with(
-    cfg: &MpcConfig,
-    cycles: usize,
-    seed: u64,
-) -> Result<QpSequence, MpcError> {
-    let horizon = cfg.horizon;
-    let sp = bench_spindle();
-    let model = spindle_prediction_model(&sp, BENCH_DT_S)?;
-    let cfg = cfg.clone();
-    let mut mpc = MpcController::new(&model, &cfg)?;
-    let mut plant = sp.discretize(BENCH_DT_S)?;
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    let gauge_noise = Normal::new(0.0, 0.05).expect("valid");
-    let force_noise = Normal::new(0.0, 0.2).expect("valid");
-    let rev_s = 60.0 / 10_000.0;
-    let total = cycles.max(1) as f64;
-    let smooth = |k: usize| {
-        let frac = (k as f64 / total).min(1.0);
-        let feed = if frac >= 0.5 { 1.6 } else { 1.0 };
-        17.0 * frac * feed / 1.6
-    };
-    let actual = |k: usize| {
-        let t = k as f64 * BENCH_DT_S;
-        let ripple = 1.0 + 0.1 * (2.0 * std::f64::consts::PI * 2.0 * t / rev_s).sin();
-        smooth(k) * ripple
-    };
-    let ny = 2;
-    let mut win = PreviewWindow::zeros(horizon, ny);
-    let mut q = Vec::with_capacity(cycles);
-    let mut b = Vec::with_capacity(cycles);
-    let mut tip = 0.0;
-    let mut fixed: Option<QpData> = None;
-    for k in 0..cycles {
-        win.offset_now[OUT_ERROR] = -0.9 * smooth(k);
-        for j in 0..horizon {
-            win.offsets[j * ny + OUT_ERROR] = -0.9 * smooth(k + 1 + j);
+impl QpSequence {
+    /// A sequence from the fixed data of a controller's QP ([`QpData`], e.g. of its first cycle) and the
+    /// per-cycle `q`, `b`; every row of A is in the nonnegative cone, the first move is `z[0]`.
+    pub fn from_cycles(
+        source: String,
+        horizon: usize,
+        fixed: &QpData,
+        q: Vec<Vec<f64>>,
+        b: Vec<Vec<f64>>,
+        input_range: f64,
+        solver: SolverConfig,
+    ) -> Self {
+        let d = fixed;
+        Self {
+            source,
+            horizon,
+            p: CscJson::new(&d.p_colptr, &d.p_rowval, &d.p_nzval, d.n, d.n),
+            a: CscJson::new(&d.a_colptr, &d.a_rowval, &d.a_nzval, d.m, d.n),
+            nonneg_rows: d.m,
+            q,
+            b,
+            first_move_index: 0,
+            input_range,
+            solver,
         }
-        let g = tip + gauge_noise.sample(&mut rng);
-        let e = g - actual(k) + force_noise.sample(&mut rng);
-        let s = mpc.step(&[g, e], &win)?;
-        let snap = mpc.qp();
-        q.push(snap.q().to_vec());
-        b.push(snap.b().to_vec());
-        if fixed.is_none() {
-            fixed = Some(snap.snapshot());
-        }
-        plant.step(s.u[0]);
-        tip = plant.tip_um();
     }
-    let d = fixed.ok_or(MpcError::Numerical {
-        what: "record",
-        detail: "no cycles recorded".into(),
-    })?;
-    Ok(QpSequence {
-        source: format!(
-            "millcomp-mpc replay::record_spindle_sequence(horizon={horizon}, cycles={cycles}, seed={seed}): \
-             spindle MPC (default_spindle_config, dt 0.5 ms) in closed loop on the nominal PZT spindle with a \
-             synthetic groove deflection (0→17 µm ramp, ±10 % flute ripple, feed doubling halfway)"
-        ),
-        horizon,
-        p: csc_json(&d.p_colptr, &d.p_rowval, &d.p_nzval, d.n, d.n),
-        a: csc_json(&d.a_colptr, &d.a_rowval, &d.a_nzval, d.m, d.n),
-        nonneg_rows: d.m,
-        q,
-        b,
-        first_move_index: 0,
-        input_range: cfg.limits.u_max[0] - cfg.limits.u_min[0],
-        solver: cfg.solver.clone(),
-    })
 }
 
 /// A Clarabel solver set up once for a recorded sequence; [`ReplaySolver::solve_cycle`] does what the
@@ -285,27 +213,4 @@ pub fn replay_clarabel(seq: &QpSequence) -> Result<ReplayResult, MpcError> {
         failures,
         median_iterations: percentile(&iters, 50.0),
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn replay_reproduces_the_recorded_first_moves() {
-        let seq = record_spindle_sequence(10, 60, 7).unwrap();
-        assert_eq!(seq.q.len(), 60);
-        let json = serde_json::to_string(&seq).unwrap();
-        let back: QpSequence = serde_json::from_str(&json).unwrap();
-        let r1 = replay_clarabel(&back).unwrap();
-        let r2 = replay_clarabel(&seq).unwrap();
-        assert_eq!(r1.failures, 0);
-        // deterministic: same data, same solver path → bit-identical first moves
-        assert_eq!(r1.first_moves, r2.first_moves);
-        assert!(
-            r1.first_moves
-                .iter()
-                .all(|u| (0.0..=1000.0 + 1e-6).contains(u))
-        );
-    }
 }

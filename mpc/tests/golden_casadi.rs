@@ -2,9 +2,7 @@
 //! sequence. Golden: `tests/golden/casadi_qp_first_moves.json`, written by `bench/peers/mpc_goldens.py`
 //! (tool versions and the exact call are recorded inside the file).
 
-mod common;
-
-use common::FIRST_MOVE_REL_RANGE;
+use crate::common::FIRST_MOVE_REL_RANGE;
 use millcomp_mpc::replay::{QpSequence, replay_clarabel};
 
 #[test]

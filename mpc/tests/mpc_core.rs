@@ -1,9 +1,7 @@
 //! The MPC core against independent references: Riccati LQ, constraints, slack, fallbacks.
 
-mod common;
-
+use crate::common::*;
 use approx::assert_relative_eq;
-use common::*;
 use millcomp_mpc::config::{DisturbanceKind, SoftOutput};
 use millcomp_mpc::qp::QpStatus;
 use millcomp_mpc::{MpcConfig, MpcController, PreviewWindow};

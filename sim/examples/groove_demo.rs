@@ -32,7 +32,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     // 2. closed loop (§7.2): peak-hold → first-order filter → wanted tip = F·C/sin α; PI on the gauge
     let mut st = GrooveStage::new(cfg.clone(), dt)?;
-    let mut ph = PeakHold::thesis(cfg.speed_rpm)?;
+    let mut ph = PeakHold::thesis(cfg.program.speed_rpm)?;
     let mut lp = FirstOrderFilter::thesis(dt)?;
     let c = st.z_compliance_um_per_n();
     let k = st.tip_per_z();

@@ -10,8 +10,11 @@
 //! * [`PeakHold`]: two nested maxima reset every 2 and 4 revolutions, out of phase (§6.2).
 //! * [`NotchChain`]: notches at the tooth-passing harmonics `f0,i = n/60·i`, bandwidth `f0,i/4`, plus a
 //!   first-order 120 Hz low-pass (`003_…txt` eqs. 6–7).
+//! * [`SlidingMax`]: the one sliding peak detector — the maximum over the last `window` samples (one
+//!   revolution: the groove stage's per-revolution peak force, §6.2, and the MPC's force measurement).
 
 use serde::{Deserialize, Serialize};
+use std::collections::VecDeque;
 use std::f64::consts::PI;
 
 use crate::error::{SimError, check_positive, check_range};
@@ -326,6 +329,53 @@ pub fn proactive_lowpass_003(dt_s: f64) -> Result<Biquad, SimError> {
     Biquad::low_pass(6.0, 1.0, dt_s)
 }
 
+/// Maximum over a sliding window of the last `window` samples (monotone deque, O(1) amortised).
+///
+/// ```
+/// use millcomp_sim::filters::SlidingMax;
+/// let mut m = SlidingMax::new(2);
+/// assert_eq!(m.step(3.0), 3.0);
+/// assert_eq!(m.step(1.0), 3.0);
+/// assert_eq!(m.step(2.0), 2.0); // 3.0 has left the two-sample window
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct SlidingMax {
+    window: usize,
+    k: usize,
+    q: VecDeque<(usize, f64)>,
+}
+
+impl SlidingMax {
+    /// Window length in samples (≥ 1).
+    pub fn new(window: usize) -> Self {
+        Self {
+            window: window.max(1),
+            k: 0,
+            q: VecDeque::with_capacity(window.max(1) + 1),
+        }
+    }
+
+    /// Feed one sample (non-finite samples are ignored), get the window maximum (0 before any sample).
+    #[inline]
+    pub fn step(&mut self, x: f64) -> f64 {
+        if x.is_finite() {
+            while self.q.back().is_some_and(|&(_, v)| v <= x) {
+                self.q.pop_back();
+            }
+            self.q.push_back((self.k, x));
+        }
+        while self
+            .q
+            .front()
+            .is_some_and(|&(i, _)| i + self.window <= self.k)
+        {
+            self.q.pop_front();
+        }
+        self.k += 1;
+        self.q.front().map(|&(_, v)| v).unwrap_or(0.0)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -413,5 +463,25 @@ mod tests {
         }
         assert!(maxdev < 0.01, "{maxdev}");
         assert_relative_eq!(y, 10.0, epsilon = 0.01);
+    }
+
+    #[test]
+    fn sliding_max_follows_the_window() {
+        let mut m = SlidingMax::new(3);
+        let v: Vec<f64> = [1.0, 5.0, 2.0, 1.0, 1.0, 0.5]
+            .iter()
+            .map(|&x| m.step(x))
+            .collect();
+        assert_eq!(v, vec![1.0, 5.0, 5.0, 5.0, 2.0, 1.0]);
+        // NaN samples are ignored
+        assert_eq!(m.step(f64::NAN), 1.0);
+    }
+
+    #[test]
+    fn sliding_max_window() {
+        let mut s = SlidingMax::new(3);
+        let xs = [1.0, 5.0, 2.0, 1.0, 0.5, 0.2, 4.0];
+        let ys: Vec<f64> = xs.iter().map(|x| s.step(*x)).collect();
+        assert_eq!(ys, vec![1.0, 5.0, 5.0, 5.0, 2.0, 1.0, 4.0]);
     }
 }

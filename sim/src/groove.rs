@@ -16,11 +16,11 @@
 //! The groove profile is the depth cut at each x (the bottom left behind the tool).
 
 use serde::{Deserialize, Serialize};
-use std::collections::VecDeque;
 use std::f64::consts::PI;
 
 use crate::error::{SimError, check_positive, check_range};
 use crate::feed::{FeedChange, FeedProfile, WorkpieceExit};
+use crate::filters::SlidingMax;
 use crate::force::{
     BallEndForceModel, CutConditions, ForceParams, PreparedCut, S7_GROOVE_FORCE_SCALE,
 };
@@ -181,15 +181,12 @@ pub enum ForceChannel {
     SpindleCalibrated,
 }
 
-/// Groove stage configuration.
+/// The planned process of a groove — what the NC program and the part drawing say: spindle speed, feed
+/// and its programmed changes, tool tilt, path length, programmed depth and where the workpiece ends.
+/// The controllers plan with it (they never see the rest of [`GrooveConfig`], the truth plant); the stage
+/// cuts it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct GrooveConfig {
-    /// Force model (material, tool, constants).
-    pub force_model: BallEndForceModel,
-    /// Tool/spindle stiffness.
-    pub stiffness: TiltedToolStiffness,
-    /// PZT spindle plant.
-    pub spindle: PztSpindle,
+pub struct GrooveProgram {
     /// Spindle speed (rpm).
     pub speed_rpm: f64,
     /// Upfeed (µm/rev).
@@ -200,12 +197,6 @@ pub struct GrooveConfig {
     pub length_mm: f64,
     /// Programmed depth profile.
     pub depth_profile: DepthProfile,
-    /// Force channel reported as `force_meas_n`.
-    pub force_channel: ForceChannel,
-    /// Optional force-sensor noise (σ in N; quantisation 0.04 N when present, §5.2.2).
-    pub force_noise: Option<NoiseSpec>,
-    /// Optional gauge noise (σ in µm).
-    pub gauge_noise: Option<NoiseSpec>,
     /// Programmed feed changes along the groove (none: constant `upfeed_um_per_rev`).
     #[serde(default)]
     pub feed_changes: Vec<FeedChange>,
@@ -215,6 +206,27 @@ pub struct GrooveConfig {
     /// Workpiece edge where the tool leaves the material (none: material over the whole length).
     #[serde(default)]
     pub exit: Option<WorkpieceExit>,
+}
+
+/// Groove stage configuration: the truth plant (force model, stiffness, spindle, sensors) and the
+/// [`GrooveProgram`] it cuts (serialised flat, one level with the plant's keys).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GrooveConfig {
+    /// Force model (material, tool, constants).
+    pub force_model: BallEndForceModel,
+    /// Tool/spindle stiffness.
+    pub stiffness: TiltedToolStiffness,
+    /// PZT spindle plant.
+    pub spindle: PztSpindle,
+    /// The planned process: speed, feed, tilt, length, depth profile, feed changes, exit.
+    #[serde(flatten)]
+    pub program: GrooveProgram,
+    /// Force channel reported as `force_meas_n`.
+    pub force_channel: ForceChannel,
+    /// Optional force-sensor noise (σ in N; quantisation 0.04 N when present, §5.2.2).
+    pub force_noise: Option<NoiseSpec>,
+    /// Optional gauge noise (σ in µm).
+    pub gauge_noise: Option<NoiseSpec>,
 }
 
 /// Default feed-axis acceleration (mm/s²) for feed changes: 100 mm/s² (≈ 0.01 g), the path acceleration of
@@ -227,22 +239,19 @@ fn default_feed_accel() -> f64 {
     DEFAULT_FEED_ACCEL_MM_S2
 }
 
-impl GrooveConfig {
-    /// The thesis' groove: S7, 0–80 µm over 20 mm, 10 000 rpm, 10 µm/rev, tilt `tilt_deg`, long (4 mm shank)
-    /// tool with wearland `wearland_um` (§6.2 simulation: 8 µm; the measured grooves of Fig. 7-9: 5 µm) and
-    /// runout 10 µm, measured stiffness, force scale [`S7_GROOVE_FORCE_SCALE`].
-    pub fn thesis(tilt_deg: f64, wearland_um: f64) -> Result<Self, SimError> {
-        let c = Self {
-            force_model: BallEndForceModel::new(
-                Material::s7(),
-                BallEndTool::new(400.0, wearland_um, 10.0)?,
-                ForceParams {
-                    force_scale: S7_GROOVE_FORCE_SCALE,
-                    ..ForceParams::default()
-                },
-            )?,
-            stiffness: TiltedToolStiffness::default(),
-            spindle: PztSpindle::default(),
+impl GrooveProgram {
+    /// The thesis' groove program: 0–80 µm over 20 mm, 10 000 rpm, 10 µm/rev, tilt `tilt_deg`, no feed
+    /// changes, no exit (unchecked; [`GrooveProgram::validate`] checks).
+    ///
+    /// ```
+    /// use millcomp_sim::groove::GrooveProgram;
+    /// let p = GrooveProgram::thesis(20.0);
+    /// // 20 mm at 10 µm/rev and 10 000 rpm (1.667 mm/s): 12 s of cut, full engagement
+    /// assert!((p.duration_s() - 12.0).abs() < 1e-9);
+    /// assert_eq!(p.engagement(19.9), 1.0);
+    /// ```
+    pub fn thesis(tilt_deg: f64) -> Self {
+        Self {
             speed_rpm: 10_000.0,
             upfeed_um_per_rev: 10.0,
             tilt_deg,
@@ -251,27 +260,19 @@ impl GrooveConfig {
                 from_um: 0.0,
                 to_um: 80.0,
             },
-            force_channel: ForceChannel::WorkpieceZ,
-            force_noise: None,
-            gauge_noise: None,
             feed_changes: Vec::new(),
             feed_accel_mm_s2: DEFAULT_FEED_ACCEL_MM_S2,
             exit: None,
-        };
-        c.validate()?;
-        Ok(c)
+        }
     }
 
-    /// Validate everything (errors name the parameter).
-    pub fn validate(&self) -> Result<(), SimError> {
-        self.force_model.validate()?;
-        self.stiffness.validate()?;
-        self.spindle.validate()?;
+    /// Validate the program for a tool that can cut at most `max_depth_um` deep (its ball radius);
+    /// errors name the parameter.
+    pub fn validate(&self, max_depth_um: f64) -> Result<(), SimError> {
         // speed, upfeed and tilt: the cut conditions' own checks
         self.conditions(0.0).validate()?;
         check_positive("length_mm", self.length_mm)?;
-        self.depth_profile
-            .validate(self.force_model.tool.radius_um)?;
+        self.depth_profile.validate(max_depth_um)?;
         self.feed_profile()?;
         if let Some(e) = &self.exit {
             e.validate(self.length_mm)?;
@@ -302,6 +303,11 @@ impl GrooveConfig {
             .unwrap_or_else(|_| self.length_mm / self.feed_mm_s())
     }
 
+    /// Programmed depth (µm) at `x_mm`.
+    pub fn depth_at(&self, x_mm: f64) -> f64 {
+        self.depth_profile.depth_at(x_mm, self.length_mm)
+    }
+
     /// Engagement (0…1) of the tool with the material at `x_mm` (1 everywhere without an exit).
     pub fn engagement(&self, x_mm: f64) -> f64 {
         self.exit.map(|e| e.engagement(x_mm)).unwrap_or(1.0)
@@ -321,11 +327,77 @@ impl GrooveConfig {
             tilt_deg: self.tilt_deg,
         }
     }
+}
+
+impl GrooveConfig {
+    /// The thesis' groove: S7, 0–80 µm over 20 mm, 10 000 rpm, 10 µm/rev, tilt `tilt_deg`, long (4 mm shank)
+    /// tool with wearland `wearland_um` (§6.2 simulation: 8 µm; the measured grooves of Fig. 7-9: 5 µm) and
+    /// runout 10 µm, measured stiffness, force scale [`S7_GROOVE_FORCE_SCALE`].
+    pub fn thesis(tilt_deg: f64, wearland_um: f64) -> Result<Self, SimError> {
+        let c = Self {
+            force_model: BallEndForceModel::new(
+                Material::s7(),
+                BallEndTool::new(400.0, wearland_um, 10.0)?,
+                ForceParams {
+                    force_scale: S7_GROOVE_FORCE_SCALE,
+                    ..ForceParams::default()
+                },
+            )?,
+            stiffness: TiltedToolStiffness::default(),
+            spindle: PztSpindle::default(),
+            program: GrooveProgram::thesis(tilt_deg),
+            force_channel: ForceChannel::WorkpieceZ,
+            force_noise: None,
+            gauge_noise: None,
+        };
+        c.validate()?;
+        Ok(c)
+    }
+
+    /// Validate everything (errors name the parameter).
+    pub fn validate(&self) -> Result<(), SimError> {
+        self.force_model.validate()?;
+        self.stiffness.validate()?;
+        self.spindle.validate()?;
+        self.program.validate(self.force_model.tool.radius_um)
+    }
+
+    /// Feed velocity (mm/s) at the start of the cut ([`GrooveProgram::feed_mm_s`]).
+    pub fn feed_mm_s(&self) -> f64 {
+        self.program.feed_mm_s()
+    }
+
+    /// The feed motion ([`GrooveProgram::feed_profile`]).
+    pub fn feed_profile(&self) -> Result<FeedProfile, SimError> {
+        self.program.feed_profile()
+    }
+
+    /// Duration of the cut (s) ([`GrooveProgram::duration_s`]).
+    pub fn duration_s(&self) -> f64 {
+        self.program.duration_s()
+    }
+
+    /// Engagement (0…1) at `x_mm` ([`GrooveProgram::engagement`]).
+    pub fn engagement(&self, x_mm: f64) -> f64 {
+        self.program.engagement(x_mm)
+    }
+
+    /// Cut conditions at `depth_um` and the starting upfeed ([`GrooveProgram::conditions`]).
+    pub fn conditions(&self, depth_um: f64) -> CutConditions {
+        self.program.conditions(depth_um)
+    }
+
+    /// Cut conditions at `depth_um` and `upfeed_um_per_rev` ([`GrooveProgram::conditions_at`]).
+    pub fn conditions_at(&self, depth_um: f64, upfeed_um_per_rev: f64) -> CutConditions {
+        self.program.conditions_at(depth_um, upfeed_um_per_rev)
+    }
 
     /// Quasi-static (per-revolution peak) uncompensated z-deflection (µm) at programmed depth
     /// `depth_cmd_um`, solved self-consistently: `δ = Fz,peak(d_cmd − δ)/kz` by fixed-point iteration.
     pub fn static_deflection_um(&self, depth_cmd_um: f64) -> Result<f64, SimError> {
-        let c = self.stiffness.z_compliance_um_per_n(self.tilt_deg)?;
+        let c = self
+            .stiffness
+            .z_compliance_um_per_n(self.program.tilt_deg)?;
         let mut delta = 0.0;
         for _ in 0..100 {
             let d = (depth_cmd_um - delta).clamp(0.0, self.force_model.tool.radius_um);
@@ -376,44 +448,6 @@ pub struct GrooveStepOutput {
     pub done: bool,
 }
 
-/// Sliding maximum over a fixed number of samples (monotone deque).
-#[derive(Debug, Clone)]
-struct SlidingMax {
-    window: usize,
-    k: usize,
-    q: VecDeque<(usize, f64)>,
-}
-
-impl SlidingMax {
-    fn new(window: usize) -> Self {
-        Self {
-            window: window.max(1),
-            k: 0,
-            q: VecDeque::with_capacity(window.max(1) + 1),
-        }
-    }
-    #[inline]
-    fn push(&mut self, x: f64) -> f64 {
-        while let Some(&(_, v)) = self.q.back() {
-            if v <= x {
-                self.q.pop_back();
-            } else {
-                break;
-            }
-        }
-        self.q.push_back((self.k, x));
-        while let Some(&(i, _)) = self.q.front() {
-            if i + self.window <= self.k {
-                self.q.pop_front();
-            } else {
-                break;
-            }
-        }
-        self.k += 1;
-        self.q.front().map(|p| p.1).unwrap_or(x)
-    }
-}
-
 /// The steppable groove plant.
 #[derive(Debug, Clone)]
 pub struct GrooveStage {
@@ -450,10 +484,11 @@ impl GrooveStage {
             Some(n) => CapacitanceGauge::new(50.0, 2.5, 0.0, n.sigma, n.seed)?,
             None => CapacitanceGauge::rd20(),
         };
-        let compliance = cfg.stiffness.z_compliance_um_per_n(cfg.tilt_deg)?;
-        let a = cfg.tilt_deg.to_radians();
-        let steps_per_rev = (60.0 / cfg.speed_rpm / dt_s).round() as usize;
-        let d0 = cfg.depth_profile.depth_at(0.0, cfg.length_mm);
+        let p = &cfg.program;
+        let compliance = cfg.stiffness.z_compliance_um_per_n(p.tilt_deg)?;
+        let a = p.tilt_deg.to_radians();
+        let steps_per_rev = (60.0 / p.speed_rpm / dt_s).round() as usize;
+        let d0 = p.depth_at(0.0);
         let prepared = cfg.force_model.prepare(&cfg.conditions(d0));
         Ok(Self {
             dt_s,
@@ -463,14 +498,14 @@ impl GrooveStage {
             compliance_um_per_n: compliance,
             sin_a: a.sin(),
             cos_a: a.cos(),
-            omega_rad_s: cfg.speed_rpm / 60.0 * 2.0 * PI,
+            omega_rad_s: p.speed_rpm / 60.0 * 2.0 * PI,
             feed: cfg.feed_profile()?,
             t_s: 0.0,
             deflection_um: 0.0,
             peak: SlidingMax::new(steps_per_rev),
             prepared,
             prepared_depth: d0,
-            prepared_upfeed: cfg.upfeed_um_per_rev,
+            prepared_upfeed: p.upfeed_um_per_rev,
             last_tip_um: 0.0,
             cfg,
         })
@@ -524,7 +559,7 @@ impl GrooveStage {
         let x = self.feed.x_at(self.t_s);
         let upfeed = self.feed.upfeed_at(self.t_s);
         let engagement = self.cfg.engagement(x);
-        let d_cmd = self.cfg.depth_profile.depth_at(x, self.cfg.length_mm);
+        let d_cmd = self.cfg.program.depth_at(x);
         let pzt_z = tip_um * self.sin_a;
         let d_cut =
             (d_cmd - self.deflection_um + pzt_z).clamp(0.0, self.cfg.force_model.tool.radius_um);
@@ -540,7 +575,7 @@ impl GrooveStage {
         }
         let f = self.prepared.forces(self.omega_rad_s * self.t_s);
         let fz = f[2] * engagement;
-        let peak = self.peak.push(fz);
+        let peak = self.peak.step(fz);
         let deflection_now = self.deflection_um;
         self.deflection_um = peak * self.compliance_um_per_n;
         let coupling = self.cfg.spindle.force_coupling_n_per_um * tip_um;
@@ -620,14 +655,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn sliding_max_window() {
-        let mut s = SlidingMax::new(3);
-        let xs = [1.0, 5.0, 2.0, 1.0, 0.5, 0.2, 4.0];
-        let ys: Vec<f64> = xs.iter().map(|x| s.push(*x)).collect();
-        assert_eq!(ys, vec![1.0, 5.0, 5.0, 5.0, 2.0, 1.0, 4.0]);
-    }
-
-    #[test]
     fn depth_profiles() {
         let r = DepthProfile::Ramp {
             from_um: 0.0,
@@ -669,9 +696,9 @@ mod tests {
     #[test]
     fn feed_doubling_raises_the_deflection_and_shortens_the_cut() {
         let mut cfg = GrooveConfig::thesis(20.0, 8.0).unwrap();
-        cfg.length_mm = 4.0;
-        cfg.depth_profile = DepthProfile::Constant { depth_um: 40.0 };
-        cfg.feed_changes = vec![FeedChange {
+        cfg.program.length_mm = 4.0;
+        cfg.program.depth_profile = DepthProfile::Constant { depth_um: 40.0 };
+        cfg.program.feed_changes = vec![FeedChange {
             x_mm: 2.0,
             upfeed_um_per_rev: 20.0,
         }];
@@ -694,9 +721,9 @@ mod tests {
     #[test]
     fn exit_unloads_the_tool() {
         let mut cfg = GrooveConfig::thesis(20.0, 8.0).unwrap();
-        cfg.length_mm = 3.0;
-        cfg.depth_profile = DepthProfile::Constant { depth_um: 60.0 };
-        cfg.exit = Some(WorkpieceExit {
+        cfg.program.length_mm = 3.0;
+        cfg.program.depth_profile = DepthProfile::Constant { depth_um: 60.0 };
+        cfg.program.exit = Some(WorkpieceExit {
             x_mm: 2.5,
             length_mm: 0.2,
         });

@@ -37,7 +37,7 @@ fn depth_beyond_ball_radius() {
     assert!(a.contains("radius"));
     assert!(m.revolution(&c, 36).is_err());
     let mut cfg = GrooveConfig::thesis(20.0, 8.0).unwrap();
-    cfg.depth_profile = DepthProfile::Ramp {
+    cfg.program.depth_profile = DepthProfile::Ramp {
         from_um: 0.0,
         to_um: 450.0,
     };
@@ -76,7 +76,7 @@ fn zero_speed_and_zero_feed() {
         "upfeed_um_per_rev"
     );
     let mut cfg = GrooveConfig::thesis(20.0, 8.0).unwrap();
-    cfg.speed_rpm = 0.0;
+    cfg.program.speed_rpm = 0.0;
     assert_eq!(name_of(cfg.validate().unwrap_err()).0, "speed_rpm");
     let mut tw = ThinWallConfig::paper(100.0).unwrap();
     tw.speed_rpm = 0.0;

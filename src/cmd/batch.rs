@@ -1,49 +1,59 @@
 //! `millcomp batch`: every scenario × controller closed-loop run, in parallel, resumable and shardable;
-//! `millcomp batch merge DIR...` joins the slices. The engine is in `src/batch/`.
+//! `millcomp batch merge DIR...` joins the slices. The engine is `millcomp_closedloop::batch`; here the
+//! arguments are parsed (including `--doe "ARGS"`, the `doe design` options given as one string) and
+//! the results are printed and plotted (`present::batch`).
 
 use std::io::IsTerminal;
+use std::path::Path;
 
 use anyhow::Context;
+use clap::Parser;
+use millcomp_closedloop::batch::exec::{MpcClosedLoop, ShardOutcome, run_shard};
+use millcomp_closedloop::batch::plan::{Plan, Shard, parse_controllers};
+use millcomp_closedloop::batch::results::{BatchSummary, merge, new_summary};
+use millcomp_datasets::Table;
 
-use crate::cli::{BatchArgs, BatchCommand};
+use crate::cli::{BatchArgs, BatchCommand, DoeDesignArgs};
 use crate::cmd::print_json;
+use crate::present::batch::{print_summary, write_results};
 
-#[path = "../batch/mod.rs"]
-pub mod engine;
-
-use engine::exec::{MpcClosedLoop, run_shard};
-use engine::output::{BatchSummary, merge, new_summary, write_results};
-use engine::plan::Shard;
+/// `--doe "ARGS"` parsed with the same options as `millcomp doe design`.
+#[derive(Debug, Parser)]
+#[command(name = "--doe", no_binary_name = true)]
+struct DoeWrap {
+    #[command(flatten)]
+    args: DoeDesignArgs,
+}
 
 /// Runs the verb.
 pub fn run(args: BatchArgs, json: bool) -> anyhow::Result<()> {
     if let Some(BatchCommand::Merge(m)) = &args.command {
-        let summary = merge(&m.dirs, &m.out)?;
+        let start = std::time::Instant::now();
+        let merged = merge(&m.dirs, &m.out)?;
+        let mut summary = write_results(&merged.plan, &merged.records, &m.out, merged.summary)?;
+        summary.wall_clock_s = start.elapsed().as_secs_f64();
         return show(&summary, json, &format!("merged {} slices", m.dirs.len()));
     }
     let shard = match &args.shard {
         Some(s) => Shard::parse(s)?,
         None => Shard::from_env(|k| std::env::var(k).ok())?.unwrap_or(Shard::ALL),
     };
-    let plan = engine::make_plan(
+    let plan = make_plan(
         args.scenarios.as_deref(),
         args.doe.as_deref(),
         &args.controllers,
     )?;
     let progress = !json && std::io::stderr().is_terminal();
     let outcome = with_threads(args.threads, || {
-        run_shard(&plan, shard, &args.out, &MpcClosedLoop, progress)
+        Ok(run_shard(
+            &plan,
+            shard,
+            &args.out,
+            &MpcClosedLoop,
+            progress,
+        )?)
     })?;
-    let mut summary = new_summary(
-        &plan,
-        outcome.records.len(),
-        (shard != Shard::ALL).then_some(shard),
-    );
-    summary.n_ran = outcome.n_ran;
-    summary.n_resumed = outcome.n_resumed;
-    summary.simulated_s = outcome.simulated_s;
-    summary.threads = outcome.threads;
-    summary.wall_clock_s = outcome.wall_clock_s;
+    let mut summary = outcome_summary(&plan, &outcome, (shard != Shard::ALL).then_some(shard));
     summary.throughput_per_core = (outcome.n_ran > 0 && outcome.wall_clock_s > 0.0)
         .then(|| outcome.simulated_s / outcome.wall_clock_s / outcome.threads.max(1) as f64);
     let summary = write_results(&plan, &outcome.records, &args.out, summary)?;
@@ -53,6 +63,85 @@ pub fn run(args: BatchArgs, json: bool) -> anyhow::Result<()> {
         format!("shard {}/{}", shard.index, shard.count)
     };
     show(&summary, json, &what)
+}
+
+/// The summary of a shard's run: its records, what ran now and what was resumed, the simulated and
+/// wall-clock time, the threads.
+pub fn outcome_summary(plan: &Plan, outcome: &ShardOutcome, shard: Option<Shard>) -> BatchSummary {
+    let mut summary = new_summary(plan, outcome.records.len(), shard);
+    summary.n_ran = outcome.n_ran;
+    summary.n_resumed = outcome.n_resumed;
+    summary.simulated_s = outcome.simulated_s;
+    summary.threads = outcome.threads;
+    summary.wall_clock_s = outcome.wall_clock_s;
+    summary
+}
+
+/// Splits a command line into words: whitespace separates, single and double quotes group.
+pub fn split_words(text: &str) -> anyhow::Result<Vec<String>> {
+    let mut out = Vec::new();
+    let mut cur = String::new();
+    let mut quote: Option<char> = None;
+    let mut in_word = false;
+    for ch in text.chars() {
+        match quote {
+            Some(q) if ch == q => quote = None,
+            Some(_) => cur.push(ch),
+            None if ch == '"' || ch == '\'' => {
+                quote = Some(ch);
+                in_word = true;
+            }
+            None if ch.is_whitespace() => {
+                if in_word {
+                    out.push(std::mem::take(&mut cur));
+                    in_word = false;
+                }
+            }
+            None => {
+                cur.push(ch);
+                in_word = true;
+            }
+        }
+    }
+    if let Some(q) = quote {
+        anyhow::bail!("unbalanced {q} quote in `{text}`");
+    }
+    if in_word {
+        out.push(cur);
+    }
+    Ok(out)
+}
+
+/// The scenario table of a design generated from `doe design` arguments given as one string.
+pub fn design_table(doe_args: &str) -> anyhow::Result<Table> {
+    let words = split_words(doe_args).context("--doe")?;
+    let args = DoeWrap::try_parse_from(&words)
+        .map_err(|e| anyhow::anyhow!("--doe `{doe_args}`: {}", e.render().to_string().trim()))?
+        .args;
+    let req = crate::cmd::doe::design_request(&args).context("--doe")?;
+    let design = millcomp_doe::generate(&req).context("--doe: generating the design")?;
+    let table = millcomp_datasets::adapters::table_from_doe("--doe design", design.columns())?;
+    if let Some(out) = &args.out {
+        millcomp_datasets::write_table(&table, out)
+            .with_context(|| format!("--doe --out {}", out.display()))?;
+    }
+    Ok(table)
+}
+
+/// The plan of a batch from a scenario file or `doe design` arguments, and a controller list.
+pub fn make_plan(
+    scenarios: Option<&Path>,
+    doe: Option<&str>,
+    controllers: &str,
+) -> anyhow::Result<Plan> {
+    let controllers = parse_controllers(controllers)?;
+    let table = match (scenarios, doe) {
+        (Some(p), None) => millcomp_datasets::read_any(p)
+            .with_context(|| format!("reading the scenarios {}", p.display()))?,
+        (None, Some(d)) => design_table(d)?,
+        _ => anyhow::bail!("give either --scenarios FILE or --doe \"DESIGN ARGS\" (one of them)"),
+    };
+    Ok(Plan::from_table(&table, controllers)?)
 }
 
 /// Runs `f` on a rayon pool of `threads` workers (the global pool when `None`).
@@ -75,64 +164,48 @@ fn show(s: &BatchSummary, json: bool, what: &str) -> anyhow::Result<()> {
     if json {
         return print_json(s);
     }
-    println!(
-        "{what}: {} runs ({} run now, {} resumed) of {} planned   fingerprint {}",
-        s.n_runs, s.n_ran, s.n_resumed, s.n_runs_planned, s.fingerprint
-    );
-    if let Some(t) = s.throughput_per_core {
-        println!(
-            "simulated {:.1} s of machining in {:.1} s on {} threads: {:.2} simulated s per wall s per core",
-            s.simulated_s, s.wall_clock_s, s.threads, t
-        );
-    }
-    println!("\nmedians by controller");
-    let metrics = engine::exec::METRICS;
-    print!("{:<12}", "controller");
-    for m in metrics {
-        print!(" {m:>19}");
-    }
-    println!();
-    for (c, m) in &s.by_controller {
-        print!("{c:<12}");
-        for k in metrics {
-            print!(" {:>19.4}", m.get(k).copied().unwrap_or(f64::NAN));
-        }
-        println!();
-    }
-    if let Some(a) = s.anova.get("pp_error_um") {
-        println!(
-            "\nANOVA of pp_error_um   model: {}   R² = {:.4}",
-            a.model, a.r_squared
-        );
-        println!(
-            "{:<32} {:>12} {:>4} {:>14} {:>10} {:>10}",
-            "term", "effect", "df", "sum sq", "F", "p-value"
-        );
-        for t in &a.terms {
-            let opt = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |x| format!("{x:.p$}"));
-            let star = match t.p_value {
-                Some(p) if p < 0.001 => " ***",
-                Some(p) if p < 0.01 => " **",
-                Some(p) if p < 0.05 => " *",
-                _ => "",
-            };
-            println!(
-                "{:<32} {:>12} {:>4} {:>14.6} {:>10} {:>10}{star}",
-                t.term,
-                opt(t.effect, 5),
-                t.df,
-                t.sum_sq,
-                opt(t.f, 3),
-                opt(t.p_value, 6)
-            );
-        }
-    }
-    for n in &s.notes {
-        println!("note: {n}");
-    }
-    println!();
-    for f in &s.files {
-        println!("written: {f}");
-    }
+    print_summary(s, what);
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use millcomp_closedloop::batch::factors::scenarios_from_table;
+    use millcomp_closedloop::error_chain;
+
+    #[test]
+    fn words_split_like_a_shell() {
+        assert_eq!(
+            split_words(r#"--design full --factors "a=1:2, b=3:4" --seed 1"#).unwrap(),
+            vec![
+                "--design",
+                "full",
+                "--factors",
+                "a=1:2, b=3:4",
+                "--seed",
+                "1"
+            ]
+        );
+        assert!(split_words("--factors \"a").is_err());
+    }
+
+    #[test]
+    fn doe_args_make_a_scenario_table() {
+        let t = design_table(
+            "--design fractional --factors tilt_deg=20:40,depth_um=60:100,upfeed_um=8:12,wearland_um=4:12 --resolution 4 --seed 1",
+        )
+        .unwrap();
+        // A 2^(4-1) resolution IV design has 8 runs.
+        assert_eq!(t.n_rows(), 8);
+        let (names, specs) = scenarios_from_table(&t).unwrap();
+        assert_eq!(
+            names,
+            vec!["tilt_deg", "depth_um", "upfeed_um", "wearland_um"]
+        );
+        assert_eq!(specs.len(), 8);
+        let e =
+            design_table("--design full --factors bogus_um=1:2").map(|t| scenarios_from_table(&t));
+        assert!(error_chain(&e.unwrap().unwrap_err()).contains("bogus_um"));
+    }
 }

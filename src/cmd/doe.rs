@@ -54,7 +54,7 @@ fn design(args: &DoeDesignArgs, json: bool) -> anyhow::Result<()> {
     let req = design_request(args)?;
     let design = millcomp_doe::generate(&req)?;
     if let Some(out) = &args.out {
-        let table = crate::columns::table_from_doe("design", design.columns())?;
+        let table = millcomp_datasets::adapters::table_from_doe("design", design.columns())?;
         millcomp_datasets::write_table(&table, out)
             .with_context(|| format!("writing the design to {}", out.display()))?;
     }
@@ -74,7 +74,7 @@ fn analyze(args: &DoeAnalyzeArgs, json: bool) -> anyhow::Result<()> {
         bail!("--alpha must be in (0, 1), got {}", args.alpha);
     }
     let table = millcomp_datasets::read_any(&args.file)?;
-    let columns = crate::columns::doe_columns(&table);
+    let columns = millcomp_datasets::adapters::doe_columns(&table);
     let model = ModelSpec::parse(&args.model).context("--model")?;
     let factors = (!args.factors.is_empty()).then_some(args.factors.as_slice());
     let input = AnalysisInput::from_table(&columns, &args.response, factors, model)

@@ -20,7 +20,7 @@ pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
     };
     let options = options(&args)?;
     let table = millcomp_datasets::read_any(&args.file)?;
-    let cols = crate::columns::identify_columns(&table);
+    let cols = millcomp_datasets::adapters::identify_columns(&table);
     let fit = identify_columns(verb, &cols, &options)
         .with_context(|| format!("{}: identify {}", args.file.display(), verb_name(verb)))?;
     if let Some(path) = &args.save {

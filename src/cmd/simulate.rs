@@ -9,7 +9,7 @@ use serde_json::json;
 
 use std::path::Path;
 
-use millcomp_mpc::{ControllerKind, Scenario, run_scenario_with_trace};
+use millcomp_closedloop::{ControllerKind, Scenario, run_scenario_with_trace};
 
 use crate::cli::SimulateArgs;
 use crate::cmd::print_json;
@@ -133,7 +133,7 @@ fn plot_profiles(path: &std::path::Path, name: &str, points: &[GroovePoint]) -> 
     )
 }
 
-/// A closed-loop scenario file has a top-level `stage` key (`mpc/SCENARIOS.md`); a session has a
+/// A closed-loop scenario file has a top-level `stage` key (`closedloop/SCENARIOS.md`); a session has a
 /// `plan` (`sim/SESSION.md`).
 fn is_scenario(path: &Path) -> anyhow::Result<bool> {
     let text =

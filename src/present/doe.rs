@@ -481,7 +481,7 @@ mod tests {
             "/doe/tests/fixtures/montgomery_example_6_2.csv"
         )))
         .unwrap();
-        let table = crate::columns::doe_columns(&table);
+        let table = millcomp_datasets::adapters::doe_columns(&table);
         let a = analyze(
             &AnalysisInput::from_table(&table, "filtration_rate", None, ModelSpec::Full).unwrap(),
         )
@@ -516,7 +516,7 @@ mod tests {
             .to_vec();
         let b = analyze(
             &AnalysisInput::from_table(
-                &crate::columns::doe_columns(&clayton),
+                &millcomp_datasets::adapters::doe_columns(&clayton),
                 "max_fz_n",
                 Some(&factors),
                 ModelSpec::Main,

@@ -1,6 +1,7 @@
 //! Presentation: the one place where results become text tables and plots. Libraries return data; the
 //! verbs in `cmd/` hand it here to be printed or drawn.
 
+pub mod batch;
 pub mod diagnose;
 pub mod doe;
 pub mod plot;

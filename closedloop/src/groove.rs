@@ -1,0 +1,384 @@
+//! Closed-loop runs on sim's groove stage (`millcomp_sim::groove::GrooveStage`, PZT spindle,
+//! `000_…txt` ch. 6–7) with every controller of [`millcomp_mpc::groove`].
+//!
+//! The truth plant is sim's stage configured from the scenario; the controllers get the program, their
+//! own models (identified stiffness, perturbed or identified force model, spindle model) and the
+//! measured signals only. Error = depth cut − programmed depth.
+
+use std::time::Instant;
+
+use millcomp_sim::groove::{GrooveConfig, GrooveStage, GrooveStepOutput};
+use millcomp_sim::material::Material;
+use millcomp_sim::sensors::NoiseSpec;
+use millcomp_sim::spindle::PztSpindle;
+use millcomp_sim::stiffness::TiltedToolStiffness;
+
+use millcomp_mpc::groove::{
+    DeflectionPlan, GrooveController, GrooveMpcSettings, MpcGrooveController, NoneController,
+    OpenLoopController, PidController,
+};
+use millcomp_mpc::pid::{AntiWindup, PidGains};
+use millcomp_mpc::predictor::ForcePredictor;
+
+use crate::calibration::{CalibratedStiffness, calibrate_stiffness};
+use crate::error::{ClosedLoopError, invalid};
+use crate::faults::{SolverFailures, groove_measurement};
+use crate::model_errors::ForceErrors;
+use crate::model_files::{load_force_params, load_response_surface, load_spindle};
+use crate::report::{Metrics, ModelSummary, RunOutput, RunReport, Trace};
+use crate::scenario::{ControllerKind, GrooveScenario, Scenario};
+
+/// Window around a process change in which its peak error is taken: from 0.5 mm before (preview, early
+/// moves) to 2 mm after (≈ 1.2 s: many filter time constants of the PID chain).
+pub const CHANGE_WINDOW_BEFORE_MM: f64 = 0.5;
+/// See [`CHANGE_WINDOW_BEFORE_MM`].
+pub const CHANGE_WINDOW_AFTER_MM: f64 = 2.0;
+
+/// Everything a groove run needs: the truth stage configuration and the controllers' models.
+#[derive(Debug, Clone)]
+pub struct GrooveSetup {
+    /// Truth plant.
+    pub truth: GrooveConfig,
+    /// Controllers' force predictor (mechanistic or response surface).
+    pub model_force: ForcePredictor,
+    /// Controllers' stiffness (identified, times `1 + stiffness_error`).
+    pub model_stiffness: TiltedToolStiffness,
+    /// Controllers' spindle model.
+    pub model_spindle: PztSpindle,
+    /// The simulated calibration.
+    pub calibration: CalibratedStiffness,
+    /// The force-parameter errors used.
+    pub force_errors: ForceErrors,
+    /// Truth force scale (calibrated or sim's default).
+    pub truth_force_scale: f64,
+}
+
+fn deepest(g: &GrooveScenario) -> f64 {
+    let n = 400;
+    (0..=n)
+        .map(|i| {
+            g.depth
+                .depth_at(g.length_mm * i as f64 / n as f64, g.length_mm)
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Build the truth plant and the controllers' models for a groove scenario (see `closedloop/SCENARIOS.md`).
+pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, ClosedLoopError> {
+    let g = s
+        .groove
+        .as_ref()
+        .ok_or_else(|| invalid("groove", "missing", "a [groove] table"))?;
+    let mut truth = GrooveConfig::thesis(g.tilt_deg, g.wearland_um)?;
+    truth.force_model.material = Material::by_name(&g.material)?;
+    truth.program.speed_rpm = g.speed_rpm;
+    truth.program.upfeed_um_per_rev = g.upfeed_um_per_rev;
+    truth.program.length_mm = g.length_mm;
+    truth.program.depth_profile = g.depth.clone();
+    truth.program.feed_changes = g.feed_steps.clone();
+    truth.program.feed_accel_mm_s2 = g.feed_accel_mm_s2;
+    truth.program.exit = g.exit;
+    truth.force_noise = (s.truth.force_noise_n > 0.0).then_some(NoiseSpec {
+        seed: s.seed.wrapping_mul(31).wrapping_add(1),
+        sigma: s.truth.force_noise_n,
+    });
+    truth.gauge_noise = (s.truth.gauge_noise_um > 0.0).then_some(NoiseSpec {
+        seed: s.seed.wrapping_mul(31).wrapping_add(2),
+        sigma: s.truth.gauge_noise_um,
+    });
+    truth.validate()?;
+    if let Some(target) = g.calibrate_uncompensated_um {
+        // the static deflection is proportional to the force scale up to the small depth feedback:
+        // a few secant steps on the scale
+        let d_max = deepest(g);
+        let mut scale = truth.force_model.params.force_scale;
+        for _ in 0..30 {
+            let d = truth.static_deflection_um(d_max)?;
+            if (d - target).abs() < 1e-6 * target {
+                break;
+            }
+            scale *= target / d.max(1e-9);
+            truth.force_model.params.force_scale = scale;
+        }
+        truth.validate()?;
+    }
+    let force_errors = s
+        .truth
+        .force_errors
+        .unwrap_or_else(|| ForceErrors::draw(s.truth.force_error_max, s.seed));
+    let model_force = match (&s.control.force_model, &s.control.force_response_surface) {
+        (Some(_), Some(_)) => {
+            return Err(invalid(
+                "control.force_response_surface",
+                "given together with control.force_model",
+                "one force predictor: either an identified model or a response surface",
+            ));
+        }
+        (Some(path), None) => {
+            ForcePredictor::Mechanistic(millcomp_mpc::identified::force_model_with(
+                &load_force_params(path)?,
+                &truth.force_model,
+            )?)
+        }
+        (None, Some(path)) => ForcePredictor::ResponseSurface(load_response_surface(path)?),
+        (None, None) => ForcePredictor::Mechanistic(force_errors.apply(&truth.force_model)?),
+    };
+    let model_spindle = match &s.control.spindle_model {
+        Some(path) => millcomp_mpc::identified::spindle_plant(&load_spindle(path)?)?,
+        None => truth.spindle.clone(),
+    };
+    let calibration = calibrate_stiffness(
+        &truth.stiffness,
+        &s.truth.stiffness_calibration,
+        s.seed.wrapping_add(7),
+    )?;
+    let f = 1.0 + s.truth.stiffness_error;
+    let model_stiffness = TiltedToolStiffness::new(
+        calibration.axial_n_per_um * f,
+        calibration.radial_n_per_um * f,
+    )?;
+    Ok(GrooveSetup {
+        truth_force_scale: truth.force_model.params.force_scale,
+        model_spindle,
+        truth,
+        model_force,
+        model_stiffness,
+        calibration,
+        force_errors,
+    })
+}
+
+/// The controllers' preview of a groove setup, tabulated every `dx_mm`.
+pub fn deflection_plan(setup: &GrooveSetup, dx_mm: f64) -> Result<DeflectionPlan, ClosedLoopError> {
+    Ok(DeflectionPlan::new(
+        &setup.truth.program,
+        &setup.model_force,
+        &setup.model_stiffness,
+        setup.truth.force_model.tool.radius_um,
+        dx_mm,
+    )?)
+}
+
+/// The groove MPC's settings from a scenario: its `[control]` table, the amplifier limit and the
+/// sensors' noise levels.
+pub fn mpc_settings(setup: &GrooveSetup, s: &Scenario) -> GrooveMpcSettings {
+    GrooveMpcSettings {
+        dt_s: s.control.dt_s,
+        mpc_every: s.control.mpc_every,
+        horizon: s.control.horizon,
+        slew_v_per_cycle: s.control.slew_v_per_cycle,
+        voltage_max_v: setup.truth.spindle.voltage_max_v,
+        config: s.control.mpc.clone(),
+        force_noise_n: s.truth.force_noise_n,
+        gauge_noise_um: s.truth.gauge_noise_um,
+    }
+}
+
+/// The x-windows (mm) around the process changes of a groove in which their peak error is taken: each
+/// depth change point and feed change from [`CHANGE_WINDOW_BEFORE_MM`] before to
+/// [`CHANGE_WINDOW_AFTER_MM`] after, and the exit zone (from the start of the engagement drop, minus
+/// [`CHANGE_WINDOW_BEFORE_MM`], to the edge).
+pub fn change_windows(t: &GrooveConfig) -> Vec<(f64, f64)> {
+    let mut w: Vec<(f64, f64)> = t
+        .program
+        .depth_profile
+        .change_points_mm()
+        .into_iter()
+        .chain(t.program.feed_changes.iter().map(|f| f.x_mm))
+        .map(|x| (x - CHANGE_WINDOW_BEFORE_MM, x + CHANGE_WINDOW_AFTER_MM))
+        .collect();
+    w.extend(exit_window(t));
+    w
+}
+
+/// The exit zone (mm): from [`CHANGE_WINDOW_BEFORE_MM`] before the engagement starts to drop to the edge.
+fn exit_window(t: &GrooveConfig) -> Option<(f64, f64)> {
+    t.program
+        .exit
+        .map(|e| (e.x_mm - e.length_mm - CHANGE_WINDOW_BEFORE_MM, e.x_mm))
+}
+
+/// Run a groove scenario with one controller.
+pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, ClosedLoopError> {
+    let wall = Instant::now();
+    let setup = groove_setup(s)?;
+    let t = &setup.truth;
+    let dt = s.control.dt_s;
+    let plan = deflection_plan(&setup, 0.01)?;
+    let v_max = t.spindle.voltage_max_v;
+    let mut notes = Vec::new();
+    let mut ctl: Box<dyn GrooveController> = match kind {
+        ControllerKind::None => Box::new(NoneController),
+        ControllerKind::OpenLoop => {
+            notes.push(
+                "open-loop pre-shift applied through the PZT (sim's stage has no path table yet)"
+                    .into(),
+            );
+            Box::new(OpenLoopController::new(
+                plan.clone(),
+                &t.program,
+                &setup.model_spindle,
+                v_max,
+            ))
+        }
+        ControllerKind::Pid | ControllerKind::PidAntiWindup | ControllerKind::PidDesign => {
+            let gains = if kind == ControllerKind::PidDesign {
+                PidGains::design()
+            } else {
+                PidGains::tuned()
+            };
+            let aw = if kind == ControllerKind::PidAntiWindup {
+                AntiWindup::BackCalculation { tracking_s: 1e-3 }
+            } else {
+                AntiWindup::None
+            };
+            Box::new(PidController::new(
+                gains,
+                aw,
+                &t.program,
+                &setup.model_spindle,
+                &setup.model_stiffness,
+                v_max,
+                dt,
+            )?)
+        }
+        ControllerKind::Threshold => {
+            return Err(ClosedLoopError::InvalidConfig {
+                key: "controller".into(),
+                value: "threshold".into(),
+                allowed: "the thin-wall stage (threshold is the 004 thin-wall baseline)".into(),
+            });
+        }
+        ControllerKind::Mpc => Box::new(MpcGrooveController::new(
+            plan.clone(),
+            &t.program,
+            &setup.model_spindle,
+            &setup.model_stiffness,
+            t.force_model.tool.flutes,
+            &mpc_settings(&setup, s),
+        )?),
+    };
+    let mut pending_failures = SolverFailures::new(s);
+    // process changes inside the groove: depth steps / plunges, feed changes, the exit
+    let windows = change_windows(t);
+    let exit_window = exit_window(t);
+    let mut change_peak: f64 = 0.0;
+    let mut exit_overcut: f64 = 0.0;
+    if plan.extrapolated_points > 0 {
+        notes.push(format!(
+            "force predictor extrapolated at {} of {} planned points (outside the response surface's fitted ranges)",
+            plan.extrapolated_points,
+            plan.n_points()
+        ));
+    }
+    if let ForcePredictor::ResponseSurface(_) = &setup.model_force {
+        notes.push(format!(
+            "controllers' force predictor: {}",
+            setup.model_force.describe()
+        ));
+    }
+    let mut stage = GrooveStage::new(t.clone(), dt)?;
+    let mut last: Option<GrooveStepOutput> = None;
+    let mut stuck = None;
+    let mut errors = Vec::with_capacity((t.duration_s() / dt) as usize + 2);
+    let mut travel = 0.0;
+    let mut prev_tip = 0.0;
+    let mut finite = true;
+    let mut in_limits = true;
+    let mut trace = Trace::new(&[
+        "t_s",
+        "x_mm",
+        "depth_cmd_um",
+        "depth_cut_um",
+        "error_um",
+        "deflection_um",
+        "pzt_tip_um",
+        "command_v",
+        "force_meas_n",
+        "gauge_um",
+        "planned_deflection_um",
+    ]);
+    let decimate = 20usize;
+    let mut k = 0usize;
+    loop {
+        let obs = last
+            .as_ref()
+            .map(|o| groove_measurement(o, &s.faults, &mut stuck));
+        let t_now = k as f64 * dt;
+        pending_failures.inject_due(t_now, |n| ctl.inject_solver_failures(n));
+        let v = ctl.command(obs.as_ref(), t_now);
+        if !v.is_finite() {
+            finite = false;
+        }
+        if !(0.0..=v_max).contains(&v) {
+            in_limits = false;
+        }
+        let o = stage.step(v);
+        // the groove exists only where the tool is engaged (before the workpiece edge)
+        if o.engagement > 0.0 {
+            let err = o.depth_cut_um - o.depth_cmd_um;
+            errors.push(err);
+            if windows.iter().any(|(a, b)| o.x_mm >= *a && o.x_mm <= *b) {
+                change_peak = change_peak.max(err.abs());
+            }
+            if let Some((a, b)) = exit_window
+                && o.x_mm >= a
+                && o.x_mm <= b
+            {
+                exit_overcut = exit_overcut.max(err);
+            }
+        }
+        travel += (o.pzt_tip_um - prev_tip).abs();
+        prev_tip = o.pzt_tip_um;
+        if k % decimate == 0 {
+            trace.rows.push(vec![
+                o.t_s,
+                o.x_mm,
+                o.depth_cmd_um,
+                o.depth_cut_um,
+                o.depth_cut_um - o.depth_cmd_um,
+                o.deflection_um,
+                o.pzt_tip_um,
+                v,
+                obs.map(|x| x.force_meas_n).unwrap_or(0.0),
+                obs.map(|x| x.gauge_um).unwrap_or(0.0),
+                plan.deflection_at(o.x_mm),
+            ]);
+        }
+        k += 1;
+        let done = o.done;
+        last = Some(o);
+        if done {
+            break;
+        }
+    }
+    let kz_model = setup
+        .model_stiffness
+        .z_stiffness_n_per_um(t.program.tilt_deg)?;
+    let kz_truth = t.stiffness.z_stiffness_n_per_um(t.program.tilt_deg)?;
+    let report = RunReport {
+        scenario: s.name.clone(),
+        stage: "groove".into(),
+        controller: kind.name().into(),
+        metrics: Metrics {
+            exit_overcut_um: exit_window.map(|_| exit_overcut),
+            ..Metrics::from_errors(&errors, travel)
+        },
+        solver: ctl.solver_stats(),
+        walls: None,
+        commands_finite: finite,
+        commands_in_limits: in_limits,
+        process_change_peak_um: (!windows.is_empty()).then_some(change_peak),
+        model: ModelSummary {
+            kz_model_n_per_um: kz_model,
+            kz_truth_n_per_um: kz_truth,
+            stiffness_error_rel: kz_model / kz_truth - 1.0,
+            force_error_max_rel: setup.force_errors.max_abs(),
+            truth_force_scale: setup.truth_force_scale,
+        },
+        simulated_s: k as f64 * dt,
+        wall_clock_s: wall.elapsed().as_secs_f64(),
+        notes,
+    };
+    Ok(RunOutput { report, trace })
+}

@@ -1,0 +1,758 @@
+//! Scenario files (TOML, `datasets/scenarios/*.toml`): which stage, the planned process, how the truth
+//! differs from the controllers' models, controller settings, injected faults. Schema in
+//! `closedloop/SCENARIOS.md`. Unknown keys and invalid values are errors naming the key.
+
+use std::path::Path;
+use std::str::FromStr;
+
+use serde::{Deserialize, Serialize};
+
+use millcomp_sim::feed::{FeedChange, WorkpieceExit};
+use millcomp_sim::groove::{DEFAULT_FEED_ACCEL_MM_S2, DepthProfile};
+
+use millcomp_mpc::config::MAX_HORIZON;
+use millcomp_mpc::{MpcConfig, MpcError};
+
+use crate::calibration::StiffnessCalibration;
+use crate::error::{ClosedLoopError, invalid};
+use crate::model_errors::ForceErrors;
+
+/// The controllers the runner knows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum ControllerKind {
+    /// No compensation.
+    #[serde(rename = "none")]
+    None,
+    /// Open-loop compensation: force model ÷ stiffness, pre-shifted path (`000_…txt` ch. 6).
+    #[serde(rename = "open-loop")]
+    OpenLoop,
+    /// The published PID (P 400, I 800 000, D 0) with the thesis' signal chain, no anti-windup (as published).
+    #[serde(rename = "pid")]
+    Pid,
+    /// The published PID with back-calculation anti-windup.
+    #[serde(rename = "pid-aw")]
+    PidAntiWindup,
+    /// The root-locus design PID (P 844, I 130 820, D 0.4), no anti-windup.
+    #[serde(rename = "pid-design")]
+    PidDesign,
+    /// Thin-wall iterative compensation with a 0.5 µm threshold (`004_…txt` §3.2).
+    #[serde(rename = "threshold")]
+    Threshold,
+    /// Model-predictive control solved with Clarabel every cycle.
+    #[serde(rename = "mpc")]
+    Mpc,
+}
+
+/// All controller names, in CLI order.
+pub const CONTROLLER_NAMES: [&str; 7] = [
+    "none",
+    "open-loop",
+    "pid",
+    "pid-aw",
+    "pid-design",
+    "threshold",
+    "mpc",
+];
+
+impl ControllerKind {
+    /// All kinds, in [`CONTROLLER_NAMES`] order.
+    pub const ALL: [ControllerKind; 7] = [
+        ControllerKind::None,
+        ControllerKind::OpenLoop,
+        ControllerKind::Pid,
+        ControllerKind::PidAntiWindup,
+        ControllerKind::PidDesign,
+        ControllerKind::Threshold,
+        ControllerKind::Mpc,
+    ];
+
+    /// The CLI/JSON name.
+    pub fn name(self) -> &'static str {
+        CONTROLLER_NAMES[Self::ALL.iter().position(|k| *k == self).unwrap_or(0)]
+    }
+}
+
+impl FromStr for ControllerKind {
+    type Err = ClosedLoopError;
+    /// ```
+    /// use millcomp_closedloop::scenario::ControllerKind;
+    /// assert_eq!("open-loop".parse::<ControllerKind>().unwrap(), ControllerKind::OpenLoop);
+    /// assert!("lqr".parse::<ControllerKind>().is_err());
+    /// ```
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        CONTROLLER_NAMES
+            .iter()
+            .position(|n| *n == s)
+            .map(|i| Self::ALL[i])
+            .ok_or_else(|| ClosedLoopError::UnknownController {
+                name: s.to_string(),
+                allowed: CONTROLLER_NAMES.join(", "),
+            })
+    }
+}
+
+impl std::fmt::Display for ControllerKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Which stage a scenario runs on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StageKind {
+    /// PZT-spindle groove stage (`000_…txt` ch. 6–7).
+    Groove,
+    /// Thin-wall linear-motor compensation stage (`004_…txt`).
+    ThinWall,
+}
+
+impl StageKind {
+    /// JSON name.
+    pub fn name(self) -> &'static str {
+        match self {
+            StageKind::Groove => "groove",
+            StageKind::ThinWall => "thin_wall",
+        }
+    }
+}
+
+/// A feed-rate change at a position along the groove (sim's [`FeedChange`]).
+pub type FeedStep = FeedChange;
+
+/// The tool leaves the workpiece (sim's [`WorkpieceExit`]).
+pub type ExitSpec = WorkpieceExit;
+
+/// Groove-stage scenario.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GrooveScenario {
+    /// Material name (`S7`, `1018`, `6061`, `H59`, `C45`).
+    #[serde(default = "default_material")]
+    pub material: String,
+    /// Tool tilt (deg).
+    pub tilt_deg: f64,
+    /// Tool wearland (µm) of the truth tool.
+    #[serde(default = "default_wearland")]
+    pub wearland_um: f64,
+    /// Spindle speed (rpm).
+    #[serde(default = "default_speed")]
+    pub speed_rpm: f64,
+    /// Upfeed (µm/rev) at the start.
+    #[serde(default = "default_upfeed")]
+    pub upfeed_um_per_rev: f64,
+    /// Groove length (mm).
+    #[serde(default = "default_length")]
+    pub length_mm: f64,
+    /// Programmed depth profile (sim's `DepthProfile`: `{kind = "ramp", from_um, to_um}`, …).
+    pub depth: DepthProfile,
+    /// Feed-rate changes (`[[x_mm, upfeed_um_per_rev]]` as tables `{x_mm, upfeed_um_per_rev}`).
+    #[serde(default)]
+    pub feed_steps: Vec<FeedStep>,
+    /// Feed-axis acceleration (mm/s²) for the feed changes (default: sim's
+    /// [`DEFAULT_FEED_ACCEL_MM_S2`], ≈ 003's 16 ms feed-axis delay for a doubling).
+    #[serde(default = "default_feed_accel")]
+    pub feed_accel_mm_s2: f64,
+    /// Workpiece exit: `{x_mm, length_mm}` (edge position and the length over which the engagement falls).
+    #[serde(default)]
+    pub exit: Option<ExitSpec>,
+    /// If set, the truth force scale is calibrated so that the uncompensated error at the deepest
+    /// programmed point equals this (µm) — used where the thesis reports the measured uncompensated error
+    /// for a tool whose condition was not measured (30°, 40°).
+    #[serde(default)]
+    pub calibrate_uncompensated_um: Option<f64>,
+}
+
+fn default_material() -> String {
+    "S7".into()
+}
+fn default_wearland() -> f64 {
+    8.0
+}
+fn default_speed() -> f64 {
+    10_000.0
+}
+fn default_upfeed() -> f64 {
+    10.0
+}
+fn default_length() -> f64 {
+    20.0
+}
+fn default_feed_accel() -> f64 {
+    DEFAULT_FEED_ACCEL_MM_S2
+}
+
+/// Thin-wall scenario (`004_…txt` Tables 2–4).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThinWallScenario {
+    /// Nominal wall thicknesses (µm).
+    #[serde(default = "default_walls")]
+    pub walls_um: Vec<f64>,
+    /// Wall height (µm).
+    #[serde(default = "default_wall_height")]
+    pub height_um: f64,
+    /// Radial depth of cut ae (µm).
+    #[serde(default = "default_ae")]
+    pub ae_um: f64,
+    /// Axial depth per layer ap (µm).
+    #[serde(default = "default_ap")]
+    pub ap_um: f64,
+    /// Feed per tooth (µm).
+    #[serde(default = "default_fz")]
+    pub fz_um: f64,
+    /// Wall length (mm).
+    #[serde(default = "default_wall_length")]
+    pub length_mm: f64,
+}
+
+fn default_walls() -> Vec<f64> {
+    vec![80.0, 100.0, 120.0]
+}
+fn default_wall_height() -> f64 {
+    800.0
+}
+fn default_ae() -> f64 {
+    50.0
+}
+fn default_ap() -> f64 {
+    200.0
+}
+fn default_fz() -> f64 {
+    1.6
+}
+fn default_wall_length() -> f64 {
+    5.0
+}
+
+/// How the truth differs from the controllers' models.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TruthSpec {
+    /// Bound of the seeded force-parameter errors (relative, ≤ 0.5). Ignored if `force_errors` is given.
+    #[serde(default = "default_force_error_max")]
+    pub force_error_max: f64,
+    /// Explicit force-parameter errors (relative).
+    #[serde(default)]
+    pub force_errors: Option<ForceErrors>,
+    /// Simulated stiffness calibration.
+    #[serde(default)]
+    pub stiffness_calibration: StiffnessCalibration,
+    /// Extra multiplicative error on the controllers' identified stiffness (sweeps): `k_model = k_id·(1+e)`.
+    #[serde(default)]
+    pub stiffness_error: f64,
+    /// Force-sensor noise σ (N); quantisation is the same value (`000_…txt` §5.2.2: 0.04 N).
+    #[serde(default = "default_force_noise")]
+    pub force_noise_n: f64,
+    /// Gauge noise σ (µm).
+    #[serde(default = "default_gauge_noise")]
+    pub gauge_noise_um: f64,
+}
+
+fn default_force_error_max() -> f64 {
+    0.15
+}
+fn default_force_noise() -> f64 {
+    0.04
+}
+fn default_gauge_noise() -> f64 {
+    0.01
+}
+
+impl Default for TruthSpec {
+    fn default() -> Self {
+        Self {
+            force_error_max: default_force_error_max(),
+            force_errors: None,
+            stiffness_calibration: StiffnessCalibration::default(),
+            stiffness_error: 0.0,
+            force_noise_n: default_force_noise(),
+            gauge_noise_um: default_gauge_noise(),
+        }
+    }
+}
+
+/// Controller timing and MPC settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControlSpec {
+    /// Stage step (s); PID and the signal chain run every step.
+    #[serde(default = "default_dt")]
+    pub dt_s: f64,
+    /// MPC period in stage steps.
+    #[serde(default = "default_mpc_every")]
+    pub mpc_every: usize,
+    /// MPC horizon (used when `mpc` is not given).
+    #[serde(default = "default_horizon")]
+    pub horizon: usize,
+    /// Amplifier slew limit per MPC cycle (V).
+    #[serde(default = "default_slew")]
+    pub slew_v_per_cycle: f64,
+    /// Full MPC configuration override (keys as in `mpc/CONFIG.md`).
+    #[serde(default)]
+    pub mpc: Option<MpcConfig>,
+    /// Identified spindle (`millcomp identify` saved model, kind `spindle`, TOML path) used as the
+    /// controllers' spindle model instead of sim's fitted one.
+    #[serde(default)]
+    pub spindle_model: Option<String>,
+    /// Identified force model (saved model, kind `force`, TOML path) used as the controllers' force
+    /// predictor instead of the perturbed truth (`truth.force_errors` is then ignored).
+    #[serde(default)]
+    pub force_model: Option<String>,
+    /// Response-surface force predictor (a model saved by `millcomp doe analyze --save`, TOML path) used
+    /// in the controllers' preview; its factors must be process parameters (`closedloop/SCENARIOS.md`).
+    #[serde(default)]
+    pub force_response_surface: Option<String>,
+}
+
+fn default_dt() -> f64 {
+    5e-5
+}
+fn default_mpc_every() -> usize {
+    10
+}
+fn default_horizon() -> usize {
+    20
+}
+fn default_slew() -> f64 {
+    100.0
+}
+
+impl Default for ControlSpec {
+    fn default() -> Self {
+        Self {
+            dt_s: default_dt(),
+            mpc_every: default_mpc_every(),
+            horizon: default_horizon(),
+            slew_v_per_cycle: default_slew(),
+            mpc: None,
+            spindle_model: None,
+            force_model: None,
+            force_response_surface: None,
+        }
+    }
+}
+
+/// An injected fault.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Fault {
+    /// Add `magnitude_n` to the measured force for `duration_s` from `t_s`.
+    ForceSpike {
+        /// Start (s).
+        t_s: f64,
+        /// Added force (N).
+        magnitude_n: f64,
+        /// Duration (s).
+        duration_s: f64,
+    },
+    /// Sensor dropout: the force and gauge readings stay at their last value for `duration_s`.
+    StuckSensor {
+        /// Start (s).
+        t_s: f64,
+        /// Duration (s).
+        duration_s: f64,
+    },
+    /// The MPC's QP solver fails to converge (iteration cap 1) for `cycles` cycles from `t_s`.
+    SolverFailure {
+        /// Start (s).
+        t_s: f64,
+        /// Number of failing cycles.
+        cycles: usize,
+    },
+}
+
+/// A complete scenario.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Short name.
+    pub name: String,
+    /// What it reproduces, with the seed reference.
+    #[serde(default)]
+    pub description: String,
+    /// Stage.
+    pub stage: StageKind,
+    /// Seed of every random draw (noise, calibration, force errors).
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// Groove settings (stage = "groove").
+    #[serde(default)]
+    pub groove: Option<GrooveScenario>,
+    /// Thin-wall settings (stage = "thin_wall").
+    #[serde(default)]
+    pub thin_wall: Option<ThinWallScenario>,
+    /// Truth vs model.
+    #[serde(default)]
+    pub truth: TruthSpec,
+    /// Controller settings.
+    #[serde(default)]
+    pub control: ControlSpec,
+    /// Controllers this scenario is meant to be run with (validated names; informative).
+    #[serde(default)]
+    pub controllers: Vec<String>,
+    /// Injected faults.
+    #[serde(default)]
+    pub faults: Vec<Fault>,
+}
+
+fn default_seed() -> u64 {
+    1
+}
+
+impl Scenario {
+    /// The injected solver failures as `(t_s, cycles)`, in file order.
+    pub fn solver_failures(&self) -> Vec<(f64, usize)> {
+        self.faults
+            .iter()
+            .filter_map(|f| match *f {
+                Fault::SolverFailure { t_s, cycles } => Some((t_s, cycles)),
+                _ => None,
+            })
+            .collect()
+    }
+}
+
+fn finite_pos(key: &str, v: f64) -> Result<(), ClosedLoopError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(invalid(key, v, "finite and > 0"))
+    }
+}
+
+impl Scenario {
+    /// Parse TOML text (`path` is only used in messages) and validate.
+    ///
+    /// # Errors
+    /// [`ClosedLoopError::Scenario`] for TOML that does not parse or an unknown key (the parser's
+    /// message names it), and the errors of [`Scenario::validate`].
+    pub fn from_toml_str(text: &str, path: &str) -> Result<Self, ClosedLoopError> {
+        let s: Scenario = toml::from_str(text).map_err(|e| ClosedLoopError::Scenario {
+            path: path.to_string(),
+            message: e.to_string(),
+        })?;
+        s.validate()?;
+        Ok(s)
+    }
+
+    /// Read and validate a scenario file.
+    ///
+    /// # Errors
+    /// [`ClosedLoopError::Io`] when the file cannot be read, and those of [`Scenario::from_toml_str`].
+    ///
+    /// # Examples
+    /// ```
+    /// use millcomp_closedloop::scenario::{Scenario, StageKind};
+    /// let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../datasets/scenarios/");
+    /// let s = Scenario::load(format!("{dir}groove_s7_30deg.toml")).unwrap();
+    /// assert_eq!(s.stage, StageKind::Groove);
+    /// let g = s.groove.as_ref().unwrap();
+    /// // the published 30° S7 groove: 0 → 80 µm over 20 mm, calibrated to the ≈ 16 µm uncompensated
+    /// // error of 000 §7.2.2
+    /// assert_eq!((g.tilt_deg, g.length_mm), (30.0, 20.0));
+    /// assert_eq!(g.calibrate_uncompensated_um, Some(16.0));
+    /// assert!(Scenario::load(format!("{dir}no_such.toml")).is_err());
+    /// ```
+    pub fn load(path: impl AsRef<Path>) -> Result<Self, ClosedLoopError> {
+        let p = path.as_ref();
+        let text = std::fs::read_to_string(p).map_err(|e| ClosedLoopError::Io {
+            path: p.display().to_string(),
+            message: e.to_string(),
+        })?;
+        Self::from_toml_str(&text, &p.display().to_string())
+    }
+
+    /// Validate every value; errors name the key.
+    ///
+    /// # Errors
+    /// [`ClosedLoopError::InvalidConfig`] naming the key (`groove.tilt_deg`, `controllers[1]`,
+    /// `control.mpc.limits.u_min[0]`, …) and what is allowed.
+    pub fn validate(&self) -> Result<(), ClosedLoopError> {
+        for (i, c) in self.controllers.iter().enumerate() {
+            c.parse::<ControllerKind>().map_err(|e| match e {
+                ClosedLoopError::UnknownController { name, allowed } => invalid(
+                    format!("controllers[{i}]"),
+                    name,
+                    format!("one of {allowed}"),
+                ),
+                other => other,
+            })?;
+        }
+        match self.stage {
+            StageKind::Groove => {
+                let g = self.groove.as_ref().ok_or_else(|| {
+                    invalid(
+                        "groove",
+                        "missing",
+                        "a [groove] table for stage = \"groove\"",
+                    )
+                })?;
+                if !(g.tilt_deg.is_finite() && g.tilt_deg > 0.0 && g.tilt_deg < 90.0) {
+                    return Err(invalid(
+                        "groove.tilt_deg",
+                        g.tilt_deg,
+                        "0 < tilt_deg < 90 (the PZT moves the tip radially)",
+                    ));
+                }
+                if !(g.wearland_um.is_finite() && g.wearland_um >= 0.0) {
+                    return Err(invalid(
+                        "groove.wearland_um",
+                        g.wearland_um,
+                        "finite and >= 0",
+                    ));
+                }
+                finite_pos("groove.speed_rpm", g.speed_rpm)?;
+                finite_pos("groove.upfeed_um_per_rev", g.upfeed_um_per_rev)?;
+                finite_pos("groove.length_mm", g.length_mm)?;
+                g.depth.validate(400.0).map_err(|e| {
+                    invalid(
+                        "groove.depth",
+                        e,
+                        "depths within 0 ..= 400 µm (ball radius), steps sorted",
+                    )
+                })?;
+                let mut last = f64::NEG_INFINITY;
+                for (i, fs) in g.feed_steps.iter().enumerate() {
+                    if !(fs.x_mm.is_finite() && fs.x_mm >= last && fs.x_mm <= g.length_mm) {
+                        return Err(invalid(
+                            format!("groove.feed_steps[{i}].x_mm"),
+                            fs.x_mm,
+                            "sorted, within 0 ..= length_mm",
+                        ));
+                    }
+                    last = fs.x_mm;
+                    finite_pos(
+                        &format!("groove.feed_steps[{i}].upfeed_um_per_rev"),
+                        fs.upfeed_um_per_rev,
+                    )?;
+                }
+                finite_pos("groove.feed_accel_mm_s2", g.feed_accel_mm_s2)?;
+                if let Some(e) = g.exit {
+                    // sim's own check; its parameter names (`exit.x_mm`, …) become scenario keys
+                    e.validate(g.length_mm).map_err(|err| match err {
+                        millcomp_sim::SimError::InvalidParameter {
+                            name,
+                            value,
+                            allowed,
+                        } => invalid(format!("groove.{name}"), value, allowed),
+                        other => other.into(),
+                    })?;
+                }
+                if let Some(u) = g.calibrate_uncompensated_um {
+                    finite_pos("groove.calibrate_uncompensated_um", u)?;
+                }
+            }
+            StageKind::ThinWall => {
+                let t = self.thin_wall.as_ref().ok_or_else(|| {
+                    invalid(
+                        "thin_wall",
+                        "missing",
+                        "a [thin_wall] table for stage = \"thin_wall\"",
+                    )
+                })?;
+                if t.walls_um.is_empty() {
+                    return Err(invalid("thin_wall.walls_um", "[]", "at least one wall"));
+                }
+                for (i, w) in t.walls_um.iter().enumerate() {
+                    finite_pos(&format!("thin_wall.walls_um[{i}]"), *w)?;
+                }
+                finite_pos("thin_wall.height_um", t.height_um)?;
+                finite_pos("thin_wall.ae_um", t.ae_um)?;
+                finite_pos("thin_wall.ap_um", t.ap_um)?;
+                finite_pos("thin_wall.fz_um", t.fz_um)?;
+                finite_pos("thin_wall.length_mm", t.length_mm)?;
+            }
+        }
+        let tr = &self.truth;
+        if !(tr.force_error_max.is_finite() && (0.0..=0.5).contains(&tr.force_error_max)) {
+            return Err(invalid(
+                "truth.force_error_max",
+                tr.force_error_max,
+                "0 ..= 0.5",
+            ));
+        }
+        if let Some(fe) = tr.force_errors
+            && !(fe.max_abs().is_finite() && fe.max_abs() <= 0.5)
+        {
+            return Err(invalid(
+                "truth.force_errors",
+                format!("{fe:?}"),
+                "each |error| <= 0.5",
+            ));
+        }
+        if !(tr.stiffness_error.is_finite()
+            && tr.stiffness_error > -0.9
+            && tr.stiffness_error < 9.0)
+        {
+            return Err(invalid(
+                "truth.stiffness_error",
+                tr.stiffness_error,
+                "-0.9 < stiffness_error < 9",
+            ));
+        }
+        let sc = &tr.stiffness_calibration;
+        if !(sc.indicator_resolution_um.is_finite() && sc.indicator_resolution_um >= 0.0) {
+            return Err(invalid(
+                "truth.stiffness_calibration.indicator_resolution_um",
+                sc.indicator_resolution_um,
+                "finite and >= 0",
+            ));
+        }
+        if !(sc.noise_um.is_finite() && sc.noise_um >= 0.0) {
+            return Err(invalid(
+                "truth.stiffness_calibration.noise_um",
+                sc.noise_um,
+                "finite and >= 0",
+            ));
+        }
+        if sc.trials == 0 {
+            return Err(invalid("truth.stiffness_calibration.trials", 0, ">= 1"));
+        }
+        for (key, v) in [
+            ("truth.force_noise_n", tr.force_noise_n),
+            ("truth.gauge_noise_um", tr.gauge_noise_um),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(invalid(key, v, "finite and >= 0"));
+            }
+        }
+        let c = &self.control;
+        if !(c.dt_s.is_finite() && c.dt_s > 0.0 && c.dt_s <= 1e-3) {
+            return Err(invalid("control.dt_s", c.dt_s, "0 < dt_s <= 1e-3"));
+        }
+        if c.mpc_every == 0 {
+            return Err(invalid("control.mpc_every", 0, ">= 1"));
+        }
+        if c.horizon == 0 || c.horizon > MAX_HORIZON {
+            return Err(invalid(
+                "control.horizon",
+                c.horizon,
+                format!("1 ..= {}", MAX_HORIZON),
+            ));
+        }
+        finite_pos("control.slew_v_per_cycle", c.slew_v_per_cycle)?;
+        if let Some(m) = &c.mpc {
+            m.validate_keys().map_err(|e| match e {
+                MpcError::InvalidConfig {
+                    key,
+                    value,
+                    allowed,
+                } => ClosedLoopError::InvalidConfig {
+                    key: format!("control.mpc.{key}"),
+                    value,
+                    allowed,
+                },
+                other => ClosedLoopError::Mpc(other),
+            })?;
+        }
+        for (i, f) in self.faults.iter().enumerate() {
+            let (t, ok) = match *f {
+                Fault::ForceSpike {
+                    t_s,
+                    magnitude_n,
+                    duration_s,
+                } => (
+                    t_s,
+                    magnitude_n.is_finite() && duration_s.is_finite() && duration_s > 0.0,
+                ),
+                Fault::StuckSensor { t_s, duration_s } => {
+                    (t_s, duration_s.is_finite() && duration_s > 0.0)
+                }
+                Fault::SolverFailure { t_s, cycles } => (t_s, cycles > 0),
+            };
+            if !(t.is_finite() && t >= 0.0 && ok) {
+                return Err(invalid(
+                    format!("faults[{i}]"),
+                    format!("{f:?}"),
+                    "t_s >= 0, finite magnitude, duration > 0, cycles > 0",
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GROOVE: &str = r#"
+name = "g20"
+stage = "groove"
+[groove]
+tilt_deg = 20.0
+depth = { kind = "ramp", from_um = 0.0, to_um = 80.0 }
+"#;
+
+    fn key(e: ClosedLoopError) -> String {
+        match e {
+            ClosedLoopError::InvalidConfig { key, .. } => key,
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn parses_with_defaults() {
+        let s = Scenario::from_toml_str(GROOVE, "g20.toml").unwrap();
+        let g = s.groove.unwrap();
+        assert_eq!(g.speed_rpm, 10_000.0);
+        assert_eq!(s.truth.force_error_max, 0.15);
+        assert_eq!(s.control.mpc_every, 10);
+    }
+
+    #[test]
+    fn bad_values_name_the_key() {
+        let t = GROOVE.replace("[groove]", "controllers = [\"pid\", \"lqr\"]\n[groove]");
+        let e = Scenario::from_toml_str(&t, "x").unwrap_err();
+        assert_eq!(key(e), "controllers[1]");
+        let t = GROOVE.replace("[groove]", "[control]\nhorizon = 0\n[groove]");
+        assert_eq!(
+            key(Scenario::from_toml_str(&t, "x").unwrap_err()),
+            "control.horizon"
+        );
+        let t = GROOVE.replace("tilt_deg = 20.0", "tilt_deg = 0.0");
+        assert_eq!(
+            key(Scenario::from_toml_str(&t, "x").unwrap_err()),
+            "groove.tilt_deg"
+        );
+        let t = format!(
+            "{}\n[control.mpc]\nhorizon = 10\n[control.mpc.weights]\noutput = [0.0, -1.0]\ninput_rate = [1e-5]\n[control.mpc.limits]\nu_min = [0.0]\nu_max = [1000.0]\ndu_max = [10.0]\n",
+            GROOVE
+        );
+        assert_eq!(
+            key(Scenario::from_toml_str(&t, "x").unwrap_err()),
+            "control.mpc.weights.output[1]"
+        );
+        let t = t
+            .replace("output = [0.0, -1.0]", "output = [0.0, 1.0]")
+            .replace("u_min = [0.0]", "u_min = [2000.0]");
+        assert_eq!(
+            key(Scenario::from_toml_str(&t, "x").unwrap_err()),
+            "control.mpc.limits.u_min[0]"
+        );
+        // process changes: the feed axis, the exit and the feed-change positions name their keys
+        for (extra, want) in [
+            ("feed_accel_mm_s2 = 0.0", "groove.feed_accel_mm_s2"),
+            (
+                "exit = { x_mm = 30.0, length_mm = 0.2 }",
+                "groove.exit.x_mm",
+            ),
+            (
+                "exit = { x_mm = 5.0, length_mm = 6.0 }",
+                "groove.exit.length_mm",
+            ),
+            (
+                "feed_steps = [{ x_mm = 25.0, upfeed_um_per_rev = 20.0 }]",
+                "groove.feed_steps[0].x_mm",
+            ),
+        ] {
+            let t = GROOVE.replace("tilt_deg = 20.0", &format!("tilt_deg = 20.0\n{extra}"));
+            assert_eq!(key(Scenario::from_toml_str(&t, "x").unwrap_err()), want);
+        }
+        let t = GROOVE.replace("tilt_deg = 20.0", "tilt_deg = 20.0\nbogus = 1");
+        assert!(
+            matches!(Scenario::from_toml_str(&t, "x").unwrap_err(), ClosedLoopError::Scenario { message, .. } if message.contains("bogus"))
+        );
+    }
+}

@@ -1,0 +1,101 @@
+//! Closed loop on sim's groove stage: the must-show figures of issue 6 for the S7 grooves.
+//!
+//! Published references (000_…txt): uncompensated ≈ 16–17 µm (§6.3, §7.2.2); open loop 16 → 5 µm pp
+//! (70 %, §6.3); closed-loop PID 65–80 % (§7.2.2, §7.3.4).
+
+use crate::common::*;
+use millcomp_closedloop::{ControllerKind, RunReport, run_scenario};
+
+fn run(s: &millcomp_closedloop::Scenario, k: ControllerKind) -> RunReport {
+    let r = run_scenario(s, k).unwrap();
+    assert!(r.commands_finite && r.commands_in_limits, "{k}: commands");
+    r
+}
+
+fn removal(none: &RunReport, r: &RunReport) -> f64 {
+    1.0 - r.metrics.pp_error_um / none.metrics.pp_error_um
+}
+
+#[test]
+fn grooves_20_30_40_deg_uncompensated_open_loop_pid_mpc() {
+    for file in [
+        "groove_s7_20deg.toml",
+        "groove_s7_30deg.toml",
+        "groove_s7_40deg.toml",
+    ] {
+        let s = scenario(file);
+        let none = run(&s, ControllerKind::None);
+        let ol = run(&s, ControllerKind::OpenLoop);
+        let pid = run(&s, ControllerKind::Pid);
+        let mpc = run(&s, ControllerKind::Mpc);
+        let (lo, hi) = UNCOMPENSATED_RANGE_UM;
+        assert!(
+            (lo..=hi).contains(&none.metrics.pp_error_um),
+            "{file}: uncompensated {}",
+            none.metrics.pp_error_um
+        );
+        // the uncompensated groove is shallower (error ≤ 0 everywhere)
+        assert!(none.metrics.max_error_um <= 1e-9);
+        // issue 6: open loop and PID each remove ≥ 65 % (published 65–80 %)
+        assert!(
+            removal(&none, &ol) >= 0.65,
+            "{file}: open loop {}",
+            ol.metrics.pp_error_um
+        );
+        assert!(
+            removal(&none, &pid) >= 0.65,
+            "{file}: pid {}",
+            pid.metrics.pp_error_um
+        );
+        // MPC removes ≥ 90 %
+        assert!(
+            removal(&none, &mpc) >= 0.90,
+            "{file}: mpc {}",
+            mpc.metrics.pp_error_um
+        );
+        // … and is no worse than PID: lower RMS everywhere, peak-to-peak no worse beyond the force-sensor
+        // resolution (at 20° both are stroke-limited at the deep end: the PZT's 50 µm tip stroke gives
+        // 17.1 µm z, the compensated deflection there is 18.5 µm, so both share the same minimum error;
+        // the MPC's maximum is a small overcut just before the stroke runs out — it compensates the
+        // deflection computed with the *identified* stiffness, ≈ 1 % off, which PID's filter lag hides.
+        // Over seeds 1–6 that overcut is 0.09–0.23 µm; at the shipped seed 0.055 µm)
+        assert!(
+            mpc.metrics.rms_error_um < pid.metrics.rms_error_um,
+            "{file}: rms mpc {} pid {}",
+            mpc.metrics.rms_error_um,
+            pid.metrics.rms_error_um
+        );
+        assert!(
+            mpc.metrics.pp_error_um <= pid.metrics.pp_error_um + RESOLUTION_20DEG_UM,
+            "{file}: pp mpc {} pid {}",
+            mpc.metrics.pp_error_um,
+            pid.metrics.pp_error_um
+        );
+        let st = mpc.solver.expect("mpc reports solver stats");
+        assert_eq!(st.fallbacks, 0);
+        // 12 s of cut at 2 kHz
+        assert!(st.solves >= 23_000, "{}", st.solves);
+    }
+}
+
+#[test]
+fn residual_error_follows_the_stiffness_error() {
+    // sweep (SCENARIOS.md): a controller stiffness 20 % too low makes every force-feedback controller
+    // over-compensate by ≈ 20 % of the 16–18 µm deflection; at 0 the MPC is at its ≈ 1.4 µm floor
+    let s = scenario("groove_s7_20deg.toml");
+    let pts =
+        millcomp_closedloop::stiffness_sweep(&s, &[-0.2, 0.0], &[ControllerKind::Mpc]).unwrap();
+    assert_eq!(pts.len(), 2);
+    assert!(
+        (pts[0].kz_error_rel + 0.19).abs() < 0.02,
+        "{}",
+        pts[0].kz_error_rel
+    );
+    assert!(
+        pts[0].pp_error_um > pts[1].pp_error_um + 2.5,
+        "{} vs {}",
+        pts[0].pp_error_um,
+        pts[1].pp_error_um
+    );
+    assert!(pts[1].removal_pct >= 90.0);
+}

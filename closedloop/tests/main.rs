@@ -1,0 +1,8 @@
+//! The integration tests of millcomp-closedloop (scenarios, closed-loop runs, faults), one binary.
+
+mod common;
+mod faults;
+mod groove;
+mod process_changes;
+mod scenarios;
+mod thin_wall;

@@ -1,0 +1,159 @@
+//! Known process changes (issue 6): a feed doubling, a depth step and the cutter exiting the workpiece.
+//! Seed 003_…txt §3.2–3.3: proactive compensation 43 µm vs reactive 74 µm peak at a feed step; at the exit
+//! a reactive compensation cuts undersize because its actuating value is not reduced fast enough.
+//! Issue 6: MPC's peak error at most half of PID's, and no undersize at the exit beyond 1 µm.
+
+use crate::common::*;
+use millcomp_closedloop::{ControllerKind, RunReport, run_scenario};
+
+fn run(s: &millcomp_closedloop::Scenario, k: ControllerKind) -> RunReport {
+    let r = run_scenario(s, k).unwrap();
+    assert!(r.commands_finite && r.commands_in_limits, "{k}: commands");
+    r
+}
+
+/// Shorten a scenario around its change at x = 10 mm to keep the debug test fast: the cut from 7 mm on
+/// is what the change window (9.5–12 mm) needs after the MPC/PID transients of the start (< 1 s) decay.
+fn around_change(mut s: millcomp_closedloop::Scenario) -> millcomp_closedloop::Scenario {
+    if let Some(g) = s.groove.as_mut() {
+        g.length_mm = g.length_mm.min(13.0);
+    }
+    s
+}
+
+#[test]
+fn feed_doubling_mpc_peak_at_most_half_of_pid() {
+    let s = around_change(scenario("groove_s7_20deg_feed_step.toml"));
+    let none = run(&s, ControllerKind::None);
+    let pid = run(&s, ControllerKind::Pid);
+    let mpc = run(&s, ControllerKind::Mpc);
+    let (n, p, m) = (
+        none.process_change_peak_um.unwrap(),
+        pid.process_change_peak_um.unwrap(),
+        mpc.process_change_peak_um.unwrap(),
+    );
+    // the doubling raises the deflection by several µm (chip thickness ×2, 000 eq. 2)
+    assert!(n > 8.0, "uncompensated peak {n}");
+    assert!(m <= 0.5 * p, "feed step: mpc {m} pid {p}");
+    assert_eq!(mpc.solver.unwrap().fallbacks, 0);
+}
+
+#[test]
+fn depth_plunge_mpc_peak_at_most_half_of_pid() {
+    let s = around_change(scenario("groove_s7_20deg_depth_step.toml"));
+    let pid = run(&s, ControllerKind::Pid).process_change_peak_um.unwrap();
+    let mpc = run(&s, ControllerKind::Mpc).process_change_peak_um.unwrap();
+    assert!(mpc <= 0.5 * pid, "depth step: mpc {mpc} pid {pid}");
+}
+
+#[test]
+fn exit_mpc_no_undersize_and_half_of_pid() {
+    let s = scenario("groove_s7_20deg_exit.toml");
+    let none = run(&s, ControllerKind::None);
+    let pid = run(&s, ControllerKind::Pid);
+    let mpc = run(&s, ControllerKind::Mpc);
+    // uncompensated: the deflection falls to 0 but never below (003 §3.3: "always remains positive")
+    assert!(none.metrics.exit_overcut_um.unwrap() <= 1e-9);
+    // a reactive PID keeps pushing the tip in as the force drops: overcut (003's undersize)
+    let pid_over = pid.metrics.exit_overcut_um.unwrap();
+    let mpc_over = mpc.metrics.exit_overcut_um.unwrap();
+    assert!(pid_over > 1.0, "pid exit overcut {pid_over}");
+    // issue 6: no undersize at the exit beyond 1 µm
+    assert!(mpc_over <= 1.0, "mpc exit overcut {mpc_over}");
+    let (p, m) = (
+        pid.process_change_peak_um.unwrap(),
+        mpc.process_change_peak_um.unwrap(),
+    );
+    assert!(m <= 0.5 * p, "exit: mpc {m} pid {p}");
+}
+
+/// The response-surface force predictor (`doe analyze --save`) in the MPC's preview: a quadratic in depth
+/// and upfeed fitted to the controllers' own mechanistic predictions on a 4 × 3 grid gives the same
+/// closed-loop result as the mechanistic predictor it approximates, and still halves PID's peak at the
+/// feed step.
+#[test]
+fn response_surface_predictor_drives_the_preview() {
+    use millcomp_doe::{AnalysisInput, Column, ModelSpec, analyze, response_surface};
+    use millcomp_sim::groove::GrooveConfig;
+
+    let mut s = around_change(scenario("groove_s7_20deg_feed_step.toml"));
+    s.truth.force_errors = Some(millcomp_closedloop::model_errors::ForceErrors {
+        w_mpa: 0.05,
+        mu_rake: 0.0,
+        mu_flank: 0.0,
+        wearland_um: 0.0,
+    });
+    // "measured" peak forces: the truth model scaled as the controllers' (W + 5 %)
+    let truth = GrooveConfig::thesis(20.0, 8.0).unwrap();
+    let model = s
+        .truth
+        .force_errors
+        .unwrap()
+        .apply(&truth.force_model)
+        .unwrap();
+    let (mut d, mut u, mut f) = (Vec::new(), Vec::new(), Vec::new());
+    for depth in [20.0, 40.0, 60.0, 80.0] {
+        for upfeed in [5.0, 12.5, 20.0] {
+            d.push(depth);
+            u.push(upfeed);
+            f.push(
+                model
+                    .peak_z_force_n(&truth.conditions_at(depth, upfeed))
+                    .unwrap(),
+            );
+        }
+    }
+    let fitted = response_surface(
+        &analyze(&AnalysisInput {
+            factors: vec![
+                ("depth_um".into(), Column::F64(d)),
+                ("upfeed_um".into(), Column::F64(u)),
+            ],
+            response_name: "max_fz_n".into(),
+            response: Column::F64(f),
+            model: ModelSpec::Quadratic,
+        })
+        .unwrap(),
+    )
+    .unwrap();
+    assert!(fitted.r_squared > 0.99, "R² {}", fitted.r_squared);
+    let dir = std::env::temp_dir().join(format!("millcomp-rs-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("fz_surface.toml");
+    millcomp_models::ModelFile::new(
+        "response_surface",
+        fitted,
+        millcomp_models::Provenance::now("test", "response_surface_predictor_drives_the_preview"),
+    )
+    .save(&path)
+    .unwrap();
+
+    let mech = run(&s, ControllerKind::Mpc);
+    let mut rs = s.clone();
+    rs.control.force_response_surface = Some(path.display().to_string());
+    let surf = run(&rs, ControllerKind::Mpc);
+    std::fs::remove_dir_all(&dir).ok();
+    assert!(
+        surf.notes.iter().any(|n| n.contains("response surface")),
+        "{:?}",
+        surf.notes
+    );
+    // same closed loop within a tenth of a µm: the surface reproduces the model it was fitted to
+    assert!(
+        (surf.metrics.pp_error_um - mech.metrics.pp_error_um).abs() < 0.1,
+        "pp: surface {} mechanistic {}",
+        surf.metrics.pp_error_um,
+        mech.metrics.pp_error_um
+    );
+    let (ps, pm) = (
+        surf.process_change_peak_um.unwrap(),
+        mech.process_change_peak_um.unwrap(),
+    );
+    // at the change the surface's few-% misfit of the force jump shows (measured: 0.71 vs 0.58 µm); it
+    // must still meet issue 6's process-change bound against PID
+    let pid = run(&s, ControllerKind::Pid).process_change_peak_um.unwrap();
+    assert!(
+        ps <= 0.5 * pid && (ps - pm).abs() < 0.25,
+        "change peak: surface {ps} mechanistic {pm} pid {pid}"
+    );
+}

@@ -1,0 +1,506 @@
+//! The groove controllers (`000_…txt` ch. 6–7, the PZT-actuated spindle), stepped at the stage rate.
+//!
+//! Every controller sees only what a machine offers: the measured force and the gauge reading
+//! ([`GrooveMeasurement`]), the planned process (sim's [`GrooveProgram`] and the [`DeflectionPlan`] the
+//! controllers compute from it with their *own* models) and their own models (force predictor,
+//! identified stiffness, spindle). None of them is built from the truth plant.
+//!
+//! Sign conventions (sim's stage): depth cut `d = d_cmd − δz + tip·sin α`, + = deeper; the PZT moves the
+//! tip radially, so a z-correction δz needs a tip travel δz / sin α (eq. 26).
+//!
+//! - [`NoneController`]: 0 V;
+//! - [`OpenLoopController`] (ch. 6): predicted per-revolution peak z-force of the planned cut × the
+//!   controllers' z-compliance = predicted deflection; the tip is driven to it open loop through the
+//!   spindle's static gain. The thesis pre-shifted the machine path; sim's groove stage has no
+//!   programmable path table yet, so the pre-shift is applied through the actuator (the same
+//!   quasi-static correction; the 20 kHz actuator is far faster than the 12 s ramp);
+//! - [`PidController`] (ch. 7): measured force → 500 Hz 2nd-order filter → nested peak-and-hold →
+//!   first-order 0.0005/0.9995 filter → × compliance / sin α = wanted tip; gauge → 500 Hz filter; PID on
+//!   the difference (eq. 25) at the 20 kHz stage rate;
+//! - [`MpcGrooveController`]: every `mpc_every` steps (2 kHz), the [`crate::spindle_mpc`] design with
+//!   preview of the planned deflection, measured deflection = one-revolution sliding peak
+//!   ([`SlidingMax`]) of the 2 kHz-low-passed force × compliance; a sensor reading that stays
+//!   bit-identical too long is left out of the measurement update.
+
+use millcomp_sim::DiscreteLti;
+use millcomp_sim::feed::FeedProfile;
+use millcomp_sim::filters::{Biquad, FirstOrderFilter, PeakHold, SlidingMax};
+use millcomp_sim::groove::GrooveProgram;
+use millcomp_sim::spindle::PztSpindle;
+use millcomp_sim::stiffness::TiltedToolStiffness;
+use nalgebra::DMatrix;
+
+use crate::config::MpcConfig;
+use crate::controller::{MpcController, PreviewWindow};
+use crate::error::MpcError;
+use crate::pid::{AntiWindup, Pid, PidGains};
+use crate::predictor::ForcePredictor;
+use crate::spindle_mpc::{OUT_ERROR, OUT_GAUGE, default_spindle_config};
+use crate::stats::SolverStats;
+
+/// Cut-off of the MPC's force pre-filter (Hz): well above the 333 Hz flute frequency so the per-revolution
+/// peak is kept, low enough to take the 0.04 N sensor noise down by ~2×.
+pub const MPC_FORCE_PREFILTER_HZ: f64 = 2000.0;
+
+/// What the groove controllers measure at each stage step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GrooveMeasurement {
+    /// Measured force (N): the workpiece z-force of the stage's force channel.
+    pub force_meas_n: f64,
+    /// Capacitance-gauge reading of the tool-tip displacement (µm).
+    pub gauge_um: f64,
+}
+
+/// The planned deflection seen by the controllers: `δ̂(x) = Fz,peak(predictor, d_cmd(x), f(x)) · e(x) ·
+/// c_z,model` with the programmed depth `d_cmd`, the upfeed `f` of the planned feed motion (feed changes
+/// with the axis acceleration) and the engagement `e` (workpiece exit), tabulated along x.
+#[derive(Debug, Clone)]
+pub struct DeflectionPlan {
+    dx_mm: f64,
+    values_um: Vec<f64>,
+    feed: FeedProfile,
+    /// Tabulated points where the force predictor extrapolated beyond its fitted range.
+    pub extrapolated_points: usize,
+}
+
+impl DeflectionPlan {
+    /// Tabulate the plan every `dx_mm` along the programmed groove, with the controllers' force
+    /// predictor and stiffness, for a tool of ball radius `tool_radius_um` (programmed depths are
+    /// clamped to it).
+    ///
+    /// # Errors
+    /// [`MpcError::Sim`] for an invalid program (feed motion) or a tilt the stiffness cannot take; a
+    /// predictor error.
+    ///
+    /// ```
+    /// use millcomp_mpc::groove::DeflectionPlan;
+    /// use millcomp_mpc::predictor::ForcePredictor;
+    /// use millcomp_sim::groove::{GrooveConfig, GrooveProgram};
+    /// use millcomp_sim::stiffness::TiltedToolStiffness;
+    /// // the thesis' 20° groove, predicted with sim's force model and the Table 5-1 stiffness
+    /// let truth = GrooveConfig::thesis(20.0, 8.0).unwrap();
+    /// let program = GrooveProgram::thesis(20.0);
+    /// let predictor = ForcePredictor::Mechanistic(truth.force_model.clone());
+    /// let plan =
+    ///     DeflectionPlan::new(&program, &predictor, &TiltedToolStiffness::default(), 400.0, 0.01)
+    ///         .unwrap();
+    /// assert_eq!(plan.n_points(), 2001); // 20 mm every 10 µm, both ends
+    /// assert_eq!(plan.deflection_at(0.0), 0.0); // the ramp starts at 0 µm
+    /// // at the deep end the plan takes the force of the full programmed 80 µm: more than sim's
+    /// // self-consistent uncompensated deflection (16.0 µm, the cut there is shallower by it); 18.69 µm
+    /// // is this plan's value, recorded when this example was written
+    /// let end = plan.deflection_at(20.0);
+    /// assert!(end > truth.static_deflection_um(80.0).unwrap());
+    /// assert!((end - 18.69).abs() < 0.01, "{end}");
+    /// ```
+    pub fn new(
+        program: &GrooveProgram,
+        force: &ForcePredictor,
+        model_stiffness: &TiltedToolStiffness,
+        tool_radius_um: f64,
+        dx_mm: f64,
+    ) -> Result<Self, MpcError> {
+        let c = model_stiffness.z_compliance_um_per_n(program.tilt_deg)?;
+        let feed = program.feed_profile()?;
+        let n = (program.length_mm / dx_mm).ceil() as usize + 1;
+        let mut values = Vec::with_capacity(n);
+        let mut extrapolated = 0;
+        for i in 0..n {
+            let x = (i as f64 * dx_mm).min(program.length_mm);
+            let d = program.depth_at(x).clamp(0.0, tool_radius_um);
+            let e = program.engagement(x);
+            let cond = program.conditions_at(d, feed.upfeed_at_x(x));
+            let f = if d > 0.0 && e > 0.0 {
+                if force
+                    .response_surface()
+                    .is_some_and(|r| r.extrapolates(&cond))
+                {
+                    extrapolated += 1;
+                }
+                force.peak_z_force_n(&cond)? * e
+            } else {
+                0.0
+            };
+            // a tool cannot be pushed out of the cut by more than it is engaged: at the first few µm of
+            // a ramp the flank force alone would predict more deflection than depth
+            values.push((f * c).min(d));
+        }
+        Ok(Self {
+            dx_mm,
+            values_um: values,
+            feed,
+            extrapolated_points: extrapolated,
+        })
+    }
+
+    /// Number of tabulated points.
+    pub fn n_points(&self) -> usize {
+        self.values_um.len()
+    }
+
+    /// Planned position at time `t_s` (mm).
+    pub fn x_at(&self, t_s: f64) -> f64 {
+        self.feed.x_at(t_s)
+    }
+
+    /// Planned z-deflection (µm) at time `t_s` as the stage produces it: the deflection follows the peak
+    /// force of the last revolution (`000_…txt` §6.2), and the force peaks once per tooth: a rise appears
+    /// when the next tooth reaches its peak — on average half a tooth period after the change — and a fall
+    /// once the last tooth peak before it has left the one-revolution window — on average a revolution
+    /// less half a tooth period after it. Evaluated as the maximum of the planned per-revolution
+    /// deflection over `[t − T_rev + T_tooth/2, t − T_tooth/2]` (9 samples, ends included).
+    pub fn deflection_at_time(&self, t_s: f64, rev_s: f64, tooth_s: f64) -> f64 {
+        let t1 = t_s - 0.5 * tooth_s;
+        let t0 = (t_s - rev_s + 0.5 * tooth_s).min(t1);
+        (0..=8)
+            .map(|i| {
+                let t = t0 + (t1 - t0) * i as f64 / 8.0;
+                self.deflection_at(self.x_at(t.max(0.0)))
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// Planned z-deflection (µm) at `x_mm` (linear interpolation).
+    pub fn deflection_at(&self, x_mm: f64) -> f64 {
+        let u = (x_mm / self.dx_mm).max(0.0);
+        let i = u.floor() as usize;
+        if i + 1 >= self.values_um.len() {
+            return *self.values_um.last().unwrap_or(&0.0);
+        }
+        let f = u - i as f64;
+        self.values_um[i] * (1.0 - f) + self.values_um[i + 1] * f
+    }
+}
+
+/// A groove controller stepped at the stage rate.
+pub trait GrooveController {
+    /// Command (V) for the step starting at `t_s`, given the last measurement (None at the start).
+    fn command(&mut self, last: Option<&GrooveMeasurement>, t_s: f64) -> f64;
+    /// QP statistics (MPC only).
+    fn solver_stats(&self) -> Option<SolverStats> {
+        None
+    }
+    /// Make the next `cycles` QP solves fail (fault injection; MPC only, a no-op for the others).
+    fn inject_solver_failures(&mut self, _cycles: usize) {}
+}
+
+/// No compensation: 0 V.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NoneController;
+
+impl GrooveController for NoneController {
+    fn command(&mut self, _: Option<&GrooveMeasurement>, _: f64) -> f64 {
+        0.0
+    }
+}
+
+/// Open-loop compensation (ch. 6): the planned deflection, driven through the spindle's static gain.
+#[derive(Debug, Clone)]
+pub struct OpenLoopController {
+    plan: DeflectionPlan,
+    tip_per_z: f64,
+    v_per_um: f64,
+    v_max: f64,
+}
+
+impl OpenLoopController {
+    /// From the plan, the program's tilt, the controllers' spindle model (static gain) and the
+    /// amplifier's maximum voltage.
+    pub fn new(
+        plan: DeflectionPlan,
+        program: &GrooveProgram,
+        model_spindle: &PztSpindle,
+        voltage_max_v: f64,
+    ) -> Self {
+        Self {
+            plan,
+            tip_per_z: 1.0 / program.tilt_deg.to_radians().sin(),
+            v_per_um: 1.0 / model_spindle.gain_um_per_v,
+            v_max: voltage_max_v,
+        }
+    }
+}
+
+impl GrooveController for OpenLoopController {
+    fn command(&mut self, _: Option<&GrooveMeasurement>, t_s: f64) -> f64 {
+        let dz = self.plan.deflection_at(self.plan.x_at(t_s));
+        (dz * self.tip_per_z * self.v_per_um).clamp(0.0, self.v_max)
+    }
+}
+
+/// The published PID with the thesis' signal chain (ch. 7), at the stage rate.
+#[derive(Debug, Clone)]
+pub struct PidController {
+    force_lp: Biquad,
+    gauge_lp: Biquad,
+    peak: PeakHold,
+    smooth: FirstOrderFilter,
+    pid: Pid,
+    tip_per_n: f64,
+    dt_s: f64,
+}
+
+impl PidController {
+    /// The signal chain for the program's speed and tilt, the PID with `gains` and `anti_windup` scaled
+    /// by the controllers' spindle model (`loop_v_per_unit`), output 0–`voltage_max_v`, at `dt_s`.
+    ///
+    /// # Errors
+    /// [`MpcError::Sim`] for a filter frequency above Nyquist, a non-positive speed or a tilt the
+    /// stiffness cannot take.
+    pub fn new(
+        gains: PidGains,
+        anti_windup: AntiWindup,
+        program: &GrooveProgram,
+        model_spindle: &PztSpindle,
+        model_stiffness: &TiltedToolStiffness,
+        voltage_max_v: f64,
+        dt_s: f64,
+    ) -> Result<Self, MpcError> {
+        Ok(Self {
+            force_lp: Biquad::low_pass(500.0, std::f64::consts::FRAC_1_SQRT_2, dt_s)?,
+            gauge_lp: Biquad::low_pass(500.0, std::f64::consts::FRAC_1_SQRT_2, dt_s)?,
+            peak: PeakHold::thesis(program.speed_rpm)?,
+            smooth: FirstOrderFilter::thesis(dt_s)?,
+            pid: Pid::new(
+                gains,
+                anti_windup,
+                model_spindle.loop_v_per_unit,
+                0.0,
+                voltage_max_v,
+                dt_s,
+            ),
+            tip_per_n: model_stiffness.pzt_compliance_um_per_n(program.tilt_deg)?,
+            dt_s,
+        })
+    }
+}
+
+impl GrooveController for PidController {
+    fn command(&mut self, last: Option<&GrooveMeasurement>, _: f64) -> f64 {
+        let Some(o) = last else { return 0.0 };
+        let f = self.force_lp.step(o.force_meas_n);
+        let p = self.peak.step(f, self.dt_s);
+        let p = if p.is_finite() { p } else { 0.0 };
+        let fs = self.smooth.step(p);
+        let g = self.gauge_lp.step(o.gauge_um);
+        let e = fs * self.tip_per_n - g;
+        self.pid.step(e)
+    }
+}
+
+/// How the groove MPC is set up: timing, horizon and amplifier limits (the control settings), an
+/// optional full configuration, and the sensors' noise levels its Kalman filter assumes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GrooveMpcSettings {
+    /// Stage step (s).
+    pub dt_s: f64,
+    /// MPC period in stage steps.
+    pub mpc_every: usize,
+    /// Horizon (used when `config` is not given).
+    pub horizon: usize,
+    /// Amplifier slew limit per MPC cycle (V).
+    pub slew_v_per_cycle: f64,
+    /// Amplifier maximum (V).
+    pub voltage_max_v: f64,
+    /// Full MPC configuration (keys in `mpc/CONFIG.md`); `None`: [`default_spindle_config`] tuned to
+    /// the sensor noise below.
+    pub config: Option<MpcConfig>,
+    /// Force-sensor noise σ (N).
+    pub force_noise_n: f64,
+    /// Gauge noise σ (µm).
+    pub gauge_noise_um: f64,
+}
+
+/// Build the groove MPC: the controllers' spindle model sampled at `dt_s · mpc_every` with two outputs
+/// (gauge, depth error = gauge · sin α), and `settings.config` if given, else the default spindle design
+/// with the measurement noise of the sensors mapped through the controllers' compliance.
+///
+/// # Errors
+/// [`MpcError::Sim`] for an invalid spindle model or tilt; configuration and construction errors of
+/// [`MpcController::new`].
+pub fn groove_mpc(
+    model_spindle: &PztSpindle,
+    model_stiffness: &TiltedToolStiffness,
+    tilt_deg: f64,
+    settings: &GrooveMpcSettings,
+) -> Result<MpcController, MpcError> {
+    let tc = settings.dt_s * settings.mpc_every as f64;
+    let sin_a = tilt_deg.to_radians().sin();
+    let single = model_spindle.to_lti()?.discretize_zoh(tc)?;
+    let n = single.n_states();
+    let mut c = DMatrix::zeros(2, n);
+    for j in 0..n {
+        c[(OUT_GAUGE, j)] = single.c[(0, j)];
+        c[(OUT_ERROR, j)] = sin_a * single.c[(0, j)];
+    }
+    let model = DiscreteLti::new(single.a, single.b, c, DMatrix::zeros(2, 1), tc)?;
+    let cfg = match &settings.config {
+        Some(m) => m.clone(),
+        None => {
+            let mut c = default_spindle_config(
+                settings.horizon,
+                settings.voltage_max_v,
+                settings.slew_v_per_cycle,
+            );
+            // measured error channel: σ ≈ compliance × σ of the filtered per-revolution force peak
+            let comp = model_stiffness.z_compliance_um_per_n(tilt_deg)?;
+            let sf = (settings.force_noise_n * 0.5).max(0.005);
+            c.kalman.measurement_noise = vec![
+                (settings.gauge_noise_um.max(0.005)).powi(2),
+                (comp * sf).powi(2).max(1e-4),
+            ];
+            // the deflection mismatch (force-model error × planned deflection) changes slowly except at
+            // process changes, which the preview already carries: a (0.003 µm)²/cycle random walk gives a
+            // ≈ 5 ms (≈ one revolution) disturbance time constant against ≈ 0.035 µm measurement noise,
+            // smoothing the per-revolution steps of the measured peak
+            c.kalman.disturbance_noise = 1e-5;
+            c
+        }
+    };
+    MpcController::new(&model, &cfg)
+}
+
+/// Flags a sensor whose reading has not changed (bit-identical) for `limit` consecutive samples: with the
+/// published sensor noise this cannot happen to a live channel (a dropout / frozen ADC).
+#[derive(Debug, Clone, Copy)]
+struct StaleDetector {
+    last: f64,
+    repeats: usize,
+    limit: usize,
+}
+
+impl StaleDetector {
+    fn new(limit: usize) -> Self {
+        Self {
+            last: f64::NAN,
+            repeats: 0,
+            limit,
+        }
+    }
+
+    fn stale(&mut self, x: f64) -> bool {
+        if x == self.last {
+            self.repeats += 1;
+        } else {
+            self.repeats = 0;
+            self.last = x;
+        }
+        self.repeats >= self.limit
+    }
+}
+
+/// The offset-free MPC with preview of the planned deflection, run every `mpc_every` stage steps and
+/// holding its command in between.
+#[derive(Debug)]
+pub struct MpcGrooveController {
+    mpc: MpcController,
+    plan: DeflectionPlan,
+    force_lp: Biquad,
+    peak: SlidingMax,
+    compliance: f64,
+    sin_a: f64,
+    every: usize,
+    tc_s: f64,
+    rev_s: f64,
+    tooth_s: f64,
+    k: usize,
+    v_hold: f64,
+    window: PreviewWindow,
+    stale: [StaleDetector; 2],
+}
+
+impl MpcGrooveController {
+    /// The MPC of [`groove_mpc`] with the plan's preview, for the program's speed and tilt, a tool with
+    /// `flutes` teeth and the controllers' stiffness; the force channel is judged stale after 2 ms of
+    /// bit-identical readings, the gauge after 1 ms.
+    ///
+    /// # Errors
+    /// Those of [`groove_mpc`], and [`MpcError::Sim`] for a pre-filter above Nyquist.
+    pub fn new(
+        plan: DeflectionPlan,
+        program: &GrooveProgram,
+        model_spindle: &PztSpindle,
+        model_stiffness: &TiltedToolStiffness,
+        flutes: u32,
+        settings: &GrooveMpcSettings,
+    ) -> Result<Self, MpcError> {
+        let mpc = groove_mpc(model_spindle, model_stiffness, program.tilt_deg, settings)?;
+        let dt = settings.dt_s;
+        let n = mpc.config().horizon;
+        let steps_per_rev = (60.0 / program.speed_rpm / dt).round() as usize;
+        Ok(Self {
+            mpc,
+            plan,
+            force_lp: Biquad::low_pass(
+                MPC_FORCE_PREFILTER_HZ,
+                std::f64::consts::FRAC_1_SQRT_2,
+                dt,
+            )?,
+            peak: SlidingMax::new(steps_per_rev),
+            compliance: model_stiffness.z_compliance_um_per_n(program.tilt_deg)?,
+            sin_a: program.tilt_deg.to_radians().sin(),
+            every: settings.mpc_every,
+            tc_s: dt * settings.mpc_every as f64,
+            rev_s: 60.0 / program.speed_rpm,
+            tooth_s: 60.0 / program.speed_rpm / flutes as f64,
+            k: 0,
+            v_hold: 0.0,
+            window: PreviewWindow::zeros(n, 2),
+            // 1 ms of a bit-identical gauge reading, 2 ms of an identical force reading
+            stale: [
+                StaleDetector::new((2e-3 / dt) as usize),
+                StaleDetector::new((1e-3 / dt) as usize),
+            ],
+        })
+    }
+
+    /// The MPC inside.
+    pub fn mpc(&self) -> &MpcController {
+        &self.mpc
+    }
+}
+
+impl GrooveController for MpcGrooveController {
+    fn command(&mut self, last: Option<&GrooveMeasurement>, t_s: f64) -> f64 {
+        let (force, gauge) = last
+            .map(|o| (o.force_meas_n, o.gauge_um))
+            .unwrap_or((0.0, 0.0));
+        let force_stale = self.stale[0].stale(force);
+        let gauge_stale = self.stale[1].stale(gauge);
+        let fpk = self.peak.step(self.force_lp.step(force));
+        let run_now = self.k % self.every == 0;
+        self.k += 1;
+        if !run_now {
+            return self.v_hold;
+        }
+        let n = self.mpc.config().horizon;
+        let (rev, tooth) = (self.rev_s, self.tooth_s);
+        self.window.offset_now[OUT_ERROR] = -self.plan.deflection_at_time(t_s, rev, tooth);
+        for j in 0..n {
+            let t = t_s + (j + 1) as f64 * self.tc_s;
+            self.window.offsets[j * 2 + OUT_ERROR] = -self.plan.deflection_at_time(t, rev, tooth);
+        }
+        // a stale sensor is left out of the measurement update (prediction from the model and the plan)
+        let y = [
+            if gauge_stale { f64::NAN } else { gauge },
+            if gauge_stale || force_stale {
+                f64::NAN
+            } else {
+                self.sin_a * gauge - self.compliance * fpk
+            },
+        ];
+        // dimension errors cannot happen here (window built for this controller); on one, hold
+        if let Ok(s) = self.mpc.step(&y, &self.window) {
+            self.v_hold = s.u[0];
+        }
+        self.v_hold
+    }
+
+    fn solver_stats(&self) -> Option<SolverStats> {
+        Some(self.mpc.stats())
+    }
+
+    fn inject_solver_failures(&mut self, cycles: usize) {
+        self.mpc.inject_solver_failures(cycles);
+    }
+}
