@@ -1,7 +1,7 @@
 //! `millcomp demo`: the main job on embedded data, and the generator of the shipped synthetic spindle run.
 
 use assert_cmd::Command;
-use millcomp_identify::verbs::spindle::simulate_spindle_um;
+use millcomp_identify::targets::spindle::simulate_spindle_um;
 use millcomp_sim::sensors::NoiseSource;
 use millcomp_sim::spindle::PztSpindle;
 use serde_json::Value;

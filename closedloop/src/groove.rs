@@ -72,7 +72,7 @@ pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, ClosedLoopError> {
     let mut truth = GrooveConfig::thesis(g.tilt_deg, g.wearland_um)?;
     truth.force_model.material = Material::by_name(&g.material)?;
     truth.program.speed_rpm = g.speed_rpm;
-    truth.program.upfeed_um_per_rev = g.upfeed_um_per_rev;
+    truth.program.upfeed_um = g.upfeed_um;
     truth.program.length_mm = g.length_mm;
     truth.program.depth_profile = g.depth.clone();
     truth.program.feed_changes = g.feed_steps.clone();

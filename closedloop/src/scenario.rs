@@ -140,13 +140,13 @@ pub struct GrooveScenario {
     pub speed_rpm: f64,
     /// Upfeed (µm/rev) at the start.
     #[serde(default = "default_upfeed")]
-    pub upfeed_um_per_rev: f64,
+    pub upfeed_um: f64,
     /// Groove length (mm).
     #[serde(default = "default_length")]
     pub length_mm: f64,
     /// Programmed depth profile (sim's `DepthProfile`: `{kind = "ramp", from_um, to_um}`, …).
     pub depth: DepthProfile,
-    /// Feed-rate changes (`[[x_mm, upfeed_um_per_rev]]` as tables `{x_mm, upfeed_um_per_rev}`).
+    /// Feed-rate changes (`[[x_mm, upfeed_um]]` as tables `{x_mm, upfeed_um}`).
     #[serde(default)]
     pub feed_steps: Vec<FeedStep>,
     /// Feed-axis acceleration (mm/s²) for the feed changes (default: sim's
@@ -503,7 +503,7 @@ impl Scenario {
                     ));
                 }
                 finite_pos("groove.speed_rpm", g.speed_rpm)?;
-                finite_pos("groove.upfeed_um_per_rev", g.upfeed_um_per_rev)?;
+                finite_pos("groove.upfeed_um", g.upfeed_um)?;
                 finite_pos("groove.length_mm", g.length_mm)?;
                 g.depth.validate(400.0).map_err(|e| {
                     invalid(
@@ -522,10 +522,7 @@ impl Scenario {
                         ));
                     }
                     last = fs.x_mm;
-                    finite_pos(
-                        &format!("groove.feed_steps[{i}].upfeed_um_per_rev"),
-                        fs.upfeed_um_per_rev,
-                    )?;
+                    finite_pos(&format!("groove.feed_steps[{i}].upfeed_um"), fs.upfeed_um)?;
                 }
                 finite_pos("groove.feed_accel_mm_s2", g.feed_accel_mm_s2)?;
                 if let Some(e) = g.exit {
@@ -743,7 +740,7 @@ depth = { kind = "ramp", from_um = 0.0, to_um = 80.0 }
                 "groove.exit.length_mm",
             ),
             (
-                "feed_steps = [{ x_mm = 25.0, upfeed_um_per_rev = 20.0 }]",
+                "feed_steps = [{ x_mm = 25.0, upfeed_um = 20.0 }]",
                 "groove.feed_steps[0].x_mm",
             ),
         ] {

@@ -50,7 +50,7 @@ const MEASURED_GROOVE: [(&str, ColumnKind, &str); 11] = [
         ColumnKind::Float,
         "cumulative engaged length of the tool",
     ),
-    ("spindle_rpm", ColumnKind::Float, "spindle speed"),
+    ("speed_rpm", ColumnKind::Float, "spindle speed"),
     ("feed_mm_min", ColumnKind::Float, "feed rate"),
     ("upfeed_um", ColumnKind::Float, "feed per revolution"),
     ("tilt_deg", ColumnKind::Float, "tool tilt"),
@@ -61,6 +61,13 @@ const MEASURED_GROOVE: [(&str, ColumnKind, &str); 11] = [
 
 /// The optional measured-groove column (written when a point has a spindle temperature).
 pub const SPINDLE_TEMP_COLUMN: &str = "spindle_temp_c";
+
+/// Version of the measured-groove contract this build writes. Version 2 renamed `spindle_rpm` to
+/// `speed_rpm` (one name per quantity across millcomp); files of version 1 are still read.
+pub const MEASURED_GROOVE_VERSION: u32 = 2;
+
+/// Columns renamed since version 1 of the measured-groove contract: (version-1 name, current name).
+pub const MEASURED_GROOVE_V1_NAMES: [(&str, &str); 1] = [("spindle_rpm", "speed_rpm")];
 
 /// Name, kind and meaning of every force-trace column, in contract order.
 const FORCE_TRACE: [(&str, ColumnKind, &str); 4] = [
@@ -105,18 +112,64 @@ pub const MEASURED_GROOVE_COLUMNS: [&str; 11] = names(&MEASURED_GROOVE);
 /// Columns of the flute force trace, in contract order.
 pub const FORCE_TRACE_COLUMNS: [&str; 4] = names(&FORCE_TRACE);
 
-/// The measured-groove session schema: one row per measured point.
+/// The measured-groove session schema: one row per measured point. A renamed column may come under its
+/// version-1 name ([`MEASURED_GROOVE_V1_NAMES`]): both names are optional here and the readers require one
+/// of them.
 pub fn measured_groove_schema() -> Schema {
     let mut columns: Vec<ColumnSpec> = MEASURED_GROOVE
         .iter()
-        .map(|(name, kind, what)| ColumnSpec::required(name, *kind, what))
+        .map(|(name, kind, what)| {
+            if MEASURED_GROOVE_V1_NAMES.iter().any(|(_, new)| new == name) {
+                ColumnSpec::optional(name, *kind, what)
+            } else {
+                ColumnSpec::required(name, *kind, what)
+            }
+        })
         .collect();
+    for (old, new) in MEASURED_GROOVE_V1_NAMES {
+        let kind = MEASURED_GROOVE
+            .iter()
+            .find(|(n, ..)| *n == new)
+            .map_or(ColumnKind::Float, |(_, k, _)| *k);
+        columns.push(ColumnSpec::optional(
+            old,
+            kind,
+            &format!("version-1 name of `{new}`"),
+        ));
+    }
     columns.push(ColumnSpec::optional(
         SPINDLE_TEMP_COLUMN,
         ColumnKind::Float,
         "spindle temperature",
     ));
     Schema::new("measured_groove", columns)
+}
+
+/// Renames version-1 columns to their current names (with a note); a renamed column missing under both
+/// names is the missing-column error naming the current name.
+fn upgrade_v1(path: &Path, table: &mut Table) -> Result<Vec<String>, DatasetError> {
+    let mut notes = Vec::new();
+    for (old, new) in MEASURED_GROOVE_V1_NAMES {
+        if table.column(new).is_some() {
+            continue;
+        }
+        match table.columns.iter_mut().find(|c| c.name == old) {
+            Some(c) => {
+                c.name = new.to_string();
+                notes.push(format!(
+                    "column `{old}` read as `{new}` (its name in version 1 of the measured-groove contract)"
+                ));
+            }
+            None => {
+                return Err(DatasetError::MissingColumn {
+                    file: path.to_path_buf(),
+                    column: new.to_string(),
+                    present: table.names().join(", "),
+                });
+            }
+        }
+    }
+    Ok(notes)
 }
 
 /// The flute force-trace schema: one row per measured point.
@@ -137,6 +190,8 @@ pub struct MeasuredGroove {
     pub points: Vec<GroovePoint>,
     /// Columns present in the file but not in the contract, which were ignored.
     pub ignored_columns: Vec<String>,
+    /// Notes on how the file was read (e.g. a version-1 column name).
+    pub notes: Vec<String>,
 }
 
 /// Reads and validates a measured-groove file (CSV or Parquet) as a table: the schema, plus `t_s`
@@ -145,7 +200,8 @@ pub struct MeasuredGroove {
 /// # Errors
 /// [`DatasetError`] naming the file, the column and the 1-based data row.
 pub fn read_measured_groove_table(path: &Path) -> Result<Table, DatasetError> {
-    let table = read_table(path, &measured_groove_schema())?;
+    let mut table = read_table(path, &measured_groove_schema())?;
+    upgrade_v1(path, &mut table)?;
     groove_points(path, &table)?;
     Ok(table)
 }
@@ -169,10 +225,12 @@ pub fn read_measured_groove_str(origin: &str, text: &str) -> Result<MeasuredGroo
     measured_groove_from(Path::new(origin), table)
 }
 
-fn measured_groove_from(path: &Path, table: Table) -> Result<MeasuredGroove, DatasetError> {
+fn measured_groove_from(path: &Path, mut table: Table) -> Result<MeasuredGroove, DatasetError> {
+    let notes = upgrade_v1(path, &mut table)?;
     Ok(MeasuredGroove {
         points: groove_points(path, &table)?,
         ignored_columns: table.ignored_columns,
+        notes,
     })
 }
 
@@ -185,7 +243,7 @@ fn groove_points(path: &Path, t: &Table) -> Result<Vec<GroovePoint>, DatasetErro
         f("t_s")?,
         f("x_mm")?,
         f("cut_length_mm")?,
-        f("spindle_rpm")?,
+        f("speed_rpm")?,
         f("feed_mm_min")?,
         f("upfeed_um")?,
         f("tilt_deg")?,
@@ -202,7 +260,7 @@ fn groove_points(path: &Path, t: &Table) -> Result<Vec<GroovePoint>, DatasetErro
             t_s: ts[i],
             x_mm: x[i],
             cut_length_mm: cut[i],
-            spindle_rpm: rpm[i],
+            speed_rpm: rpm[i],
             feed_mm_min: feed[i],
             upfeed_um: up[i],
             tilt_deg: tilt[i],
@@ -255,7 +313,7 @@ pub fn measured_groove_table(origin: &str, points: &[GroovePoint]) -> Result<Tab
         float(|p| p.t_s),
         float(|p| p.x_mm),
         float(|p| p.cut_length_mm),
-        float(|p| p.spindle_rpm),
+        float(|p| p.speed_rpm),
         float(|p| p.feed_mm_min),
         float(|p| p.upfeed_um),
         float(|p| p.tilt_deg),
@@ -352,6 +410,27 @@ mod tests {
 
     fn header() -> String {
         MEASURED_GROOVE_COLUMNS.join(",")
+    }
+
+    #[test]
+    fn reads_version_1_files_and_requires_the_speed() {
+        // a file written against version 1 of the contract (DESIGN.md: `spindle_rpm`)
+        let v1 = header().replace("speed_rpm", "spindle_rpm");
+        let m = read_measured_groove_str(
+            "v1.csv",
+            &format!("{v1}\n0,0,0,0,10000,100,10,20,1,0,0.1\n"),
+        )
+        .unwrap();
+        assert_eq!(m.points[0].speed_rpm, 10_000.0);
+        assert!(m.notes[0].contains("spindle_rpm"), "{:?}", m.notes);
+        // neither name: the error names the current one
+        let none = header().replace("speed_rpm,", "");
+        let e = read_measured_groove_str("x.csv", &format!("{none}\n0,0,0,0,100,10,20,1,0,0.1\n"))
+            .unwrap_err();
+        assert!(
+            matches!(e, DatasetError::MissingColumn { ref column, .. } if column == "speed_rpm"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -158,8 +158,8 @@ pub fn diagnose_forces(
             let p = &sm.points()[i];
             CutConditions {
                 depth_um: measured[i].depth_meas_um.clamp(0.0, radius),
-                upfeed_um_per_rev: p.upfeed_um,
-                speed_rpm: p.spindle_rpm,
+                upfeed_um: p.upfeed_um,
+                speed_rpm: p.speed_rpm,
                 tilt_deg: p.tilt_deg,
             }
         })

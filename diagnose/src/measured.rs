@@ -149,7 +149,7 @@ impl Measured {
                     p.cut_length_mm,
                     thresholds::MATCH_ABS_MM,
                 ),
-                ("spindle_rpm", m.spindle_rpm, p.spindle_rpm, 0.5),
+                ("speed_rpm", m.speed_rpm, p.speed_rpm, 0.5),
                 (
                     "feed_mm_min",
                     m.feed_mm_min,

@@ -99,7 +99,7 @@ impl SessionModel {
                 t_s: p.t_s,
                 x_mm: p.x_mm,
                 cut_length_mm: p.cut_length_mm,
-                spindle_rpm: p.spindle_rpm,
+                speed_rpm: p.speed_rpm,
                 feed_mm_min: p.feed_mm_min,
                 upfeed_um: p.upfeed_um,
                 tilt_deg: p.tilt_deg,

@@ -156,7 +156,7 @@ pub fn residual_structure(
         ),
         ("x_mm", pts.iter().map(|p| p.x_mm).collect()),
         ("machine_x_mm", pts.iter().map(|p| p.machine_x_mm).collect()),
-        ("spindle_rpm", pts.iter().map(|p| p.spindle_rpm).collect()),
+        ("speed_rpm", pts.iter().map(|p| p.speed_rpm).collect()),
         (
             "coolant_on",
             pts.iter()

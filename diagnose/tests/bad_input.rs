@@ -52,10 +52,10 @@ fn missing_groove_changed_point_or_conditions_are_named_by_row_and_column() {
     assert_eq!(mismatch_column(&e), ("groove_id".to_string(), Some(5 * 21)));
     // a different spindle speed and coolant state
     let mut rpm = m.clone();
-    rpm.points[40].spindle_rpm = 30_000.0;
+    rpm.points[40].speed_rpm = 30_000.0;
     assert_eq!(
         mismatch_column(&diagnose(&s, &rpm, &opts()).unwrap_err()),
-        ("spindle_rpm".to_string(), Some(40))
+        ("speed_rpm".to_string(), Some(40))
     );
     let mut cool = m.clone();
     cool.points[0].coolant_on = 1;
@@ -118,7 +118,7 @@ fn tiny_session(len_mm: f64) -> Session {
     let mut s = millcomp_synthetic::base_session("tiny", "tiny");
     s.plan = vec![PlanItem::Groove(GrooveSpec {
         start_s: Some(0.0),
-        spindle_rpm: 36_000.0,
+        speed_rpm: 36_000.0,
         upfeed_um: Some(10.0),
         feed_mm_min: None,
         tilt_deg: 20.0,
@@ -179,7 +179,7 @@ fn untestable_candidates_are_skipped_with_a_reason() {
     // only 10 000 rpm (below the 16 000 rpm growth onset) and the coolant never switched
     let mut s = tiny_session(20.0);
     if let PlanItem::Groove(g) = &mut s.plan[0] {
-        g.spindle_rpm = 10_000.0;
+        g.speed_rpm = 10_000.0;
         g.coolant = None;
     }
     let m = with_probe_tilt(&s, 3);

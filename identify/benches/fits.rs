@@ -8,8 +8,8 @@
 use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use millcomp_identify::verbs::spindle::{SpindleData, SpindleResponse};
-use millcomp_identify::verbs::thermal::ExponentialDrift;
+use millcomp_identify::targets::spindle::{SpindleData, SpindleResponse};
+use millcomp_identify::targets::thermal::ExponentialDrift;
 use millcomp_identify::{NlsOptions, ParamSpec, fit_nonlinear};
 use millcomp_sim::spindle::DeadTimeModel;
 use serde_json::Value;

@@ -4,7 +4,7 @@
 //!
 //! Run: `cargo run -p millcomp-identify --example identify_spindle`
 
-use millcomp_identify::{Columns, IdentifyOptions, Verb, identify_columns};
+use millcomp_identify::{Columns, IdentifyOptions, Target, identify_columns};
 use millcomp_sim::spindle::PztSpindle;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -32,7 +32,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut cols = Columns::new();
     cols.insert("t_s", t).insert("u_v", u).insert("y_um", y);
     let opts = IdentifyOptions::default();
-    let fit = identify_columns(Verb::Spindle, &cols, &opts)?;
+    let fit = identify_columns(Target::Spindle, &cols, &opts)?;
     println!("{}", serde_json::to_string_pretty(&fit)?);
     let file = millcomp_models::ModelFile::new(
         &fit.kind,

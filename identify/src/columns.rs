@@ -1,13 +1,13 @@
 //! One entry point for the CLI: `millcomp identify <what> FILE` reads the CSV into named columns
-//! and calls [`identify_columns`], which picks the verb's columns by their contract names,
+//! and calls [`identify_columns`], which picks the target's columns by their contract names,
 //! reports missing ones by name and notes the ignored ones.
 //!
-//! | verb        | required columns                     | optional columns                         |
+//! | target        | required columns                     | optional columns                         |
 //! |-------------|--------------------------------------|------------------------------------------|
 //! | `spindle`   | `t_s, u_v, y_um`                     |                                          |
 //! | `stiffness` | `load_n, deflection_um`              | `direction` (text)                       |
 //! | `thermal`   | `t_s, drift_um`                      | `speed_rpm`, `temp_c`                    |
-//! | `force`     | `depth_um, upfeed_um` (or `upfeed_um_per_rev`) and any of `max_fx_n, max_fy_n, max_fz_n` (peaks) or `rot_deg` with any of `fx_n, fy_n, fz_n` (traces) | `speed_rpm`, `tilt_deg` |
+//! | `force`     | `depth_um, upfeed_um` and any of `max_fx_n, max_fy_n, max_fz_n` (peaks) or `rot_deg` with any of `fx_n, fy_n, fz_n` (traces) | `speed_rpm`, `tilt_deg` |
 //! | `wall`      | `force_n, deflection_um`             |                                          |
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -15,19 +15,19 @@ use std::str::FromStr;
 
 use crate::error::{IdentifyError, Result};
 use crate::nonlinear::NlsOptions;
-use crate::verbs::Identified;
-use crate::verbs::force::{
+use crate::targets::Identified;
+use crate::targets::force::{
     ForceConditions, ForceData, ForceOptions, ForceParam, ForceTraceData, PeakForceData,
     identify_force,
 };
-use crate::verbs::spindle::{SpindleData, SpindleOptions, identify_spindle};
-use crate::verbs::stiffness::{StiffnessData, StiffnessOptions, identify_stiffness};
-use crate::verbs::thermal::{ThermalData, ThermalModel, VerbOptions, identify_thermal};
-use crate::verbs::wall::{WallData, WallGeometry, WallOptions, identify_wall};
+use crate::targets::spindle::{SpindleData, SpindleOptions, identify_spindle};
+use crate::targets::stiffness::{StiffnessData, StiffnessOptions, identify_stiffness};
+use crate::targets::thermal::{CommonOptions, ThermalData, ThermalModel, identify_thermal};
+use crate::targets::wall::{WallData, WallGeometry, WallOptions, identify_wall};
 
 /// What to identify (`millcomp identify <what>`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Verb {
+pub enum Target {
     /// PZT spindle plant from a step response.
     Spindle,
     /// Static stiffness from load–deflection data.
@@ -40,15 +40,15 @@ pub enum Verb {
     Wall,
 }
 
-impl FromStr for Verb {
+impl FromStr for Target {
     type Err = IdentifyError;
     fn from_str(s: &str) -> Result<Self> {
         Ok(match s {
-            "spindle" => Verb::Spindle,
-            "stiffness" => Verb::Stiffness,
-            "force" => Verb::Force,
-            "thermal" => Verb::Thermal,
-            "wall" => Verb::Wall,
+            "spindle" => Target::Spindle,
+            "stiffness" => Target::Stiffness,
+            "force" => Target::Force,
+            "thermal" => Target::Thermal,
+            "wall" => Target::Wall,
             _ => {
                 return Err(IdentifyError::MissingColumn {
                     column: s.into(),
@@ -92,7 +92,7 @@ impl Columns {
     }
 }
 
-/// Options of all verbs (each verb uses its own).
+/// Options of all targets (each target uses its own).
 #[derive(Debug, Clone, Default)]
 pub struct IdentifyOptions {
     /// Nonlinear solver options.
@@ -121,14 +121,14 @@ pub struct IdentifyOptions {
 struct Picker<'a> {
     cols: &'a Columns,
     used: BTreeSet<String>,
-    verb: &'static str,
+    target: &'static str,
 }
 
 impl<'a> Picker<'a> {
     fn req(&mut self, name: &str) -> Result<&'a [f64]> {
         self.opt(name).ok_or_else(|| IdentifyError::MissingColumn {
             column: name.into(),
-            reason: format!("required by `identify {}`", self.verb),
+            reason: format!("required by `identify {}`", self.target),
         })
     }
     fn opt(&mut self, name: &str) -> Option<&'a [f64]> {
@@ -148,30 +148,34 @@ impl<'a> Picker<'a> {
             .map(|c| {
                 format!(
                     "column `{c}` is not used by `identify {}` and was ignored",
-                    self.verb
+                    self.target
                 )
             })
             .collect()
     }
 }
 
-/// Runs verb `verb` on named columns (see the module table for the names).
-pub fn identify_columns(verb: Verb, cols: &Columns, opts: &IdentifyOptions) -> Result<Identified> {
-    let common = VerbOptions { nls: opts.nls };
-    let name = match verb {
-        Verb::Spindle => "spindle",
-        Verb::Stiffness => "stiffness",
-        Verb::Force => "force",
-        Verb::Thermal => "thermal",
-        Verb::Wall => "wall",
+/// Runs target `target` on named columns (see the module table for the names).
+pub fn identify_columns(
+    target: Target,
+    cols: &Columns,
+    opts: &IdentifyOptions,
+) -> Result<Identified> {
+    let common = CommonOptions { nls: opts.nls };
+    let name = match target {
+        Target::Spindle => "spindle",
+        Target::Stiffness => "stiffness",
+        Target::Force => "force",
+        Target::Thermal => "thermal",
+        Target::Wall => "wall",
     };
     let mut p = Picker {
         cols,
         used: BTreeSet::new(),
-        verb: name,
+        target: name,
     };
-    let mut out = match verb {
-        Verb::Spindle => {
+    let mut out = match target {
+        Target::Spindle => {
             let d = SpindleData {
                 t_s: p.req("t_s")?,
                 u_v: p.req("u_v")?,
@@ -185,7 +189,7 @@ pub fn identify_columns(verb: Verb, cols: &Columns, opts: &IdentifyOptions) -> R
             };
             identify_spindle(&d, &o)?
         }
-        Verb::Stiffness => {
+        Target::Stiffness => {
             let d = StiffnessData {
                 load_n: p.req("load_n")?,
                 deflection_um: p.req("deflection_um")?,
@@ -198,7 +202,7 @@ pub fn identify_columns(verb: Verb, cols: &Columns, opts: &IdentifyOptions) -> R
             };
             identify_stiffness(&d, &o)?
         }
-        Verb::Thermal => {
+        Target::Thermal => {
             let d = ThermalData {
                 t_s: p.req("t_s")?,
                 drift_um: p.req("drift_um")?,
@@ -207,7 +211,7 @@ pub fn identify_columns(verb: Verb, cols: &Columns, opts: &IdentifyOptions) -> R
             };
             identify_thermal(&d, opts.thermal_model, &common)?
         }
-        Verb::Wall => {
+        Target::Wall => {
             let d = WallData {
                 force_n: p.req("force_n")?,
                 deflection_um: p.req("deflection_um")?,
@@ -218,15 +222,12 @@ pub fn identify_columns(verb: Verb, cols: &Columns, opts: &IdentifyOptions) -> R
             };
             identify_wall(&d, &o)?
         }
-        Verb::Force => {
+        Target::Force => {
             let depth = p.req("depth_um")?;
-            let upfeed = match p.opt("upfeed_um_per_rev") {
-                Some(u) => u,
-                None => p.req("upfeed_um")?,
-            };
+            let upfeed = p.req("upfeed_um")?;
             let conditions = ForceConditions {
                 depth_um: depth,
-                upfeed_um_per_rev: upfeed,
+                upfeed_um: upfeed,
                 speed_rpm: p.opt("speed_rpm"),
                 tilt_deg: p.opt("tilt_deg"),
             };
@@ -276,13 +277,13 @@ mod tests {
     fn missing_and_ignored_columns_are_named() {
         let mut c = Columns::new();
         c.insert("load_n", vec![1.0, 2.0, 3.0, 4.0]);
-        let e = identify_columns(Verb::Stiffness, &c, &IdentifyOptions::default()).unwrap_err();
+        let e = identify_columns(Target::Stiffness, &c, &IdentifyOptions::default()).unwrap_err();
         assert!(e.to_string().contains("deflection_um"), "{e}");
         c.insert("deflection_um", vec![1.0, 2.1, 2.9, 4.0]);
         c.insert_text("source", vec!["x".into(); 4]);
-        let r = identify_columns(Verb::Stiffness, &c, &IdentifyOptions::default()).unwrap();
+        let r = identify_columns(Target::Stiffness, &c, &IdentifyOptions::default()).unwrap();
         assert_eq!(r.notes.len(), 1);
         assert!(r.notes[0].contains("`source`"));
-        assert!("nonsense".parse::<Verb>().is_err());
+        assert!("nonsense".parse::<Target>().is_err());
     }
 }

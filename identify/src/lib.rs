@@ -16,19 +16,19 @@
 
 pub mod columns;
 pub mod error;
-pub mod jaccheck;
+pub mod jacobian_check;
 pub mod linear;
 pub mod nonlinear;
 pub mod report;
 pub mod validate;
 
-pub use columns::{Columns, IdentifyOptions, Verb, identify_columns};
+pub use columns::{Columns, IdentifyOptions, Target, identify_columns};
 pub use error::{IdentifyError, Result};
-pub use jaccheck::{JacobianCheck, check_jacobian, fd_jacobian};
+pub use jacobian_check::{JacobianCheck, check_jacobian, fd_jacobian};
 pub use linear::{LinearFit, LinearMethod, fit_linear};
 pub use nonlinear::{NlsOptions, NonlinearFit, ParamSpec, ResidualModel, fit_nonlinear};
 pub use report::{FitReport, FitStatus, NamedMatrix, ResidualDiagnostics, RmsResidual};
-pub mod verbs;
+pub mod targets;
 
 pub use millcomp_models::{Derived, IdentifiedModel};
-pub use verbs::Identified;
+pub use targets::Identified;

@@ -1,4 +1,4 @@
-//! Input checks shared by the verbs: lengths, finiteness, monotone time, constant regressors.
+//! Input checks shared by the targets: lengths, finiteness, monotone time, constant regressors.
 //!
 //! Every check names the column and the 0-based data row it rejects.
 

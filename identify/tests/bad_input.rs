@@ -2,11 +2,11 @@
 //! clear error naming the column/row/parameter, or (when a fit is possible but not meaningful) a
 //! warning naming the parameters; never a silent nonsense fit.
 
-use millcomp_identify::verbs::force::*;
-use millcomp_identify::verbs::spindle::*;
-use millcomp_identify::verbs::stiffness::*;
-use millcomp_identify::verbs::thermal::*;
-use millcomp_identify::verbs::wall::*;
+use millcomp_identify::targets::force::*;
+use millcomp_identify::targets::spindle::*;
+use millcomp_identify::targets::stiffness::*;
+use millcomp_identify::targets::thermal::*;
+use millcomp_identify::targets::wall::*;
 use millcomp_identify::{FitStatus, IdentifyError};
 
 fn thermal(t: &[f64], y: &[f64]) -> Result<millcomp_identify::Identified, IdentifyError> {
@@ -18,7 +18,7 @@ fn thermal(t: &[f64], y: &[f64]) -> Result<millcomp_identify::Identified, Identi
             temp_c: None,
         },
         ThermalModel::Exponential,
-        &VerbOptions::default(),
+        &CommonOptions::default(),
     )
 }
 
@@ -211,7 +211,7 @@ fn force_errors() {
         ForceData::Peaks(PeakForceData {
             conditions: ForceConditions {
                 depth_um: d,
-                upfeed_um_per_rev: &[10.0, 10.0, 20.0],
+                upfeed_um: &[10.0, 10.0, 20.0],
                 speed_rpm: None,
                 tilt_deg: None,
             },

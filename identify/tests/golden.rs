@@ -5,7 +5,7 @@
 mod common;
 
 use common::tol;
-use millcomp_identify::verbs::thermal::*;
+use millcomp_identify::targets::thermal::*;
 use millcomp_identify::{NlsOptions, ParamSpec, fit_nonlinear};
 use nalgebra::DVector;
 use serde_json::Value;
@@ -87,7 +87,7 @@ fn thermal_exponential_matches_scipy() {
         speed_rpm: None,
         temp_c: None,
     };
-    let v = identify_thermal(&d, ThermalModel::Exponential, &VerbOptions::default()).unwrap();
+    let v = identify_thermal(&d, ThermalModel::Exponential, &CommonOptions::default()).unwrap();
     for (i, n) in nm.iter().enumerate() {
         let r = (v.report.param(n) - expect[i]).abs() / expect[i].abs();
         assert!(r <= tol::GOLDEN_REL, "verb {n}: rel diff {r:e}");
@@ -95,7 +95,7 @@ fn thermal_exponential_matches_scipy() {
 }
 
 fn spindle_golden(case: &str) {
-    use millcomp_identify::verbs::spindle::*;
+    use millcomp_identify::targets::spindle::*;
     use millcomp_sim::spindle::DeadTimeModel;
     let g = load(case);
     let t = vecf(&g["data"]["t_s"]);

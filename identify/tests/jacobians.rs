@@ -6,7 +6,7 @@ mod common;
 use argmin::core::Jacobian;
 use common::tol;
 use millcomp_identify::check_jacobian;
-use millcomp_identify::verbs::spindle::*;
+use millcomp_identify::targets::spindle::*;
 use millcomp_sim::spindle::{DeadTimeModel, PztSpindle};
 use nalgebra::DVector;
 
@@ -117,8 +117,8 @@ fn spindle_fd_jacobian_with_pole_and_dead_time_is_consistent() {
 
 #[test]
 fn analytic_jacobians_of_all_verbs() {
-    use millcomp_identify::verbs::stiffness::LoadDeflection;
-    use millcomp_identify::verbs::thermal::ExponentialDrift;
+    use millcomp_identify::targets::stiffness::LoadDeflection;
+    use millcomp_identify::targets::thermal::ExponentialDrift;
     let t: Vec<f64> = (0..40).map(|i| i as f64 * 90.0).collect();
     let y = vec![0.0; 40];
     let c = check_jacobian(

@@ -7,8 +7,8 @@ mod common;
 use std::collections::BTreeMap;
 
 use common::{assert_honest, recovery, tol};
-use millcomp_identify::verbs::stiffness::*;
-use millcomp_identify::verbs::thermal::*;
+use millcomp_identify::targets::stiffness::*;
+use millcomp_identify::targets::thermal::*;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -42,7 +42,7 @@ fn thermal_exponential_recovery() {
             speed_rpm: None,
             temp_c: None,
         };
-        identify_thermal(&d, ThermalModel::Exponential, &VerbOptions::default())
+        identify_thermal(&d, ThermalModel::Exponential, &CommonOptions::default())
             .unwrap()
             .report
     });
@@ -68,9 +68,13 @@ fn thermal_linear_temperature_recovery() {
             speed_rpm: None,
             temp_c: Some(&temp),
         };
-        identify_thermal(&d, ThermalModel::LinearTemperature, &VerbOptions::default())
-            .unwrap()
-            .report
+        identify_thermal(
+            &d,
+            ThermalModel::LinearTemperature,
+            &CommonOptions::default(),
+        )
+        .unwrap()
+        .report
     });
     assert_honest("thermal_linear_temp", &stats);
 }
@@ -149,7 +153,7 @@ fn spindle_data(
 
 #[test]
 fn spindle_second_order_recovery() {
-    use millcomp_identify::verbs::spindle::*;
+    use millcomp_identify::targets::spindle::*;
     // 000 §5.2.4: ζ = 0.46, ωn = 1.8/1.38 ms = 1302 rad/s; 50 µm / 1000 V; gauge offset 0.25 µm
     // (§5.2.5); 5 nm gauge noise (synthetic choice).
     let s = millcomp_sim::spindle::PztSpindle::new(0.05, 0.46, 1302.0, None, None).unwrap();
@@ -177,7 +181,7 @@ fn spindle_second_order_recovery() {
 
 #[test]
 fn spindle_pole_deadtime_recovery() {
-    use millcomp_identify::verbs::spindle::*;
+    use millcomp_identify::targets::spindle::*;
     // Third pole of the root locus (Fig. 5-11) at 5000 rad/s and a 0.1 ms dead time (synthetic
     // choices; Padé-2 dead time as in the fitted model); 1 nm gauge noise (16-bit over 50 µm).
     let mut s =
@@ -215,7 +219,7 @@ fn spindle_pole_deadtime_recovery() {
 
 #[test]
 fn force_peaks_recovery() {
-    use millcomp_identify::verbs::force::*;
+    use millcomp_identify::targets::force::*;
     use millcomp_sim::force::CutConditions;
     // Table 3-3 design (000 §3.5.1) in 6061 (W = 2500, µ = µf = 0.5, Table 4-1); responses from
     // the physics crate's table33_response + 0.05 N noise (synthetic choice); W, µ, µf free.
@@ -241,7 +245,7 @@ fn force_peaks_recovery() {
         let data = ForceData::Peaks(PeakForceData {
             conditions: ForceConditions {
                 depth_um: &depth,
-                upfeed_um_per_rev: &upfeed,
+                upfeed_um: &upfeed,
                 speed_rpm: Some(&speed),
                 tilt_deg: None,
             },
@@ -256,7 +260,7 @@ fn force_peaks_recovery() {
 
 #[test]
 fn force_trace_recovery() {
-    use millcomp_identify::verbs::force::*;
+    use millcomp_identify::targets::force::*;
     use millcomp_sim::force::CutConditions;
     // One revolution at 2° steps of a 10°-tilted cut in 6061 (depth 100 µm, upfeed 20 µm/rev;
     // Table 4-4-like), forces from the physics crate's forces_at + 0.05 N noise; W, µ, µf,
@@ -296,7 +300,7 @@ fn force_trace_recovery() {
         let data = ForceData::Traces(ForceTraceData {
             conditions: ForceConditions {
                 depth_um: &depth,
-                upfeed_um_per_rev: &upfeed,
+                upfeed_um: &upfeed,
                 speed_rpm: None,
                 tilt_deg: Some(&tilt),
             },
@@ -312,7 +316,7 @@ fn force_trace_recovery() {
 
 #[test]
 fn wall_recovery() {
-    use millcomp_identify::verbs::wall::*;
+    use millcomp_identify::targets::wall::*;
     // 004 Table 4: H59 brass (E = 100 GPa), 100 µm wall, 800 µm high; 5 mm long (synthetic);
     // forces 0.1..2 N (the cantilever tip stiffness is the physics of eqs 14/18); 0.2 µm
     // displacement-sensor noise (synthetic choice). Truth: k = 3EI/l³, E derived.
@@ -381,7 +385,7 @@ fn thermal_speed_recovery() {
             speed_rpm: Some(&n),
             temp_c: None,
         };
-        identify_thermal(&d, ThermalModel::SpeedDependent, &VerbOptions::default())
+        identify_thermal(&d, ThermalModel::SpeedDependent, &CommonOptions::default())
             .unwrap()
             .report
     });

@@ -3,8 +3,8 @@
 
 use std::path::Path;
 
-use millcomp_identify::verbs::spindle::*;
-use millcomp_identify::verbs::stiffness::*;
+use millcomp_identify::targets::spindle::*;
+use millcomp_identify::targets::stiffness::*;
 use millcomp_models::{IdentifiedModel, ModelFile, Provenance, SpindleModel};
 
 fn provenance() -> Provenance {

@@ -2,7 +2,7 @@
 //! `datasets/data/clayton_doe.csv`) fitted with the physics crate's force model: the material
 //! parameter W of 6061 with its 95 % interval, compared with the thesis' 2500 (Table 4-1).
 
-use millcomp_identify::verbs::force::*;
+use millcomp_identify::targets::force::*;
 
 struct Doe {
     depth: Vec<f64>,
@@ -57,7 +57,7 @@ fn fit(free: Vec<ForceParam>) -> millcomp_identify::Identified {
     let data = ForceData::Peaks(PeakForceData {
         conditions: ForceConditions {
             depth_um: &d.depth,
-            upfeed_um_per_rev: &d.upfeed,
+            upfeed_um: &d.upfeed,
             speed_rpm: Some(&d.speed),
             tilt_deg: None,
         },
@@ -147,7 +147,7 @@ fn table33_w_per_component() {
         let data = ForceData::Peaks(PeakForceData {
             conditions: ForceConditions {
                 depth_um: &d.depth,
-                upfeed_um_per_rev: &d.upfeed,
+                upfeed_um: &d.upfeed,
                 speed_rpm: Some(&d.speed),
                 tilt_deg: None,
             },

@@ -6,7 +6,7 @@
 //! - **response surface** — a polynomial in the process parameters fitted to measured peak forces by
 //!   `millcomp doe analyze --save model.toml` (e.g. Table 3-3's `max_fz_n` over depth, speed and upfeed).
 //!   Its factor names must be process parameters the plan knows: `depth_um`, `upfeed_um` (or
-//!   `upfeed_um_per_rev`), `speed_rpm`, `tilt_deg`; its response must be the per-revolution peak z-force on
+//!   `upfeed_um`), `speed_rpm`, `tilt_deg`; its response must be the per-revolution peak z-force on
 //!   the workpiece in N. Points outside the fitted ranges are extrapolated and counted; a negative
 //!   prediction (a polynomial below its data) is taken as 0 N.
 
@@ -15,14 +15,8 @@ use millcomp_sim::force::{BallEndForceModel, CutConditions};
 
 use crate::error::{MpcError, invalid};
 
-/// Process parameters a response surface may use, with the alias each accepts.
-pub const PROCESS_FACTORS: [&str; 5] = [
-    "depth_um",
-    "upfeed_um",
-    "upfeed_um_per_rev",
-    "speed_rpm",
-    "tilt_deg",
-];
+/// Process parameters a response surface may use.
+pub const PROCESS_FACTORS: [&str; 4] = ["depth_um", "upfeed_um", "speed_rpm", "tilt_deg"];
 
 /// A response-surface force predictor loaded from a `doe analyze --save` model.
 #[derive(Debug, Clone)]
@@ -72,7 +66,7 @@ impl ResponseSurface {
             .map(|n| {
                 let v = match n.as_str() {
                     "depth_um" => c.depth_um,
-                    "upfeed_um" | "upfeed_um_per_rev" => c.upfeed_um_per_rev,
+                    "upfeed_um" => c.upfeed_um,
                     "speed_rpm" => c.speed_rpm,
                     _ => c.tilt_deg,
                 };
@@ -162,7 +156,7 @@ mod tests {
         let r = ResponseSurface::new(surface("depth_um"), "<test>").unwrap();
         let c = CutConditions {
             depth_um: 50.0,
-            upfeed_um_per_rev: 15.0,
+            upfeed_um: 15.0,
             speed_rpm: 10_000.0,
             tilt_deg: 20.0,
         };
@@ -171,7 +165,7 @@ mod tests {
         assert!(!r.extrapolates(&c));
         let shallow = CutConditions {
             depth_um: 0.0,
-            upfeed_um_per_rev: 0.0,
+            upfeed_um: 0.0,
             ..c
         };
         assert!(r.extrapolates(&shallow));

@@ -5,7 +5,9 @@
 //! Run: `cargo run --release -p millcomp-sim --example fit_spindle`
 use argmin::core::{CostFunction, Error, Executor, State};
 use argmin::solver::neldermead::NelderMead;
-use millcomp_sim::spindle_fit::{PUBLISHED, PlantStructure, SpindleFigures, evaluate, fit_cost};
+use millcomp_sim::spindle_figures::{
+    PUBLISHED, PlantStructure, SpindleFigures, evaluate, fit_cost,
+};
 use nalgebra::DVector;
 
 struct Cost(PlantStructure);

@@ -4,7 +4,7 @@
 //! Run: `cargo run --release -p millcomp-sim --example groove_demo [tilt_deg]`
 use millcomp_sim::filters::{FirstOrderFilter, PeakHold};
 use millcomp_sim::groove::{GrooveConfig, GrooveStage, GrooveStepOutput, profile};
-use millcomp_sim::spindle_fit::PID_TUNED;
+use millcomp_sim::spindle_figures::PID_TUNED;
 
 fn pp(run: &[GrooveStepOutput]) -> (f64, f64) {
     let p = profile(run, 0.1).expect("spacing");

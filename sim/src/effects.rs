@@ -45,7 +45,7 @@ pub struct EffectContext<'a> {
     /// Cumulative engaged length of this tool (mm).
     pub cut_length_mm: f64,
     /// Spindle speed now (rpm).
-    pub spindle_rpm: f64,
+    pub speed_rpm: f64,
     /// Tool tilt (deg).
     pub tilt_deg: f64,
     /// Upfeed (µm/rev).
@@ -73,7 +73,7 @@ impl Default for EffectContext<'_> {
             x_mm: 0.0,
             machine_x_mm: 0.0,
             cut_length_mm: 0.0,
-            spindle_rpm: 0.0,
+            speed_rpm: 0.0,
             tilt_deg: 0.0,
             upfeed_um: 10.0,
             depth_cmd_um: 0.0,

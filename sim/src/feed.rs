@@ -18,7 +18,7 @@ pub struct FeedChange {
     /// Position (mm) where the NC block with the new feed starts.
     pub x_mm: f64,
     /// New upfeed (µm/rev); doubling 10 µm/rev as in `003_…txt` §3.1 is 20.
-    pub upfeed_um_per_rev: f64,
+    pub upfeed_um: f64,
 }
 
 /// The workpiece edge where the tool leaves the material.
@@ -111,14 +111,14 @@ pub struct FeedProfile {
 }
 
 impl FeedProfile {
-    /// Build the motion of a cut of `length_mm` at `speed_rpm`, starting at `upfeed_um_per_rev`, with the
+    /// Build the motion of a cut of `length_mm` at `speed_rpm`, starting at `upfeed_um`, with the
     /// feed `changes` executed at `accel_mm_s2`.
     ///
     /// ```
     /// use millcomp_sim::feed::{FeedChange, FeedProfile};
     /// // 10 µm/rev at 10 000 rpm = 1.667 mm/s, doubling at x = 10 mm with 100 mm/s²
     /// let p = FeedProfile::new(20.0, 10_000.0, 10.0,
-    ///     &[FeedChange { x_mm: 10.0, upfeed_um_per_rev: 20.0 }], 100.0).unwrap();
+    ///     &[FeedChange { x_mm: 10.0, upfeed_um: 20.0 }], 100.0).unwrap();
     /// let t_change = 10.0 / (10.0 * 10_000.0 / 60.0 * 1e-3);
     /// assert!((p.x_at(t_change) - 10.0).abs() < 1e-9);
     /// assert!((p.upfeed_at(t_change + 1.0) - 20.0).abs() < 1e-9);
@@ -128,19 +128,19 @@ impl FeedProfile {
     pub fn new(
         length_mm: f64,
         speed_rpm: f64,
-        upfeed_um_per_rev: f64,
+        upfeed_um: f64,
         changes: &[FeedChange],
         accel_mm_s2: f64,
     ) -> Result<Self, SimError> {
         check_positive("length_mm", length_mm)?;
         check_positive("speed_rpm", speed_rpm)?;
-        check_positive("upfeed_um_per_rev", upfeed_um_per_rev)?;
+        check_positive("upfeed_um", upfeed_um)?;
         check_positive("feed_accel_mm_s2", accel_mm_s2)?;
         let k = speed_rpm / 60.0 * 1e-3; // mm/s per µm/rev
         let mut segments = vec![Segment {
             t0_s: 0.0,
             x0_mm: 0.0,
-            v0_mm_s: upfeed_um_per_rev * k,
+            v0_mm_s: upfeed_um * k,
             a_mm_s2: 0.0,
         }];
         let mut last_x = f64::NEG_INFINITY;
@@ -153,12 +153,12 @@ impl FeedProfile {
                 });
             }
             last_x = c.x_mm;
-            check_positive("feed_changes.upfeed_um_per_rev", c.upfeed_um_per_rev)?;
+            check_positive("feed_changes.upfeed_um", c.upfeed_um)?;
             let cruise = *segments.last().expect("at least one segment");
             let x_start = c.x_mm.max(cruise.x0_mm);
             let t_start = cruise.t_at(x_start);
             let v_old = cruise.v(t_start);
-            let v_new = c.upfeed_um_per_rev * k;
+            let v_new = c.upfeed_um * k;
             if (v_new - v_old).abs() < 1e-12 {
                 continue;
             }
@@ -260,11 +260,11 @@ mod tests {
         let ch = [
             FeedChange {
                 x_mm: 5.0,
-                upfeed_um_per_rev: 20.0,
+                upfeed_um: 20.0,
             },
             FeedChange {
                 x_mm: 15.0,
-                upfeed_um_per_rev: 10.0,
+                upfeed_um: 10.0,
             },
         ];
         let p = FeedProfile::new(20.0, 10_000.0, 10.0, &ch, 50.0).unwrap();
@@ -294,7 +294,7 @@ mod tests {
             10.0,
             &[FeedChange {
                 x_mm: 25.0,
-                upfeed_um_per_rev: 20.0,
+                upfeed_um: 20.0,
             }],
             100.0,
         )

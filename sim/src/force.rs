@@ -103,7 +103,7 @@ pub struct CutConditions {
     /// Axial depth of cut d (µm).
     pub depth_um: f64,
     /// Feed per revolution f (µm/rev) ("upfeed").
-    pub upfeed_um_per_rev: f64,
+    pub upfeed_um: f64,
     /// Spindle speed (rpm).
     pub speed_rpm: f64,
     /// Tool tilt α from the workpiece normal, in the feed direction (deg).
@@ -114,13 +114,13 @@ impl CutConditions {
     /// Build and validate (depth against the ball radius is checked by the model).
     pub fn new(
         depth_um: f64,
-        upfeed_um_per_rev: f64,
+        upfeed_um: f64,
         speed_rpm: f64,
         tilt_deg: f64,
     ) -> Result<Self, SimError> {
         let c = Self {
             depth_um,
-            upfeed_um_per_rev,
+            upfeed_um,
             speed_rpm,
             tilt_deg,
         };
@@ -137,7 +137,7 @@ impl CutConditions {
             f64::INFINITY,
             "0 <= depth_um <= tool radius",
         )?;
-        check_positive("upfeed_um_per_rev", self.upfeed_um_per_rev)?;
+        check_positive("upfeed_um", self.upfeed_um)?;
         check_positive("speed_rpm", self.speed_rpm)?;
         check_range(
             "tilt_deg",
@@ -151,7 +151,7 @@ impl CutConditions {
 
     /// Feed rate (mm/min) = upfeed · speed.
     pub fn feed_mm_min(&self) -> f64 {
-        self.upfeed_um_per_rev * self.speed_rpm * 1e-3
+        self.upfeed_um * self.speed_rpm * 1e-3
     }
 
     /// Tool revolution period (s).
@@ -328,8 +328,8 @@ impl BallEndForceModel {
 
     /// Feed per tooth of `flute` (0: smaller, 1: larger), `(f/2)(1 ∓ ξ)` (µm).
     pub fn feed_per_tooth_um(&self, cond: &CutConditions, flute: usize) -> f64 {
-        let xi = self.tool.runout_fraction(cond.upfeed_um_per_rev);
-        let half = 0.5 * cond.upfeed_um_per_rev;
+        let xi = self.tool.runout_fraction(cond.upfeed_um);
+        let half = 0.5 * cond.upfeed_um;
         if flute == 0 {
             half * (1.0 - xi)
         } else {
@@ -654,7 +654,7 @@ mod tests {
         let m = BallEndForceModel::default();
         let c = CutConditions {
             depth_um: 450.0,
-            upfeed_um_per_rev: 10.0,
+            upfeed_um: 10.0,
             speed_rpm: 10_000.0,
             tilt_deg: 0.0,
         };

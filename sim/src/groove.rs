@@ -190,14 +190,14 @@ pub struct GrooveProgram {
     /// Spindle speed (rpm).
     pub speed_rpm: f64,
     /// Upfeed (µm/rev).
-    pub upfeed_um_per_rev: f64,
+    pub upfeed_um: f64,
     /// Tool tilt (deg).
     pub tilt_deg: f64,
     /// Groove length (mm).
     pub length_mm: f64,
     /// Programmed depth profile.
     pub depth_profile: DepthProfile,
-    /// Programmed feed changes along the groove (none: constant `upfeed_um_per_rev`).
+    /// Programmed feed changes along the groove (none: constant `upfeed_um`).
     #[serde(default)]
     pub feed_changes: Vec<FeedChange>,
     /// Feed-axis acceleration (mm/s²) with which feed changes are executed (`003_…txt` §3.2).
@@ -253,7 +253,7 @@ impl GrooveProgram {
     pub fn thesis(tilt_deg: f64) -> Self {
         Self {
             speed_rpm: 10_000.0,
-            upfeed_um_per_rev: 10.0,
+            upfeed_um: 10.0,
             tilt_deg,
             length_mm: 20.0,
             depth_profile: DepthProfile::Ramp {
@@ -282,7 +282,7 @@ impl GrooveProgram {
 
     /// Feed velocity (mm/s) at the start of the cut.
     pub fn feed_mm_s(&self) -> f64 {
-        self.upfeed_um_per_rev * self.speed_rpm * 1e-3 / 60.0
+        self.upfeed_um * self.speed_rpm * 1e-3 / 60.0
     }
 
     /// The feed motion (programmed feed, its changes and the axis acceleration).
@@ -290,7 +290,7 @@ impl GrooveProgram {
         FeedProfile::new(
             self.length_mm,
             self.speed_rpm,
-            self.upfeed_um_per_rev,
+            self.upfeed_um,
             &self.feed_changes,
             self.feed_accel_mm_s2,
         )
@@ -315,14 +315,14 @@ impl GrooveProgram {
 
     /// Cut conditions at `depth_um` and the starting upfeed.
     pub fn conditions(&self, depth_um: f64) -> CutConditions {
-        self.conditions_at(depth_um, self.upfeed_um_per_rev)
+        self.conditions_at(depth_um, self.upfeed_um)
     }
 
-    /// Cut conditions at `depth_um` and `upfeed_um_per_rev`.
-    pub fn conditions_at(&self, depth_um: f64, upfeed_um_per_rev: f64) -> CutConditions {
+    /// Cut conditions at `depth_um` and `upfeed_um`.
+    pub fn conditions_at(&self, depth_um: f64, upfeed_um: f64) -> CutConditions {
         CutConditions {
             depth_um,
-            upfeed_um_per_rev,
+            upfeed_um,
             speed_rpm: self.speed_rpm,
             tilt_deg: self.tilt_deg,
         }
@@ -387,9 +387,9 @@ impl GrooveConfig {
         self.program.conditions(depth_um)
     }
 
-    /// Cut conditions at `depth_um` and `upfeed_um_per_rev` ([`GrooveProgram::conditions_at`]).
-    pub fn conditions_at(&self, depth_um: f64, upfeed_um_per_rev: f64) -> CutConditions {
-        self.program.conditions_at(depth_um, upfeed_um_per_rev)
+    /// Cut conditions at `depth_um` and `upfeed_um` ([`GrooveProgram::conditions_at`]).
+    pub fn conditions_at(&self, depth_um: f64, upfeed_um: f64) -> CutConditions {
+        self.program.conditions_at(depth_um, upfeed_um)
     }
 
     /// Quasi-static (per-revolution peak) uncompensated z-deflection (µm) at programmed depth
@@ -440,7 +440,7 @@ pub struct GrooveStepOutput {
     /// Capacitance-gauge reading of the tip displacement (µm).
     pub gauge_um: f64,
     /// Upfeed (µm/rev) actually run at this step (changes while the feed axis accelerates).
-    pub upfeed_um_per_rev: f64,
+    pub upfeed_um: f64,
     /// Engagement of the tool with the material (1 inside the workpiece, falling to 0 at its exit edge;
     /// the groove bottom exists only where it is > 0).
     pub engagement: f64,
@@ -505,7 +505,7 @@ impl GrooveStage {
             peak: SlidingMax::new(steps_per_rev),
             prepared,
             prepared_depth: d0,
-            prepared_upfeed: p.upfeed_um_per_rev,
+            prepared_upfeed: p.upfeed_um,
             last_tip_um: 0.0,
             cfg,
         })
@@ -601,7 +601,7 @@ impl GrooveStage {
             force_meas_n: force_meas,
             spindle_force_raw_n: spindle_raw_true,
             gauge_um: gauge,
-            upfeed_um_per_rev: upfeed,
+            upfeed_um: upfeed,
             engagement,
             done: false,
         };
@@ -700,7 +700,7 @@ mod tests {
         cfg.program.depth_profile = DepthProfile::Constant { depth_um: 40.0 };
         cfg.program.feed_changes = vec![FeedChange {
             x_mm: 2.0,
-            upfeed_um_per_rev: 20.0,
+            upfeed_um: 20.0,
         }];
         let run = run_uncompensated(cfg.clone());
         let err_at = |x: f64| {
@@ -715,7 +715,7 @@ mod tests {
         // 2 mm at 1.667 mm/s + 2 mm at 3.333 mm/s (+ the 17 ms acceleration) ≈ 1.8 s instead of 2.4 s
         let t_end = run.last().unwrap().t_s;
         assert!((t_end - 1.8).abs() < 0.02, "{t_end}");
-        assert!((run.last().unwrap().upfeed_um_per_rev - 20.0).abs() < 1e-9);
+        assert!((run.last().unwrap().upfeed_um - 20.0).abs() < 1e-9);
     }
 
     #[test]

@@ -9,7 +9,7 @@
 //! |---|---|---|
 //! | [`force`], [`material`], [`tool`] | ball-end force model (reconstructed eqs. 2–14) | Table 3-3 (31 % mean error), 1.49 N S7 offset, duty cycle 90/75 % |
 //! | [`stiffness`] | two-section cantilever, tilted z-stiffness, machine in series | 0.141 N/µm, 0.571 vs 0.597 N/µm, eq. 28 |
-//! | [`spindle`], [`spindle_fit`], [`lti`] | PZT spindle plant, ZOH discretisation, figure evaluation | 20 %/1.38 ms open loop (< 1 %) |
+//! | [`spindle`], [`spindle_figures`], [`lti`] | PZT spindle plant, ZOH discretisation, figure evaluation | 20 %/1.38 ms open loop (< 1 %) |
 //! | [`filters`], [`sensors`] | 500 Hz low-pass, peak-and-hold, 0.0005/0.9995, notch chain; force/gauge | unit tests |
 //! | [`groove`], [`feed`] | steppable groove plant; feed changes with axis acceleration, workpiece exit | 16.0 µm deflection at 80 µm (published 17) |
 //! | [`thinwall`] | steppable thin-wall plant (004), the 004 threshold rule, joint K_r/tool calibration | 87.6/106.7/126.1 vs 85.9/106.7/127.8 µm; threshold 2.19 % (published 2.19 %) |
@@ -35,7 +35,7 @@ pub mod material;
 pub mod sensors;
 pub mod session;
 pub mod spindle;
-pub mod spindle_fit;
+pub mod spindle_figures;
 pub mod stiffness;
 pub mod thinwall;
 pub mod tool;

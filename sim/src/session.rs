@@ -162,7 +162,7 @@ pub struct GrooveSpec {
     /// Session time at which the cut starts (s); default: when the previous item ends.
     pub start_s: Option<f64>,
     /// Spindle speed (rpm).
-    pub spindle_rpm: f64,
+    pub speed_rpm: f64,
     /// Upfeed (µm/rev); give this or `feed_mm_min`.
     pub upfeed_um: Option<f64>,
     /// Feed rate (mm/min); give this or `upfeed_um`.
@@ -190,7 +190,7 @@ pub struct PauseSpec {
     pub duration_s: f64,
     /// Spindle speed during the pause (rpm), default 0.
     #[serde(default)]
-    pub spindle_rpm: f64,
+    pub speed_rpm: f64,
     /// Coolant state during the pause (default: unchanged).
     pub coolant: Option<bool>,
 }
@@ -251,7 +251,7 @@ pub struct GroovePoint {
     /// Cumulative engaged length of the tool at this point (mm).
     pub cut_length_mm: f64,
     /// Spindle speed (rpm).
-    pub spindle_rpm: f64,
+    pub speed_rpm: f64,
     /// Feed rate (mm/min).
     pub feed_mm_min: f64,
     /// Upfeed (µm/rev).
@@ -294,7 +294,7 @@ pub fn check_groove_points(points: &[GroovePoint]) -> Result<(), SimError> {
             ("t_s", p.t_s),
             ("x_mm", p.x_mm),
             ("cut_length_mm", p.cut_length_mm),
-            ("spindle_rpm", p.spindle_rpm),
+            ("speed_rpm", p.speed_rpm),
             ("feed_mm_min", p.feed_mm_min),
             ("upfeed_um", p.upfeed_um),
             ("tilt_deg", p.tilt_deg),
@@ -501,11 +501,11 @@ impl Session {
                         in_range(k("start_s"), t, 0.0, 1e9, "0 <= start_s")?;
                     }
                     in_range(
-                        k("spindle_rpm"),
-                        g.spindle_rpm,
+                        k("speed_rpm"),
+                        g.speed_rpm,
                         1e-9,
                         1e6,
-                        "0 < spindle_rpm <= 1e6",
+                        "0 < speed_rpm <= 1e6",
                     )?;
                     in_range(
                         k("tilt_deg"),
@@ -562,11 +562,11 @@ impl Session {
                         "0 <= duration_s",
                     )?;
                     in_range(
-                        format!("plan[{i}].spindle_rpm"),
-                        p.spindle_rpm,
+                        format!("plan[{i}].speed_rpm"),
+                        p.speed_rpm,
                         0.0,
                         1e6,
-                        "0 <= spindle_rpm <= 1e6",
+                        "0 <= speed_rpm <= 1e6",
                     )?;
                 }
             }
@@ -586,14 +586,14 @@ impl GrooveSpec {
     pub fn upfeed(&self) -> f64 {
         match (self.upfeed_um, self.feed_mm_min) {
             (Some(u), _) => u,
-            (None, Some(f)) => f * 1e3 / self.spindle_rpm,
+            (None, Some(f)) => f * 1e3 / self.speed_rpm,
             _ => 0.0,
         }
     }
 
     /// Feed rate (mm/min).
     pub fn feed(&self) -> f64 {
-        self.upfeed() * self.spindle_rpm * 1e-3
+        self.upfeed() * self.speed_rpm * 1e-3
     }
 
     /// Cut duration (s).
@@ -659,7 +659,7 @@ pub struct PointContext {
     /// Cumulative engaged length of the tool (mm).
     pub cut_length_mm: f64,
     /// Spindle speed (rpm).
-    pub spindle_rpm: f64,
+    pub speed_rpm: f64,
     /// Feed rate (mm/min).
     pub feed_mm_min: f64,
     /// Upfeed (µm/rev).
@@ -717,7 +717,7 @@ impl SessionContexts {
             x_mm: p.x_mm,
             machine_x_mm: p.machine_x_mm,
             cut_length_mm: p.cut_length_mm,
-            spindle_rpm: p.spindle_rpm,
+            speed_rpm: p.speed_rpm,
             tilt_deg: p.tilt_deg,
             upfeed_um: p.upfeed_um,
             depth_cmd_um: p.depth_cmd_um,
@@ -757,7 +757,7 @@ impl Session {
                             coolant = c;
                         }
                     }
-                    spindle_events.push((t0, g.spindle_rpm));
+                    spindle_events.push((t0, g.speed_rpm));
                     item_start_s.push(t0);
                     t = t0 + g.duration_s();
                 }
@@ -768,7 +768,7 @@ impl Session {
                             coolant = c;
                         }
                     }
-                    spindle_events.push((t, p.spindle_rpm));
+                    spindle_events.push((t, p.speed_rpm));
                     item_start_s.push(t);
                     t += p.duration_s;
                 }
@@ -797,8 +797,8 @@ impl Session {
             let upfeed = g.upfeed();
             let base = CutConditions {
                 depth_um: 0.0,
-                upfeed_um_per_rev: upfeed,
-                speed_rpm: g.spindle_rpm,
+                upfeed_um: upfeed,
+                speed_rpm: g.speed_rpm,
                 tilt_deg: g.tilt_deg,
             };
             let compliance = stiffness.z_compliance_um_per_n(g.tilt_deg)?;
@@ -847,7 +847,7 @@ impl Session {
                     x_mm: x,
                     machine_x_mm: g.x_offset_mm + x,
                     cut_length_mm: cut_length,
-                    spindle_rpm: g.spindle_rpm,
+                    speed_rpm: g.speed_rpm,
                     feed_mm_min: g.feed(),
                     upfeed_um: upfeed,
                     tilt_deg: g.tilt_deg,
@@ -904,7 +904,7 @@ pub fn simulate_session(
             t_s: p.t_s,
             x_mm: p.x_mm,
             cut_length_mm: p.cut_length_mm,
-            spindle_rpm: p.spindle_rpm,
+            speed_rpm: p.speed_rpm,
             feed_mm_min: p.feed_mm_min,
             upfeed_um: p.upfeed_um,
             tilt_deg: p.tilt_deg,

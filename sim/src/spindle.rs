@@ -16,7 +16,7 @@
 //!
 //! Stroke: PZT 0–20 µm at 0–1000 V (§5.2.2), ≈ 50 µm at the tool tip by the flexure lever ratio, hence the
 //! default DC gain 50/1000 = 0.05 µm/V at the tool tip. The fitted dynamic constants and their provenance are
-//! in [`crate::spindle_fit`].
+//! in [`crate::spindle_figures`].
 //!
 //! **Capacitance gauge** (Lion Precision RD20-1, 50 µm range, 2.5 µm/V, §5.2.2): mounted between the
 //! actuators in line with the spindle centre-line; here it is taken as calibrated to tool-tip µm
@@ -24,7 +24,7 @@
 //!
 //! **Controller units.** The thesis' gains (kc = 3000, P 844, I 130 820, P 400, I 800 000) act on an error in
 //! µm and produce a controller output `u` whose scale to amplifier volts is not given. We define
-//! `volts = loop_v_per_unit · u`; `loop_v_per_unit` is fitted with the dynamics (see [`crate::spindle_fit`])
+//! `volts = loop_v_per_unit · u`; `loop_v_per_unit` is fitted with the dynamics (see [`crate::spindle_figures`])
 //! so that the P-only critical gain is 3000.
 
 use nalgebra::DVector;
@@ -72,9 +72,9 @@ pub struct PztSpindle {
 }
 
 impl Default for PztSpindle {
-    /// The fitted plant of [`crate::spindle_fit::FITTED`] (2nd order + real pole).
+    /// The fitted plant of [`crate::spindle_figures::FITTED`] (2nd order + real pole).
     fn default() -> Self {
-        crate::spindle_fit::FITTED.spindle()
+        crate::spindle_figures::FITTED.spindle()
     }
 }
 
@@ -98,7 +98,7 @@ impl PztSpindle {
             voltage_max_v: 1000.0,
             actuator_stroke_um: 20.0,
             force_coupling_n_per_um: 0.44,
-            loop_v_per_unit: crate::spindle_fit::FITTED.loop_v_per_unit,
+            loop_v_per_unit: crate::spindle_figures::FITTED.loop_v_per_unit,
         };
         s.validate()?;
         Ok(s)

@@ -93,10 +93,10 @@ impl BallEndTool {
 
     /// Runout as a fraction of the upfeed, ξ = runout/upfeed, clamped to [0, 1] (ξ = 1: one flute removes
     /// all material, `000_…txt` §4).
-    pub fn runout_fraction(&self, upfeed_um_per_rev: f64) -> f64 {
-        if upfeed_um_per_rev <= 0.0 {
+    pub fn runout_fraction(&self, upfeed_um: f64) -> f64 {
+        if upfeed_um <= 0.0 {
             return 0.0;
         }
-        (self.runout_um / upfeed_um_per_rev).clamp(0.0, 1.0)
+        (self.runout_um / upfeed_um).clamp(0.0, 1.0)
     }
 }

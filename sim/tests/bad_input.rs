@@ -73,7 +73,7 @@ fn zero_speed_and_zero_feed() {
     );
     assert_eq!(
         name_of(CutConditions::new(50.0, 0.0, 10_000.0, 20.0).unwrap_err()).0,
-        "upfeed_um_per_rev"
+        "upfeed_um"
     );
     let mut cfg = GrooveConfig::thesis(20.0, 8.0).unwrap();
     cfg.program.speed_rpm = 0.0;

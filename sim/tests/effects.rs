@@ -43,7 +43,7 @@ fn groove(start: f64, rpm: f64, coolant: bool, x_off: f64, depth: &str) -> Strin
 [[plan]]
 kind = "groove"
 start_s = {start}
-spindle_rpm = {rpm}
+speed_rpm = {rpm}
 upfeed_um = 10.0
 tilt_deg = 20.0
 coolant = {coolant}
@@ -226,7 +226,7 @@ fn analytic_gradients_match_finite_differences() {
             x_mm: x,
             machine_x_mm: x + 5.0,
             cut_length_mm: 10.0 * x,
-            spindle_rpm: 30_000.0,
+            speed_rpm: 30_000.0,
             tilt_deg: 20.0,
             upfeed_um: 10.0,
             depth_cmd_um: 60.0,

@@ -128,7 +128,7 @@ name = "S7"
 force_scale = 3.7396
 [[plan]]
 kind = "groove"
-spindle_rpm = 10000
+speed_rpm = 10000
 upfeed_um = 10
 tilt_deg = 20
 length_mm = 20
@@ -161,7 +161,7 @@ const HEAD: &str = "[tool]\n[material]\nname = \"S7\"\n";
 fn errors_name_the_key() {
     let g = |extra: &str| {
         format!(
-            "{HEAD}[[plan]]\nkind = \"groove\"\nspindle_rpm = 10000\nupfeed_um = 10\ntilt_deg = 20\nlength_mm = 20\nmeasure_every_mm = 1\ndepth = {{ kind = \"constant\", depth_um = 40 }}\n{extra}"
+            "{HEAD}[[plan]]\nkind = \"groove\"\nspeed_rpm = 10000\nupfeed_um = 10\ntilt_deg = 20\nlength_mm = 20\nmeasure_every_mm = 1\ndepth = {{ kind = \"constant\", depth_um = 40 }}\n{extra}"
         )
     };
     assert_eq!(
@@ -169,8 +169,8 @@ fn errors_name_the_key() {
         "plan[0].tilt_deg"
     );
     assert_eq!(
-        err_key(&g("").replace("spindle_rpm = 10000", "spindle_rpm = 0")),
-        "plan[0].spindle_rpm"
+        err_key(&g("").replace("speed_rpm = 10000", "speed_rpm = 0")),
+        "plan[0].speed_rpm"
     );
     assert_eq!(
         err_key(&g("").replace("depth_um = 40", "depth_um = 500")),

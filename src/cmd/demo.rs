@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use millcomp_datasets::{Column, ColumnData, ColumnKind, ColumnSpec, Schema, Table};
 use millcomp_doe::{AnalysisInput, ModelSpec};
-use millcomp_identify::{IdentifyOptions, Verb, identify_columns};
+use millcomp_identify::{IdentifyOptions, Target, identify_columns};
 use serde::Serialize;
 
 use millcomp_closedloop::batch::exec::{MpcClosedLoop, run_shard};
@@ -220,17 +220,17 @@ fn doe_stage(out: &Path, md: &mut String) -> anyhow::Result<Stage> {
 }
 
 fn identify_on(
-    verb: Verb,
+    verb: Target,
     t: &Table,
     opts: &IdentifyOptions,
-) -> anyhow::Result<millcomp_identify::verbs::Identified> {
+) -> anyhow::Result<millcomp_identify::targets::Identified> {
     let cols = millcomp_datasets::adapters::identify_columns(t);
     Ok(identify_columns(verb, &cols, opts)?)
 }
 
 /// Saves an identified model with the embedded data it came from (name and SHA-256) as provenance.
 fn save_identified(
-    fit: &millcomp_identify::verbs::Identified,
+    fit: &millcomp_identify::targets::Identified,
     path: &Path,
     input_name: &str,
     input: &str,
@@ -272,7 +272,7 @@ fn force_stage(out: &Path, md: &mut String) -> anyhow::Result<(Stage, f64)> {
         material: Some("6061".into()),
         ..Default::default()
     };
-    let fit = identify_on(Verb::Force, &t, &opts).context("identify force on clayton_doe")?;
+    let fit = identify_on(Target::Force, &t, &opts).context("identify force on clayton_doe")?;
     let w = *fit
         .report
         .params
@@ -343,7 +343,7 @@ fn spindle_stage(out: &Path, md: &mut String) -> anyhow::Result<Stage> {
     let opts = IdentifyOptions {
         ..Default::default()
     };
-    let fit = identify_on(Verb::Spindle, &t, &opts).context("identify spindle")?;
+    let fit = identify_on(Target::Spindle, &t, &opts).context("identify spindle")?;
     let model = out.join("spindle_model.toml");
     save_identified(&fit, &model, SPINDLE_RUN_FILE, SPINDLE_RUN)?;
     let p = |k: &str| fit.report.params.get(k).copied().unwrap_or(f64::NAN);

@@ -62,5 +62,8 @@ pub fn run(args: DiagnoseArgs, json: bool) -> anyhow::Result<()> {
             args.measured.display()
         );
     }
+    for n in &file.notes {
+        println!("note: {}: {n}", args.measured.display());
+    }
     Ok(())
 }

@@ -2,21 +2,21 @@
 //! (`millcomp-identify`), reading the data through `millcomp-datasets`.
 
 use anyhow::{Context, bail};
-use millcomp_identify::verbs::force::ForceParam;
-use millcomp_identify::verbs::thermal::ThermalModel;
-use millcomp_identify::verbs::wall::WallGeometry;
-use millcomp_identify::{FitReport, IdentifyOptions, Verb, identify_columns};
+use millcomp_identify::targets::force::ForceParam;
+use millcomp_identify::targets::thermal::ThermalModel;
+use millcomp_identify::targets::wall::WallGeometry;
+use millcomp_identify::{FitReport, IdentifyOptions, Target, identify_columns};
 
 use crate::cli::{IdentifyArgs, IdentifyWhat};
 use crate::cmd::print_json;
 
 pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
     let verb = match args.what {
-        IdentifyWhat::Spindle => Verb::Spindle,
-        IdentifyWhat::Stiffness => Verb::Stiffness,
-        IdentifyWhat::Force => Verb::Force,
-        IdentifyWhat::Thermal => Verb::Thermal,
-        IdentifyWhat::Wall => Verb::Wall,
+        IdentifyWhat::Spindle => Target::Spindle,
+        IdentifyWhat::Stiffness => Target::Stiffness,
+        IdentifyWhat::Force => Target::Force,
+        IdentifyWhat::Thermal => Target::Thermal,
+        IdentifyWhat::Wall => Target::Wall,
     };
     let options = options(&args)?;
     let table = millcomp_datasets::read_any(&args.file)?;
@@ -56,13 +56,13 @@ pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn verb_name(v: Verb) -> &'static str {
+fn verb_name(v: Target) -> &'static str {
     match v {
-        Verb::Spindle => "spindle",
-        Verb::Stiffness => "stiffness",
-        Verb::Force => "force",
-        Verb::Thermal => "thermal",
-        Verb::Wall => "wall",
+        Target::Spindle => "spindle",
+        Target::Stiffness => "stiffness",
+        Target::Force => "force",
+        Target::Thermal => "thermal",
+        Target::Wall => "wall",
     }
 }
 

@@ -275,13 +275,13 @@ pub fn base_session(name: &str, description: &str) -> Session {
         if i > 0 {
             items.push(PlanItem::Pause(PauseSpec {
                 duration_s: g.pause_s,
-                spindle_rpm: g.pause_rpm,
+                speed_rpm: g.pause_rpm,
                 coolant: None,
             }));
         }
         items.push(PlanItem::Groove(GrooveSpec {
             start_s: (i == 0).then_some(0.0),
-            spindle_rpm: g.rpm,
+            speed_rpm: g.rpm,
             upfeed_um: Some(g.upfeed),
             feed_mm_min: None,
             tilt_deg: g.tilt,
@@ -804,8 +804,8 @@ pub fn generate(case: &SyntheticCase) -> Result<SyntheticData> {
         for (i, p) in contexts.points.iter().enumerate() {
             let c = CutConditions {
                 depth_um: truth_depth[i].clamp(0.0, model.tool.radius_um),
-                upfeed_um_per_rev: p.upfeed_um,
-                speed_rpm: p.spindle_rpm,
+                upfeed_um: p.upfeed_um,
+                speed_rpm: p.speed_rpm,
                 tilt_deg: p.tilt_deg,
             };
             let pk = model

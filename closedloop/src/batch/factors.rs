@@ -216,7 +216,7 @@ fn num(spec: &ScenarioSpec, name: &str) -> Result<Option<f64>, ClosedLoopError> 
 /// assert_eq!(s.name, "batch_0000");
 /// let g = s.groove.unwrap();
 /// // the factor, and the published groove_s7_20deg.toml for the rest (20 mm, 10 µm/rev)
-/// assert_eq!((g.tilt_deg, g.length_mm, g.upfeed_um_per_rev), (30.0, 20.0, 10.0));
+/// assert_eq!((g.tilt_deg, g.length_mm, g.upfeed_um), (30.0, 20.0, 10.0));
 /// ```
 pub fn build_scenario(spec: &ScenarioSpec) -> Result<Scenario, ClosedLoopError> {
     let mut s = Scenario::from_toml_str(BASE_SCENARIO_TOML, BASE_SCENARIO_FILE)?;
@@ -237,7 +237,7 @@ pub fn build_scenario(spec: &ScenarioSpec) -> Result<Scenario, ClosedLoopError> 
         };
     }
     if let Some(v) = num(spec, "upfeed_um")? {
-        g.upfeed_um_per_rev = v;
+        g.upfeed_um = v;
     }
     if let Some(v) = num(spec, "wearland_um")? {
         g.wearland_um = v;
@@ -266,7 +266,7 @@ pub fn build_scenario(spec: &ScenarioSpec) -> Result<Scenario, ClosedLoopError> 
         Some(1.0) => {
             g.feed_steps = vec![FeedStep {
                 x_mm: g.length_mm / 2.0,
-                upfeed_um_per_rev: 2.0 * g.upfeed_um_per_rev,
+                upfeed_um: 2.0 * g.upfeed_um,
             }];
         }
         Some(x) => return Err(bad("feed_step", format!("{x} is not 0 or 1"))),
@@ -381,12 +381,12 @@ mod tests {
         // 20 mm groove of the base scenario: the step is at 10 mm, upfeed 10 → 20 µm/rev.
         assert_eq!(g.feed_steps.len(), 1);
         assert_eq!(g.feed_steps[0].x_mm, 10.0);
-        assert_eq!(g.feed_steps[0].upfeed_um_per_rev, 20.0);
+        assert_eq!(g.feed_steps[0].upfeed_um, 20.0);
         assert!((s.truth.stiffness_error + 0.1).abs() < 1e-15);
         // groove_s7_20deg.toml: force_noise_n = 0.04, doubled.
         assert!((s.truth.force_noise_n - 0.08).abs() < 1e-15);
         // Unnamed factors keep the published values (groove_s7_20deg.toml: upfeed 10, wearland 8).
-        assert_eq!(g.upfeed_um_per_rev, 10.0);
+        assert_eq!(g.upfeed_um, 10.0);
         assert_eq!(g.wearland_um, 8.0);
     }
 

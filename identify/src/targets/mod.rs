@@ -1,4 +1,4 @@
-//! The `millcomp identify <what>` verbs: each takes named data columns, validates them, fits the
+//! The identification targets of `millcomp identify <what>`: each takes named data columns, validates them, fits the
 //! physics crate's model and returns an [`Identified`] (report + saveable model).
 
 use std::collections::BTreeMap;
@@ -17,7 +17,7 @@ pub mod stiffness;
 pub mod thermal;
 pub mod wall;
 
-/// What a verb returns. Serialises as the report's keys at top level (`params`, `std_err`,
+/// What a target returns. Serialises as the report's keys at top level (`params`, `std_err`,
 /// `ci95`, `rms_residual_<unit>`, `status`, `warnings`, ...) plus `derived` and `groups` when not
 /// empty; `model` (the saveable form) is not serialised — save it as kind [`Identified::kind`] in a
 /// `millcomp_models::ModelFile`.
@@ -29,7 +29,7 @@ pub struct Identified {
     /// Functions of the parameters with delta-method uncertainty (e.g. tilted-tool stiffness).
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub derived: BTreeMap<String, Derived>,
-    /// Per-group reports when the verb fits independent groups (e.g. stiffness directions).
+    /// Per-group reports when the target fits independent groups (e.g. stiffness directions).
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub groups: BTreeMap<String, FitReport>,
     /// Notes about the input (e.g. columns that were ignored).

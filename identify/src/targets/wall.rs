@@ -13,7 +13,7 @@ use std::collections::BTreeMap;
 use nalgebra::DMatrix;
 
 use super::stiffness::LoadDeflection;
-use super::thermal::VerbOptions;
+use super::thermal::CommonOptions;
 use super::{Identified, derive};
 use crate::error::{IdentifyError, Result};
 use crate::linear::{LinearMethod, fit_linear};
@@ -44,7 +44,7 @@ pub struct WallGeometry {
 #[derive(Debug, Clone, Default)]
 pub struct WallOptions {
     /// Common options.
-    pub common: VerbOptions,
+    pub common: CommonOptions,
     /// Geometry, to derive the effective modulus `e_gpa`.
     pub geometry: Option<WallGeometry>,
 }
@@ -64,7 +64,7 @@ pub fn cantilever_tip_stiffness_n_per_um(e_gpa: f64, g: &WallGeometry) -> f64 {
 /// Fits the wall's effective stiffness (and the effective modulus when the geometry is given).
 ///
 /// ```
-/// use millcomp_identify::verbs::wall::*;
+/// use millcomp_identify::targets::wall::*;
 /// let g = WallGeometry { height_um: 800.0, thickness_um: 100.0, length_um: 5000.0 };
 /// let k = cantilever_tip_stiffness_n_per_um(100.0, &g); // H59 brass, 004 Table 4
 /// let f: Vec<f64> = (1..=12).map(|i| 0.1 * i as f64).collect();

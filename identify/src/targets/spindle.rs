@@ -26,9 +26,9 @@ use millcomp_sim::spindle::{DeadTimeModel, PztSpindle};
 use nalgebra::{DMatrix, DVector};
 
 use super::Identified;
-use super::thermal::VerbOptions;
+use super::thermal::CommonOptions;
 use crate::error::{IdentifyError, Result};
-use crate::jaccheck::fd_jacobian;
+use crate::jacobian_check::fd_jacobian;
 use crate::nonlinear::{ParamSpec, ResidualModel, fit_nonlinear};
 use crate::validate;
 
@@ -47,7 +47,7 @@ pub struct SpindleData<'a> {
 #[derive(Debug, Clone)]
 pub struct SpindleOptions {
     /// Common options.
-    pub common: VerbOptions,
+    pub common: CommonOptions,
     /// Fit the extra real pole `pole_rad_s` (the third pole of the thesis' root locus, Fig. 5-11).
     pub extra_pole: bool,
     /// Fit a dead time `dead_time_s`.
@@ -62,7 +62,7 @@ pub struct SpindleOptions {
 impl Default for SpindleOptions {
     fn default() -> Self {
         SpindleOptions {
-            common: VerbOptions::default(),
+            common: CommonOptions::default(),
             extra_pole: false,
             dead_time: false,
             dead_time_model: DeadTimeModel::Pade2,

@@ -16,7 +16,7 @@ use argmin::core::{Error as ArgminError, Jacobian, Operator};
 use nalgebra::{DMatrix, DVector};
 
 use super::combine::{combine, prefixed};
-use super::thermal::VerbOptions;
+use super::thermal::CommonOptions;
 use super::{Identified, derive};
 use crate::error::{IdentifyError, Result};
 use crate::linear::{LinearMethod, fit_linear};
@@ -39,7 +39,7 @@ pub struct StiffnessData<'a> {
 #[derive(Debug, Clone, Default)]
 pub struct StiffnessOptions {
     /// Common options.
-    pub common: VerbOptions,
+    pub common: CommonOptions,
     /// Tilt angles (deg) at which to derive the tilted-tool z-stiffness.
     pub tilt_deg: Vec<f64>,
     /// Known machine stiffness (N/µm) to put in series with each fitted direction.
@@ -112,7 +112,7 @@ fn key(label: &str) -> String {
 /// Fits the stiffness of each direction and the derived combinations.
 ///
 /// ```
-/// use millcomp_identify::verbs::stiffness::*;
+/// use millcomp_identify::targets::stiffness::*;
 /// // 000 §5.2.3: radial 0.114 N/µm measured; masses 50..1000 g.
 /// let load: Vec<f64> = (1..=20).map(|i| i as f64 * 0.05 * 9.81).collect();
 /// let defl: Vec<f64> = load.iter().enumerate().map(|(i, f)| f / 0.114 + 0.02 * ((i % 3) as f64 - 1.0)).collect();
@@ -314,7 +314,7 @@ fn fmt_num(x: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::jaccheck::check_jacobian;
+    use crate::jacobian_check::check_jacobian;
 
     #[test]
     fn jacobian_matches_fd() {

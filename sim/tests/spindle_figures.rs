@@ -5,7 +5,7 @@ use approx::assert_relative_eq;
 use argmin::core::{CostFunction, Error, Executor};
 use argmin::solver::neldermead::NelderMead;
 use millcomp_sim::spindle::PztSpindle;
-use millcomp_sim::spindle_fit::{
+use millcomp_sim::spindle_figures::{
     FITTED, PUBLISHED, PlantStructure, STRUCTURE_FITS, SpindleFigures, evaluate, fit_cost,
     p_critical_gain,
 };
@@ -35,7 +35,7 @@ fn fitted_plant_meets_open_loop_figures_and_reports_residuals() {
         max_relative = common::SPINDLE_OL_REL
     );
     // the PID design overshoot (9 %, §5.2.4) and tuned overshoot (6 %, §5.2.5) are also met within 5 %;
-    // the rise times and kc are not (documented in spindle_fit::FITTED)
+    // the rise times and kc are not (documented in spindle_figures::FITTED)
     assert_relative_eq!(f.pid_design_overshoot_pct, 9.0, max_relative = 0.05);
     assert_relative_eq!(f.pid_tuned_overshoot_pct, 6.0, max_relative = 0.05);
     assert!(f.p_critical_gain.is_finite() && f.p_critical_gain > 500.0);

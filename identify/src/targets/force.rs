@@ -4,7 +4,7 @@
 //! Forward model: the physics crate's [`BallEndForceModel`] (eqs 4–10 as reconstructed there).
 //! Two kinds of data:
 //! * **peak forces per condition** ([`PeakForceData`], like Table 3-3): per row a cut
-//!   (`depth_um`, `upfeed_um_per_rev`, optional `speed_rpm`, `tilt_deg`) and any of `max_fx_n`,
+//!   (`depth_um`, `upfeed_um`, optional `speed_rpm`, `tilt_deg`) and any of `max_fx_n`,
 //!   `max_fy_n`, `max_fz_n` = "the largest positive force per flute … averaged" (§3.5.1), i.e. the
 //!   physics crate's [`BallEndForceModel::table33_response`] (per-flute maxima on a 3600-point
 //!   revolution grid, averaged over the two flutes);
@@ -29,7 +29,7 @@ use millcomp_sim::force::{BallEndForceModel, CutConditions};
 use nalgebra::{DMatrix, DVector};
 
 use super::Identified;
-use super::thermal::VerbOptions;
+use super::thermal::CommonOptions;
 use crate::error::{IdentifyError, Result};
 use crate::nonlinear::{ParamSpec, ResidualModel, fit_nonlinear};
 use crate::validate;
@@ -124,13 +124,13 @@ impl ForceParam {
     }
 }
 
-/// Cut conditions per row (CSV `upfeed_um` is the same as `upfeed_um_per_rev`).
+/// Cut conditions per row.
 #[derive(Debug, Clone, Copy)]
 pub struct ForceConditions<'a> {
     /// Axial depth of cut, µm.
     pub depth_um: &'a [f64],
     /// Feed per revolution ("upfeed"), µm/rev.
-    pub upfeed_um_per_rev: &'a [f64],
+    pub upfeed_um: &'a [f64],
     /// Spindle speed, rpm (does not enter the force model; default 10 000).
     pub speed_rpm: Option<&'a [f64]>,
     /// Tool tilt, deg (default [`ForceOptions::default_tilt_deg`]).
@@ -178,7 +178,7 @@ pub enum ForceData<'a> {
 #[derive(Debug, Clone)]
 pub struct ForceOptions {
     /// Common options.
-    pub common: VerbOptions,
+    pub common: CommonOptions,
     /// Model providing the fixed parameters and the starting values (material, tool, constants).
     pub base: BallEndForceModel,
     /// Parameters to estimate (default: W only, the thesis' own procedure — "the material parameter
@@ -194,7 +194,7 @@ impl Default for ForceOptions {
     /// 6061 aluminium (Table 4-1), the physics crate's default Ø0.8 mm tool, W free.
     fn default() -> Self {
         ForceOptions {
-            common: VerbOptions::default(),
+            common: CommonOptions::default(),
             base: BallEndForceModel {
                 material: millcomp_sim::material::Material::al6061(),
                 ..BallEndForceModel::default()
@@ -367,9 +367,9 @@ fn conditions(
     opts: &ForceOptions,
 ) -> Result<Vec<CutConditions>> {
     validate::same_len("depth_um", c.depth_um, "rows", n)?;
-    validate::same_len("upfeed_um_per_rev", c.upfeed_um_per_rev, "rows", n)?;
+    validate::same_len("upfeed_um", c.upfeed_um, "rows", n)?;
     validate::finite("depth_um", c.depth_um)?;
-    validate::finite("upfeed_um_per_rev", c.upfeed_um_per_rev)?;
+    validate::finite("upfeed_um", c.upfeed_um)?;
     if let Some(s) = c.speed_rpm {
         validate::same_len("speed_rpm", s, "rows", n)?;
         validate::finite("speed_rpm", s)?;
@@ -382,7 +382,7 @@ fn conditions(
         .map(|i| {
             let cond = CutConditions {
                 depth_um: c.depth_um[i],
-                upfeed_um_per_rev: c.upfeed_um_per_rev[i],
+                upfeed_um: c.upfeed_um[i],
                 speed_rpm: c.speed_rpm.map(|s| s[i]).unwrap_or(10_000.0),
                 tilt_deg: c.tilt_deg.map(|t| t[i]).unwrap_or(opts.default_tilt_deg),
             };
@@ -589,7 +589,7 @@ pub fn identify_force(data: &ForceData<'_>, opts: &ForceOptions) -> Result<Ident
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::jaccheck::check_jacobian;
+    use crate::jacobian_check::check_jacobian;
 
     fn doe_conditions() -> (Vec<f64>, Vec<f64>, Vec<f64>) {
         // 000 Table 3-3 design (depth, speed, upfeed).
@@ -604,7 +604,7 @@ mod tests {
         let opts = ForceOptions::default();
         let c = ForceConditions {
             depth_um: &d,
-            upfeed_um_per_rev: &f,
+            upfeed_um: &f,
             speed_rpm: Some(&s),
             tilt_deg: None,
         };

@@ -9,7 +9,7 @@
 //! - tuned on the machine: P 400, I 800 000, D 0 → 6 ms rise, 6 % overshoot (Fig. 5-15, measured).
 //!
 //! This module only *evaluates* the figures for a given plant ([`evaluate`]); the least-squares fit lives
-//! in `sim/examples/fit_spindle.rs` and the test `tests/spindle_fit.rs` (physics stays solver-free). The
+//! in `sim/examples/fit_spindle.rs` and the test `tests/spindle_figures.rs` (physics stays solver-free). The
 //! resulting constants are stored in [`FITTED`] with their provenance.
 
 use serde::{Deserialize, Serialize};

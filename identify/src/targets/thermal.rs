@@ -24,7 +24,7 @@
 //!   says so (test `speed_model_is_sims_spindle_growth`).
 //!
 //! ```
-//! use millcomp_identify::verbs::thermal::speed_drift_um;
+//! use millcomp_identify::targets::thermal::speed_drift_um;
 //! // 20 µm at 50 000 rpm, onset 16 000 rpm (sim's defaults): after 10 τ at 33 000 rpm the growth
 //! // is 20·(17 000/34 000) = 10 µm
 //! let t = [0.0, 6000.0];
@@ -79,9 +79,9 @@ pub struct ThermalData<'a> {
     pub temp_c: Option<&'a [f64]>,
 }
 
-/// Options shared by the verbs.
+/// Options shared by the targets.
 #[derive(Debug, Clone, Default)]
-pub struct VerbOptions {
+pub struct CommonOptions {
     /// Nonlinear solver options.
     pub nls: NlsOptions,
 }
@@ -179,21 +179,21 @@ fn check_common(data: &ThermalData<'_>) -> Result<()> {
 /// model that needs it, constant `drift_um` or `temp_c` (nothing to identify), too few rows.
 ///
 /// ```
-/// use millcomp_identify::verbs::thermal::*;
+/// use millcomp_identify::targets::thermal::*;
 /// // 002 §7.1: coolant drift +8.5 µm settling in ~45 min → τ ≈ 15 min = 900 s.
 /// let t: Vec<f64> = (0..60).map(|i| i as f64 * 65.0).collect();
 /// let y: Vec<f64> = t.iter().enumerate()
 ///     .map(|(i, &t)| exponential_drift_um(t, 8.5, 900.0, 0.0) + 0.05 * ((i * 37 % 11) as f64 - 5.0) / 5.0)
 ///     .collect();
 /// let fit = identify_thermal(&ThermalData { t_s: &t, drift_um: &y, speed_rpm: None, temp_c: None },
-///                            ThermalModel::Exponential, &VerbOptions::default()).unwrap();
+///                            ThermalModel::Exponential, &CommonOptions::default()).unwrap();
 /// assert!((fit.report.param("amplitude_um") - 8.5).abs() < 0.1);
 /// assert!((fit.report.param("tau_s") - 900.0).abs() < 30.0);
 /// ```
 pub fn identify_thermal(
     data: &ThermalData<'_>,
     model: ThermalModel,
-    opts: &VerbOptions,
+    opts: &CommonOptions,
 ) -> Result<Identified> {
     check_common(data)?;
     let kind = model.kind();
@@ -490,7 +490,7 @@ impl ResidualModel for SpeedDrift<'_> {}
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::jaccheck::check_jacobian;
+    use crate::jacobian_check::check_jacobian;
     use millcomp_sim::effects::{CoolantThermalDrift, Effect, EffectContext};
 
     #[test]
@@ -598,7 +598,7 @@ mod tests {
             temp_c: None,
         };
         let e =
-            identify_thermal(&d, ThermalModel::Exponential, &VerbOptions::default()).unwrap_err();
+            identify_thermal(&d, ThermalModel::Exponential, &CommonOptions::default()).unwrap_err();
         assert!(
             matches!(e, IdentifyError::NonMonotoneTime { row: 2, .. }),
             "{e}"
@@ -612,10 +612,14 @@ mod tests {
             temp_c: None,
         };
         let e =
-            identify_thermal(&d, ThermalModel::Exponential, &VerbOptions::default()).unwrap_err();
+            identify_thermal(&d, ThermalModel::Exponential, &CommonOptions::default()).unwrap_err();
         assert!(matches!(e, IdentifyError::ConstantInput { .. }), "{e}");
-        let e = identify_thermal(&d, ThermalModel::LinearTemperature, &VerbOptions::default())
-            .unwrap_err();
+        let e = identify_thermal(
+            &d,
+            ThermalModel::LinearTemperature,
+            &CommonOptions::default(),
+        )
+        .unwrap_err();
         assert!(e.to_string().contains("temp_c"), "{e}");
         let y = [0.0, 1.0, 2.0];
         let d = ThermalData {
@@ -625,7 +629,7 @@ mod tests {
             temp_c: None,
         };
         let e =
-            identify_thermal(&d, ThermalModel::Exponential, &VerbOptions::default()).unwrap_err();
+            identify_thermal(&d, ThermalModel::Exponential, &CommonOptions::default()).unwrap_err();
         assert!(
             matches!(
                 e,
