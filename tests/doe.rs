@@ -1,24 +1,8 @@
 //! End-to-end tests of `millcomp doe design|analyze` through the binary.
 
-use assert_cmd::Command;
+use crate::common::*;
+
 use predicates::prelude::*;
-
-fn millcomp() -> Command {
-    Command::cargo_bin("millcomp").expect("binary built")
-}
-
-fn json_of(args: &[&str]) -> serde_json::Value {
-    let out = millcomp()
-        .args(args)
-        .assert()
-        .success()
-        .get_output()
-        .stdout
-        .clone();
-    serde_json::from_slice(&out).expect("one JSON document on stdout")
-}
-
-const CLAYTON: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/datasets/data/clayton_doe.csv");
 
 fn term<'a>(doc: &'a serde_json::Value, name: &str) -> &'a serde_json::Value {
     doc["terms"]

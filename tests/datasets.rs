@@ -1,16 +1,8 @@
 //! End-to-end tests of `millcomp datasets` and of the CLI's handling of bad input files.
 
-use assert_cmd::Command;
+use crate::common::*;
+
 use predicates::prelude::*;
-
-fn millcomp() -> Command {
-    Command::cargo_bin("millcomp").expect("binary built")
-}
-
-/// The measured-groove header, from the one column list.
-fn groove_header() -> String {
-    millcomp_datasets::contracts::MEASURED_GROOVE_COLUMNS.join(",")
-}
 
 #[test]
 fn show_clayton_doe_prints_the_eight_trials_of_table_3_3() {

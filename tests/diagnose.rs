@@ -1,18 +1,12 @@
 //! End-to-end tests of `millcomp diagnose SESSION MEASURED.csv` on the shipped synthetic sessions
 //! (datasets/synthetic/README.md lists what each hides and with which parameters).
 
-use assert_cmd::Command;
+use crate::common::*;
+
 use predicates::prelude::*;
 
-fn millcomp() -> Command {
-    Command::cargo_bin("millcomp").expect("binary built")
-}
-
 fn synthetic(name: &str, ext: &str) -> String {
-    format!(
-        "{}/datasets/synthetic/{name}.{ext}",
-        env!("CARGO_MANIFEST_DIR")
-    )
+    repo(&format!("datasets/synthetic/{name}.{ext}"))
 }
 
 fn diagnose_json(name: &str) -> serde_json::Value {

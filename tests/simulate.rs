@@ -1,11 +1,8 @@
 //! End-to-end tests of `millcomp simulate SESSION`.
 
-use assert_cmd::Command;
-use predicates::prelude::*;
+use crate::common::*;
 
-fn millcomp() -> Command {
-    Command::cargo_bin("millcomp").expect("binary built")
-}
+use predicates::prelude::*;
 
 const EXAMPLE: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),

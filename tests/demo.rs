@@ -1,6 +1,7 @@
 //! `millcomp demo`: the main job on embedded data, and the generator of the shipped synthetic spindle run.
 
-use assert_cmd::Command;
+use crate::common::*;
+
 use millcomp_identify::targets::spindle::simulate_spindle_um;
 use millcomp_sim::sensors::NoiseSource;
 use millcomp_sim::spindle::PztSpindle;
@@ -48,8 +49,7 @@ fn shipped_spindle_run_matches_its_generator() {
 fn demo_runs_every_available_stage_and_writes_the_report() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("demo");
-    let o = Command::cargo_bin("millcomp")
-        .unwrap()
+    let o = millcomp()
         .args(["demo", "--out", out.to_str().unwrap(), "--json"])
         .env("RAYON_NUM_THREADS", "2")
         .output()

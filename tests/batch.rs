@@ -1,9 +1,8 @@
 //! End-to-end tests of `millcomp batch`: the real closed loop (millcomp-closedloop's runner) on short grooves,
 //! shards as separate processes, merge, resume and bad input.
 
-use std::path::Path;
+use crate::common::*;
 
-use assert_cmd::Command;
 use predicates::str::contains;
 use serde_json::Value;
 
@@ -17,34 +16,6 @@ tilt_deg,depth_um,stiffness_error_pct,length_mm
 20,100,10,0.5
 40,100,0,0.5
 ";
-
-fn millcomp() -> Command {
-    let mut c = Command::cargo_bin("millcomp").expect("binary");
-    c.env_remove("SLURM_ARRAY_TASK_ID")
-        .env_remove("JOB_COMPLETION_INDEX")
-        .env("RAYON_NUM_THREADS", "2");
-    c
-}
-
-fn write(dir: &Path, name: &str, text: &str) -> std::path::PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, text).expect("write");
-    p
-}
-
-fn run_json(args: &[&str]) -> Value {
-    let out = millcomp().args(args).arg("--json").output().expect("run");
-    assert!(
-        out.status.success(),
-        "millcomp {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("json")
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
-}
 
 #[test]
 fn four_shards_merge_to_the_single_run_and_resume_skips_done_runs() {

@@ -1,24 +1,13 @@
 //! End-to-end tests of `millcomp identify` through the binary.
 
-use assert_cmd::Command;
+use crate::common::*;
+
 use predicates::prelude::*;
-
-fn millcomp() -> Command {
-    Command::cargo_bin("millcomp").expect("binary built")
-}
-
-const CLAYTON: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/datasets/data/clayton_doe.csv");
 
 /// Deterministic zero-mean pseudo-noise in [-1, 1] (no RNG dependency in the test).
 fn wiggle(i: usize) -> f64 {
     let x = (i as f64 * 12.9898).sin() * 43758.5453;
     2.0 * (x - x.floor()) - 1.0
-}
-
-fn write(dir: &tempfile::TempDir, name: &str, text: &str) -> std::path::PathBuf {
-    let p = dir.path().join(name);
-    std::fs::write(&p, text).unwrap();
-    p
 }
 
 #[test]
@@ -55,7 +44,7 @@ fn thermal_exponential_recovers_the_coolant_drift() {
         let y = 8.5 * (1.0 - (-t / 900.0).exp()) + 0.1 * wiggle(i);
         csv.push_str(&format!("{t},{y}\n"));
     }
-    let data = write(&dir, "drift.csv", &csv);
+    let data = write(dir.path(), "drift.csv", &csv);
     let model = dir.path().join("drift.toml");
     let out = millcomp()
         .args(["identify", "thermal"])
@@ -103,7 +92,7 @@ fn bad_thermal_input_is_named_and_nothing_is_saved() {
         ),
     ];
     for (name, text, needle) in cases {
-        let p = write(&dir, name, text);
+        let p = write(dir.path(), name, text);
         millcomp()
             .args(["identify", "thermal"])
             .arg(&p)

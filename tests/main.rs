@@ -1,0 +1,12 @@
+//! End-to-end tests of the `millcomp` binary: one test binary, one module per verb, one shared helper
+//! module.
+
+mod common;
+
+mod batch;
+mod datasets;
+mod demo;
+mod diagnose;
+mod doe;
+mod identify;
+mod simulate;
