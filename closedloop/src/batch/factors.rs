@@ -23,7 +23,10 @@ pub const FACTORS: &[(&str, &str)] = &[
     ("depth_um", "final depth of the 0..depth ramp (um)"),
     ("upfeed_um", "upfeed (um/rev)"),
     ("wearland_um", "wearland of the tool (um)"),
-    ("material", "S7, 1018 or 6061"),
+    (
+        "material",
+        "a material the force model knows: S7, 1018, 6061, H59, C45",
+    ),
     (
         "stiffness_error_pct",
         "error of the controllers' stiffness (%)",
@@ -250,13 +253,18 @@ pub fn build_scenario(spec: &ScenarioSpec) -> Result<Scenario, ClosedLoopError> 
     }
     match spec.factors.get("material") {
         None => {}
-        Some(FactorValue::Text(m)) if ["S7", "1018", "6061"].contains(&m.as_str()) => {
+        // every material the physics knows (sim's `Material::by_name`), one list
+        Some(FactorValue::Text(m)) if millcomp_sim::material::Material::by_name(m).is_ok() => {
             g.material = m.clone();
         }
         Some(v) => {
             return Err(bad(
                 "material",
-                format!("`{}` is not one of S7, 1018, 6061", v.text()),
+                format!(
+                    "`{}` is not one of {}",
+                    v.text(),
+                    millcomp_sim::material::MATERIAL_NAMES.join(", ")
+                ),
             ));
         }
     }
@@ -392,8 +400,13 @@ mod tests {
 
     #[test]
     fn bad_values_name_the_factor() {
-        let e = build_scenario(&spec(&[("material", FactorValue::Text("brass".into()))]));
-        assert!(error_chain(&e.unwrap_err()).contains("material"));
+        let e = build_scenario(&spec(&[("material", FactorValue::Text("titanium".into()))]));
+        let msg = error_chain(&e.unwrap_err());
+        assert!(msg.contains("material") && msg.contains("C45"), "{msg}");
+        // every material sim knows is a level, the 004 brass and the 003 steel included
+        for m in millcomp_sim::material::MATERIAL_NAMES {
+            build_scenario(&spec(&[("material", FactorValue::Text(m.into()))])).unwrap();
+        }
         let e = build_scenario(&spec(&[("feed_step", FactorValue::Num(2.0))]));
         assert!(error_chain(&e.unwrap_err()).contains("feed_step"));
         let e = build_scenario(&spec(&[("tilt_deg", FactorValue::Num(0.0))]));
