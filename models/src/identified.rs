@@ -284,6 +284,65 @@ impl ForceModelParams {
     }
 }
 
+/// The tool/spindle stiffness as identified from a load–deflection test (kind `stiffness` with directions
+/// `axial` and `radial`: `deflection = offset + load/k` per direction, `000_…txt` §5.2.3).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StiffnessModel {
+    /// Axial (spindle) stiffness (N/µm).
+    pub axial_n_per_um: f64,
+    /// Radial (tool bending) stiffness (N/µm).
+    pub radial_n_per_um: f64,
+    /// Covariance of the two stiffnesses (names `axial_stiffness_n_per_um`, `radial_stiffness_n_per_um`).
+    pub covariance: NamedMatrix,
+}
+
+impl StiffnessModel {
+    /// Kinds this view reads.
+    pub const KINDS: [&'static str; 1] = ["stiffness"];
+
+    /// The typed view of an identified `stiffness` model with an `axial` and a `radial` direction.
+    ///
+    /// # Errors
+    /// [`ModelError::MissingKey`] naming `model.params.axial_stiffness_n_per_um` or
+    /// `…radial…`; [`ModelError::InvalidValue`] for a non-positive stiffness.
+    pub fn from_identified(m: &IdentifiedModel, origin: &Path) -> Result<Self> {
+        let need = |name: &str| -> Result<f64> {
+            let v = m.require(name, origin, "stiffness")?;
+            if v.is_finite() && v > 0.0 {
+                Ok(v)
+            } else {
+                Err(ModelError::InvalidValue {
+                    path: origin.to_path_buf(),
+                    key: format!("model.params.{name}"),
+                    value: v.to_string(),
+                    allowed: "finite and > 0".into(),
+                })
+            }
+        };
+        let names = ["axial_stiffness_n_per_um", "radial_stiffness_n_per_um"];
+        Ok(Self {
+            axial_n_per_um: need(names[0])?,
+            radial_n_per_um: need(names[1])?,
+            covariance: m.covariance.sub(&names).unwrap_or_default(),
+        })
+    }
+
+    /// The same stiffness scaled by `factor` (a sweep of a wrong stiffness measurement).
+    pub fn scaled(&self, factor: f64) -> Self {
+        let mut c = self.covariance.clone();
+        for row in &mut c.values {
+            for v in row.iter_mut() {
+                *v *= factor * factor;
+            }
+        }
+        Self {
+            axial_n_per_um: self.axial_n_per_um * factor,
+            radial_n_per_um: self.radial_n_per_um * factor,
+            covariance: c,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

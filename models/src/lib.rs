@@ -51,11 +51,13 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod bundle;
 pub mod error;
 pub mod file;
 pub mod identified;
 pub mod surface;
 
+pub use bundle::ModelBundle;
 pub use error::{ModelError, Result};
 pub use file::{
     FORMAT, Header, InputFile, ModelFile, Provenance, VERSION, read_header, sha256_hex,
@@ -63,5 +65,6 @@ pub use file::{
 };
 pub use identified::{
     Derived, FitStatus, ForceModelParams, IdentifiedModel, NamedMatrix, SpindleModel,
+    StiffnessModel,
 };
 pub use surface::{ActualTerm, CodedFit, FactorCoding, Level, Prediction, ResponseSurface};

@@ -1,0 +1,180 @@
+//! A model bundle (kind `bundle`): everything a machine's commissioning identified — the PZT spindle, the
+//! force model, the tool/spindle stiffness — in one file, each with its covariance, plus the material the
+//! force model was commissioned on and the identification's warnings. Controllers are built from a bundle
+//! and nothing else; a controller that needs a model the bundle lacks, or a bundle of another material,
+//! is an error naming the file and the key.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{ModelError, Result};
+use crate::identified::{ForceModelParams, IdentifiedModel, SpindleModel, StiffnessModel};
+
+/// The `[model]` table of a bundle.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelBundle {
+    /// Workpiece material the force model was commissioned on (`S7`, `6061`, …).
+    pub material: String,
+    /// How each model was obtained (e.g. `force: 2^2 DOE with 2 centre points, 10 cuts, profilometer
+    /// depths`), in the order of the experiments.
+    #[serde(default)]
+    pub experiments: Vec<String>,
+    /// Warnings of the identifications (identifiability, residual structure, structure selection).
+    #[serde(default)]
+    pub warnings: Vec<String>,
+    /// The PZT spindle (kind `spindle` of `millcomp identify`).
+    #[serde(default)]
+    pub spindle: Option<IdentifiedModel>,
+    /// The force model (kind `force`).
+    #[serde(default)]
+    pub force: Option<IdentifiedModel>,
+    /// The tool/spindle stiffness (kind `stiffness`, directions `axial` and `radial`).
+    #[serde(default)]
+    pub stiffness: Option<IdentifiedModel>,
+}
+
+impl ModelBundle {
+    /// Kinds this type reads.
+    pub const KINDS: [&'static str; 1] = ["bundle"];
+
+    fn need<'a>(
+        m: &'a Option<IdentifiedModel>,
+        key: &str,
+        origin: &Path,
+        needed_by: &str,
+    ) -> Result<&'a IdentifiedModel> {
+        m.as_ref().ok_or_else(|| ModelError::MissingKey {
+            path: origin.to_path_buf(),
+            kind: "bundle".into(),
+            key: format!("model.{key} (needed by {needed_by})"),
+            available: "see the bundle's [model.*] tables".into(),
+        })
+    }
+
+    /// The spindle, which `needed_by` (a controller's name, for the message) needs.
+    ///
+    /// # Errors
+    /// [`ModelError::MissingKey`] naming `model.spindle` when the bundle has none; the view's errors.
+    pub fn spindle(&self, origin: &Path, needed_by: &str) -> Result<SpindleModel> {
+        SpindleModel::from_identified(
+            Self::need(&self.spindle, "spindle", origin, needed_by)?,
+            origin,
+        )
+    }
+
+    /// The force-model parameters, which `needed_by` needs.
+    ///
+    /// # Errors
+    /// [`ModelError::MissingKey`] naming `model.force`; the view's errors.
+    pub fn force(&self, origin: &Path, needed_by: &str) -> Result<ForceModelParams> {
+        ForceModelParams::from_identified(
+            Self::need(&self.force, "force", origin, needed_by)?,
+            origin,
+        )
+    }
+
+    /// The stiffness, which `needed_by` needs.
+    ///
+    /// # Errors
+    /// [`ModelError::MissingKey`] naming `model.stiffness`; the view's errors.
+    pub fn stiffness(&self, origin: &Path, needed_by: &str) -> Result<StiffnessModel> {
+        StiffnessModel::from_identified(
+            Self::need(&self.stiffness, "stiffness", origin, needed_by)?,
+            origin,
+        )
+    }
+
+    /// Checks that the force model was commissioned on `material` (the material a scenario cuts).
+    ///
+    /// # Errors
+    /// [`ModelError::InvalidValue`] naming `model.material` and both materials.
+    pub fn check_material(&self, material: &str, origin: &Path) -> Result<()> {
+        if self.material.trim().eq_ignore_ascii_case(material.trim()) {
+            Ok(())
+        } else {
+            Err(ModelError::InvalidValue {
+                path: origin.to_path_buf(),
+                key: "model.material".into(),
+                value: format!("`{}`", self.material),
+                allowed: format!(
+                    "the material the scenario cuts, `{material}` (a force model commissioned on another \
+                     material does not predict this one: commission again)"
+                ),
+            })
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::identified::{FitStatus, NamedMatrix};
+    use crate::{ModelFile, Provenance};
+
+    fn identified(params: &[(&str, f64)]) -> IdentifiedModel {
+        IdentifiedModel {
+            status: FitStatus::Converged,
+            n_obs: 20,
+            dof: 18,
+            rms_residual: 0.1,
+            residual_unit: "um".into(),
+            warnings: vec![],
+            params: params.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
+            std_err: Default::default(),
+            fixed: Default::default(),
+            derived: Default::default(),
+            covariance: NamedMatrix::default(),
+        }
+    }
+
+    fn bundle() -> ModelBundle {
+        ModelBundle {
+            material: "S7".into(),
+            experiments: vec![],
+            warnings: vec![],
+            spindle: None,
+            force: Some(identified(&[("w_mpa", 6100.0)])),
+            stiffness: Some(identified(&[
+                ("axial_stiffness_n_per_um", 1.2),
+                ("radial_stiffness_n_per_um", 0.114),
+            ])),
+        }
+    }
+
+    #[test]
+    fn a_missing_model_names_the_file_and_the_key() {
+        let e = bundle()
+            .spindle(Path::new("models.toml"), "mpc")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("models.toml") && e.contains("model.spindle") && e.contains("mpc"),
+            "{e}"
+        );
+        let k = bundle().stiffness(Path::new("m"), "pid-tuned").unwrap();
+        assert_eq!(k.radial_n_per_um, 0.114);
+    }
+
+    #[test]
+    fn another_material_is_refused_naming_the_key() {
+        let e = bundle()
+            .check_material("6061", Path::new("models.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("model.material") && e.contains("6061"), "{e}");
+        bundle().check_material("s7", Path::new("m")).unwrap();
+    }
+
+    #[test]
+    fn round_trips_as_a_model_file() {
+        let f = ModelFile::new("bundle", bundle(), Provenance::now("test", "test"));
+        let text = f.to_toml().unwrap();
+        let back =
+            ModelFile::<ModelBundle>::from_toml(&text, Path::new("b.toml"), &ModelBundle::KINDS)
+                .unwrap();
+        assert_eq!(back, f);
+        assert!(text.contains("[model.force.params]"), "{text}");
+    }
+}
