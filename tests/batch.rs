@@ -181,7 +181,7 @@ fn bad_input_gives_clear_errors() {
         .assert()
         .code(1)
         .stderr(contains("out of range"));
-    let bad_value = write(tmp.path(), "v.csv", "material\nbrass\n");
+    let bad_value = write(tmp.path(), "v.csv", "material\nunobtainium\n");
     millcomp()
         .args(["batch", "--scenarios", s(&bad_value)])
         .assert()
