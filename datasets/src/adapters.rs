@@ -6,15 +6,15 @@ use crate::error::DatasetError;
 use crate::table::{Column, ColumnData, Table};
 
 /// The table's columns as doe's named columns.
-pub fn doe_columns(table: &Table) -> Vec<(String, millcomp_doe::Column)> {
+pub fn doe_columns(table: &Table) -> Vec<(String, millcomp_doe::Values)> {
     table
         .columns
         .iter()
         .map(|c| {
             let col = match &c.data {
-                ColumnData::Float(v) => millcomp_doe::Column::F64(v.clone()),
-                ColumnData::Int(v) => millcomp_doe::Column::I64(v.clone()),
-                ColumnData::Text(v) => millcomp_doe::Column::Str(v.clone()),
+                ColumnData::Float(v) => millcomp_doe::Values::F64(v.clone()),
+                ColumnData::Int(v) => millcomp_doe::Values::I64(v.clone()),
+                ColumnData::Text(v) => millcomp_doe::Values::Str(v.clone()),
             };
             (c.name.clone(), col)
         })
@@ -27,16 +27,16 @@ pub fn doe_columns(table: &Table) -> Vec<(String, millcomp_doe::Column)> {
 /// [`DatasetError`] when the columns have different lengths or repeat a name.
 pub fn table_from_doe(
     origin: &str,
-    columns: Vec<(String, millcomp_doe::Column)>,
+    columns: Vec<(String, millcomp_doe::Values)>,
 ) -> Result<Table, DatasetError> {
     let cols = columns
         .into_iter()
         .map(|(name, c)| Column {
             name,
             data: match c {
-                millcomp_doe::Column::F64(v) => ColumnData::Float(v),
-                millcomp_doe::Column::I64(v) => ColumnData::Int(v),
-                millcomp_doe::Column::Str(v) => ColumnData::Text(v),
+                millcomp_doe::Values::F64(v) => ColumnData::Float(v),
+                millcomp_doe::Values::I64(v) => ColumnData::Int(v),
+                millcomp_doe::Values::Str(v) => ColumnData::Text(v),
             },
         })
         .collect();

@@ -5,7 +5,7 @@
 //! Run: `cargo run -p millcomp-doe --example clayton_doe`.
 
 use millcomp_doe::{
-    AnalysisInput, Column, DesignKind, DesignRequest, FactorSpec, ModelSpec, analyze, generate,
+    AnalysisInput, DesignKind, DesignRequest, FactorSpec, ModelSpec, Values, analyze, generate,
     power, response_surface,
 };
 
@@ -27,15 +27,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ("fz_n", [2.17, 1.24, 0.59, 0.83, 2.00, 1.50, 1.40, 0.82]),
     ];
     let fcols = vec![
-        ("depth_um".to_string(), Column::F64(depth.to_vec())),
-        ("speed_rpm".to_string(), Column::F64(speed.to_vec())),
-        ("upfeed_um".to_string(), Column::F64(upfeed.to_vec())),
+        ("depth_um".to_string(), Values::F64(depth.to_vec())),
+        ("speed_rpm".to_string(), Values::F64(speed.to_vec())),
+        ("upfeed_um".to_string(), Values::F64(upfeed.to_vec())),
     ];
     for (name, y) in forces {
         let input = AnalysisInput {
             factors: fcols.clone(),
             response_name: name.into(),
-            response: Column::F64(y.to_vec()),
+            response: Values::F64(y.to_vec()),
             model: ModelSpec::Main,
         };
         let a = analyze(&input)?;

@@ -1,4 +1,5 @@
-//! Factor specifications (`depth_um=100:200`, `A`, `material=S7:1018:6061`), levels and table columns.
+//! Factor specifications (`depth_um=100:200`, `A`, `material=S7:1018:6061`), levels and the typed values of
+//! a factor or response ([`Values`]).
 
 use serde::Serialize;
 
@@ -21,9 +22,11 @@ pub fn factor_letter(i: usize) -> String {
 /// One level of a factor, or one value in a table: a number or a label (the models crate's type).
 pub use millcomp_models::Level;
 
-/// A table column, in the three types the CLI's table layer (polars) distinguishes.
+/// The typed values of one factor or response (a table column's cells without its name), in the three
+/// types the table layer (`millcomp-datasets`, polars) distinguishes. Named columns are
+/// `(String, Values)` pairs.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Column {
+pub enum Values {
     /// Floating-point values.
     F64(Vec<f64>),
     /// Integer values.
@@ -32,13 +35,13 @@ pub enum Column {
     Str(Vec<String>),
 }
 
-impl Column {
+impl Values {
     /// Number of rows.
     pub fn len(&self) -> usize {
         match self {
-            Column::F64(v) => v.len(),
-            Column::I64(v) => v.len(),
-            Column::Str(v) => v.len(),
+            Values::F64(v) => v.len(),
+            Values::I64(v) => v.len(),
+            Values::Str(v) => v.len(),
         }
     }
 

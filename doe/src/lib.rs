@@ -16,7 +16,7 @@
 //! model-file format: `models/MODEL.md`). Plots of an analysis are drawn by the CLI.
 //!
 //! ```
-//! use millcomp_doe::{analyze, generate, AnalysisInput, Column, DesignKind, DesignRequest, FactorSpec, ModelSpec};
+//! use millcomp_doe::{analyze, generate, AnalysisInput, Values, DesignKind, DesignRequest, FactorSpec, ModelSpec};
 //! // The 2^3 of the Clayton thesis (seed 000, Table 3-2) …
 //! let f = FactorSpec::parse_list("depth_um=100:200,speed_rpm=10000:20000,upfeed_um=10:20").unwrap();
 //! let mut req = DesignRequest::new(DesignKind::Full, f);
@@ -26,14 +26,14 @@
 //! // … and a response that depends on depth and upfeed only.
 //! let cols = d.columns();
 //! let get = |n: &str| cols.iter().find(|(c, _)| c == n).unwrap().1.clone();
-//! let (Column::F64(dep), Column::F64(up)) = (get("depth_um"), get("upfeed_um")) else { unreachable!() };
+//! let (Values::F64(dep), Values::F64(up)) = (get("depth_um"), get("upfeed_um")) else { unreachable!() };
 //! let y: Vec<f64> = dep.iter().zip(&up).enumerate()
 //!     .map(|(i, (d, u))| 0.01 * d + 0.1 * u + 0.01 * ((i * 7 % 5) as f64 - 2.0)).collect();
 //! let input = AnalysisInput {
 //!     factors: vec![("depth_um".into(), get("depth_um")), ("speed_rpm".into(), get("speed_rpm")),
 //!                   ("upfeed_um".into(), get("upfeed_um"))],
 //!     response_name: "fx_n".into(),
-//!     response: Column::F64(y),
+//!     response: Values::F64(y),
 //!     model: ModelSpec::Main,
 //! };
 //! let a = analyze(&input).unwrap();
@@ -61,7 +61,7 @@ pub use design::{
 };
 pub use error::{DoeError, Result};
 pub use factor::{
-    Column, FACTOR_LETTERS, FactorInfo, FactorLevels, FactorSpec, Level, factor_letter,
+    FACTOR_LETTERS, FactorInfo, FactorLevels, FactorSpec, Level, Values, factor_letter,
 };
 pub use model::ModelSpec;
 pub use surface::response_surface;

@@ -4,7 +4,7 @@ mod common;
 
 use common::*;
 use millcomp_doe::{
-    AnalysisInput, Column, ModelSpec, analyze, f_test_power, lenth, noncentral_f_cdf,
+    AnalysisInput, ModelSpec, Values, analyze, f_test_power, lenth, noncentral_f_cdf,
     noncentral_f_sf, power,
 };
 
@@ -115,7 +115,7 @@ fn noncentral_f_matches_scipy() {
 #[test]
 fn power_of_the_thesis_design() {
     // The 2^3 of Table 3-3 with the main-effects model (4 residual df): λ = n·(Δ/2σ)² = 8·(Δ/2σ)².
-    let col = |v: &[f64]| Column::F64(v.to_vec());
+    let col = |v: &[f64]| Values::F64(v.to_vec());
     let f = vec![
         (
             "depth_um".to_string(),

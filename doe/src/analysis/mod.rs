@@ -9,7 +9,7 @@ use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, FisherSnedecor, StudentsT};
 
 use crate::error::{DoeError, Result};
-use crate::factor::{Column, code_value};
+use crate::factor::{Values, code_value};
 use crate::model::{FactorMeta, ModelSpec, Term, expand};
 pub use lenth::{Lenth, LenthTerm, lenth};
 pub use power::{f_test_power, noncentral_f_cdf, noncentral_f_sf};
@@ -29,11 +29,11 @@ pub const BOOKKEEPING_COLUMNS: &[&str] = &[
 #[derive(Debug, Clone, PartialEq)]
 pub struct AnalysisInput {
     /// Factor columns (numeric → coded −1/+1 from min/max; text → labels).
-    pub factors: Vec<(String, Column)>,
+    pub factors: Vec<(String, Values)>,
     /// Response column name.
     pub response_name: String,
     /// Response values (numeric; a text column is parsed, and a cell that is not a number is an error).
-    pub response: Column,
+    pub response: Values,
     /// Model.
     pub model: ModelSpec,
 }
@@ -45,18 +45,18 @@ impl AnalysisInput {
     /// that has between 2 and max(2, n/2) distinct values (responses usually have more).
     ///
     /// ```
-    /// use millcomp_doe::{AnalysisInput, Column, ModelSpec};
+    /// use millcomp_doe::{AnalysisInput, Values, ModelSpec};
     /// let t = vec![
-    ///     ("a".to_string(), Column::F64(vec![1.0, 2.0, 1.0, 2.0])),
-    ///     ("b".to_string(), Column::F64(vec![5.0, 5.0, 7.0, 7.0])),
-    ///     ("y".to_string(), Column::F64(vec![1.0, 3.0, 2.0, 4.5])),
+    ///     ("a".to_string(), Values::F64(vec![1.0, 2.0, 1.0, 2.0])),
+    ///     ("b".to_string(), Values::F64(vec![5.0, 5.0, 7.0, 7.0])),
+    ///     ("y".to_string(), Values::F64(vec![1.0, 3.0, 2.0, 4.5])),
     /// ];
     /// let inp = AnalysisInput::from_table(&t, "y", None, ModelSpec::Main).unwrap();
     /// assert_eq!(inp.factors.len(), 2);
     /// assert!(AnalysisInput::from_table(&t, "z", None, ModelSpec::Main).is_err());
     /// ```
     pub fn from_table(
-        table: &[(String, Column)],
+        table: &[(String, Values)],
         response: &str,
         factors: Option<&[String]>,
         model: ModelSpec,
@@ -68,7 +68,7 @@ impl AnalysisInput {
                 .collect::<Vec<_>>()
                 .join(", ")
         };
-        let get = |name: &str| -> Result<&Column> {
+        let get = |name: &str| -> Result<&Values> {
             table
                 .iter()
                 .find(|(n, _)| n == name)
@@ -140,21 +140,21 @@ impl AnalysisInput {
     }
 }
 
-fn distinct_count(c: &Column) -> usize {
+fn distinct_count(c: &Values) -> usize {
     match c {
-        Column::F64(v) => {
+        Values::F64(v) => {
             let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
             s.sort_by(|a, b| a.total_cmp(b));
             s.dedup();
             s.len()
         }
-        Column::I64(v) => {
+        Values::I64(v) => {
             let mut s = v.clone();
             s.sort();
             s.dedup();
             s.len()
         }
-        Column::Str(v) => {
+        Values::Str(v) => {
             let mut s = v.clone();
             s.sort();
             s.dedup();
@@ -322,9 +322,9 @@ struct Coded {
     metas: Vec<FactorMeta>,
 }
 
-fn numeric_values(name: &str, c: &Column) -> Result<Option<Vec<f64>>> {
+fn numeric_values(name: &str, c: &Values) -> Result<Option<Vec<f64>>> {
     match c {
-        Column::F64(v) => {
+        Values::F64(v) => {
             for (i, x) in v.iter().enumerate() {
                 if !x.is_finite() {
                     return Err(DoeError::NonFiniteValue {
@@ -336,8 +336,8 @@ fn numeric_values(name: &str, c: &Column) -> Result<Option<Vec<f64>>> {
             }
             Ok(Some(v.clone()))
         }
-        Column::I64(v) => Ok(Some(v.iter().map(|&x| x as f64).collect())),
-        Column::Str(_) => Ok(None),
+        Values::I64(v) => Ok(Some(v.iter().map(|&x| x as f64).collect())),
+        Values::Str(_) => Ok(None),
     }
 }
 
@@ -371,7 +371,7 @@ fn code_factors(input: &AnalysisInput, n: usize) -> Result<Coded> {
             Some(v) => {
                 let lo = v.iter().cloned().fold(f64::INFINITY, f64::min);
                 let hi = v.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-                let levels = distinct_count(&Column::F64(v.clone()));
+                let levels = distinct_count(&Values::F64(v.clone()));
                 if levels < 2 {
                     return Err(DoeError::SingleLevelFactor {
                         name: name.clone(),
@@ -394,7 +394,7 @@ fn code_factors(input: &AnalysisInput, n: usize) -> Result<Coded> {
                 });
             }
             None => {
-                let Column::Str(v) = col else {
+                let Values::Str(v) = col else {
                     unreachable!("non-numeric columns are Str")
                 };
                 let mut levels: Vec<String> = v.clone();
@@ -454,7 +454,7 @@ fn code_factors(input: &AnalysisInput, n: usize) -> Result<Coded> {
 fn response_values(input: &AnalysisInput) -> Result<Vec<f64>> {
     let name = &input.response_name;
     match &input.response {
-        Column::Str(v) => v
+        Values::Str(v) => v
             .iter()
             .enumerate()
             .map(|(i, s)| match s.trim().parse::<f64>() {
@@ -618,9 +618,9 @@ fn first_dependent_column(x: &DMatrix<f64>) -> Option<(usize, Vec<usize>)> {
 /// Analyses a response. See [`Analysis`] for what is computed.
 ///
 /// ```
-/// use millcomp_doe::{analyze, AnalysisInput, Column, ModelSpec};
+/// use millcomp_doe::{analyze, AnalysisInput, Values, ModelSpec};
 /// // Clayton thesis (seed 000), Table 3-3: depth, speed, upfeed and max X force of the 8 trials.
-/// let col = |v: &[f64]| Column::F64(v.to_vec());
+/// let col = |v: &[f64]| Values::F64(v.to_vec());
 /// let input = AnalysisInput {
 ///     factors: vec![
 ///         ("depth_um".into(), col(&[200., 100., 100., 200., 200., 100., 200., 100.])),
@@ -1142,11 +1142,11 @@ pub struct PowerReport {
 /// the response from the low to the high level) of each term at level `alpha`, with error SD `sigma`.
 ///
 /// ```
-/// use millcomp_doe::{power, Column, ModelSpec};
+/// use millcomp_doe::{power, Values, ModelSpec};
 /// // 2^3 full factorial, main-effects model (4 residual df), effect = 2σ, α = 0.05.
-/// let a = Column::F64(vec![-1., 1., -1., 1., -1., 1., -1., 1.]);
-/// let b = Column::F64(vec![-1., -1., 1., 1., -1., -1., 1., 1.]);
-/// let c = Column::F64(vec![-1., -1., -1., -1., 1., 1., 1., 1.]);
+/// let a = Values::F64(vec![-1., 1., -1., 1., -1., 1., -1., 1.]);
+/// let b = Values::F64(vec![-1., -1., 1., 1., -1., -1., 1., 1.]);
+/// let c = Values::F64(vec![-1., -1., -1., -1., 1., 1., 1., 1.]);
 /// let f = vec![("a".to_string(), a), ("b".to_string(), b), ("c".to_string(), c)];
 /// let r = power(&f, &ModelSpec::Main, 2.0, 1.0, 0.05).unwrap();
 /// // λ = (1)²·8 = 8; scipy 1.17.1: ncf.sf(f.ppf(0.95, 1, 4), 1, 4, 8) = 0.571609457700716
@@ -1154,7 +1154,7 @@ pub struct PowerReport {
 /// assert!((r.terms[0].power - 0.571609457700716).abs() < 1e-9);
 /// ```
 pub fn power(
-    factors: &[(String, Column)],
+    factors: &[(String, Values)],
     model: &ModelSpec,
     effect: f64,
     sigma: f64,
@@ -1185,7 +1185,7 @@ pub fn power(
     let input = AnalysisInput {
         factors: factors.to_vec(),
         response_name: "response".into(),
-        response: Column::F64(vec![0.0; n]),
+        response: Values::F64(vec![0.0; n]),
         model: model.clone(),
     };
     let a = analyze(&input)?;

@@ -17,7 +17,7 @@ use serde::ser::{SerializeMap, SerializeStruct};
 use serde::{Serialize, Serializer};
 
 use crate::error::{DoeError, Result};
-use crate::factor::{Column, FactorInfo, FactorSpec, Level};
+use crate::factor::{FactorInfo, FactorSpec, Level, Values};
 use crate::model::ModelSpec;
 
 pub use doptimal::LinearConstraint;
@@ -365,35 +365,35 @@ impl Design {
     /// its actual level (F64, or Str for label factors) and `<name>_coded` (F64).
     ///
     /// ```
-    /// use millcomp_doe::{generate, Column, DesignKind, DesignRequest, FactorSpec};
+    /// use millcomp_doe::{generate, Values, DesignKind, DesignRequest, FactorSpec};
     /// let mut req = DesignRequest::new(DesignKind::Full, FactorSpec::parse_list("a=1:2,m=x:y:z").unwrap());
     /// req.seed = Some(1);
     /// let d = generate(&req).unwrap();
     /// let cols = d.columns();
     /// assert_eq!(cols.len(), 3 + 2 * 2);
     /// assert_eq!(cols[3].0, "a");
-    /// assert!(matches!(&cols[5].1, Column::Str(v) if v.len() == 6));
+    /// assert!(matches!(&cols[5].1, Values::Str(v) if v.len() == 6));
     /// ```
-    pub fn columns(&self) -> Vec<(String, Column)> {
+    pub fn columns(&self) -> Vec<(String, Values)> {
         let mut out = vec![
             (
                 "std_order".to_string(),
-                Column::I64(self.runs.iter().map(|r| r.std_order as i64).collect()),
+                Values::I64(self.runs.iter().map(|r| r.std_order as i64).collect()),
             ),
             (
                 "run_order".to_string(),
-                Column::I64(self.runs.iter().map(|r| r.run_order as i64).collect()),
+                Values::I64(self.runs.iter().map(|r| r.run_order as i64).collect()),
             ),
             (
                 "block".to_string(),
-                Column::I64(self.runs.iter().map(|r| r.block as i64).collect()),
+                Values::I64(self.runs.iter().map(|r| r.block as i64).collect()),
             ),
         ];
         for (i, f) in self.factors.iter().enumerate() {
             let col = if f.kind == "label" {
-                Column::Str(self.runs.iter().map(|r| r.actual[i].to_string()).collect())
+                Values::Str(self.runs.iter().map(|r| r.actual[i].to_string()).collect())
             } else {
-                Column::F64(
+                Values::F64(
                     self.runs
                         .iter()
                         .map(|r| match &r.actual[i] {
@@ -406,7 +406,7 @@ impl Design {
             out.push((f.name.clone(), col));
             out.push((
                 format!("{}_coded", f.name),
-                Column::F64(self.runs.iter().map(|r| r.coded[i]).collect()),
+                Values::F64(self.runs.iter().map(|r| r.coded[i]).collect()),
             ));
         }
         out

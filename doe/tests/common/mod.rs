@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use millcomp_doe::Column;
+use millcomp_doe::Values;
 
 /// F and p-values against statsmodels (contract: "to 1e-8 in F and p"). Both sides solve the same small,
 /// well-conditioned least-squares problem in double precision; the SS differences behind F lose at most a few
@@ -36,7 +36,7 @@ pub fn golden(name: &str) -> serde_json::Value {
 }
 
 /// Reads a small CSV fixture (no quoted commas) into named columns: numeric when every cell parses.
-pub fn read_csv(rel: &str) -> Vec<(String, Column)> {
+pub fn read_csv(rel: &str) -> Vec<(String, Values)> {
     let p = crate_path(rel);
     let s = std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
     let mut lines = s.lines();
@@ -66,8 +66,8 @@ pub fn read_csv(rel: &str) -> Vec<(String, Column)> {
             (
                 h.clone(),
                 match nums {
-                    Some(v) => Column::F64(v),
-                    None => Column::Str(vals),
+                    Some(v) => Values::F64(v),
+                    None => Values::Str(vals),
                 },
             )
         })
