@@ -13,7 +13,8 @@
 //! designs; matches statsmodels' `anova_lm(..., typ=2)`), R², adjusted and predicted R², lack of fit, Lenth's
 //! PSE/ME/SME for saturated models, residual diagnostics, [`backward_eliminate`], [`power`] (noncentral F),
 //! and the actual-unit [`response_surface`] of a fit (a `millcomp_models::ResponseSurface`, saved in the common
-//! model-file format: `models/MODEL.md`). Plots of an analysis are drawn by the CLI.
+//! model-file format: `models/MODEL.md`). The crate returns data (serialisable to the `--json` contracts);
+//! the text tables and plots of a design or an analysis are the CLI's.
 //!
 //! ```
 //! use millcomp_doe::{analyze, generate, AnalysisInput, Values, DesignKind, DesignRequest, FactorSpec, ModelSpec};
@@ -57,7 +58,7 @@ pub use analysis::{
 };
 pub use design::{
     AliasEntry, CcdAlpha, CcdVariant, Design, DesignCriteria, DesignKind, DesignRequest,
-    LinearConstraint, Run, generate,
+    LinearConstraint, Run, generate, resolution_roman,
 };
 pub use error::{DoeError, Result};
 pub use factor::{

@@ -21,7 +21,7 @@ use crate::factor::{FactorInfo, FactorSpec, Level, Values};
 use crate::model::ModelSpec;
 
 pub use doptimal::LinearConstraint;
-pub use fractional::AliasEntry;
+pub use fractional::{AliasEntry, resolution_roman};
 
 /// Variant of a central composite design.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -420,80 +420,6 @@ impl Design {
     /// Factor names in order.
     pub fn factor_names(&self) -> Vec<String> {
         self.factors.iter().map(|f| f.name.clone()).collect()
-    }
-
-    /// A plain-text summary and run table (what `doe design` prints without `--json`).
-    pub fn human(&self) -> String {
-        use std::fmt::Write;
-        let mut s = String::new();
-        let _ = write!(s, "Design: {}   runs: {}", self.design, self.n_runs());
-        if let Some(r) = self.resolution {
-            let _ = write!(s, "   resolution: {}", fractional::roman(r));
-        }
-        if self.blocks > 1 {
-            let _ = write!(s, "   blocks per replicate: {}", self.blocks);
-        }
-        if self.replicates > 1 {
-            let _ = write!(s, "   replicates: {}", self.replicates);
-        }
-        let _ = writeln!(
-            s,
-            "   seed: {}{}",
-            self.seed,
-            if self.randomized {
-                ""
-            } else {
-                " (not randomised)"
-            }
-        );
-        let letters: Vec<String> = self
-            .factors
-            .iter()
-            .map(|f| format!("{}={}", f.letter, f.name))
-            .collect();
-        let _ = writeln!(s, "Factors: {}", letters.join(", "));
-        if !self.generators.is_empty() {
-            let _ = writeln!(s, "Generators: {}", self.generators.join(", "));
-            let _ = writeln!(s, "Defining relation: {}", self.defining_relation.join(" "));
-        }
-        if let Some(a) = self.alpha {
-            let _ = writeln!(
-                s,
-                "Axial distance alpha: {a:.6} ({})",
-                self.variant.unwrap_or("")
-            );
-        }
-        if !self.block_generators.is_empty() {
-            let _ = writeln!(
-                s,
-                "Block generators: {}   confounded with blocks: {}",
-                self.block_generators.join(", "),
-                self.confounded_with_blocks.join(", ")
-            );
-        }
-        if !self.alias_structure.is_empty() {
-            let _ = writeln!(s, "Aliases (up to order 3):");
-            for a in &self.alias_structure {
-                let _ = writeln!(s, "  {} = {}", a.term, a.aliases.join(" = "));
-            }
-        }
-        for n in &self.notes {
-            let _ = writeln!(s, "Note: {n}");
-        }
-        let w: Vec<usize> = self.factors.iter().map(|f| f.name.len().max(8)).collect();
-        let _ = write!(s, "{:>5} {:>5} {:>5}", "run", "std", "block");
-        for (f, w) in self.factors.iter().zip(&w) {
-            let _ = write!(s, " {:>w$}", f.name);
-        }
-        let _ = writeln!(s);
-        for r in &self.runs {
-            let _ = write!(s, "{:>5} {:>5} {:>5}", r.run_order, r.std_order, r.block);
-            for (v, w) in r.actual.iter().zip(&w) {
-                let _ = write!(s, " {:>w$}", v.to_string());
-            }
-            let _ = writeln!(s);
-        }
-        s
     }
 }
 
