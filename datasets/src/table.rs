@@ -274,50 +274,6 @@ impl Table {
             .collect()
     }
 
-    /// A plain aligned text rendering of the whole table (no truncation).
-    pub fn to_text(&self) -> String {
-        let headers: Vec<String> = self.columns.iter().map(|c| c.name.clone()).collect();
-        let cells: Vec<Vec<String>> = (0..self.n_rows())
-            .map(|i| self.columns.iter().map(|c| c.data.display(i)).collect())
-            .collect();
-        let mut widths: Vec<usize> = headers.iter().map(|h| h.chars().count()).collect();
-        for row in &cells {
-            for (w, cell) in widths.iter_mut().zip(row) {
-                *w = (*w).max(cell.chars().count());
-            }
-        }
-        let numeric: Vec<bool> = self
-            .columns
-            .iter()
-            .map(|c| !matches!(c.data, ColumnData::Text(_)))
-            .collect();
-        let line = |row: &[String]| -> String {
-            let parts: Vec<String> = row
-                .iter()
-                .zip(&widths)
-                .zip(&numeric)
-                .map(|((cell, &w), &num)| {
-                    if num {
-                        format!("{cell:>w$}")
-                    } else {
-                        format!("{cell:<w$}")
-                    }
-                })
-                .collect();
-            parts.join("  ").trim_end().to_string()
-        };
-        let mut out = line(&headers);
-        out.push('\n');
-        let rule: Vec<String> = widths.iter().map(|&w| "-".repeat(w)).collect();
-        out.push_str(&rule.join("  "));
-        out.push('\n');
-        for row in &cells {
-            out.push_str(&line(row));
-            out.push('\n');
-        }
-        out
-    }
-
     /// The table as a polars `DataFrame`.
     pub fn to_dataframe(&self) -> Result<DataFrame, DatasetError> {
         let cols: Vec<polars::prelude::Column> = self

@@ -91,6 +91,6 @@ fn show(name: &str, json: bool) -> anyhow::Result<()> {
     }
     println!("{} — {}", d.name, d.title);
     println!("source: {}\n", d.seed);
-    print!("{}", table.to_text());
+    print!("{}", crate::present::table::table_text(&table));
     Ok(())
 }
