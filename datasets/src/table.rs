@@ -288,9 +288,10 @@ impl Table {
                 }
             })
             .collect();
-        DataFrame::new(self.n_rows(), cols).map_err(|e| DatasetError::Write {
+        DataFrame::new(self.n_rows(), cols).map_err(|source| DatasetError::Encode {
             file: PathBuf::from(&self.origin),
-            message: e.to_string(),
+            format: "a data frame",
+            source,
         })
     }
 }
@@ -386,10 +387,10 @@ fn read_raw(path: &Path) -> Result<RawTable, DatasetError> {
     if is_parquet(path) {
         let df = ParquetReader::new(file)
             .finish()
-            .map_err(|e| DatasetError::Parse {
+            .map_err(|source| DatasetError::Parse {
                 file: path.to_path_buf(),
                 format: "Parquet",
-                message: e.to_string(),
+                source,
             })?;
         raw_from_dataframe(path, &df)
     } else {
@@ -406,9 +407,8 @@ fn read_csv_raw<R: polars::io::mmap::MmapBytesReader>(
         .with_infer_schema_length(Some(0))
         .into_reader_with_file_handle(reader)
         .finish()
-        .map_err(|e| {
-            let message = e.to_string();
-            if message.contains("empty") {
+        .map_err(|source| {
+            if source.to_string().contains("empty") {
                 DatasetError::Empty {
                     file: path.to_path_buf(),
                     what: "header",
@@ -417,7 +417,7 @@ fn read_csv_raw<R: polars::io::mmap::MmapBytesReader>(
                 DatasetError::Parse {
                     file: path.to_path_buf(),
                     format: "CSV",
-                    message,
+                    source,
                 }
             }
         })?;
@@ -435,18 +435,13 @@ fn raw_from_dataframe(path: &Path, df: &DataFrame) -> Result<RawTable, DatasetEr
                 column: name,
             });
         }
-        let as_text = col
-            .cast(&DataType::String)
-            .map_err(|e| DatasetError::Parse {
-                file: path.to_path_buf(),
-                format: "table",
-                message: format!("column `{name}`: {e}"),
-            })?;
-        let ca = as_text.str().map_err(|e| DatasetError::Parse {
+        let unreadable = |source| DatasetError::UnreadableColumn {
             file: path.to_path_buf(),
-            format: "table",
-            message: format!("column `{name}`: {e}"),
-        })?;
+            column: name.clone(),
+            source,
+        };
+        let as_text = col.cast(&DataType::String).map_err(unreadable)?;
+        let ca = as_text.str().map_err(unreadable)?;
         cells.push(
             ca.iter()
                 .map(|v| v.map(|s| s.trim().to_string()).filter(|s| !s.is_empty()))
@@ -630,10 +625,7 @@ pub fn write_table(table: &Table, path: &Path) -> Result<(), DatasetError> {
     let mut df = table.to_dataframe()?;
     write_atomic(path, |file| match format {
         TableFormat::Csv => csv_to(&mut df, file),
-        TableFormat::Parquet => ParquetWriter::new(file)
-            .finish(&mut df)
-            .map(|_| ())
-            .map_err(|e| e.to_string()),
+        TableFormat::Parquet => ParquetWriter::new(file).finish(&mut df).map(|_| ()),
     })
 }
 
@@ -641,43 +633,35 @@ pub fn write_table(table: &Table, path: &Path) -> Result<(), DatasetError> {
 /// `out`, e.g. standard output.
 pub fn write_csv_to<W: Write>(table: &Table, out: W) -> Result<(), DatasetError> {
     let mut df = table.to_dataframe()?;
-    csv_to(&mut df, out).map_err(|message| DatasetError::Write {
+    csv_to(&mut df, out).map_err(|source| DatasetError::Encode {
         file: PathBuf::from(&table.origin),
-        message,
+        format: "CSV",
+        source,
     })
 }
 
-fn csv_to<W: Write>(df: &mut DataFrame, out: W) -> Result<(), String> {
-    CsvWriter::new(out)
-        .include_header(true)
-        .finish(df)
-        .map_err(|e| e.to_string())
+fn csv_to<W: Write>(df: &mut DataFrame, out: W) -> PolarsResult<()> {
+    CsvWriter::new(out).include_header(true).finish(df)
 }
 
 /// Writes bytes produced by `fill` to `path` atomically (temporary file + rename; the one atomic writer,
 /// `millcomp_models::write_atomic`).
-pub fn write_atomic<F>(path: &Path, fill: F) -> Result<(), DatasetError>
+pub fn write_atomic<F, E>(path: &Path, fill: F) -> Result<(), DatasetError>
 where
-    F: FnOnce(&mut File) -> Result<(), String>,
+    F: FnOnce(&mut File) -> Result<(), E>,
+    E: Into<Box<dyn std::error::Error + Send + Sync>>,
 {
-    millcomp_models::write_atomic(path, |f| fill(f).map_err(std::io::Error::other)).map_err(|e| {
-        DatasetError::Write {
+    millcomp_models::write_atomic(path, |f| fill(f).map_err(std::io::Error::other)).map_err(
+        |source| DatasetError::Write {
             file: path.to_path_buf(),
-            message: match e {
-                millcomp_models::ModelError::Io { action, source, .. } => {
-                    format!("{action}: {source}")
-                }
-                other => other.to_string(),
-            },
-        }
-    })
+            source,
+        },
+    )
 }
 
 /// Writes text to `path` atomically.
 pub fn write_text_atomic(path: &Path, text: &str) -> Result<(), DatasetError> {
-    write_atomic(path, |f| {
-        f.write_all(text.as_bytes()).map_err(|e| e.to_string())
-    })
+    write_atomic(path, |f| f.write_all(text.as_bytes()))
 }
 
 #[cfg(test)]
@@ -752,6 +736,39 @@ mod tests {
         assert_eq!(t.f64s("x").unwrap(), vec![1.0, 3.0]);
         assert_eq!(t.strings("y").unwrap(), vec!["2", "NaN"]);
         assert!(t.f64s("label").is_err());
+    }
+
+    #[test]
+    fn causes_are_sources_not_copied_into_the_message() {
+        use std::error::Error as _;
+        let dir = tempfile::tempdir().unwrap();
+        // a missing file: the I/O error is the source
+        let e = read_any(&dir.path().join("missing.csv")).unwrap_err();
+        assert!(matches!(e, DatasetError::Io { .. }), "{e}");
+        let cause = e.source().unwrap().to_string();
+        assert!(!e.to_string().contains(&cause), "{e}");
+        // a file that is not Parquet: polars' error is the source
+        let p = dir.path().join("bad.parquet");
+        std::fs::write(&p, "not parquet").unwrap();
+        let e = read_any(&p).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                DatasetError::Parse {
+                    format: "Parquet",
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        assert!(e.source().is_some());
+        // a destination whose directory does not exist: the atomic writer's error, and under it the I/O error
+        let t = read_csv_str("mem.csv", "a_um,n\n1,2\n", &schema()).unwrap();
+        let e = write_table(&t, &dir.path().join("no/such/dir/out.csv")).unwrap_err();
+        assert!(matches!(e, DatasetError::Write { .. }), "{e}");
+        let writer = e.source().unwrap();
+        assert!(writer.to_string().contains("temporary file"), "{writer}");
+        assert!(writer.source().is_some(), "{writer}");
     }
 
     #[test]
