@@ -1,8 +1,6 @@
 //! Response-surface, screening, space-filling and optimal designs; the JSON contract of `doe design`.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use millcomp_doe::{
     CcdAlpha, CcdVariant, DesignKind, DesignRequest, FactorSpec, Level, LinearConstraint,
     ModelSpec, Values, generate,

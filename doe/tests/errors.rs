@@ -1,8 +1,6 @@
 //! Bad input gives a clear `DoeError` naming the thing at fault (issue 4, "Bad input").
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use millcomp_doe::{
     AnalysisInput, CcdAlpha, CcdVariant, DesignKind, DesignRequest, DoeError, FactorSpec,
     ModelSpec, Values, analyze, generate,
@@ -185,7 +183,7 @@ fn non_numeric_response() {
 
 #[test]
 fn unknown_factor_names() {
-    let table = read_csv("tests/fixtures/clayton_table_3_3.csv");
+    let table = read_fixture("tests/fixtures/clayton_table_3_3.csv");
     let f = vec!["depth_um".to_string(), "feed_mm_min".to_string()];
     let e = AnalysisInput::from_table(&table, "fx_n", Some(&f), ModelSpec::Main).unwrap_err();
     assert!(

@@ -3,9 +3,7 @@
 //! sequential SS there), lack of fit from centre runs, the actual-unit coefficients and covariance of the
 //! fitted model, and an unbalanced 3-level label × numeric data set with multi-df terms.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze, response_surface};
 
 fn ccd_input() -> (AnalysisInput, serde_json::Value) {
