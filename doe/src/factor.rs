@@ -100,6 +100,18 @@ impl FactorSpec {
 
     /// Parses one entry: `name`, `name=low:high`, `name=l1:l2:l3` (numeric) or `name=S7:1018:6061` (labels:
     /// any level that is not a number makes all of them labels).
+    ///
+    /// ```
+    /// use millcomp_doe::{FactorLevels, FactorSpec};
+    /// let f = FactorSpec::parse("speed_rpm=10000:20000").unwrap();
+    /// assert_eq!(f.range(), Some((10000.0, 20000.0)));
+    /// assert_eq!(FactorSpec::parse("coolant=off:on").unwrap().kind(), "label");
+    /// assert!(FactorSpec::parse("depth_um=100").is_err()); // one level
+    /// ```
+    ///
+    /// # Errors
+    /// [`DoeError::InvalidFactorSpec`] for a missing or invalid name, an empty level or a level listed
+    /// twice; [`DoeError::SingleLevelFactor`] when only one distinct level is given.
     pub fn parse(entry: &str) -> Result<FactorSpec> {
         let entry = entry.trim();
         let bad = |reason: &str| DoeError::InvalidFactorSpec {
@@ -179,6 +191,10 @@ impl FactorSpec {
     /// assert_eq!(f[1].n_levels(), 3);
     /// assert_eq!(f[2].levels, FactorLevels::Coded);
     /// ```
+    ///
+    /// # Errors
+    /// [`DoeError::NoFactors`] for an empty list, [`DoeError::DuplicateFactor`] for a repeated name, and
+    /// those of [`FactorSpec::parse`] for a bad entry.
     pub fn parse_list(s: &str) -> Result<Vec<FactorSpec>> {
         let entries: Vec<&str> = s
             .split(',')

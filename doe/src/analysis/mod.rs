@@ -55,6 +55,11 @@ impl AnalysisInput {
     /// assert_eq!(inp.factors.len(), 2);
     /// assert!(AnalysisInput::from_table(&t, "z", None, ModelSpec::Main).is_err());
     /// ```
+    ///
+    /// # Errors
+    /// [`DoeError::UnknownColumn`] for a response or factor that is not in the table (listing the columns);
+    /// [`DoeError::InvalidParameter`] when the response is also named as a factor;
+    /// [`DoeError::NotEnoughData`] when no column qualifies as a factor.
     pub fn from_table(
         table: &[(String, Values)],
         response: &str,
@@ -617,6 +622,7 @@ fn first_dependent_column(x: &DMatrix<f64>) -> Option<(usize, Vec<usize>)> {
 
 /// Analyses a response. See [`Analysis`] for what is computed.
 ///
+/// # Examples
 /// ```
 /// use millcomp_doe::{analyze, AnalysisInput, Values, ModelSpec};
 /// // Clayton thesis (seed 000), Table 3-3: depth, speed, upfeed and max X force of the 8 trials.
@@ -637,6 +643,17 @@ fn first_dependent_column(x: &DMatrix<f64>) -> Option<(usize, Vec<usize>)> {
 /// assert!((a.terms[0].f.unwrap() - 57.148534).abs() < 1e-5);
 /// assert!(a.terms[0].p_value.unwrap() < 0.05 && a.terms[1].p_value.unwrap() > 0.05);
 /// ```
+///
+/// # Errors
+/// [`DoeError`] naming the column, row or term at fault:
+/// * the data: [`DoeError::NonNumericResponse`] and [`DoeError::NonFiniteValue`] (with the 1-based row),
+///   [`DoeError::LengthMismatch`], [`DoeError::NotEnoughData`] (no factor columns),
+///   [`DoeError::DuplicateFactor`], [`DoeError::InvalidParameter`] (the response used as a factor),
+///   [`DoeError::SingleLevelFactor`];
+/// * the model: [`DoeError::UnknownFactor`] and [`DoeError::InvalidModel`] in a formula,
+///   [`DoeError::TooManyTerms`] (more coefficients than runs), [`DoeError::AliasedTerms`] (a term that
+///   is a linear combination of others in these runs);
+/// * [`DoeError::Unsupported`] if the least-squares solve itself fails.
 pub fn analyze(input: &AnalysisInput) -> Result<Analysis> {
     let y = response_values(input)?;
     let n = y.len();
@@ -957,6 +974,34 @@ pub struct Elimination {
 /// Backward elimination: repeatedly removes the term with the largest p-value above `alpha`, never removing a
 /// term contained in a remaining higher-order term (hierarchy). While the model is saturated, the removable
 /// term with the smallest |effect| (or sum of squares) is pooled into error first.
+///
+/// # Examples
+/// ```
+/// use millcomp_doe::{backward_eliminate, AnalysisInput, ModelSpec, Values};
+/// // Clayton thesis (seed 000), Table 3-3: max X force of the 8 trials of the 2^3.
+/// let col = |v: &[f64]| Values::F64(v.to_vec());
+/// let input = AnalysisInput {
+///     factors: vec![
+///         ("depth_um".into(), col(&[200., 100., 100., 200., 200., 100., 200., 100.])),
+///         ("speed_rpm".into(), col(&[1e4, 1e4, 2e4, 2e4, 2e4, 2e4, 1e4, 1e4])),
+///         ("upfeed_um".into(), col(&[20., 20., 10., 10., 20., 20., 10., 10.])),
+///     ],
+///     response_name: "fx_n".into(),
+///     response: col(&[3.34, 1.78, 0.94, 1.91, 3.60, 2.20, 2.20, 1.00]),
+///     model: ModelSpec::TwoFi,
+/// };
+/// let e = backward_eliminate(&input, 0.05).unwrap();
+/// // Seed 000 §3.5: depth and upfeed matter, speed and the interactions do not.
+/// assert_eq!(e.analysis.model, "depth_um + upfeed_um");
+/// assert_eq!(e.steps.last().unwrap().removed, "speed_rpm");
+/// // Speed pooled into error: 5 residual df. By hand from the orthogonal contrasts of Table 3-3,
+/// // SS_depth = 3.2896125 and SSE = 0.2438625 on 5 df, so F(depth) = 3.2896125 / 0.0487725 = 67.448100876…
+/// assert_eq!(e.analysis.residual_df, 5);
+/// assert!((e.analysis.terms[0].f.unwrap() - 67.448100876).abs() < 1e-8);
+/// ```
+///
+/// # Errors
+/// [`DoeError::InvalidParameter`] for `alpha` outside (0, 1), and those of [`analyze`] for the full model.
 pub fn backward_eliminate(input: &AnalysisInput, alpha: f64) -> Result<Elimination> {
     if !(alpha > 0.0 && alpha < 1.0) {
         return Err(DoeError::InvalidParameter {
@@ -1060,6 +1105,11 @@ pub struct PowerReport {
 /// assert!((r.terms[0].noncentrality - 8.0).abs() < 1e-12);
 /// assert!((r.terms[0].power - 0.571609457700716).abs() < 1e-9);
 /// ```
+///
+/// # Errors
+/// [`DoeError::InvalidParameter`] for a non-finite `effect`, `sigma` ≤ 0 or `alpha` outside (0, 1);
+/// [`DoeError::NotEnoughData`] when the model leaves no residual degrees of freedom; and those of
+/// [`analyze`] for the design and model.
 pub fn power(
     factors: &[(String, Values)],
     model: &ModelSpec,

@@ -142,6 +142,16 @@ impl FromStr for DesignKind {
     type Err = DoeError;
     /// Parses the CLI names; `ccd` is circumscribed and rotatable, `ccf`/`ccd-face` face-centred,
     /// `cci`/`ccd-inscribed` inscribed.
+    ///
+    /// ```
+    /// use millcomp_doe::{CcdAlpha, CcdVariant, DesignKind};
+    /// let k: DesignKind = "ccf".parse().unwrap();
+    /// assert_eq!(k, DesignKind::Ccd { variant: CcdVariant::FaceCentred, alpha: CcdAlpha::Rotatable });
+    /// assert!("taguchi".parse::<DesignKind>().is_err());
+    /// ```
+    ///
+    /// # Errors
+    /// [`DoeError::InvalidParameter`] (`design`) for an unknown name, listing the known ones.
     fn from_str(s: &str) -> Result<Self> {
         let ccd = |variant| {
             Ok(DesignKind::Ccd {
@@ -484,18 +494,40 @@ pub(crate) fn require_two_levels(
     Ok(())
 }
 
-/// Generates a design.
+/// Generates a design: the family's points in standard order, centre points, replicates, blocks and the
+/// run order (randomised within blocks with ChaCha8 from `req.seed`, or from a seed drawn from the OS and
+/// reported in [`Design::seed`]).
 ///
+/// # Examples
 /// ```
-/// use millcomp_doe::{generate, DesignKind, DesignRequest, FactorSpec};
+/// use millcomp_doe::{generate, DesignKind, DesignRequest, DoeError, FactorSpec};
 /// let mut req = DesignRequest::new(DesignKind::Fractional, FactorSpec::parse_list("A,B,C,D,E,F,G").unwrap());
 /// req.resolution = Some(3);
 /// req.seed = Some(7);
 /// let d = generate(&req).unwrap();
 /// assert_eq!(d.n_runs(), 8); // 2^(7-4), not 16 (pyDOE3 issue #153)
 /// assert_eq!(d.resolution, Some(3));
+/// // Montgomery, Design and Analysis of Experiments, Table 8.14: the 2^(7-4)_III generators
 /// assert_eq!(d.generators, vec!["D=AB", "E=AC", "F=BC", "G=ABC"]);
+///
+/// // Generators that alias two main effects are refused, naming the short defining word.
+/// let mut req = DesignRequest::new(DesignKind::Fractional, FactorSpec::parse_list("A,B,C,D").unwrap());
+/// req.generators = Some("D=A".into());
+/// let e = generate(&req).unwrap_err();
+/// assert!(matches!(&e, DoeError::AliasedGenerators { factor, .. } if factor == "D"));
+/// assert!(e.to_string().contains("I = AD"));
 /// ```
+///
+/// # Errors
+/// [`DoeError`] naming the factor, generator or parameter at fault:
+/// * the factors: [`DoeError::NoFactors`], [`DoeError::DuplicateFactor`], [`DoeError::SingleLevelFactor`],
+///   [`DoeError::LevelsNotAllowed`] (e.g. three levels for a two-level family);
+/// * the options: [`DoeError::InvalidParameter`] (0 replicates or blocks, a run count or resolution the
+///   family cannot give), [`DoeError::Unsupported`] (blocks, centre points or constraints the family does
+///   not take), [`DoeError::NotEnoughData`] (too few factors for a CCD, Box–Behnken or DSD);
+/// * fractional designs: [`DoeError::InvalidGenerator`], [`DoeError::DuplicateGenerator`],
+///   [`DoeError::AliasedGenerators`], [`DoeError::UnknownFactor`], [`DoeError::NoCatalogueDesign`];
+/// * D-optimal designs: [`DoeError::UnknownFactor`] in the model, [`DoeError::InfeasibleConstraints`].
 pub fn generate(req: &DesignRequest) -> Result<Design> {
     let factors = &req.factors;
     if factors.is_empty() {
