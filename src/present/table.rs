@@ -1,7 +1,30 @@
-//! A table as aligned plain text (what `datasets show` prints). The table itself, its cells and their
-//! display text are `millcomp-datasets`' data; the layout is here.
+//! Tables as aligned plain text (what `datasets list` and `datasets show` print). The tables, their cells
+//! and the cells' display text are `millcomp-datasets`' data; the layout is here.
 
-use millcomp_datasets::{ColumnData, Table};
+use std::fmt::Write as _;
+
+use millcomp_datasets::{ColumnData, Dataset, Table};
+
+/// One line per shipped dataset: name (padded to the longest), row count, title.
+pub fn dataset_list_text(rows: &[(&Dataset, usize)]) -> String {
+    let width = rows.iter().map(|(d, _)| d.name.len()).max().unwrap_or(0);
+    let mut s = String::new();
+    for (d, n) in rows {
+        let _ = writeln!(s, "{:<width$}  {:>3} rows  {}", d.name, n, d.title);
+    }
+    s
+}
+
+/// A shipped dataset: its name and title, the seed document it comes from, then the whole table.
+pub fn dataset_text(d: &Dataset, table: &Table) -> String {
+    format!(
+        "{} — {}\nsource: {}\n\n{}",
+        d.name,
+        d.title,
+        d.seed,
+        table_text(table)
+    )
+}
 
 /// The whole table (no truncation): the header, a rule of dashes, one line per row. Numeric columns are
 /// right-aligned, text columns left-aligned, columns are two spaces apart and lines carry no trailing
@@ -94,6 +117,31 @@ mod tests {
         assert!(
             lines[2].starts_with("    1       200      10000         20      3.34"),
             "{t}"
+        );
+    }
+
+    #[test]
+    fn dataset_list_and_header() {
+        // The first lines of the README commands `datasets-list` and `datasets-show` as printed before
+        // the layout moved here (the 8 trials of 000_…txt Table 3-3, 3 materials of Table 3-1).
+        let d = millcomp_datasets::dataset("clayton_doe").unwrap();
+        let t = dataset_text(d, &d.load().unwrap());
+        assert!(
+            t.starts_with(
+                "clayton_doe — 2^3 DOE in 6061: depth, speed, upfeed and the max X/Y/Z force per trial\n\
+                 source: 000_367e180efde69d0c.txt (Clayton, Force modeling and deflection compensation of \
+                 miniature ball end mills)\n\ntrial  depth_um"
+            ),
+            "{t}"
+        );
+        let materials = millcomp_datasets::dataset("clayton_material_properties").unwrap();
+        let list = dataset_list_text(&[(d, 8), (materials, 3)]);
+        assert_eq!(
+            list,
+            "clayton_doe                    8 rows  2^3 DOE in 6061: depth, speed, upfeed and the max X/Y/Z \
+             force per trial\n\
+             clayton_material_properties    3 rows  Hardness, modulus, strength and elongation of S7, 1018 \
+             and 6061\n"
         );
     }
 }
