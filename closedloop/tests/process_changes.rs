@@ -73,7 +73,7 @@ fn exit_mpc_no_undersize_and_half_of_pid() {
 /// feed step.
 #[test]
 fn response_surface_predictor_drives_the_preview() {
-    use millcomp_doe::{AnalysisInput, Column, ModelSpec, analyze, response_surface};
+    use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze, response_surface};
     use millcomp_sim::groove::GrooveConfig;
 
     let mut s = around_change(scenario("groove_s7_20deg_feed_step.toml"));
@@ -106,11 +106,11 @@ fn response_surface_predictor_drives_the_preview() {
     let fitted = response_surface(
         &analyze(&AnalysisInput {
             factors: vec![
-                ("depth_um".into(), Column::F64(d)),
-                ("upfeed_um".into(), Column::F64(u)),
+                ("depth_um".into(), Values::F64(d)),
+                ("upfeed_um".into(), Values::F64(u)),
             ],
             response_name: "max_fz_n".into(),
-            response: Column::F64(f),
+            response: Values::F64(f),
             model: ModelSpec::Quadratic,
         })
         .unwrap(),

@@ -2,14 +2,20 @@
 
 use std::path::PathBuf;
 
+use millcomp_models::ModelError;
+use polars::error::PolarsError;
+
 /// Everything that can go wrong loading, validating or writing a table.
 ///
 /// Every variant names the file and, where there is one, the column and the 1-based data row
-/// (the header is not counted, so data row 1 is line 2 of a CSV file).
+/// (the header is not counted, so data row 1 is line 2 of a CSV file). Where an underlying error
+/// (I/O, polars, the atomic writer) is the cause, it is kept as the error's source, not copied into
+/// the message.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum DatasetError {
     /// The file could not be opened or read.
-    #[error("{file}: cannot read: {source}")]
+    #[error("{file}: cannot read")]
     Io {
         /// The file.
         file: PathBuf,
@@ -26,14 +32,26 @@ pub enum DatasetError {
         what: &'static str,
     },
     /// The file is not valid CSV or Parquet.
-    #[error("{file}: cannot parse as {format}: {message}")]
+    #[error("{file}: cannot parse as {format}")]
     Parse {
         /// The file.
         file: PathBuf,
         /// "CSV" or "Parquet".
         format: &'static str,
-        /// The parser's message.
-        message: String,
+        /// The parser's error.
+        #[source]
+        source: PolarsError,
+    },
+    /// A column of the file cannot be read as text cells (e.g. a nested Parquet column).
+    #[error("{file}: column `{column}` cannot be read as text")]
+    UnreadableColumn {
+        /// The file.
+        file: PathBuf,
+        /// The column.
+        column: String,
+        /// polars' error.
+        #[source]
+        source: PolarsError,
     },
     /// A required column is absent.
     #[error("{file}: missing required column `{column}` (columns present: {present})")]
@@ -147,12 +165,25 @@ pub enum DatasetError {
         /// The length of the first column.
         expected: usize,
     },
+    /// The table could not be turned into a polars data frame or encoded as CSV/Parquet.
+    #[error("{file}: cannot encode the table as {format}")]
+    Encode {
+        /// The table's origin or destination.
+        file: PathBuf,
+        /// "a data frame", "CSV" or "Parquet".
+        format: &'static str,
+        /// polars' error.
+        #[source]
+        source: PolarsError,
+    },
     /// Writing the output failed; nothing was left at the destination.
-    #[error("{file}: cannot write: {message}")]
+    #[error("{file}: cannot write")]
     Write {
         /// The destination.
         file: PathBuf,
-        /// What failed.
-        message: String,
+        /// The atomic writer's error (it names the step: creating the temporary file, writing,
+        /// syncing, renaming), whose source is the I/O or encoding error.
+        #[source]
+        source: ModelError,
     },
 }

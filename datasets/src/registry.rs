@@ -35,6 +35,10 @@ impl Dataset {
     }
 
     /// Loads and validates the table.
+    ///
+    /// # Errors
+    /// Those of [`read_csv_str`] — for a shipped table only if it were broken, which the test suite
+    /// rules out.
     pub fn load(&self) -> Result<Table, DatasetError> {
         let origin = format!("datasets/data/{}", self.file);
         read_csv_str(&origin, self.csv, &self.schema())
@@ -310,6 +314,17 @@ pub static DATASETS: &[Dataset] = &[
 ];
 
 /// The dataset called `name`.
+///
+/// ```
+/// let d = millcomp_datasets::dataset("clayton_doe").unwrap();
+/// assert_eq!(d.file, "clayton_doe.csv");
+/// assert_eq!(d.schema().columns.len(), 8);
+/// let e = millcomp_datasets::dataset("clayton").unwrap_err();
+/// assert!(e.to_string().contains("known datasets: clayton_doe, clayton_doe_levels"));
+/// ```
+///
+/// # Errors
+/// [`DatasetError::UnknownDataset`], listing the known names.
 pub fn dataset(name: &str) -> Result<&'static Dataset, DatasetError> {
     DATASETS
         .iter()
@@ -325,6 +340,16 @@ pub fn dataset(name: &str) -> Result<&'static Dataset, DatasetError> {
 }
 
 /// Loads and validates the dataset called `name`.
+///
+/// ```
+/// let t = millcomp_datasets::load("clayton_stiffness").unwrap();
+/// // 000_…txt Table 5-1: the radial tool stiffness, modelled 0.141 N/µm and measured 0.114 N/µm
+/// let k = t.f64s("stiffness_n_per_um").unwrap();
+/// assert!(k.contains(&0.141) && k.contains(&0.114));
+/// ```
+///
+/// # Errors
+/// [`DatasetError::UnknownDataset`], and those of [`Dataset::load`].
 pub fn load(name: &str) -> Result<Table, DatasetError> {
     dataset(name)?.load()
 }

@@ -183,6 +183,20 @@ pub struct Table {
 
 impl Table {
     /// Builds a table from columns, checking that they all have the same length.
+    ///
+    /// ```
+    /// use millcomp_datasets::{Column, ColumnData, DatasetError, Table};
+    /// let depth = Column { name: "depth_um".into(), data: ColumnData::Float(vec![100.0, 200.0]) };
+    /// let run = Column { name: "run".into(), data: ColumnData::Int(vec![1, 2]) };
+    /// let t = Table::from_columns("mine", vec![depth.clone(), run]).unwrap();
+    /// assert_eq!((t.n_rows(), t.names()), (2, vec!["depth_um", "run"]));
+    /// let short = Column { name: "short".into(), data: ColumnData::Int(vec![1]) };
+    /// let e = Table::from_columns("mine", vec![depth, short]).unwrap_err();
+    /// assert!(matches!(e, DatasetError::RaggedColumns { len: 1, expected: 2, .. }));
+    /// ```
+    ///
+    /// # Errors
+    /// [`DatasetError::RaggedColumns`] naming the first column whose length differs from the first's.
     pub fn from_columns(origin: &str, columns: Vec<Column>) -> Result<Self, DatasetError> {
         if let Some(first) = columns.first() {
             let expected = first.data.len();
@@ -227,6 +241,17 @@ impl Table {
     }
 
     /// A numeric column as floats (integer columns are converted).
+    ///
+    /// ```
+    /// let t = millcomp_datasets::load("clayton_doe").unwrap();
+    /// // 000_…txt Table 3-3: depth of trials 1 and 2 (µm); `trial` is an integer column
+    /// assert_eq!(t.f64s("depth_um").unwrap()[..2], [200.0, 100.0]);
+    /// assert_eq!(t.f64s("trial").unwrap()[7], 8.0);
+    /// assert!(t.f64s("source").is_err()); // text
+    /// ```
+    ///
+    /// # Errors
+    /// [`DatasetError::NoSuchColumn`], or [`DatasetError::WrongColumnType`] for a text column.
     pub fn f64s(&self, name: &str) -> Result<Vec<f64>, DatasetError> {
         let c = self.need(name)?;
         match &c.data {
@@ -242,6 +267,9 @@ impl Table {
     }
 
     /// An integer column.
+    ///
+    /// # Errors
+    /// [`DatasetError::NoSuchColumn`], or [`DatasetError::WrongColumnType`] for a float or text column.
     pub fn i64s(&self, name: &str) -> Result<Vec<i64>, DatasetError> {
         let c = self.need(name)?;
         match &c.data {
@@ -255,7 +283,10 @@ impl Table {
         }
     }
 
-    /// Any column as text.
+    /// Any column as text (numbers as [`ColumnData::display`] writes them).
+    ///
+    /// # Errors
+    /// [`DatasetError::NoSuchColumn`].
     pub fn strings(&self, name: &str) -> Result<Vec<String>, DatasetError> {
         let c = self.need(name)?;
         Ok((0..c.data.len()).map(|i| c.data.display(i)).collect())
@@ -274,51 +305,11 @@ impl Table {
             .collect()
     }
 
-    /// A plain aligned text rendering of the whole table (no truncation).
-    pub fn to_text(&self) -> String {
-        let headers: Vec<String> = self.columns.iter().map(|c| c.name.clone()).collect();
-        let cells: Vec<Vec<String>> = (0..self.n_rows())
-            .map(|i| self.columns.iter().map(|c| c.data.display(i)).collect())
-            .collect();
-        let mut widths: Vec<usize> = headers.iter().map(|h| h.chars().count()).collect();
-        for row in &cells {
-            for (w, cell) in widths.iter_mut().zip(row) {
-                *w = (*w).max(cell.chars().count());
-            }
-        }
-        let numeric: Vec<bool> = self
-            .columns
-            .iter()
-            .map(|c| !matches!(c.data, ColumnData::Text(_)))
-            .collect();
-        let line = |row: &[String]| -> String {
-            let parts: Vec<String> = row
-                .iter()
-                .zip(&widths)
-                .zip(&numeric)
-                .map(|((cell, &w), &num)| {
-                    if num {
-                        format!("{cell:>w$}")
-                    } else {
-                        format!("{cell:<w$}")
-                    }
-                })
-                .collect();
-            parts.join("  ").trim_end().to_string()
-        };
-        let mut out = line(&headers);
-        out.push('\n');
-        let rule: Vec<String> = widths.iter().map(|&w| "-".repeat(w)).collect();
-        out.push_str(&rule.join("  "));
-        out.push('\n');
-        for row in &cells {
-            out.push_str(&line(row));
-            out.push('\n');
-        }
-        out
-    }
-
     /// The table as a polars `DataFrame`.
+    ///
+    /// # Errors
+    /// [`DatasetError::Encode`] with polars' error when the frame cannot be built (columns of different
+    /// lengths in a table whose fields were set by hand).
     pub fn to_dataframe(&self) -> Result<DataFrame, DatasetError> {
         let cols: Vec<polars::prelude::Column> = self
             .columns
@@ -332,9 +323,10 @@ impl Table {
                 }
             })
             .collect();
-        DataFrame::new(self.n_rows(), cols).map_err(|e| DatasetError::Write {
+        DataFrame::new(self.n_rows(), cols).map_err(|source| DatasetError::Encode {
             file: PathBuf::from(&self.origin),
-            message: e.to_string(),
+            format: "a data frame",
+            source,
         })
     }
 }
@@ -344,6 +336,33 @@ impl Table {
 /// Required columns must be present; every cell of a schema column must parse as its kind, and
 /// numbers must be finite. Columns the schema does not name are listed in
 /// [`Table::ignored_columns`] (or kept as text with [`Schema::keeping_extra`]).
+///
+/// # Examples
+/// ```
+/// use millcomp_datasets::{read_table, ColumnKind, ColumnSpec, DatasetError, Schema};
+/// let schema = Schema::new("cuts", vec![
+///     ColumnSpec::required("depth_um", ColumnKind::Float, "depth of cut"),
+///     ColumnSpec::required("pass", ColumnKind::Int, "pass number"),
+/// ]);
+/// let dir = tempfile::tempdir().unwrap();
+/// let path = dir.path().join("cuts.csv");
+/// std::fs::write(&path, "pass,depth_um,operator\n1,40.5,ann\n2,80,ann\n").unwrap();
+/// let t = read_table(&path, &schema).unwrap();
+/// assert_eq!(t.f64s("depth_um").unwrap(), [40.5, 80.0]);
+/// assert_eq!(t.ignored_columns, ["operator"]);
+/// // A bad cell is named by column and 1-based data row.
+/// std::fs::write(&path, "pass,depth_um\n1,40.5\n2,deep\n").unwrap();
+/// let e = read_table(&path, &schema).unwrap_err();
+/// assert!(matches!(&e, DatasetError::BadCell { row: 2, .. }));
+/// assert!(e.to_string().ends_with("column `depth_um`, row 2: `deep` is not a number"));
+/// ```
+///
+/// # Errors
+/// [`DatasetError::Io`] (cannot open), [`DatasetError::Empty`] (no header or no data rows),
+/// [`DatasetError::Parse`] (not CSV/Parquet), [`DatasetError::UnreadableColumn`],
+/// [`DatasetError::DuplicateColumn`], [`DatasetError::MissingColumn`] (a required column),
+/// [`DatasetError::EmptyCell`], [`DatasetError::BadCell`] and [`DatasetError::NonFinite`] (a cell,
+/// with its column and row).
 pub fn read_table(path: &Path, schema: &Schema) -> Result<Table, DatasetError> {
     let raw = read_raw(path)?;
     validate(path, raw, schema)
@@ -352,6 +371,20 @@ pub fn read_table(path: &Path, schema: &Schema) -> Result<Table, DatasetError> {
 /// Reads `path` (`.csv` or `.parquet`) without a schema: a column whose cells all parse as finite
 /// numbers becomes a float column, any other column is kept as text (so a later consumer can name
 /// the offending cell). Used where the columns are chosen by the user (`doe analyze --response`).
+///
+/// # Examples
+/// ```
+/// let dir = tempfile::tempdir().unwrap();
+/// let path = dir.path().join("runs.csv");
+/// std::fs::write(&path, "depth_um,fx_n,note\n100,1.78,ok\n200,n/a,redo\n").unwrap();
+/// let t = millcomp_datasets::read_any(&path).unwrap();
+/// assert_eq!(t.f64s("depth_um").unwrap(), [100.0, 200.0]);
+/// assert_eq!(t.strings("fx_n").unwrap(), ["1.78", "n/a"]); // kept as text: `n/a` is not a number
+/// ```
+///
+/// # Errors
+/// [`DatasetError::Io`], [`DatasetError::Empty`], [`DatasetError::Parse`],
+/// [`DatasetError::UnreadableColumn`], [`DatasetError::DuplicateColumn`].
 pub fn read_any(path: &Path) -> Result<Table, DatasetError> {
     let raw = read_raw(path)?;
     if raw.names.is_empty() {
@@ -395,7 +428,22 @@ pub fn read_any(path: &Path) -> Result<Table, DatasetError> {
     })
 }
 
-/// Reads embedded CSV text (a shipped dataset) and validates it against `schema`.
+/// Reads embedded CSV text (a shipped dataset) and validates it against `schema`; `origin` names it in
+/// errors.
+///
+/// # Examples
+/// ```
+/// use millcomp_datasets::{read_csv_str, ColumnKind, ColumnSpec, DatasetError, Schema};
+/// let schema = Schema::new("walls", vec![ColumnSpec::required("nominal_um", ColumnKind::Float, "wall")]);
+/// // 004_…txt Table 5: nominal wall thicknesses
+/// let t = read_csv_str("walls.csv", "nominal_um\n80\n100\n120\n", &schema).unwrap();
+/// assert_eq!(t.f64s("nominal_um").unwrap(), [80.0, 100.0, 120.0]);
+/// let e = read_csv_str("walls.csv", "thickness_um\n80\n", &schema).unwrap_err();
+/// assert!(matches!(e, DatasetError::MissingColumn { ref column, .. } if column == "nominal_um"));
+/// ```
+///
+/// # Errors
+/// As [`read_table`], without [`DatasetError::Io`].
 pub fn read_csv_str(origin: &str, text: &str, schema: &Schema) -> Result<Table, DatasetError> {
     let path = PathBuf::from(origin);
     let raw = read_csv_raw(&path, std::io::Cursor::new(text.as_bytes().to_vec()))?;
@@ -430,10 +478,10 @@ fn read_raw(path: &Path) -> Result<RawTable, DatasetError> {
     if is_parquet(path) {
         let df = ParquetReader::new(file)
             .finish()
-            .map_err(|e| DatasetError::Parse {
+            .map_err(|source| DatasetError::Parse {
                 file: path.to_path_buf(),
                 format: "Parquet",
-                message: e.to_string(),
+                source,
             })?;
         raw_from_dataframe(path, &df)
     } else {
@@ -450,9 +498,8 @@ fn read_csv_raw<R: polars::io::mmap::MmapBytesReader>(
         .with_infer_schema_length(Some(0))
         .into_reader_with_file_handle(reader)
         .finish()
-        .map_err(|e| {
-            let message = e.to_string();
-            if message.contains("empty") {
+        .map_err(|source| {
+            if source.to_string().contains("empty") {
                 DatasetError::Empty {
                     file: path.to_path_buf(),
                     what: "header",
@@ -461,7 +508,7 @@ fn read_csv_raw<R: polars::io::mmap::MmapBytesReader>(
                 DatasetError::Parse {
                     file: path.to_path_buf(),
                     format: "CSV",
-                    message,
+                    source,
                 }
             }
         })?;
@@ -479,18 +526,13 @@ fn raw_from_dataframe(path: &Path, df: &DataFrame) -> Result<RawTable, DatasetEr
                 column: name,
             });
         }
-        let as_text = col
-            .cast(&DataType::String)
-            .map_err(|e| DatasetError::Parse {
-                file: path.to_path_buf(),
-                format: "table",
-                message: format!("column `{name}`: {e}"),
-            })?;
-        let ca = as_text.str().map_err(|e| DatasetError::Parse {
+        let unreadable = |source| DatasetError::UnreadableColumn {
             file: path.to_path_buf(),
-            format: "table",
-            message: format!("column `{name}`: {e}"),
-        })?;
+            column: name.clone(),
+            source,
+        };
+        let as_text = col.cast(&DataType::String).map_err(unreadable)?;
+        let ca = as_text.str().map_err(unreadable)?;
         cells.push(
             ca.iter()
                 .map(|v| v.map(|s| s.trim().to_string()).filter(|s| !s.is_empty()))
@@ -650,7 +692,17 @@ pub enum TableFormat {
 }
 
 impl TableFormat {
-    /// The format implied by a file name's extension.
+    /// The format implied by a file name's extension (`.csv`; `.parquet` or `.pq`; any case).
+    ///
+    /// ```
+    /// use std::path::Path;
+    /// use millcomp_datasets::TableFormat;
+    /// assert_eq!(TableFormat::from_path(Path::new("out.PQ")).unwrap(), TableFormat::Parquet);
+    /// assert!(TableFormat::from_path(Path::new("out.xlsx")).is_err());
+    /// ```
+    ///
+    /// # Errors
+    /// [`DatasetError::UnsupportedFormat`] for any other extension.
     pub fn from_path(path: &Path) -> Result<Self, DatasetError> {
         match path
             .extension()
@@ -669,59 +721,110 @@ impl TableFormat {
 
 /// Writes `table` to `path` (format from the extension) through a temporary file in the same
 /// directory that is renamed into place, so a failure never leaves a half-written file.
+///
+/// # Examples
+/// ```
+/// use millcomp_datasets::{read_table, write_table};
+/// let t = millcomp_datasets::load("thin_wall_results").unwrap();
+/// let dir = tempfile::tempdir().unwrap();
+/// for name in ["walls.csv", "walls.parquet"] {
+///     let path = dir.path().join(name);
+///     write_table(&t, &path).unwrap();
+///     let back = read_table(&path, &millcomp_datasets::dataset("thin_wall_results").unwrap().schema()).unwrap();
+///     // 004_…txt Table 5: the 80 µm wall measured 85.9 µm uncompensated, 81.9 µm compensated
+///     assert_eq!(back.f64s("uncompensated_um").unwrap()[0], 85.9);
+///     assert_eq!(back.f64s("compensated_um").unwrap()[0], 81.9);
+/// }
+/// ```
+///
+/// # Errors
+/// [`DatasetError::UnsupportedFormat`] (nothing is written), [`DatasetError::Encode`] (building the frame),
+/// [`DatasetError::Write`] (the atomic write or polars' encoder failed; nothing is left at `path`).
 pub fn write_table(table: &Table, path: &Path) -> Result<(), DatasetError> {
     let format = TableFormat::from_path(path)?;
     let mut df = table.to_dataframe()?;
     write_atomic(path, |file| match format {
         TableFormat::Csv => csv_to(&mut df, file),
-        TableFormat::Parquet => ParquetWriter::new(file)
-            .finish(&mut df)
-            .map(|_| ())
-            .map_err(|e| e.to_string()),
+        TableFormat::Parquet => ParquetWriter::new(file).finish(&mut df).map(|_| ()),
     })
 }
 
 /// Writes `table` as CSV (header + rows, the same text [`write_table`] writes to a `.csv` file) to
 /// `out`, e.g. standard output.
+///
+/// ```
+/// use millcomp_datasets::{Column, ColumnData, Table};
+/// let t = Table::from_columns("mem", vec![
+///     Column { name: "tilt_deg".into(), data: ColumnData::Float(vec![20.0, 30.5]) },
+///     Column { name: "method".into(), data: ColumnData::Text(vec!["pid".into(), "mpc".into()]) },
+/// ]).unwrap();
+/// let mut out = Vec::new();
+/// millcomp_datasets::write_csv_to(&t, &mut out).unwrap();
+/// assert_eq!(String::from_utf8(out).unwrap(), "tilt_deg,method\n20.0,pid\n30.5,mpc\n");
+/// ```
+///
+/// # Errors
+/// [`DatasetError::Encode`] when the frame cannot be built or polars' CSV writer fails (its error, e.g.
+/// the writer's I/O error, is the source).
 pub fn write_csv_to<W: Write>(table: &Table, out: W) -> Result<(), DatasetError> {
     let mut df = table.to_dataframe()?;
-    csv_to(&mut df, out).map_err(|message| DatasetError::Write {
+    csv_to(&mut df, out).map_err(|source| DatasetError::Encode {
         file: PathBuf::from(&table.origin),
-        message,
+        format: "CSV",
+        source,
     })
 }
 
-fn csv_to<W: Write>(df: &mut DataFrame, out: W) -> Result<(), String> {
-    CsvWriter::new(out)
-        .include_header(true)
-        .finish(df)
-        .map_err(|e| e.to_string())
+fn csv_to<W: Write>(df: &mut DataFrame, out: W) -> PolarsResult<()> {
+    CsvWriter::new(out).include_header(true).finish(df)
 }
 
 /// Writes bytes produced by `fill` to `path` atomically (temporary file + rename; the one atomic writer,
-/// `millcomp_models::write_atomic`).
-pub fn write_atomic<F>(path: &Path, fill: F) -> Result<(), DatasetError>
+/// `millcomp_models::write_atomic`). `fill` may fail with any error (an I/O error, polars' error, a
+/// message); it becomes the source of the [`DatasetError::Write`].
+///
+/// ```
+/// use std::io::Write;
+/// let dir = tempfile::tempdir().unwrap();
+/// let path = dir.path().join("plan.json");
+/// millcomp_datasets::write_atomic(&path, |f| f.write_all(b"{\"runs\": 8}")).unwrap();
+/// assert_eq!(std::fs::read_to_string(&path).unwrap(), "{\"runs\": 8}");
+/// // A failing fill leaves the previous file as it was, and no temporary file.
+/// let e = millcomp_datasets::write_atomic(&path, |_| Err("disk full")).unwrap_err();
+/// assert!(e.to_string().contains("plan.json"));
+/// assert_eq!(std::fs::read_to_string(&path).unwrap(), "{\"runs\": 8}");
+/// assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+/// ```
+///
+/// # Errors
+/// [`DatasetError::Write`] naming `path`, with the atomic writer's error (which step failed) as source.
+pub fn write_atomic<F, E>(path: &Path, fill: F) -> Result<(), DatasetError>
 where
-    F: FnOnce(&mut File) -> Result<(), String>,
+    F: FnOnce(&mut File) -> Result<(), E>,
+    E: Into<Box<dyn std::error::Error + Send + Sync>>,
 {
-    millcomp_models::write_atomic(path, |f| fill(f).map_err(std::io::Error::other)).map_err(|e| {
-        DatasetError::Write {
+    millcomp_models::write_atomic(path, |f| fill(f).map_err(std::io::Error::other)).map_err(
+        |source| DatasetError::Write {
             file: path.to_path_buf(),
-            message: match e {
-                millcomp_models::ModelError::Io { action, source, .. } => {
-                    format!("{action}: {source}")
-                }
-                other => other.to_string(),
-            },
-        }
-    })
+            source,
+        },
+    )
 }
 
-/// Writes text to `path` atomically.
+/// Writes text to `path` atomically (see [`write_atomic`]).
+///
+/// ```
+/// let dir = tempfile::tempdir().unwrap();
+/// let path = dir.path().join("report.md");
+/// millcomp_datasets::write_text_atomic(&path, "# Report\n").unwrap();
+/// assert_eq!(std::fs::read_to_string(&path).unwrap(), "# Report\n");
+/// assert!(millcomp_datasets::write_text_atomic(&dir.path().join("no/dir/x.md"), "x").is_err());
+/// ```
+///
+/// # Errors
+/// [`DatasetError::Write`] naming `path`.
 pub fn write_text_atomic(path: &Path, text: &str) -> Result<(), DatasetError> {
-    write_atomic(path, |f| {
-        f.write_all(text.as_bytes()).map_err(|e| e.to_string())
-    })
+    write_atomic(path, |f| f.write_all(text.as_bytes()))
 }
 
 #[cfg(test)]
@@ -796,6 +899,39 @@ mod tests {
         assert_eq!(t.f64s("x").unwrap(), vec![1.0, 3.0]);
         assert_eq!(t.strings("y").unwrap(), vec!["2", "NaN"]);
         assert!(t.f64s("label").is_err());
+    }
+
+    #[test]
+    fn causes_are_sources_not_copied_into_the_message() {
+        use std::error::Error as _;
+        let dir = tempfile::tempdir().unwrap();
+        // a missing file: the I/O error is the source
+        let e = read_any(&dir.path().join("missing.csv")).unwrap_err();
+        assert!(matches!(e, DatasetError::Io { .. }), "{e}");
+        let cause = e.source().unwrap().to_string();
+        assert!(!e.to_string().contains(&cause), "{e}");
+        // a file that is not Parquet: polars' error is the source
+        let p = dir.path().join("bad.parquet");
+        std::fs::write(&p, "not parquet").unwrap();
+        let e = read_any(&p).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                DatasetError::Parse {
+                    format: "Parquet",
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        assert!(e.source().is_some());
+        // a destination whose directory does not exist: the atomic writer's error, and under it the I/O error
+        let t = read_csv_str("mem.csv", "a_um,n\n1,2\n", &schema()).unwrap();
+        let e = write_table(&t, &dir.path().join("no/such/dir/out.csv")).unwrap_err();
+        assert!(matches!(e, DatasetError::Write { .. }), "{e}");
+        let writer = e.source().unwrap();
+        assert!(writer.to_string().contains("temporary file"), "{writer}");
+        assert!(writer.source().is_some(), "{writer}");
     }
 
     #[test]

@@ -1,4 +1,5 @@
-//! Prints the `doe design --json` document of a blocked 2^(5-1) design and of a CCD.
+//! Prints the `doe design --json` document of a blocked 2^(5-1) design (first two runs) and of a
+//! face-centred CCD.
 //!
 //! Run: `cargo run -p millcomp-doe --example design_json`.
 
@@ -13,7 +14,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     req.blocks = 2;
     req.seed = Some(1);
     let d = generate(&req)?;
-    println!("{}", d.human());
+    // 2^(5-1) of resolution V: 16 runs, E = ABCD, in two blocks confounded with DE (= ABC, aliased by the
+    // defining relation I = ABCDE).
+    assert_eq!((d.n_runs(), d.resolution, d.blocks), (16, Some(5), 2));
+    assert_eq!(d.generators, ["E=ABCD"]);
+    assert_eq!(d.confounded_with_blocks, ["tilt_deg:coolant"]);
     let mut j = serde_json::to_value(&d)?;
     if let Some(runs) = j.get_mut("runs").and_then(|r| r.as_array_mut()) {
         runs.truncate(2);
@@ -25,6 +30,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         FactorSpec::parse_list("depth_um=100:200,upfeed_um=10:20")?,
     );
     r2.seed = Some(1);
-    println!("{}", generate(&r2)?.human());
+    let ccf = generate(&r2)?;
+    // face-centred: α = 1, 4 factorial + 4 axial + 4 centre points (the default for a CCD)
+    assert_eq!((ccf.n_runs(), ccf.alpha), (12, Some(1.0)));
+    println!("{}", serde_json::to_string_pretty(&ccf)?);
     Ok(())
 }

@@ -1,7 +1,5 @@
 //! The crate's single error type.
 
-use std::path::PathBuf;
-
 /// Everything that can go wrong when generating or analysing a design.
 ///
 /// Every variant names the thing at fault (factor, generator, column, row, term, parameter) so
@@ -238,43 +236,6 @@ pub enum DoeError {
     Unsupported {
         /// Description, with the alternative when there is one.
         what: String,
-    },
-
-    /// A prediction point lacks a factor or gives a level the model does not know.
-    #[error("prediction: factor `{factor}`: {reason}")]
-    InvalidPredictionPoint {
-        /// Factor at fault.
-        factor: String,
-        /// What is wrong.
-        reason: String,
-    },
-
-    /// A model file could not be read or parsed.
-    #[error("model file `{path}`: {reason}")]
-    ModelFile {
-        /// File path.
-        path: PathBuf,
-        /// Parse or schema error.
-        reason: String,
-    },
-
-    /// Writing or reading a file failed.
-    #[error("cannot write or read `{path}`: {source}")]
-    Io {
-        /// File path.
-        path: PathBuf,
-        /// Underlying error.
-        #[source]
-        source: std::io::Error,
-    },
-
-    /// Drawing a plot failed.
-    #[error("plot `{path}`: {reason}")]
-    Plot {
-        /// Output file.
-        path: PathBuf,
-        /// Backend message.
-        reason: String,
     },
 }
 

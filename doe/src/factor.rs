@@ -1,4 +1,5 @@
-//! Factor specifications (`depth_um=100:200`, `A`, `material=S7:1018:6061`), levels and table columns.
+//! Factor specifications (`depth_um=100:200`, `A`, `material=S7:1018:6061`), levels and the typed values of
+//! a factor or response ([`Values`]).
 
 use serde::Serialize;
 
@@ -21,9 +22,11 @@ pub fn factor_letter(i: usize) -> String {
 /// One level of a factor, or one value in a table: a number or a label (the models crate's type).
 pub use millcomp_models::Level;
 
-/// A table column, in the three types the CLI's table layer (polars) distinguishes.
+/// The typed values of one factor or response (a table column's cells without its name), in the three
+/// types the table layer (`millcomp-datasets`, polars) distinguishes. Named columns are
+/// `(String, Values)` pairs.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Column {
+pub enum Values {
     /// Floating-point values.
     F64(Vec<f64>),
     /// Integer values.
@@ -32,13 +35,13 @@ pub enum Column {
     Str(Vec<String>),
 }
 
-impl Column {
+impl Values {
     /// Number of rows.
     pub fn len(&self) -> usize {
         match self {
-            Column::F64(v) => v.len(),
-            Column::I64(v) => v.len(),
-            Column::Str(v) => v.len(),
+            Values::F64(v) => v.len(),
+            Values::I64(v) => v.len(),
+            Values::Str(v) => v.len(),
         }
     }
 
@@ -97,6 +100,18 @@ impl FactorSpec {
 
     /// Parses one entry: `name`, `name=low:high`, `name=l1:l2:l3` (numeric) or `name=S7:1018:6061` (labels:
     /// any level that is not a number makes all of them labels).
+    ///
+    /// ```
+    /// use millcomp_doe::{FactorLevels, FactorSpec};
+    /// let f = FactorSpec::parse("speed_rpm=10000:20000").unwrap();
+    /// assert_eq!(f.range(), Some((10000.0, 20000.0)));
+    /// assert_eq!(FactorSpec::parse("coolant=off:on").unwrap().kind(), "label");
+    /// assert!(FactorSpec::parse("depth_um=100").is_err()); // one level
+    /// ```
+    ///
+    /// # Errors
+    /// [`DoeError::InvalidFactorSpec`] for a missing or invalid name, an empty level or a level listed
+    /// twice; [`DoeError::SingleLevelFactor`] when only one distinct level is given.
     pub fn parse(entry: &str) -> Result<FactorSpec> {
         let entry = entry.trim();
         let bad = |reason: &str| DoeError::InvalidFactorSpec {
@@ -176,6 +191,10 @@ impl FactorSpec {
     /// assert_eq!(f[1].n_levels(), 3);
     /// assert_eq!(f[2].levels, FactorLevels::Coded);
     /// ```
+    ///
+    /// # Errors
+    /// [`DoeError::NoFactors`] for an empty list, [`DoeError::DuplicateFactor`] for a repeated name, and
+    /// those of [`FactorSpec::parse`] for a bad entry.
     pub fn parse_list(s: &str) -> Result<Vec<FactorSpec>> {
         let entries: Vec<&str> = s
             .split(',')

@@ -13,10 +13,11 @@
 //! designs; matches statsmodels' `anova_lm(..., typ=2)`), R², adjusted and predicted R², lack of fit, Lenth's
 //! PSE/ME/SME for saturated models, residual diagnostics, [`backward_eliminate`], [`power`] (noncentral F),
 //! and the actual-unit [`response_surface`] of a fit (a `millcomp_models::ResponseSurface`, saved in the common
-//! model-file format: `models/MODEL.md`). Plots of an analysis are drawn by the CLI.
+//! model-file format: `models/MODEL.md`). The crate returns data (serialisable to the `--json` contracts);
+//! the text tables and plots of a design or an analysis are the CLI's.
 //!
 //! ```
-//! use millcomp_doe::{analyze, generate, AnalysisInput, Column, DesignKind, DesignRequest, FactorSpec, ModelSpec};
+//! use millcomp_doe::{analyze, generate, AnalysisInput, Values, DesignKind, DesignRequest, FactorSpec, ModelSpec};
 //! // The 2^3 of the Clayton thesis (seed 000, Table 3-2) …
 //! let f = FactorSpec::parse_list("depth_um=100:200,speed_rpm=10000:20000,upfeed_um=10:20").unwrap();
 //! let mut req = DesignRequest::new(DesignKind::Full, f);
@@ -26,14 +27,14 @@
 //! // … and a response that depends on depth and upfeed only.
 //! let cols = d.columns();
 //! let get = |n: &str| cols.iter().find(|(c, _)| c == n).unwrap().1.clone();
-//! let (Column::F64(dep), Column::F64(up)) = (get("depth_um"), get("upfeed_um")) else { unreachable!() };
+//! let (Values::F64(dep), Values::F64(up)) = (get("depth_um"), get("upfeed_um")) else { unreachable!() };
 //! let y: Vec<f64> = dep.iter().zip(&up).enumerate()
 //!     .map(|(i, (d, u))| 0.01 * d + 0.1 * u + 0.01 * ((i * 7 % 5) as f64 - 2.0)).collect();
 //! let input = AnalysisInput {
 //!     factors: vec![("depth_um".into(), get("depth_um")), ("speed_rpm".into(), get("speed_rpm")),
 //!                   ("upfeed_um".into(), get("upfeed_um"))],
 //!     response_name: "fx_n".into(),
-//!     response: Column::F64(y),
+//!     response: Values::F64(y),
 //!     model: ModelSpec::Main,
 //! };
 //! let a = analyze(&input).unwrap();
@@ -57,11 +58,11 @@ pub use analysis::{
 };
 pub use design::{
     AliasEntry, CcdAlpha, CcdVariant, Design, DesignCriteria, DesignKind, DesignRequest,
-    LinearConstraint, Run, generate,
+    LinearConstraint, Run, generate, resolution_roman,
 };
 pub use error::{DoeError, Result};
 pub use factor::{
-    Column, FACTOR_LETTERS, FactorInfo, FactorLevels, FactorSpec, Level, factor_letter,
+    FACTOR_LETTERS, FactorInfo, FactorLevels, FactorSpec, Level, Values, factor_letter,
 };
 pub use model::ModelSpec;
 pub use surface::response_surface;

@@ -29,6 +29,11 @@ impl ModelSpec {
     /// assert_eq!(ModelSpec::parse("a+b+a:b").unwrap(), ModelSpec::Formula("a+b+a:b".into()));
     /// assert!(ModelSpec::parse("a+").is_err());
     /// ```
+    ///
+    /// # Errors
+    /// [`DoeError::InvalidModel`] for an empty model, an empty term between `+` signs or a term using
+    /// syntax other than names, `:`, `*`, `^2` and `+`. (Whether the names are factors is checked when the
+    /// model is used: [`crate::analyze`] and [`crate::generate`] return [`DoeError::UnknownFactor`].)
     pub fn parse(s: &str) -> Result<ModelSpec> {
         let t = s.trim();
         match t.to_ascii_lowercase().as_str() {

@@ -21,8 +21,8 @@ type Mono = (BTreeMap<String, u32>, BTreeMap<String, String>, f64);
 ///
 /// # Examples
 /// ```
-/// use millcomp_doe::{analyze, response_surface, AnalysisInput, Column, ModelSpec};
-/// let col = |v: &[f64]| Column::F64(v.to_vec());
+/// use millcomp_doe::{analyze, response_surface, AnalysisInput, Values, ModelSpec};
+/// let col = |v: &[f64]| Values::F64(v.to_vec());
 /// let input = AnalysisInput {
 ///     factors: vec![("d".into(), col(&[100., 200., 100., 200.])), ("u".into(), col(&[10., 10., 20., 20.]))],
 ///     response_name: "f".into(),

@@ -2,15 +2,13 @@
 //! (and 2FI) model and compared with statsmodels (golden: tests/golden/anova_clayton.json, made by
 //! bench/peers/doe_goldens.py with statsmodels 0.15.0 `anova_lm(ols(...).fit(), typ=2)`).
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use millcomp_doe::{Analysis, AnalysisInput, ModelSpec, analyze};
 
 const FIXTURE: &str = "tests/fixtures/clayton_table_3_3.csv";
 
 fn run(response: &str, model: ModelSpec) -> Analysis {
-    let table = read_csv(FIXTURE);
+    let table = read_fixture(FIXTURE);
     let factors: Vec<String> = ["depth_um", "speed_rpm", "upfeed_um"]
         .iter()
         .map(|s| s.to_string())
@@ -47,7 +45,7 @@ fn thesis_conclusion_main_effects_model() {
 
 #[test]
 fn default_factor_detection_picks_the_three_factors() {
-    let table = read_csv(FIXTURE);
+    let table = read_fixture(FIXTURE);
     let input = AnalysisInput::from_table(&table, "fx_n", None, ModelSpec::Main).unwrap();
     let names: Vec<&str> = input.factors.iter().map(|(n, _)| n.as_str()).collect();
     assert_eq!(names, vec!["depth_um", "speed_rpm", "upfeed_um"]);

@@ -1,11 +1,9 @@
 //! Response-surface, screening, space-filling and optimal designs; the JSON contract of `doe design`.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use millcomp_doe::{
-    CcdAlpha, CcdVariant, Column, DesignKind, DesignRequest, FactorSpec, Level, LinearConstraint,
-    ModelSpec, generate,
+    CcdAlpha, CcdVariant, DesignKind, DesignRequest, FactorSpec, Level, LinearConstraint,
+    ModelSpec, Values, generate,
 };
 
 fn sorted_points(mut p: Vec<Vec<f64>>) -> Vec<Vec<f64>> {
@@ -271,14 +269,14 @@ fn mixed_level_full_factorial_with_labels_and_json_contract() {
     assert!(run["material"].is_string() && run["depth_um"].is_number());
     // Each label appears 4 times (2 depths × 2 replicates).
     let cols = d.columns();
-    let Column::Str(m) = &cols.iter().find(|(n, _)| n == "material").unwrap().1 else {
+    let Values::Str(m) = &cols.iter().find(|(n, _)| n == "material").unwrap().1 else {
         panic!()
     };
     for l in ["S7", "1018", "6061"] {
         assert_eq!(m.iter().filter(|v| v.as_str() == l).count(), 4);
     }
     assert_eq!(cols[1].0, "run_order");
-    let Column::I64(ro) = &cols[1].1 else {
+    let Values::I64(ro) = &cols[1].1 else {
         panic!()
     };
     assert_eq!(ro, &(1..=12).collect::<Vec<i64>>());

@@ -1,11 +1,9 @@
 //! Bad input gives a clear `DoeError` naming the thing at fault (issue 4, "Bad input").
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use millcomp_doe::{
-    AnalysisInput, CcdAlpha, CcdVariant, Column, DesignKind, DesignRequest, DoeError, FactorSpec,
-    ModelSpec, analyze, generate,
+    AnalysisInput, CcdAlpha, CcdVariant, DesignKind, DesignRequest, DoeError, FactorSpec,
+    ModelSpec, Values, analyze, generate,
 };
 
 fn frac(factors: &str, generators: &str) -> Result<millcomp_doe::Design, DoeError> {
@@ -69,8 +67,8 @@ fn aliased_generators() {
     ));
 }
 
-fn col(v: &[f64]) -> Column {
-    Column::F64(v.to_vec())
+fn col(v: &[f64]) -> Values {
+    Values::F64(v.to_vec())
 }
 
 #[test]
@@ -142,7 +140,7 @@ fn factor_with_one_level() {
     ));
     let labels = AnalysisInput {
         factors: vec![
-            ("m".into(), Column::Str(vec!["S7".into(); 4])),
+            ("m".into(), Values::Str(vec!["S7".into(); 4])),
             ("a".into(), col(&[-1., 1., -1., 1.])),
         ],
         response_name: "y".into(),
@@ -159,7 +157,7 @@ fn non_numeric_response() {
     let input = AnalysisInput {
         factors: vec![("a".into(), col(&[-1., 1., -1., 1.]))],
         response_name: "fx_n".into(),
-        response: Column::Str(vec!["1.0".into(), "2.5".into(), "n/a".into(), "4".into()]),
+        response: Values::Str(vec!["1.0".into(), "2.5".into(), "n/a".into(), "4".into()]),
         model: ModelSpec::Main,
     };
     let e = analyze(&input).unwrap_err();
@@ -177,7 +175,7 @@ fn non_numeric_response() {
     ));
     // A text column that holds numbers is accepted.
     let ok = AnalysisInput {
-        response: Column::Str(vec!["1".into(), "2".into(), "3".into(), "5".into()]),
+        response: Values::Str(vec!["1".into(), "2".into(), "3".into(), "5".into()]),
         ..input
     };
     assert!(analyze(&ok).is_ok());
@@ -185,7 +183,7 @@ fn non_numeric_response() {
 
 #[test]
 fn unknown_factor_names() {
-    let table = read_csv("tests/fixtures/clayton_table_3_3.csv");
+    let table = read_fixture("tests/fixtures/clayton_table_3_3.csv");
     let f = vec!["depth_um".to_string(), "feed_mm_min".to_string()];
     let e = AnalysisInput::from_table(&table, "fx_n", Some(&f), ModelSpec::Main).unwrap_err();
     assert!(

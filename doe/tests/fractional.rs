@@ -3,11 +3,9 @@
 //! resolution, alias structure) and an exhaustive minimum-aberration search (the word-length pattern each
 //! catalogue entry must reach).
 
-mod common;
-
 use std::collections::BTreeMap;
 
-use common::*;
+use crate::common::*;
 use millcomp_doe::{DesignKind, DesignRequest, FactorSpec, factor_letter, generate};
 
 fn letters(k: usize) -> Vec<FactorSpec> {

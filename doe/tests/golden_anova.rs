@@ -3,21 +3,19 @@
 //! sequential SS there), lack of fit from centre runs, the actual-unit coefficients and covariance of the
 //! fitted model, and an unbalanced 3-level label × numeric data set with multi-df terms.
 
-mod common;
-
-use common::*;
-use millcomp_doe::{AnalysisInput, Column, ModelSpec, analyze, response_surface};
+use crate::common::*;
+use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze, response_surface};
 
 fn ccd_input() -> (AnalysisInput, serde_json::Value) {
     let g = golden("anova_more.json")["ccd"].clone();
     let d = &g["data"];
     let input = AnalysisInput {
         factors: vec![
-            ("depth_um".into(), Column::F64(f64s(&d["depth_um"]))),
-            ("upfeed_um".into(), Column::F64(f64s(&d["upfeed_um"]))),
+            ("depth_um".into(), Values::F64(f64s(&d["depth_um"]))),
+            ("upfeed_um".into(), Values::F64(f64s(&d["upfeed_um"]))),
         ],
         response_name: "force_n".into(),
-        response: Column::F64(f64s(&d["force_n"])),
+        response: Values::F64(f64s(&d["force_n"])),
         model: ModelSpec::Quadratic,
     };
     (input, g)
@@ -146,11 +144,11 @@ fn multi_df_label_terms_match_statsmodels() {
         .collect();
     let input = AnalysisInput {
         factors: vec![
-            ("material".into(), Column::Str(mats)),
-            ("depth_um".into(), Column::F64(f64s(&d["depth_um"]))),
+            ("material".into(), Values::Str(mats)),
+            ("depth_um".into(), Values::F64(f64s(&d["depth_um"]))),
         ],
         response_name: "fz_n".into(),
-        response: Column::F64(f64s(&d["fz_n"])),
+        response: Values::F64(f64s(&d["fz_n"])),
         model: ModelSpec::parse("material*depth_um").unwrap(),
     };
     let a = analyze(&input).unwrap();

@@ -1,10 +1,8 @@
 //! Lenth's method on Montgomery's Example 6.2 and the noncentral F against scipy.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use millcomp_doe::{
-    AnalysisInput, Column, ModelSpec, analyze, f_test_power, lenth, noncentral_f_cdf,
+    AnalysisInput, ModelSpec, Values, analyze, f_test_power, lenth, noncentral_f_cdf,
     noncentral_f_sf, power,
 };
 
@@ -12,7 +10,7 @@ use millcomp_doe::{
 fn montgomery_example_6_2_effects_and_lenth() {
     // Montgomery, Design and Analysis of Experiments, 8th ed. (2013), Example 6.2 (pilot-plant filtration
     // rate, unreplicated 2^4): data Table 6.10 (fixture), effect estimates Table 6.11 (golden "published").
-    let table = read_csv("tests/fixtures/montgomery_example_6_2.csv");
+    let table = read_fixture("tests/fixtures/montgomery_example_6_2.csv");
     let input =
         AnalysisInput::from_table(&table, "filtration_rate", None, ModelSpec::Full).unwrap();
     let a = analyze(&input).unwrap();
@@ -115,7 +113,7 @@ fn noncentral_f_matches_scipy() {
 #[test]
 fn power_of_the_thesis_design() {
     // The 2^3 of Table 3-3 with the main-effects model (4 residual df): λ = n·(Δ/2σ)² = 8·(Δ/2σ)².
-    let col = |v: &[f64]| Column::F64(v.to_vec());
+    let col = |v: &[f64]| Values::F64(v.to_vec());
     let f = vec![
         (
             "depth_um".to_string(),

@@ -54,6 +54,16 @@ impl InputFile {
 
     /// Reads the file and records its hash.
     ///
+    /// ```
+    /// let dir = tempfile::tempdir().unwrap();
+    /// let path = dir.path().join("data.csv");
+    /// std::fs::write(&path, "abc").unwrap();
+    /// let input = millcomp_models::InputFile::from_path(&path).unwrap();
+    /// // FIPS 180-2 test vector: SHA-256("abc")
+    /// assert_eq!(input.sha256, "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+    /// assert!(millcomp_models::InputFile::from_path(&dir.path().join("missing.csv")).is_err());
+    /// ```
+    ///
     /// # Errors
     /// [`ModelError::Io`] when the file cannot be read.
     pub fn from_path(path: &Path) -> Result<Self> {
@@ -138,7 +148,18 @@ impl<B: Serialize + DeserializeOwned> ModelFile<B> {
         }
     }
 
-    /// The TOML text of the file.
+    /// The TOML text of the file (`[header]`, then `[model]`).
+    ///
+    /// ```
+    /// use millcomp_models::{ModelFile, Provenance};
+    /// #[derive(serde::Serialize, serde::Deserialize)]
+    /// struct Gain { gain_um_per_v: f64 }
+    /// let text = ModelFile::new("gain", Gain { gain_um_per_v: 0.05 }, Provenance::now("millcomp 0.1.0", "doc"))
+    ///     .to_toml()
+    ///     .unwrap();
+    /// assert!(text.starts_with("[header]\nformat = \"millcomp-model\"\nversion = 1\nkind = \"gain\"\n"));
+    /// assert!(text.contains("[model]\ngain_um_per_v = 0.05\n"));
+    /// ```
     ///
     /// # Errors
     /// [`ModelError::Serialize`] when the model cannot be written as TOML (e.g. a map with non-string keys).
@@ -156,6 +177,32 @@ impl<B: Serialize + DeserializeOwned> ModelFile<B> {
     /// [`ModelError::Parse`] for text that is not TOML or a `[model]` table of the wrong shape;
     /// [`ModelError::Header`] for a missing header, another format or version;
     /// [`ModelError::Kind`] for another kind.
+    ///
+    /// # Examples
+    /// ```
+    /// use std::path::Path;
+    /// use millcomp_models::{ModelError, ModelFile};
+    /// #[derive(serde::Serialize, serde::Deserialize, Debug)]
+    /// struct Gain { gain_um_per_v: f64 }
+    /// let text = r#"
+    /// [header]
+    /// format = "millcomp-model"
+    /// version = 1
+    /// kind = "gain"
+    /// [header.provenance]
+    /// program = "millcomp 0.1.0"
+    /// command = "by hand"
+    /// created_utc = "2000-02-29T00:00:00Z"
+    /// [model]
+    /// gain_um_per_v = 0.05
+    /// "#;
+    /// let f = ModelFile::<Gain>::from_toml(text, Path::new("gain.toml"), &["gain"]).unwrap();
+    /// assert_eq!(f.model.gain_um_per_v, 0.05);
+    /// // a file of another version is refused before its body is read, naming the key
+    /// let v2 = text.replace("version = 1", "version = 2");
+    /// let e = ModelFile::<Gain>::from_toml(&v2, Path::new("gain.toml"), &["gain"]).unwrap_err();
+    /// assert!(matches!(&e, ModelError::Header { key, .. } if key == "header.version"));
+    /// ```
     pub fn from_toml(text: &str, origin: &Path, kinds: &[&str]) -> Result<Self> {
         let parse_err = |source| ModelError::Parse {
             path: origin.to_path_buf(),
@@ -166,7 +213,8 @@ impl<B: Serialize + DeserializeOwned> ModelFile<B> {
         toml::from_str(text).map_err(parse_err)
     }
 
-    /// Reads a model file (see [`ModelFile::from_toml`]).
+    /// Reads a model file (see [`ModelFile::from_toml`]; an example with [`ModelFile::save`] is on
+    /// [`ModelFile`]).
     ///
     /// # Errors
     /// [`ModelError::Io`] when the file cannot be read, and those of [`ModelFile::from_toml`].
@@ -179,7 +227,8 @@ impl<B: Serialize + DeserializeOwned> ModelFile<B> {
         Self::from_toml(&text, path, kinds)
     }
 
-    /// Writes the file atomically: to a temporary file in the same directory, then renamed over `path`.
+    /// Writes the file atomically: to a temporary file in the same directory, then renamed over `path`
+    /// (an example with [`ModelFile::load`] is on [`ModelFile`]).
     ///
     /// # Errors
     /// [`ModelError::Serialize`], or [`ModelError::Io`] naming the file; nothing is left half-written.
@@ -259,6 +308,19 @@ fn check_header(doc: &toml::Table, origin: &Path, kinds: &[&str]) -> Result<()> 
 
 /// Reads only the header of a model file (e.g. to dispatch on its kind).
 ///
+/// ```
+/// use millcomp_models::{read_header, InputFile, ModelFile, Provenance};
+/// let dir = tempfile::tempdir().unwrap();
+/// let path = dir.path().join("k.toml");
+/// let provenance = Provenance::now("millcomp 0.1.0", "doc")
+///     .with_input(InputFile::from_bytes("a.csv", b"abc"));
+/// let stiffness: std::collections::BTreeMap<String, f64> = [("k_n_per_um".to_string(), 0.114)].into();
+/// ModelFile::new("stiffness", stiffness, provenance).save(&path).unwrap();
+/// let h = read_header(&path).unwrap();
+/// assert_eq!((h.kind.as_str(), h.version), ("stiffness", 1));
+/// assert_eq!(h.provenance.inputs[0].path, "a.csv");
+/// ```
+///
 /// # Errors
 /// As [`ModelFile::load`] for the header.
 pub fn read_header(path: &Path) -> Result<Header> {
@@ -284,6 +346,17 @@ pub fn read_header(path: &Path) -> Result<Header> {
 /// Writes `path` atomically: `fill` writes a temporary file in the same directory, which is synced and
 /// renamed over `path` only when `fill` succeeded. The one atomic writer of millcomp (tables, text and
 /// model files all go through it).
+///
+/// ```
+/// use std::io::Write;
+/// let dir = tempfile::tempdir().unwrap();
+/// let path = dir.path().join("notes.txt");
+/// millcomp_models::write_atomic(&path, |f| f.write_all(b"18 um")).unwrap();
+/// assert_eq!(std::fs::read_to_string(&path).unwrap(), "18 um");
+/// let e = millcomp_models::write_atomic(&path, |_| Err(std::io::Error::other("disk full"))).unwrap_err();
+/// assert!(e.to_string().ends_with("notes.txt: writing"));
+/// assert_eq!(std::fs::read_to_string(&path).unwrap(), "18 um"); // the old file is untouched
+/// ```
 ///
 /// # Errors
 /// [`ModelError::Io`] naming `path`; the temporary file is removed on failure.

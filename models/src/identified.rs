@@ -133,6 +133,28 @@ impl IdentifiedModel {
 
     /// A parameter or fixed input a consumer needs; `origin` and `kind` name the file in the error.
     ///
+    /// ```
+    /// use std::path::Path;
+    /// use millcomp_models::{IdentifiedModel, ModelError};
+    /// let m: IdentifiedModel = toml::from_str(r#"
+    /// status = "converged"
+    /// n_obs = 8
+    /// dof = 7
+    /// rms_residual = 0.2
+    /// residual_unit = "n"
+    /// params = { w_mpa = 1500.0 }
+    /// std_err = { w_mpa = 40.0 }
+    /// fixed = { tilt_deg = 20.0 }
+    /// covariance = { names = ["w_mpa"], values = [[1600.0]] }
+    /// "#).unwrap();
+    /// let at = Path::new("force.toml");
+    /// assert_eq!(m.require("w_mpa", at, "force").unwrap(), 1500.0);
+    /// assert_eq!(m.require("tilt_deg", at, "force").unwrap(), 20.0);
+    /// let e = m.require("mu_rake", at, "force").unwrap_err();
+    /// assert!(matches!(&e, ModelError::MissingKey { key, .. } if key == "model.params.mu_rake"));
+    /// assert!(e.to_string().contains("(it has: w_mpa, tilt_deg)"));
+    /// ```
+    ///
     /// # Errors
     /// [`ModelError::MissingKey`] naming `model.params.<name>` and what the model has.
     pub fn require(&self, name: &str, origin: &Path, kind: &str) -> Result<f64> {
@@ -257,6 +279,27 @@ impl ForceModelParams {
     /// # Errors
     /// [`ModelError::InvalidValue`] for a fitted parameter that is not one of
     /// [`ForceModelParams::PARAMETERS`] or is not finite.
+    ///
+    /// # Examples
+    /// ```
+    /// use std::path::Path;
+    /// use millcomp_models::{ForceModelParams, IdentifiedModel};
+    /// let mut m: IdentifiedModel = toml::from_str(r#"
+    /// status = "converged"
+    /// n_obs = 8
+    /// dof = 7
+    /// rms_residual = 0.2
+    /// residual_unit = "n"
+    /// params = { w_mpa = 1500.0 }
+    /// std_err = { w_mpa = 40.0 }
+    /// covariance = { names = ["w_mpa"], values = [[1600.0]] }
+    /// "#).unwrap();
+    /// let f = ForceModelParams::from_identified(&m, Path::new("force.toml")).unwrap();
+    /// assert_eq!(f.fitted["w_mpa"], 1500.0);
+    /// assert_eq!(f.covariance.get("w_mpa", "w_mpa"), Some(1600.0));
+    /// m.params.insert("zeta".into(), 0.46); // a spindle parameter is not a force-model parameter
+    /// assert!(ForceModelParams::from_identified(&m, Path::new("force.toml")).is_err());
+    /// ```
     pub fn from_identified(m: &IdentifiedModel, origin: &Path) -> Result<Self> {
         for (name, v) in &m.params {
             if !Self::PARAMETERS.contains(&name.as_str()) {

@@ -210,7 +210,36 @@ impl ResponseSurface {
         Ok(row)
     }
 
-    /// Predicted mean and its standard error at a point given as (factor, level) pairs.
+    /// Predicted mean and its standard error at a point given as (factor, level) pairs; label factors
+    /// take [`Level::Label`].
+    ///
+    /// ```
+    /// use millcomp_models::{Level, ResponseSurface};
+    /// // f = 1 + 0.5·[material = S7] on two materials, residual variance of the mean 0.01 at each level
+    /// let m: ResponseSurface = toml::from_str(r#"
+    /// response = "f"
+    /// model = "material"
+    /// n_runs = 4
+    /// residual_df = 2
+    /// r_squared = 0.9
+    /// factors = [{ kind = "label", name = "material", levels = ["6061", "S7"] }]
+    /// terms = [{ name = "intercept", coef = 1.0 },
+    ///          { name = "material[S7]", coef = 0.5, labels = { material = "S7" } }]
+    /// covariance = [[0.01, 0.0], [0.0, 0.01]]
+    /// coded = { terms = ["intercept", "material"], coef = [1.0, 0.5] }
+    /// "#).unwrap();
+    /// let p = m.predict_levels(&[("material", Level::Label("S7".into()))]).unwrap();
+    /// // S7 is the +1 level: 1 + 0.5, SE = √(0.01 + 0.01)
+    /// assert!((p.mean - 1.5).abs() < 1e-12);
+    /// assert!((p.std_err.unwrap() - 0.02f64.sqrt()).abs() < 1e-12);
+    /// let q = m.predict_levels(&[("material", Level::Label("6061".into()))]).unwrap();
+    /// assert!((q.mean - 0.5).abs() < 1e-12); // the −1 level
+    /// assert!(m.predict_levels(&[("material", Level::Label("C45".into()))]).is_err());
+    /// ```
+    ///
+    /// # Errors
+    /// [`ModelError::Prediction`] naming a factor that is not the model's, a missing one, a numeric value
+    /// that is not finite, or a label level the model does not know.
     pub fn predict_levels(&self, point: &[(&str, Level)]) -> Result<Prediction> {
         let row = self.term_row(point)?;
         let mean: f64 = row.iter().zip(&self.terms).map(|(r, t)| r * t.coef).sum();

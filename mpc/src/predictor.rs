@@ -134,10 +134,10 @@ impl ForcePredictor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use millcomp_doe::{AnalysisInput, Column, ModelSpec, analyze, response_surface};
+    use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze, response_surface};
 
     fn surface(factor: &str) -> millcomp_models::ResponseSurface {
-        let col = |v: &[f64]| Column::F64(v.to_vec());
+        let col = |v: &[f64]| Values::F64(v.to_vec());
         // f = 0.02·d + 0.05·u exactly on a 2² design
         let input = AnalysisInput {
             factors: vec![

@@ -62,10 +62,7 @@ fn list(json: bool) -> anyhow::Result<()> {
             .collect();
         return print_json(&docs);
     }
-    let width = rows.iter().map(|(d, _)| d.name.len()).max().unwrap_or(0);
-    for (d, n) in &rows {
-        println!("{:<width$}  {:>3} rows  {}", d.name, n, d.title);
-    }
+    print!("{}", crate::present::table::dataset_list_text(&rows));
     Ok(())
 }
 
@@ -89,8 +86,6 @@ fn show(name: &str, json: bool) -> anyhow::Result<()> {
             "rows": table.to_json_rows(),
         }));
     }
-    println!("{} — {}", d.name, d.title);
-    println!("source: {}\n", d.seed);
-    print!("{}", table.to_text());
+    print!("{}", crate::present::table::dataset_text(d, &table));
     Ok(())
 }

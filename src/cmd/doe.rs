@@ -61,7 +61,7 @@ fn design(args: &DoeDesignArgs, json: bool) -> anyhow::Result<()> {
     if json {
         print_json(&design)
     } else {
-        print!("{}", design.human());
+        print!("{}", crate::present::doe::design_text(&design));
         if let Some(out) = &args.out {
             println!("\nwritten: {}", out.display());
         }
@@ -108,16 +108,9 @@ fn analyze(args: &DoeAnalyzeArgs, json: bool) -> anyhow::Result<()> {
         return print_json(&doc);
     }
     if let Some(e) = &elimination {
-        for step in &e.steps {
-            println!(
-                "removed {:<16} p = {}",
-                step.removed,
-                step.p_value.map_or("-".to_string(), |p| format!("{p:.4}"))
-            );
-        }
-        println!();
+        print!("{}", crate::present::doe::elimination_text(&e.steps));
     }
-    print!("{}", analysis.human());
+    print!("{}", crate::present::doe::analysis_text(&analysis));
     for p in &plots {
         println!("plot: {}", p.display());
     }

@@ -1,6 +1,8 @@
-//! SVG plots of a DOE analysis (plotters' SVG backend; no fonts needed): half-normal plot of effects, Pareto
+//! A DOE design and analysis as text (what `doe design` and `doe analyze` print without `--json`), and the
+//! SVG plots of an analysis (plotters' SVG backend; no fonts needed): half-normal plot of effects, Pareto
 //! chart, main-effects and interaction plots, residual plots. Each file is written atomically.
 
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use plotters::coord::types::RangedCoordf64;
@@ -8,9 +10,193 @@ use plotters::prelude::*;
 use statrs::distribution::{ContinuousCDF, Normal};
 
 use anyhow::{Context, Result};
-use millcomp_doe::{Analysis, FactorCoding};
+use millcomp_doe::{Analysis, Design, EliminationStep, FactorCoding, resolution_roman};
 
 use super::plot::write_svg;
+
+/// A design's summary and run table: family, run count, resolution, blocks, replicates, seed; factors and
+/// their letters; generators and defining relation; CCD axial distance; block generators; aliases up to
+/// order 3; notes; then one row per run in run order with the actual levels.
+pub fn design_text(d: &Design) -> String {
+    let mut s = String::new();
+    let _ = write!(s, "Design: {}   runs: {}", d.design, d.n_runs());
+    if let Some(r) = d.resolution {
+        let _ = write!(s, "   resolution: {}", resolution_roman(r));
+    }
+    if d.blocks > 1 {
+        let _ = write!(s, "   blocks per replicate: {}", d.blocks);
+    }
+    if d.replicates > 1 {
+        let _ = write!(s, "   replicates: {}", d.replicates);
+    }
+    let _ = writeln!(
+        s,
+        "   seed: {}{}",
+        d.seed,
+        if d.randomized {
+            ""
+        } else {
+            " (not randomised)"
+        }
+    );
+    let letters: Vec<String> = d
+        .factors
+        .iter()
+        .map(|f| format!("{}={}", f.letter, f.name))
+        .collect();
+    let _ = writeln!(s, "Factors: {}", letters.join(", "));
+    if !d.generators.is_empty() {
+        let _ = writeln!(s, "Generators: {}", d.generators.join(", "));
+        let _ = writeln!(s, "Defining relation: {}", d.defining_relation.join(" "));
+    }
+    if let Some(a) = d.alpha {
+        let _ = writeln!(
+            s,
+            "Axial distance alpha: {a:.6} ({})",
+            d.variant.unwrap_or("")
+        );
+    }
+    if !d.block_generators.is_empty() {
+        let _ = writeln!(
+            s,
+            "Block generators: {}   confounded with blocks: {}",
+            d.block_generators.join(", "),
+            d.confounded_with_blocks.join(", ")
+        );
+    }
+    if !d.alias_structure.is_empty() {
+        let _ = writeln!(s, "Aliases (up to order 3):");
+        for a in &d.alias_structure {
+            let _ = writeln!(s, "  {} = {}", a.term, a.aliases.join(" = "));
+        }
+    }
+    for n in &d.notes {
+        let _ = writeln!(s, "Note: {n}");
+    }
+    let w: Vec<usize> = d.factors.iter().map(|f| f.name.len().max(8)).collect();
+    let _ = write!(s, "{:>5} {:>5} {:>5}", "run", "std", "block");
+    for (f, w) in d.factors.iter().zip(&w) {
+        let _ = write!(s, " {:>w$}", f.name);
+    }
+    let _ = writeln!(s);
+    for r in &d.runs {
+        let _ = write!(s, "{:>5} {:>5} {:>5}", r.run_order, r.std_order, r.block);
+        for (v, w) in r.actual.iter().zip(&w) {
+            let _ = write!(s, " {:>w$}", v.to_string());
+        }
+        let _ = writeln!(s);
+    }
+    s
+}
+
+/// The steps of a backward elimination, one line per removed term with its p-value (`-` when it was pooled
+/// from a saturated model), followed by an empty line.
+pub fn elimination_text(steps: &[EliminationStep]) -> String {
+    let mut s = String::new();
+    for step in steps {
+        let _ = writeln!(
+            s,
+            "removed {:<16} p = {}",
+            step.removed,
+            step.p_value.map_or("-".to_string(), |p| format!("{p:.4}"))
+        );
+    }
+    let _ = writeln!(s);
+    s
+}
+
+/// An analysis as text: the effects/ANOVA table (`*` p < 0.05, `**` p < 0.01), fit statistics, lack of fit,
+/// Lenth's margins and active effects, outlying runs and notes.
+pub fn analysis_text(a: &Analysis) -> String {
+    let opt = |v: Option<f64>, w: usize, p: usize| match v {
+        Some(x) => format!("{x:>w$.p$}"),
+        None => format!("{:>w$}", "-"),
+    };
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "Response: {}   runs: {}   model: {}",
+        a.response, a.n_runs, a.model
+    );
+    let tw = a
+        .terms
+        .iter()
+        .map(|t| t.term.len())
+        .max()
+        .unwrap_or(4)
+        .max(9);
+    let _ = writeln!(
+        s,
+        "{:<tw$} {:>11} {:>11} {:>10} {:>3} {:>12} {:>10} {:>10}",
+        "Term", "Effect", "Coef", "SE Coef", "DF", "Sum Sq", "F", "p-value"
+    );
+    for t in &a.terms {
+        let star = match t.p_value {
+            Some(p) if p < 0.01 => " **",
+            Some(p) if p < 0.05 => " *",
+            _ => "",
+        };
+        let _ = writeln!(
+            s,
+            "{:<tw$} {} {} {} {:>3} {:>12.6} {} {}{star}",
+            t.term,
+            opt(t.effect, 11, 5),
+            opt(t.coef, 11, 5),
+            opt(t.std_err, 10, 5),
+            t.df,
+            t.sum_sq,
+            opt(t.f, 10, 3),
+            opt(t.p_value, 10, 6),
+        );
+    }
+    let _ = writeln!(
+        s,
+        "{:<tw$} {:>11} {:>11} {:>10} {:>3} {:>12.6}",
+        "Residual", "", "", "", a.residual_df, a.residual_sum_sq
+    );
+    let _ = writeln!(
+        s,
+        "S = {}   R² = {:.4}   adj R² = {}   pred R² = {}",
+        opt(a.sigma, 0, 5).trim(),
+        a.r_squared,
+        opt(a.adj_r_squared, 0, 4).trim(),
+        opt(a.pred_r_squared, 0, 4).trim()
+    );
+    if let Some(l) = &a.lack_of_fit {
+        let _ = writeln!(
+            s,
+            "Lack of fit: F({}, {}) = {:.4}, p = {:.4}   (pure error SS {:.6})",
+            l.lack_of_fit_df, l.pure_error_df, l.f, l.p_value, l.pure_error_ss
+        );
+    }
+    if let Some(l) = &a.lenth {
+        let _ = writeln!(
+            s,
+            "Lenth: PSE = {:.5}, ME = {:.5}, SME = {:.5} (d = {:.2})",
+            l.pse, l.me, l.sme, l.df
+        );
+        for t in l.terms.iter().filter(|t| t.exceeds_me) {
+            let _ = writeln!(
+                s,
+                "  active: {} (effect {:.5}{})",
+                t.term,
+                t.effect,
+                if t.exceeds_sme { ", > SME" } else { "" }
+            );
+        }
+    }
+    if !a.diagnostics.outliers.is_empty() {
+        let _ = writeln!(
+            s,
+            "Runs with |studentised residual| > 3: {:?}",
+            a.diagnostics.outliers
+        );
+    }
+    for n in &a.notes {
+        let _ = writeln!(s, "Note: {n}");
+    }
+    s
+}
 
 fn perr<E: std::fmt::Display>(path: &Path) -> impl Fn(E) -> anyhow::Error + '_ {
     move |e| anyhow::anyhow!("plot {}: {e}", path.display())
@@ -471,7 +657,96 @@ pub fn write_doe_plots(a: &Analysis, dir: &Path) -> Result<Vec<PathBuf>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use millcomp_doe::{AnalysisInput, ModelSpec, analyze};
+    use millcomp_doe::{
+        AnalysisInput, DesignKind, DesignRequest, FactorSpec, ModelSpec, analyze,
+        backward_eliminate, generate,
+    };
+
+    fn clayton(response: &str, model: ModelSpec) -> AnalysisInput {
+        let clayton = millcomp_datasets::load("clayton_doe").unwrap();
+        let factors: Vec<String> = ["depth_um", "speed_rpm", "upfeed_um"]
+            .map(String::from)
+            .to_vec();
+        AnalysisInput::from_table(
+            &millcomp_datasets::adapters::doe_columns(&clayton),
+            response,
+            Some(&factors),
+            model,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn design_as_text() {
+        // Reference: the output of the README command `doe-design` (tools/readme-commands.txt) as printed
+        // by `Design::human()` in millcomp-doe before this text moved to the CLI.
+        let f = FactorSpec::parse_list(
+            "depth_um=100:200,speed_rpm=10000:20000,upfeed_um=10:20,wearland_um=4:12",
+        )
+        .unwrap();
+        let mut req = DesignRequest::new(DesignKind::Fractional, f);
+        req.resolution = Some(4);
+        req.seed = Some(3);
+        let t = design_text(&generate(&req).unwrap());
+        assert!(
+            t.starts_with(
+                "Design: fractional   runs: 8   resolution: IV   seed: 3\n\
+                 Factors: A=depth_um, B=speed_rpm, C=upfeed_um, D=wearland_um\n\
+                 Generators: D=ABC\n\
+                 Defining relation: I=ABCD\n\
+                 Aliases (up to order 3):\n  depth_um = speed_rpm:upfeed_um:wearland_um\n"
+            ),
+            "{t}"
+        );
+        assert!(
+            t.contains(
+                "\n  run   std block depth_um speed_rpm upfeed_um wearland_um\n\
+                 \x20   1     3     1      100     20000        10          12\n"
+            ),
+            "{t}"
+        );
+        assert!(
+            t.ends_with("    8     2     1      200     10000        10          12\n"),
+            "{t}"
+        );
+        // An unrandomised replicated design says so in the header.
+        let mut req = DesignRequest::new(DesignKind::Full, FactorSpec::parse_list("A,B").unwrap());
+        req.replicates = 2;
+        req.randomize = false;
+        req.seed = Some(1);
+        let t = design_text(&generate(&req).unwrap());
+        assert!(
+            t.starts_with("Design: full   runs: 8   replicates: 2   seed: 1 (not randomised)\n"),
+            "{t}"
+        );
+    }
+
+    #[test]
+    fn analysis_and_elimination_as_text() {
+        // Reference: the output of the README command `doe-analyze` (Clayton thesis, seed 000, Table 3-3) as
+        // printed by `Analysis::human()` before this text moved to the CLI; F = 57.149 is statsmodels'
+        // (doe's golden ANOVA test).
+        let t = analysis_text(&analyze(&clayton("max_fx_n", ModelSpec::Main)).unwrap());
+        assert_eq!(
+            t,
+            "Response: max_fx_n   runs: 8   model: depth_um + speed_rpm + upfeed_um\n\
+             Term           Effect        Coef    SE Coef  DF       Sum Sq          F    p-value\n\
+             depth_um      1.28250     0.64125    0.08483   1     3.289612     57.149   0.001641 **\n\
+             speed_rpm     0.08250     0.04125    0.08483   1     0.013613      0.236   0.652199\n\
+             upfeed_um     1.21750     0.60875    0.08483   1     2.964612     51.502   0.001997 **\n\
+             Residual                                       4     0.230250\n\
+             S = 0.23992   R² = 0.9646   adj R² = 0.9380   pred R² = 0.8583\n"
+        );
+        // `doe analyze … --response max_fy_n --model full --reduce` before the move: the saturated
+        // three-factor interaction is pooled first (no p-value), then the two 2FIs with p > 0.05.
+        let e = backward_eliminate(&clayton("max_fy_n", ModelSpec::Full), 0.05).unwrap();
+        assert_eq!(
+            elimination_text(&e.steps),
+            "removed depth_um:speed_rpm:upfeed_um p = -\n\
+             removed depth_um:speed_rpm p = 0.7683\n\
+             removed depth_um:upfeed_um p = 0.1453\n\n"
+        );
+    }
 
     #[test]
     fn plots_are_written_as_svg() {
@@ -509,6 +784,18 @@ mod tests {
         }
         let hn = std::fs::read_to_string(&files[0]).unwrap();
         assert!(hn.contains("A:C") && hn.contains("Half-normal"));
+        // The saturated model's text shows Lenth's margins (PSE 2.625: Montgomery, Example 6.2; ME and SME
+        // as in doe's golden test, tests/golden/lenth.json) and the effects above them.
+        let t = analysis_text(&a);
+        assert!(
+            t.contains(
+                "Lenth: PSE = 2.62500, ME = 6.74778, SME = 13.69896 (d = 5.00)\n\
+                 \x20 active: A (effect 21.62500, > SME)\n\
+                 \x20 active: C (effect 9.87500)\n"
+            ),
+            "{t}"
+        );
+        assert!(t.ends_with("see `lenth`\n"), "{t}");
         // A model with error df draws the Pareto of |t|.
         let clayton = millcomp_datasets::load("clayton_doe").unwrap();
         let factors: Vec<String> = ["depth_um", "speed_rpm", "upfeed_um"]

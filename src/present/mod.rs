@@ -5,3 +5,4 @@ pub mod batch;
 pub mod diagnose;
 pub mod doe;
 pub mod plot;
+pub mod table;

@@ -49,6 +49,7 @@ fn median(v: &mut [f64]) -> f64 {
 
 /// Lenth's PSE, ME and SME for named effects (at least two effects; `None` otherwise or if all effects are 0).
 ///
+/// # Examples
 /// ```
 /// use millcomp_doe::lenth;
 /// // Montgomery, Design and Analysis of Experiments, 8th ed., Example 6.2 (pilot-plant filtration rate,
@@ -58,9 +59,17 @@ fn median(v: &mut [f64]) -> f64 {
 /// let names: Vec<String> = (0..15).map(|i| format!("e{i}")).collect();
 /// let l = lenth(&names, &e).unwrap();
 /// assert!((l.pse - 2.625).abs() < 1e-12);
-/// assert!((l.me - 6.7478).abs() < 1e-3);
-/// assert!((l.sme - 13.699).abs() < 1e-2);
+/// // scipy 1.17.1: t.ppf(0.975, 5)·PSE and t.ppf((1 + 0.95^(1/15))/2, 5)·PSE (tests/golden/lenth.json)
+/// assert!((l.me - 6.747777318545326).abs() < 1e-8 * 6.75);
+/// assert!((l.sme - 13.698959562802404).abs() < 1e-8 * 13.7);
+/// // A and A:C exceed the simultaneous margin
+/// assert!(l.terms[0].exceeds_sme && l.terms[5].exceeds_sme && !l.terms[1].exceeds_me);
+/// assert!(lenth(&names[..1], &e[..1]).is_none());
 /// ```
+///
+/// # Errors
+/// None: the result is `None` (not an error) for fewer than two effects, names and effects of different
+/// lengths, or effects that are all 0 (no scale to estimate).
 pub fn lenth(names: &[String], effects: &[f64]) -> Option<Lenth> {
     let m = effects.len();
     if m < 2 || names.len() != m {

@@ -9,7 +9,7 @@ use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, FisherSnedecor, StudentsT};
 
 use crate::error::{DoeError, Result};
-use crate::factor::{Column, code_value};
+use crate::factor::{Values, code_value};
 use crate::model::{FactorMeta, ModelSpec, Term, expand};
 pub use lenth::{Lenth, LenthTerm, lenth};
 pub use power::{f_test_power, noncentral_f_cdf, noncentral_f_sf};
@@ -29,11 +29,11 @@ pub const BOOKKEEPING_COLUMNS: &[&str] = &[
 #[derive(Debug, Clone, PartialEq)]
 pub struct AnalysisInput {
     /// Factor columns (numeric → coded −1/+1 from min/max; text → labels).
-    pub factors: Vec<(String, Column)>,
+    pub factors: Vec<(String, Values)>,
     /// Response column name.
     pub response_name: String,
     /// Response values (numeric; a text column is parsed, and a cell that is not a number is an error).
-    pub response: Column,
+    pub response: Values,
     /// Model.
     pub model: ModelSpec,
 }
@@ -45,18 +45,23 @@ impl AnalysisInput {
     /// that has between 2 and max(2, n/2) distinct values (responses usually have more).
     ///
     /// ```
-    /// use millcomp_doe::{AnalysisInput, Column, ModelSpec};
+    /// use millcomp_doe::{AnalysisInput, Values, ModelSpec};
     /// let t = vec![
-    ///     ("a".to_string(), Column::F64(vec![1.0, 2.0, 1.0, 2.0])),
-    ///     ("b".to_string(), Column::F64(vec![5.0, 5.0, 7.0, 7.0])),
-    ///     ("y".to_string(), Column::F64(vec![1.0, 3.0, 2.0, 4.5])),
+    ///     ("a".to_string(), Values::F64(vec![1.0, 2.0, 1.0, 2.0])),
+    ///     ("b".to_string(), Values::F64(vec![5.0, 5.0, 7.0, 7.0])),
+    ///     ("y".to_string(), Values::F64(vec![1.0, 3.0, 2.0, 4.5])),
     /// ];
     /// let inp = AnalysisInput::from_table(&t, "y", None, ModelSpec::Main).unwrap();
     /// assert_eq!(inp.factors.len(), 2);
     /// assert!(AnalysisInput::from_table(&t, "z", None, ModelSpec::Main).is_err());
     /// ```
+    ///
+    /// # Errors
+    /// [`DoeError::UnknownColumn`] for a response or factor that is not in the table (listing the columns);
+    /// [`DoeError::InvalidParameter`] when the response is also named as a factor;
+    /// [`DoeError::NotEnoughData`] when no column qualifies as a factor.
     pub fn from_table(
-        table: &[(String, Column)],
+        table: &[(String, Values)],
         response: &str,
         factors: Option<&[String]>,
         model: ModelSpec,
@@ -68,7 +73,7 @@ impl AnalysisInput {
                 .collect::<Vec<_>>()
                 .join(", ")
         };
-        let get = |name: &str| -> Result<&Column> {
+        let get = |name: &str| -> Result<&Values> {
             table
                 .iter()
                 .find(|(n, _)| n == name)
@@ -140,21 +145,21 @@ impl AnalysisInput {
     }
 }
 
-fn distinct_count(c: &Column) -> usize {
+fn distinct_count(c: &Values) -> usize {
     match c {
-        Column::F64(v) => {
+        Values::F64(v) => {
             let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
             s.sort_by(|a, b| a.total_cmp(b));
             s.dedup();
             s.len()
         }
-        Column::I64(v) => {
+        Values::I64(v) => {
             let mut s = v.clone();
             s.sort();
             s.dedup();
             s.len()
         }
-        Column::Str(v) => {
+        Values::Str(v) => {
             let mut s = v.clone();
             s.sort();
             s.dedup();
@@ -322,9 +327,9 @@ struct Coded {
     metas: Vec<FactorMeta>,
 }
 
-fn numeric_values(name: &str, c: &Column) -> Result<Option<Vec<f64>>> {
+fn numeric_values(name: &str, c: &Values) -> Result<Option<Vec<f64>>> {
     match c {
-        Column::F64(v) => {
+        Values::F64(v) => {
             for (i, x) in v.iter().enumerate() {
                 if !x.is_finite() {
                     return Err(DoeError::NonFiniteValue {
@@ -336,8 +341,8 @@ fn numeric_values(name: &str, c: &Column) -> Result<Option<Vec<f64>>> {
             }
             Ok(Some(v.clone()))
         }
-        Column::I64(v) => Ok(Some(v.iter().map(|&x| x as f64).collect())),
-        Column::Str(_) => Ok(None),
+        Values::I64(v) => Ok(Some(v.iter().map(|&x| x as f64).collect())),
+        Values::Str(_) => Ok(None),
     }
 }
 
@@ -371,7 +376,7 @@ fn code_factors(input: &AnalysisInput, n: usize) -> Result<Coded> {
             Some(v) => {
                 let lo = v.iter().cloned().fold(f64::INFINITY, f64::min);
                 let hi = v.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-                let levels = distinct_count(&Column::F64(v.clone()));
+                let levels = distinct_count(&Values::F64(v.clone()));
                 if levels < 2 {
                     return Err(DoeError::SingleLevelFactor {
                         name: name.clone(),
@@ -394,7 +399,7 @@ fn code_factors(input: &AnalysisInput, n: usize) -> Result<Coded> {
                 });
             }
             None => {
-                let Column::Str(v) = col else {
+                let Values::Str(v) = col else {
                     unreachable!("non-numeric columns are Str")
                 };
                 let mut levels: Vec<String> = v.clone();
@@ -454,7 +459,7 @@ fn code_factors(input: &AnalysisInput, n: usize) -> Result<Coded> {
 fn response_values(input: &AnalysisInput) -> Result<Vec<f64>> {
     let name = &input.response_name;
     match &input.response {
-        Column::Str(v) => v
+        Values::Str(v) => v
             .iter()
             .enumerate()
             .map(|(i, s)| match s.trim().parse::<f64>() {
@@ -617,10 +622,11 @@ fn first_dependent_column(x: &DMatrix<f64>) -> Option<(usize, Vec<usize>)> {
 
 /// Analyses a response. See [`Analysis`] for what is computed.
 ///
+/// # Examples
 /// ```
-/// use millcomp_doe::{analyze, AnalysisInput, Column, ModelSpec};
+/// use millcomp_doe::{analyze, AnalysisInput, Values, ModelSpec};
 /// // Clayton thesis (seed 000), Table 3-3: depth, speed, upfeed and max X force of the 8 trials.
-/// let col = |v: &[f64]| Column::F64(v.to_vec());
+/// let col = |v: &[f64]| Values::F64(v.to_vec());
 /// let input = AnalysisInput {
 ///     factors: vec![
 ///         ("depth_um".into(), col(&[200., 100., 100., 200., 200., 100., 200., 100.])),
@@ -637,6 +643,17 @@ fn first_dependent_column(x: &DMatrix<f64>) -> Option<(usize, Vec<usize>)> {
 /// assert!((a.terms[0].f.unwrap() - 57.148534).abs() < 1e-5);
 /// assert!(a.terms[0].p_value.unwrap() < 0.05 && a.terms[1].p_value.unwrap() > 0.05);
 /// ```
+///
+/// # Errors
+/// [`DoeError`] naming the column, row or term at fault:
+/// * the data: [`DoeError::NonNumericResponse`] and [`DoeError::NonFiniteValue`] (with the 1-based row),
+///   [`DoeError::LengthMismatch`], [`DoeError::NotEnoughData`] (no factor columns),
+///   [`DoeError::DuplicateFactor`], [`DoeError::InvalidParameter`] (the response used as a factor),
+///   [`DoeError::SingleLevelFactor`];
+/// * the model: [`DoeError::UnknownFactor`] and [`DoeError::InvalidModel`] in a formula,
+///   [`DoeError::TooManyTerms`] (more coefficients than runs), [`DoeError::AliasedTerms`] (a term that
+///   is a linear combination of others in these runs);
+/// * [`DoeError::Unsupported`] if the least-squares solve itself fails.
 pub fn analyze(input: &AnalysisInput) -> Result<Analysis> {
     let y = response_values(input)?;
     let n = y.len();
@@ -930,99 +947,6 @@ impl Analysis {
     pub fn factor_names(&self) -> Vec<String> {
         self.factors.iter().map(|f| f.name().to_string()).collect()
     }
-
-    /// A plain-text report: the effects/ANOVA table, fit statistics, lack of fit and Lenth's margins.
-    pub fn human(&self) -> String {
-        use std::fmt::Write;
-        let opt = |v: Option<f64>, w: usize, p: usize| match v {
-            Some(x) => format!("{x:>w$.p$}"),
-            None => format!("{:>w$}", "-"),
-        };
-        let mut s = String::new();
-        let _ = writeln!(
-            s,
-            "Response: {}   runs: {}   model: {}",
-            self.response, self.n_runs, self.model
-        );
-        let tw = self
-            .terms
-            .iter()
-            .map(|t| t.term.len())
-            .max()
-            .unwrap_or(4)
-            .max(9);
-        let _ = writeln!(
-            s,
-            "{:<tw$} {:>11} {:>11} {:>10} {:>3} {:>12} {:>10} {:>10}",
-            "Term", "Effect", "Coef", "SE Coef", "DF", "Sum Sq", "F", "p-value"
-        );
-        for t in &self.terms {
-            let star = match t.p_value {
-                Some(p) if p < 0.01 => " **",
-                Some(p) if p < 0.05 => " *",
-                _ => "",
-            };
-            let _ = writeln!(
-                s,
-                "{:<tw$} {} {} {} {:>3} {:>12.6} {} {}{star}",
-                t.term,
-                opt(t.effect, 11, 5),
-                opt(t.coef, 11, 5),
-                opt(t.std_err, 10, 5),
-                t.df,
-                t.sum_sq,
-                opt(t.f, 10, 3),
-                opt(t.p_value, 10, 6),
-            );
-        }
-        let _ = writeln!(
-            s,
-            "{:<tw$} {:>11} {:>11} {:>10} {:>3} {:>12.6}",
-            "Residual", "", "", "", self.residual_df, self.residual_sum_sq
-        );
-        let _ = writeln!(
-            s,
-            "S = {}   R² = {:.4}   adj R² = {}   pred R² = {}",
-            opt(self.sigma, 0, 5).trim(),
-            self.r_squared,
-            opt(self.adj_r_squared, 0, 4).trim(),
-            opt(self.pred_r_squared, 0, 4).trim()
-        );
-        if let Some(l) = &self.lack_of_fit {
-            let _ = writeln!(
-                s,
-                "Lack of fit: F({}, {}) = {:.4}, p = {:.4}   (pure error SS {:.6})",
-                l.lack_of_fit_df, l.pure_error_df, l.f, l.p_value, l.pure_error_ss
-            );
-        }
-        if let Some(l) = &self.lenth {
-            let _ = writeln!(
-                s,
-                "Lenth: PSE = {:.5}, ME = {:.5}, SME = {:.5} (d = {:.2})",
-                l.pse, l.me, l.sme, l.df
-            );
-            for t in l.terms.iter().filter(|t| t.exceeds_me) {
-                let _ = writeln!(
-                    s,
-                    "  active: {} (effect {:.5}{})",
-                    t.term,
-                    t.effect,
-                    if t.exceeds_sme { ", > SME" } else { "" }
-                );
-            }
-        }
-        if !self.diagnostics.outliers.is_empty() {
-            let _ = writeln!(
-                s,
-                "Runs with |studentised residual| > 3: {:?}",
-                self.diagnostics.outliers
-            );
-        }
-        for n in &self.notes {
-            let _ = writeln!(s, "Note: {n}");
-        }
-        s
-    }
 }
 
 /// One step of backward elimination.
@@ -1050,6 +974,34 @@ pub struct Elimination {
 /// Backward elimination: repeatedly removes the term with the largest p-value above `alpha`, never removing a
 /// term contained in a remaining higher-order term (hierarchy). While the model is saturated, the removable
 /// term with the smallest |effect| (or sum of squares) is pooled into error first.
+///
+/// # Examples
+/// ```
+/// use millcomp_doe::{backward_eliminate, AnalysisInput, ModelSpec, Values};
+/// // Clayton thesis (seed 000), Table 3-3: max X force of the 8 trials of the 2^3.
+/// let col = |v: &[f64]| Values::F64(v.to_vec());
+/// let input = AnalysisInput {
+///     factors: vec![
+///         ("depth_um".into(), col(&[200., 100., 100., 200., 200., 100., 200., 100.])),
+///         ("speed_rpm".into(), col(&[1e4, 1e4, 2e4, 2e4, 2e4, 2e4, 1e4, 1e4])),
+///         ("upfeed_um".into(), col(&[20., 20., 10., 10., 20., 20., 10., 10.])),
+///     ],
+///     response_name: "fx_n".into(),
+///     response: col(&[3.34, 1.78, 0.94, 1.91, 3.60, 2.20, 2.20, 1.00]),
+///     model: ModelSpec::TwoFi,
+/// };
+/// let e = backward_eliminate(&input, 0.05).unwrap();
+/// // Seed 000 §3.5: depth and upfeed matter, speed and the interactions do not.
+/// assert_eq!(e.analysis.model, "depth_um + upfeed_um");
+/// assert_eq!(e.steps.last().unwrap().removed, "speed_rpm");
+/// // Speed pooled into error: 5 residual df. By hand from the orthogonal contrasts of Table 3-3,
+/// // SS_depth = 3.2896125 and SSE = 0.2438625 on 5 df, so F(depth) = 3.2896125 / 0.0487725 = 67.448100876…
+/// assert_eq!(e.analysis.residual_df, 5);
+/// assert!((e.analysis.terms[0].f.unwrap() - 67.448100876).abs() < 1e-8);
+/// ```
+///
+/// # Errors
+/// [`DoeError::InvalidParameter`] for `alpha` outside (0, 1), and those of [`analyze`] for the full model.
 pub fn backward_eliminate(input: &AnalysisInput, alpha: f64) -> Result<Elimination> {
     if !(alpha > 0.0 && alpha < 1.0) {
         return Err(DoeError::InvalidParameter {
@@ -1142,19 +1094,24 @@ pub struct PowerReport {
 /// the response from the low to the high level) of each term at level `alpha`, with error SD `sigma`.
 ///
 /// ```
-/// use millcomp_doe::{power, Column, ModelSpec};
+/// use millcomp_doe::{power, Values, ModelSpec};
 /// // 2^3 full factorial, main-effects model (4 residual df), effect = 2σ, α = 0.05.
-/// let a = Column::F64(vec![-1., 1., -1., 1., -1., 1., -1., 1.]);
-/// let b = Column::F64(vec![-1., -1., 1., 1., -1., -1., 1., 1.]);
-/// let c = Column::F64(vec![-1., -1., -1., -1., 1., 1., 1., 1.]);
+/// let a = Values::F64(vec![-1., 1., -1., 1., -1., 1., -1., 1.]);
+/// let b = Values::F64(vec![-1., -1., 1., 1., -1., -1., 1., 1.]);
+/// let c = Values::F64(vec![-1., -1., -1., -1., 1., 1., 1., 1.]);
 /// let f = vec![("a".to_string(), a), ("b".to_string(), b), ("c".to_string(), c)];
 /// let r = power(&f, &ModelSpec::Main, 2.0, 1.0, 0.05).unwrap();
 /// // λ = (1)²·8 = 8; scipy 1.17.1: ncf.sf(f.ppf(0.95, 1, 4), 1, 4, 8) = 0.571609457700716
 /// assert!((r.terms[0].noncentrality - 8.0).abs() < 1e-12);
 /// assert!((r.terms[0].power - 0.571609457700716).abs() < 1e-9);
 /// ```
+///
+/// # Errors
+/// [`DoeError::InvalidParameter`] for a non-finite `effect`, `sigma` ≤ 0 or `alpha` outside (0, 1);
+/// [`DoeError::NotEnoughData`] when the model leaves no residual degrees of freedom; and those of
+/// [`analyze`] for the design and model.
 pub fn power(
-    factors: &[(String, Column)],
+    factors: &[(String, Values)],
     model: &ModelSpec,
     effect: f64,
     sigma: f64,
@@ -1185,7 +1142,7 @@ pub fn power(
     let input = AnalysisInput {
         factors: factors.to_vec(),
         response_name: "response".into(),
-        response: Column::F64(vec![0.0; n]),
+        response: Values::F64(vec![0.0; n]),
         model: model.clone(),
     };
     let a = analyze(&input)?;

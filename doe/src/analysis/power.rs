@@ -73,6 +73,14 @@ pub fn noncentral_f_cdf(x: f64, d1: f64, d2: f64, lambda: f64) -> f64 {
 
 /// Survival function 1 − CDF of the noncentral F, summed with the complementary betas
 /// I_{1−y}(d2/2, d1/2 + j) so that small tail probabilities keep their relative accuracy.
+/// Returns NaN for invalid arguments, as [`noncentral_f_cdf`].
+///
+/// ```
+/// use millcomp_doe::noncentral_f_sf;
+/// // scipy 1.17.1: scipy.stats.ncf.sf(3.0, 2, 10, 4.0) = 0.4510321091214649 (tests/golden/noncentral_f.json)
+/// assert!((noncentral_f_sf(3.0, 2.0, 10.0, 4.0) - 0.4510321091214649).abs() < 1e-10);
+/// assert!(noncentral_f_sf(3.0, 0.0, 10.0, 4.0).is_nan());
+/// ```
 pub fn noncentral_f_sf(x: f64, d1: f64, d2: f64, lambda: f64) -> f64 {
     if !valid(x, d1, d2, lambda) {
         return f64::NAN;
@@ -93,7 +101,16 @@ pub fn noncentral_f_sf(x: f64, d1: f64, d2: f64, lambda: f64) -> f64 {
 }
 
 /// Power of an F test with (d1, d2) degrees of freedom at level `alpha` against noncentrality `lambda`:
-/// P(F'(d1, d2, λ) > F_{1−α}(d1, d2)). Returns (critical F, power).
+/// P(F'(d1, d2, λ) > F_{1−α}(d1, d2)). Returns (critical F, power), or `None` for invalid arguments.
+///
+/// ```
+/// use millcomp_doe::f_test_power;
+/// // One effect of a 2^3 with 4 residual df, λ = 8, α = 0.05 (scipy 1.17.1, tests/golden/noncentral_f.json):
+/// // f.ppf(0.95, 1, 4) = 7.708647422176786, ncf.sf(7.708647422176786, 1, 4, 8) = 0.5716094577007155
+/// let (f_crit, power) = f_test_power(1.0, 4.0, 8.0, 0.05).unwrap();
+/// assert!((f_crit - 7.708647422176786).abs() < 1e-8 * 7.71);
+/// assert!((power - 0.5716094577007155).abs() < 1e-10);
+/// ```
 pub fn f_test_power(d1: f64, d2: f64, lambda: f64, alpha: f64) -> Option<(f64, f64)> {
     let f = FisherSnedecor::new(d1, d2).ok()?;
     if !(alpha > 0.0 && alpha < 1.0 && valid(1.0, d1, d2, lambda)) {

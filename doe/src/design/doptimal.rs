@@ -42,6 +42,11 @@ impl LinearConstraint {
     /// assert!(!c[0].satisfied(&[1.0, 1.0]));
     /// assert!(!c[1].satisfied(&[-1.0, 0.0]));
     /// ```
+    ///
+    /// # Errors
+    /// [`DoeError::InvalidConstraint`] for a constraint that does not parse (no `<=`/`>=`, an empty term,
+    /// a coefficient or bound that is not a number); [`DoeError::UnknownFactor`] for a name that is not a
+    /// factor.
     pub fn parse_list(s: &str, factors: &[FactorSpec]) -> Result<Vec<LinearConstraint>> {
         s.split(';')
             .map(str::trim)

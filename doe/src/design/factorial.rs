@@ -2,7 +2,7 @@
 
 use super::fractional::{
     self, CatalogueChoice, Generator, Word, alias_structure, choose_block_generators,
-    defining_subgroup, letters, parse_generators, resolution, roman, term_name,
+    defining_subgroup, letters, parse_generators, resolution, resolution_roman, term_name,
     word_length_pattern,
 };
 use super::{BasePoints, DesignRequest, require_two_levels};
@@ -197,8 +197,8 @@ pub(crate) fn fractional(req: &DesignRequest) -> Result<BasePoints> {
                         generator: g.clone(),
                         reason: format!(
                             "these generators give resolution {} but {} was requested",
-                            roman(got),
-                            roman(r)
+                            resolution_roman(got),
+                            resolution_roman(r)
                         ),
                     });
                 }
@@ -235,11 +235,15 @@ pub(crate) fn fractional(req: &DesignRequest) -> Result<BasePoints> {
                     {
                         return Err(DoeError::NoCatalogueDesign {
                             factors: k,
-                            request: format!("in {} runs at resolution {}", e.runs, roman(r)),
+                            request: format!(
+                                "in {} runs at resolution {}",
+                                e.runs,
+                                resolution_roman(r)
+                            ),
                             reason: format!(
                                 "the best {}-run design has resolution {}; use more runs",
                                 e.runs,
-                                roman(e.resolution)
+                                resolution_roman(e.resolution)
                             ),
                         });
                     }

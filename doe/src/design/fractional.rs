@@ -581,7 +581,7 @@ pub(crate) fn by_resolution(k: usize, res: u32) -> Result<CatalogueChoice> {
         _ if k <= 7 => Ok(CatalogueChoice::Full),
         _ => Err(DoeError::NoCatalogueDesign {
             factors: k,
-            request: format!("at resolution {}", roman(res)),
+            request: format!("at resolution {}", resolution_roman(res)),
             reason: format!(
                 "the built-in minimum-aberration catalogue covers 8–128 runs ({}); give --generators instead",
                 catalogue_coverage()
@@ -637,7 +637,16 @@ fn catalogue_coverage() -> &'static str {
 }
 
 /// Roman numeral for a resolution.
-pub(crate) fn roman(r: u32) -> &'static str {
+/// The Roman numeral of a design resolution, as designs are named (2^(k−p)_IV): 3 → `III` … 10 → `X`;
+/// other values → `high`.
+///
+/// ```
+/// use millcomp_doe::resolution_roman;
+/// assert_eq!(resolution_roman(4), "IV");
+/// assert_eq!(resolution_roman(9), "IX");
+/// assert_eq!(resolution_roman(12), "high");
+/// ```
+pub fn resolution_roman(r: u32) -> &'static str {
     match r {
         3 => "III",
         4 => "IV",

@@ -17,11 +17,11 @@ use serde::ser::{SerializeMap, SerializeStruct};
 use serde::{Serialize, Serializer};
 
 use crate::error::{DoeError, Result};
-use crate::factor::{Column, FactorInfo, FactorSpec, Level};
+use crate::factor::{FactorInfo, FactorSpec, Level, Values};
 use crate::model::ModelSpec;
 
 pub use doptimal::LinearConstraint;
-pub use fractional::AliasEntry;
+pub use fractional::{AliasEntry, resolution_roman};
 
 /// Variant of a central composite design.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -142,6 +142,16 @@ impl FromStr for DesignKind {
     type Err = DoeError;
     /// Parses the CLI names; `ccd` is circumscribed and rotatable, `ccf`/`ccd-face` face-centred,
     /// `cci`/`ccd-inscribed` inscribed.
+    ///
+    /// ```
+    /// use millcomp_doe::{CcdAlpha, CcdVariant, DesignKind};
+    /// let k: DesignKind = "ccf".parse().unwrap();
+    /// assert_eq!(k, DesignKind::Ccd { variant: CcdVariant::FaceCentred, alpha: CcdAlpha::Rotatable });
+    /// assert!("taguchi".parse::<DesignKind>().is_err());
+    /// ```
+    ///
+    /// # Errors
+    /// [`DoeError::InvalidParameter`] (`design`) for an unknown name, listing the known ones.
     fn from_str(s: &str) -> Result<Self> {
         let ccd = |variant| {
             Ok(DesignKind::Ccd {
@@ -365,35 +375,35 @@ impl Design {
     /// its actual level (F64, or Str for label factors) and `<name>_coded` (F64).
     ///
     /// ```
-    /// use millcomp_doe::{generate, Column, DesignKind, DesignRequest, FactorSpec};
+    /// use millcomp_doe::{generate, Values, DesignKind, DesignRequest, FactorSpec};
     /// let mut req = DesignRequest::new(DesignKind::Full, FactorSpec::parse_list("a=1:2,m=x:y:z").unwrap());
     /// req.seed = Some(1);
     /// let d = generate(&req).unwrap();
     /// let cols = d.columns();
     /// assert_eq!(cols.len(), 3 + 2 * 2);
     /// assert_eq!(cols[3].0, "a");
-    /// assert!(matches!(&cols[5].1, Column::Str(v) if v.len() == 6));
+    /// assert!(matches!(&cols[5].1, Values::Str(v) if v.len() == 6));
     /// ```
-    pub fn columns(&self) -> Vec<(String, Column)> {
+    pub fn columns(&self) -> Vec<(String, Values)> {
         let mut out = vec![
             (
                 "std_order".to_string(),
-                Column::I64(self.runs.iter().map(|r| r.std_order as i64).collect()),
+                Values::I64(self.runs.iter().map(|r| r.std_order as i64).collect()),
             ),
             (
                 "run_order".to_string(),
-                Column::I64(self.runs.iter().map(|r| r.run_order as i64).collect()),
+                Values::I64(self.runs.iter().map(|r| r.run_order as i64).collect()),
             ),
             (
                 "block".to_string(),
-                Column::I64(self.runs.iter().map(|r| r.block as i64).collect()),
+                Values::I64(self.runs.iter().map(|r| r.block as i64).collect()),
             ),
         ];
         for (i, f) in self.factors.iter().enumerate() {
             let col = if f.kind == "label" {
-                Column::Str(self.runs.iter().map(|r| r.actual[i].to_string()).collect())
+                Values::Str(self.runs.iter().map(|r| r.actual[i].to_string()).collect())
             } else {
-                Column::F64(
+                Values::F64(
                     self.runs
                         .iter()
                         .map(|r| match &r.actual[i] {
@@ -406,7 +416,7 @@ impl Design {
             out.push((f.name.clone(), col));
             out.push((
                 format!("{}_coded", f.name),
-                Column::F64(self.runs.iter().map(|r| r.coded[i]).collect()),
+                Values::F64(self.runs.iter().map(|r| r.coded[i]).collect()),
             ));
         }
         out
@@ -420,80 +430,6 @@ impl Design {
     /// Factor names in order.
     pub fn factor_names(&self) -> Vec<String> {
         self.factors.iter().map(|f| f.name.clone()).collect()
-    }
-
-    /// A plain-text summary and run table (what `doe design` prints without `--json`).
-    pub fn human(&self) -> String {
-        use std::fmt::Write;
-        let mut s = String::new();
-        let _ = write!(s, "Design: {}   runs: {}", self.design, self.n_runs());
-        if let Some(r) = self.resolution {
-            let _ = write!(s, "   resolution: {}", fractional::roman(r));
-        }
-        if self.blocks > 1 {
-            let _ = write!(s, "   blocks per replicate: {}", self.blocks);
-        }
-        if self.replicates > 1 {
-            let _ = write!(s, "   replicates: {}", self.replicates);
-        }
-        let _ = writeln!(
-            s,
-            "   seed: {}{}",
-            self.seed,
-            if self.randomized {
-                ""
-            } else {
-                " (not randomised)"
-            }
-        );
-        let letters: Vec<String> = self
-            .factors
-            .iter()
-            .map(|f| format!("{}={}", f.letter, f.name))
-            .collect();
-        let _ = writeln!(s, "Factors: {}", letters.join(", "));
-        if !self.generators.is_empty() {
-            let _ = writeln!(s, "Generators: {}", self.generators.join(", "));
-            let _ = writeln!(s, "Defining relation: {}", self.defining_relation.join(" "));
-        }
-        if let Some(a) = self.alpha {
-            let _ = writeln!(
-                s,
-                "Axial distance alpha: {a:.6} ({})",
-                self.variant.unwrap_or("")
-            );
-        }
-        if !self.block_generators.is_empty() {
-            let _ = writeln!(
-                s,
-                "Block generators: {}   confounded with blocks: {}",
-                self.block_generators.join(", "),
-                self.confounded_with_blocks.join(", ")
-            );
-        }
-        if !self.alias_structure.is_empty() {
-            let _ = writeln!(s, "Aliases (up to order 3):");
-            for a in &self.alias_structure {
-                let _ = writeln!(s, "  {} = {}", a.term, a.aliases.join(" = "));
-            }
-        }
-        for n in &self.notes {
-            let _ = writeln!(s, "Note: {n}");
-        }
-        let w: Vec<usize> = self.factors.iter().map(|f| f.name.len().max(8)).collect();
-        let _ = write!(s, "{:>5} {:>5} {:>5}", "run", "std", "block");
-        for (f, w) in self.factors.iter().zip(&w) {
-            let _ = write!(s, " {:>w$}", f.name);
-        }
-        let _ = writeln!(s);
-        for r in &self.runs {
-            let _ = write!(s, "{:>5} {:>5} {:>5}", r.run_order, r.std_order, r.block);
-            for (v, w) in r.actual.iter().zip(&w) {
-                let _ = write!(s, " {:>w$}", v.to_string());
-            }
-            let _ = writeln!(s);
-        }
-        s
     }
 }
 
@@ -558,18 +494,40 @@ pub(crate) fn require_two_levels(
     Ok(())
 }
 
-/// Generates a design.
+/// Generates a design: the family's points in standard order, centre points, replicates, blocks and the
+/// run order (randomised within blocks with ChaCha8 from `req.seed`, or from a seed drawn from the OS and
+/// reported in [`Design::seed`]).
 ///
+/// # Examples
 /// ```
-/// use millcomp_doe::{generate, DesignKind, DesignRequest, FactorSpec};
+/// use millcomp_doe::{generate, DesignKind, DesignRequest, DoeError, FactorSpec};
 /// let mut req = DesignRequest::new(DesignKind::Fractional, FactorSpec::parse_list("A,B,C,D,E,F,G").unwrap());
 /// req.resolution = Some(3);
 /// req.seed = Some(7);
 /// let d = generate(&req).unwrap();
 /// assert_eq!(d.n_runs(), 8); // 2^(7-4), not 16 (pyDOE3 issue #153)
 /// assert_eq!(d.resolution, Some(3));
+/// // Montgomery, Design and Analysis of Experiments, Table 8.14: the 2^(7-4)_III generators
 /// assert_eq!(d.generators, vec!["D=AB", "E=AC", "F=BC", "G=ABC"]);
+///
+/// // Generators that alias two main effects are refused, naming the short defining word.
+/// let mut req = DesignRequest::new(DesignKind::Fractional, FactorSpec::parse_list("A,B,C,D").unwrap());
+/// req.generators = Some("D=A".into());
+/// let e = generate(&req).unwrap_err();
+/// assert!(matches!(&e, DoeError::AliasedGenerators { factor, .. } if factor == "D"));
+/// assert!(e.to_string().contains("I = AD"));
 /// ```
+///
+/// # Errors
+/// [`DoeError`] naming the factor, generator or parameter at fault:
+/// * the factors: [`DoeError::NoFactors`], [`DoeError::DuplicateFactor`], [`DoeError::SingleLevelFactor`],
+///   [`DoeError::LevelsNotAllowed`] (e.g. three levels for a two-level family);
+/// * the options: [`DoeError::InvalidParameter`] (0 replicates or blocks, a run count or resolution the
+///   family cannot give), [`DoeError::Unsupported`] (blocks, centre points or constraints the family does
+///   not take), [`DoeError::NotEnoughData`] (too few factors for a CCD, Box–Behnken or DSD);
+/// * fractional designs: [`DoeError::InvalidGenerator`], [`DoeError::DuplicateGenerator`],
+///   [`DoeError::AliasedGenerators`], [`DoeError::UnknownFactor`], [`DoeError::NoCatalogueDesign`];
+/// * D-optimal designs: [`DoeError::UnknownFactor`] in the model, [`DoeError::InfeasibleConstraints`].
 pub fn generate(req: &DesignRequest) -> Result<Design> {
     let factors = &req.factors;
     if factors.is_empty() {

@@ -1,14 +1,12 @@
 //! The response surface in the common model-file format (models/MODEL.md) and backward elimination.
 //! (The SVG plots of an analysis are the CLI's: `src/present/doe.rs`.)
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use millcomp_doe::{AnalysisInput, ModelSpec, analyze, backward_eliminate, response_surface};
 use millcomp_models::{ModelError, ModelFile, Provenance, ResponseSurface};
 
 fn clayton(response: &str, model: ModelSpec) -> AnalysisInput {
-    let table = read_csv("tests/fixtures/clayton_table_3_3.csv");
+    let table = read_fixture("tests/fixtures/clayton_table_3_3.csv");
     let f: Vec<String> = ["depth_um", "speed_rpm", "upfeed_um"]
         .iter()
         .map(|s| s.to_string())

@@ -1,9 +1,8 @@
 //! Shared test helpers and the tolerance constants of this crate's tests.
-#![allow(dead_code)]
 
 use std::path::PathBuf;
 
-use millcomp_doe::Column;
+use millcomp_doe::Values;
 
 /// F and p-values against statsmodels (contract: "to 1e-8 in F and p"). Both sides solve the same small,
 /// well-conditioned least-squares problem in double precision; the SS differences behind F lose at most a few
@@ -35,43 +34,13 @@ pub fn golden(name: &str) -> serde_json::Value {
     serde_json::from_str(&s).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
 }
 
-/// Reads a small CSV fixture (no quoted commas) into named columns: numeric when every cell parses.
-pub fn read_csv(rel: &str) -> Vec<(String, Column)> {
+/// Reads a CSV fixture of this crate (`rel` from the crate root) through the one table reader,
+/// `millcomp_datasets::read_any` (a column whose cells are all finite numbers is numeric, any other is
+/// text), as doe's named values (`millcomp_datasets::adapters::doe_columns`).
+pub fn read_fixture(rel: &str) -> Vec<(String, Values)> {
     let p = crate_path(rel);
-    let s = std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
-    let mut lines = s.lines();
-    let header: Vec<String> = lines
-        .next()
-        .unwrap()
-        .split(',')
-        .map(|h| h.trim().to_string())
-        .collect();
-    let rows: Vec<Vec<String>> = lines
-        .filter(|l| !l.trim().is_empty())
-        .map(|l| {
-            let mut cells: Vec<String> = l
-                .splitn(header.len(), ',')
-                .map(|c| c.trim().to_string())
-                .collect();
-            cells.resize(header.len(), String::new());
-            cells
-        })
-        .collect();
-    header
-        .iter()
-        .enumerate()
-        .map(|(j, h)| {
-            let vals: Vec<String> = rows.iter().map(|r| r[j].clone()).collect();
-            let nums: Option<Vec<f64>> = vals.iter().map(|v| v.parse::<f64>().ok()).collect();
-            (
-                h.clone(),
-                match nums {
-                    Some(v) => Column::F64(v),
-                    None => Column::Str(vals),
-                },
-            )
-        })
-        .collect()
+    let table = millcomp_datasets::read_any(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    millcomp_datasets::adapters::doe_columns(&table)
 }
 
 /// A JSON number or null as Option<f64>.

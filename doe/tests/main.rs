@@ -1,0 +1,13 @@
+//! The integration tests of millcomp-doe, one binary: a module per subject, the shared helpers and
+//! tolerances in `common`.
+
+mod common;
+
+mod clayton_anova;
+mod designs;
+mod errors;
+mod fractional;
+mod golden_anova;
+mod lenth_power;
+mod properties;
+mod surface_and_elimination;
