@@ -223,12 +223,14 @@ fn fit_once(
     let model = DepthModel { sm, y, terms };
     let fit = fit_nonlinear(model, &specs, &nls_options(), "diagnose", "um")?;
     let model = DepthModel { sm, y, terms };
-    let prediction = model
-        .predict(&fit.theta)
-        .map_err(|e| IdentifyError::ModelEvaluation {
-            model: "diagnose".into(),
-            cause: e.to_string(),
-        })?;
+    let prediction =
+        model
+            .predict(&fit.theta)
+            .map_err(|source| IdentifyError::ModelEvaluation {
+                model: "diagnose".into(),
+                what: "depths at the estimate".into(),
+                source,
+            })?;
     let rss = prediction
         .iter()
         .zip(y)

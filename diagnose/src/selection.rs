@@ -211,9 +211,12 @@ impl Diagnoser {
                 }
                 Err(fails) => {
                     // one starting value: one failure
-                    let source = fails.into_iter().next().unwrap_or_else(|| {
-                        IdentifyError::Solver("no starting value was tried".into())
-                    });
+                    let source = fails
+                        .into_iter()
+                        .next()
+                        .unwrap_or(IdentifyError::SolverState {
+                            what: "no starting value was tried",
+                        });
                     return Err(DiagnoseError::NominalOffset {
                         n_points: n,
                         source,

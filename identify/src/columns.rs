@@ -50,12 +50,7 @@ impl FromStr for Target {
             "thermal" => Target::Thermal,
             "wall" => Target::Wall,
             _ => {
-                return Err(IdentifyError::MissingColumn {
-                    column: s.into(),
-                    reason:
-                        "unknown identify target; allowed spindle, stiffness, force, thermal, wall"
-                            .into(),
-                });
+                return Err(IdentifyError::UnknownTarget { name: s.into() });
             }
         })
     }
@@ -255,12 +250,13 @@ pub fn identify_columns(
                 o.free = opts.force_free.clone();
             }
             if let Some(m) = &opts.material {
-                o.base.material = millcomp_sim::material::Material::by_name(m).map_err(|e| {
-                    IdentifyError::ModelEvaluation {
-                        model: "force".into(),
-                        cause: e.to_string(),
-                    }
-                })?;
+                o.base.material =
+                    millcomp_sim::material::Material::by_name(m).map_err(|source| {
+                        IdentifyError::Physics {
+                            model: "force".into(),
+                            source,
+                        }
+                    })?;
             }
             identify_force(&data, &o)?
         }
@@ -284,6 +280,9 @@ mod tests {
         let r = identify_columns(Target::Stiffness, &c, &IdentifyOptions::default()).unwrap();
         assert_eq!(r.notes.len(), 1);
         assert!(r.notes[0].contains("`source`"));
-        assert!("nonsense".parse::<Target>().is_err());
+        assert!(matches!(
+            "nonsense".parse::<Target>(),
+            Err(IdentifyError::UnknownTarget { ref name }) if name == "nonsense"
+        ));
     }
 }

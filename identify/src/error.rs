@@ -5,12 +5,20 @@
 //! not converge, or converged to a poorly identifiable point, is *not* an error: it is a
 //! [`FitReport`](crate::FitReport) with a `status` and `warnings`.
 //!
+//! Where an underlying error exists (the physics crate's, the forward model's, argmin's) it is kept as
+//! the [`std::error::Error::source`] of the variant rather than flattened into its message: print the
+//! chain to see it.
+//!
 //! Row numbers are 0-based indices into the data columns (the first data row below a CSV header is
 //! row 0); the CLI adds its own header offset when it prints them.
 
+use argmin::core::Error as ArgminError;
+use millcomp_sim::SimError;
+
 /// Everything that makes identification impossible, each variant naming the offending column, row
 /// or parameter and what would have been allowed.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum IdentifyError {
     /// Fewer usable data points than the fit needs (at least one more than the free parameters,
     /// so that a residual variance and standard errors exist).
@@ -113,18 +121,66 @@ pub enum IdentifyError {
         /// Why it is needed.
         reason: String,
     },
-    /// The forward model could not be evaluated at the starting point (or the physics crate
-    /// rejected a fixed input).
-    #[error("model `{model}` could not be evaluated: {cause}")]
+    /// Unknown identification target name.
+    #[error("unknown identify target `{name}`: allowed spindle, stiffness, force, thermal, wall")]
+    UnknownTarget {
+        /// The name given.
+        name: String,
+    },
+    /// The forward model could not be evaluated (at the starting point or at the estimate).
+    #[error("model `{model}` could not be evaluated: {what}")]
     ModelEvaluation {
         /// Model kind.
         model: String,
-        /// Cause, usually the physics crate's error message.
-        cause: String,
+        /// What was evaluated where, e.g. `residuals at the estimate`.
+        what: String,
+        /// The model's error (often the physics crate's [`SimError`] underneath).
+        #[source]
+        source: ArgminError,
+    },
+    /// The forward model gave a residual that is not finite at the starting point.
+    #[error(
+        "model `{model}` could not be evaluated: residual {index} is not finite at the starting point"
+    )]
+    NonFiniteResidual {
+        /// Model kind.
+        model: String,
+        /// 0-based index of the residual.
+        index: usize,
+    },
+    /// The physics crate rejected a fixed input of the model (e.g. an unknown material name).
+    #[error("model `{model}` could not be evaluated: the physics crate rejects its fixed inputs")]
+    Physics {
+        /// Model kind.
+        model: String,
+        /// The physics crate's error.
+        #[source]
+        source: SimError,
+    },
+    /// A row's cut conditions are outside what the physics crate's force model accepts (depth beyond the
+    /// ball radius, tilt ≥ 90°, …).
+    #[error("row {row}: cut conditions the force model does not accept")]
+    RejectedConditions {
+        /// 0-based data row.
+        row: usize,
+        /// The physics crate's error, naming the parameter and its allowed range.
+        #[source]
+        source: SimError,
     },
     /// The argmin solver failed internally (not a non-convergence, which is a report status).
-    #[error("solver error: {0}")]
-    Solver(String),
+    #[error("solver error")]
+    Solver {
+        /// argmin's error.
+        #[source]
+        source: ArgminError,
+    },
+    /// A solver ended without what a result needs (a broken invariant rather than bad input), e.g. no
+    /// final parameter vector.
+    #[error("solver error: {what}")]
+    SolverState {
+        /// What was missing.
+        what: &'static str,
+    },
 }
 
 /// Result alias of the crate.

@@ -128,7 +128,9 @@ pub fn fit_linear(
                 let rp = r.view((0, 0), (p, p)).into_owned();
                 let zp = rp
                     .solve_upper_triangular(&qty.rows(0, p).into_owned())
-                    .ok_or_else(|| IdentifyError::Solver("triangular solve failed".into()))?;
+                    .ok_or(IdentifyError::SolverState {
+                        what: "triangular solve failed",
+                    })?;
                 let mut z = zp;
                 qr.p().inv_permute_rows(&mut z);
                 (z, "linear_qr")

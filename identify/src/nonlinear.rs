@@ -506,14 +506,15 @@ pub fn fit_nonlinear<M: ResidualModel>(
     let theta0 = DVector::from_iterator(specs.len(), specs.iter().map(|s| s.initial));
     let r0 = model
         .apply(&theta0)
-        .map_err(|e| IdentifyError::ModelEvaluation {
+        .map_err(|source| IdentifyError::ModelEvaluation {
             model: kind.into(),
-            cause: format!("at the starting point: {e}"),
+            what: "residuals at the starting point".into(),
+            source,
         })?;
-    if let Some(i) = r0.iter().position(|v| !v.is_finite()) {
-        return Err(IdentifyError::ModelEvaluation {
+    if let Some(index) = r0.iter().position(|v| !v.is_finite()) {
+        return Err(IdentifyError::NonFiniteResidual {
             model: kind.into(),
-            cause: format!("residual {i} is not finite at the starting point"),
+            index,
         });
     }
     crate::validate::enough_points(r0.len(), specs.len(), kind)?;
@@ -527,11 +528,11 @@ pub fn fit_nonlinear<M: ResidualModel>(
     // 2p + 10 iterations only guard against round-off stalling it.
     let sub = Steihaug::new()
         .with_epsilon(1e-12)
-        .map_err(|e| IdentifyError::Solver(e.to_string()))?
+        .map_err(|source| IdentifyError::Solver { source })?
         .with_max_iters(2 * specs.len() as u64 + 10);
     let inner = TrustRegion::new(sub)
         .with_radius(opts.initial_radius)
-        .map_err(|e| IdentifyError::Solver(e.to_string()))?;
+        .map_err(|source| IdentifyError::Solver { source })?;
     let solver = TrustRegionLsq {
         inner,
         ftol: opts.ftol,
@@ -543,13 +544,15 @@ pub fn fit_nonlinear<M: ResidualModel>(
     let res = Executor::new(problem, solver)
         .configure(|s| s.param(z0).max_iters(opts.max_iter))
         .run()
-        .map_err(|e| IdentifyError::Solver(e.to_string()))?;
+        .map_err(|source| IdentifyError::Solver { source })?;
     let iterations = res.state.get_iter();
     let zhat = res
         .state
         .get_best_param()
         .cloned()
-        .ok_or_else(|| IdentifyError::Solver("no parameter in final state".into()))?;
+        .ok_or(IdentifyError::SolverState {
+            what: "no parameter in final state",
+        })?;
     let (status, message) = match &res.solver.converged {
         Some(m) => (FitStatus::Converged, m.clone()),
         None => (
@@ -560,15 +563,18 @@ pub fn fit_nonlinear<M: ResidualModel>(
     let model = res
         .problem
         .get_problem()
-        .ok_or_else(|| IdentifyError::Solver("problem lost by the executor".into()))?
+        .ok_or(IdentifyError::SolverState {
+            what: "problem lost by the executor",
+        })?
         .model;
     let theta = DVector::from_iterator(
         zhat.len(),
         tf.iter().zip(zhat.iter()).map(|(t, &z)| t.theta(z)),
     );
-    let eval = |what: &str, e: ArgminError| IdentifyError::ModelEvaluation {
+    let eval = |what: &str, source: ArgminError| IdentifyError::ModelEvaluation {
         model: kind.into(),
-        cause: format!("{what} at the estimate: {e}"),
+        what: format!("{what} at the estimate"),
+        source,
     };
     let resid_w = model.apply(&theta).map_err(|e| eval("residuals", e))?;
     let jac = model.jacobian(&theta).map_err(|e| eval("jacobian", e))?;

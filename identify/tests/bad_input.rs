@@ -227,9 +227,19 @@ fn force_errors() {
     )
     .unwrap_err();
     assert!(
-        e.to_string().contains("row 2") && e.to_string().contains("depth_um"),
-        "{e}"
+        matches!(
+            e,
+            IdentifyError::RejectedConditions {
+                row: 2,
+                source: millcomp_sim::SimError::InvalidParameter {
+                    name: "depth_um",
+                    ..
+                },
+            }
+        ),
+        "{e:?}"
     );
+    assert!(e.to_string().contains("row 2"), "{e}");
     let e = identify_force(
         &data(&[100.0, 200.0, 150.0], &[1.0, f64::NAN, 3.0]),
         &ForceOptions::default(),

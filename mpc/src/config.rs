@@ -299,8 +299,8 @@ impl MpcConfig {
 
     /// Parse from TOML text and validate the dimension-free parts (see [`Self::validate_keys`]).
     pub fn from_toml_str(text: &str) -> Result<Self, MpcError> {
-        let c: Self = toml::from_str(text).map_err(|e| MpcError::ConfigToml {
-            message: e.to_string(),
+        let c: Self = toml::from_str(text).map_err(|source| MpcError::ConfigToml {
+            source: Box::new(source),
         })?;
         c.validate_keys()?;
         Ok(c)
@@ -658,7 +658,13 @@ max = 1.0
         assert_eq!(c.soft_outputs[0].max, Some(1.0));
         let bad = text.replace("horizon = 20\n", "horizon = 20\nhorizonn = 3\n");
         let e = MpcConfig::from_toml_str(&bad).unwrap_err();
-        assert!(e.to_string().contains("horizonn"), "{e}");
+        // the parser's message (the cause) names the unknown key
+        let cause = std::error::Error::source(&e).map(|c| c.to_string());
+        assert!(
+            matches!(e, MpcError::ConfigToml { .. })
+                && cause.as_deref().is_some_and(|c| c.contains("horizonn")),
+            "{e}: {cause:?}"
+        );
         let zero = text.replace("horizon = 20\n", "horizon = 0\n");
         assert!(
             matches!(MpcConfig::from_toml_str(&zero), Err(MpcError::InvalidConfig { key, .. }) if key == "horizon")

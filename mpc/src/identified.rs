@@ -13,7 +13,7 @@ use crate::error::{MpcError, invalid};
 /// loop gain — at the physics crate's defaults).
 ///
 /// # Errors
-/// [`MpcError::InvalidConfig`] (key `spindle_model`) when the physics crate rejects the parameters.
+/// [`MpcError::IdentifiedModel`] (key `spindle_model`) when the physics crate rejects the parameters.
 ///
 /// # Examples
 /// ```
@@ -33,12 +33,10 @@ pub fn spindle_plant(m: &SpindleModel) -> Result<PztSpindle, MpcError> {
         m.pole_rad_s,
         m.dead_time_s,
     )
-    .map_err(|e| {
-        invalid(
-            "spindle_model",
-            format!("{m:?}"),
-            format!("spindle parameters the physics crate accepts: {e}"),
-        )
+    .map_err(|source| MpcError::IdentifiedModel {
+        key: "spindle_model".into(),
+        value: format!("{m:?}"),
+        source,
     })?;
     s.dead_time_model = match m.dead_time_pade_order {
         Some(1) => DeadTimeModel::Pade1,
@@ -51,8 +49,8 @@ pub fn spindle_plant(m: &SpindleModel) -> Result<PztSpindle, MpcError> {
 /// runout — whichever were fitted).
 ///
 /// # Errors
-/// [`MpcError::InvalidConfig`] (key `force_model.<name>`) for a parameter the force model does not have or
-/// a value it rejects.
+/// [`MpcError::InvalidConfig`] (key `force_model.<name>`) for a parameter the force model does not have,
+/// [`MpcError::IdentifiedModel`] (key `force_model`) for values it rejects.
 pub fn force_model_with(
     p: &ForceModelParams,
     base: &BallEndForceModel,
@@ -77,12 +75,10 @@ pub fn force_model_with(
             }
         }
     }
-    m.validate().map_err(|e| {
-        invalid(
-            "force_model",
-            format!("{:?}", p.fitted),
-            format!("parameters the physics crate accepts: {e}"),
-        )
+    m.validate().map_err(|source| MpcError::IdentifiedModel {
+        key: "force_model".into(),
+        value: format!("{:?}", p.fitted),
+        source,
     })?;
     Ok(m)
 }

@@ -5,8 +5,7 @@
 //!   perturbed truth, or a model identified by `millcomp identify force`);
 //! - **response surface** — a polynomial in the process parameters fitted to measured peak forces by
 //!   `millcomp doe analyze --save model.toml` (e.g. Table 3-3's `max_fz_n` over depth, speed and upfeed).
-//!   Its factor names must be process parameters the plan knows: `depth_um`, `upfeed_um` (or
-//!   `upfeed_um`), `speed_rpm`, `tilt_deg`; its response must be the per-revolution peak z-force on
+//!   Its factor names must be process parameters the plan knows: `depth_um`, `upfeed_um`, `speed_rpm`, `tilt_deg`; its response must be the per-revolution peak z-force on
 //!   the workpiece in N. Points outside the fitted ranges are extrapolated and counted; a negative
 //!   prediction (a polynomial below its data) is taken as 0 N.
 
@@ -85,9 +84,9 @@ impl ResponseSurface {
         let f = self
             .model
             .predict(&self.point(c))
-            .map_err(|e| MpcError::Predictor {
+            .map_err(|source| MpcError::Predictor {
                 path: self.path.clone(),
-                message: e.to_string(),
+                source: Box::new(source),
             })?;
         Ok(if f.is_finite() { f.max(0.0) } else { 0.0 })
     }

@@ -19,8 +19,8 @@
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
-    DefaultSettings, DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT,
-    SolverStatus, SupportedConeT,
+    DataUpdateError, DefaultSettings, DefaultSettingsBuilder, DefaultSolver, IPSolver,
+    NonnegativeConeT, SolverStatus, SupportedConeT,
 };
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
@@ -357,14 +357,13 @@ impl CondensedQp {
         let solver = DefaultSolver::new(&p, &q, &a, &b, &cones, settings.clone()).map_err(|e| {
             MpcError::SolverSetup {
                 what: "DefaultSolver::new",
-                detail: e.to_string(),
+                source: Box::new(e),
             }
         })?;
         if !solver.is_data_update_allowed() {
             return Err(MpcError::SolverSetup {
                 what: "data updating",
-                detail: "Clarabel reports that q/b updates are not allowed (presolve active?)"
-                    .into(),
+                source: Box::new(DataUpdateError::PresolveIsActive),
             });
         }
         Ok(Self {
@@ -469,13 +468,13 @@ impl CondensedQp {
                 .update_q(&self.q)
                 .map_err(|e| MpcError::SolverSetup {
                     what: "update_q",
-                    detail: e.to_string(),
+                    source: Box::new(e),
                 })?;
             self.solver
                 .update_b(&self.b)
                 .map_err(|e| MpcError::SolverSetup {
                     what: "update_b",
-                    detail: e.to_string(),
+                    source: Box::new(e),
                 })?;
         }
         Ok(finite)
@@ -528,7 +527,7 @@ impl CondensedQp {
             .update_settings(s)
             .map_err(|e| MpcError::SolverSetup {
                 what: "update_settings",
-                detail: format!("{e:?}"),
+                source: Box::new(e),
             })
     }
 

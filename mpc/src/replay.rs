@@ -148,7 +148,7 @@ impl<'a> ReplaySolver<'a> {
         let solver = DefaultSolver::new(&p, q0, &a, b0, &cones, settings).map_err(|e| {
             MpcError::SolverSetup {
                 what: "DefaultSolver::new",
-                detail: e.to_string(),
+                source: Box::new(e),
             }
         })?;
         Ok(Self { seq, solver })
@@ -166,13 +166,13 @@ impl<'a> ReplaySolver<'a> {
             .update_q(&self.seq.q[k])
             .map_err(|e| MpcError::SolverSetup {
                 what: "update_q",
-                detail: e.to_string(),
+                source: Box::new(e),
             })?;
         self.solver
             .update_b(&self.seq.b[k])
             .map_err(|e| MpcError::SolverSetup {
                 what: "update_b",
-                detail: e.to_string(),
+                source: Box::new(e),
             })?;
         self.solver.solve();
         let ok = matches!(

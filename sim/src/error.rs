@@ -1,12 +1,15 @@
 //! The one error type of `millcomp-sim`.
 //!
 //! Every variant names what is at fault (parameter, key, dimension) and, where it makes sense, the allowed
-//! range, so that a CLI can print it verbatim.
+//! range, so that a CLI can print it verbatim. Where an underlying error exists (the OS's, the TOML
+//! parser's, the noise distribution's) it is kept as the [`std::error::Error::source`] of the variant,
+//! not flattened into its message: print the chain to see it.
 
 use thiserror::Error;
 
 /// Errors raised by the physics crate. Outcomes (e.g. a stage that saturated) are not errors.
-#[derive(Debug, Clone, PartialEq, Error)]
+#[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum SimError {
     /// A physical parameter is outside its allowed range (or not finite).
     #[error("invalid parameter `{name}` = {value}: allowed {allowed}")]
@@ -36,13 +39,22 @@ pub enum SimError {
         /// Details.
         detail: String,
     },
-    /// A session file key is missing, has the wrong type or an invalid value.
+    /// A session file key has an invalid value (or the plan is empty).
     #[error("session key `{key}`: {message}")]
     Session {
         /// Dotted key path, e.g. `grooves[2].tilt_deg`.
         key: String,
         /// What is wrong and what is allowed.
         message: String,
+    },
+    /// A session file is not valid TOML for a session: a key is missing, unknown or of the wrong type.
+    #[error("session key `{key}`: the session does not parse")]
+    SessionToml {
+        /// The key the parser names (`<toml>` when it names none).
+        key: String,
+        /// The TOML parser's error (its message names the line).
+        #[source]
+        source: Box<toml::de::Error>,
     },
     /// Unknown effect name (see [`crate::effects::EFFECT_NAMES`]).
     #[error("unknown effect `{name}`: allowed {allowed}")]
@@ -73,13 +85,23 @@ pub enum SimError {
         /// What is wrong.
         message: String,
     },
+    /// The noise distribution of a sensor or session could not be built.
+    #[error("numerical failure in `noise distribution` (sigma = {sigma})")]
+    NoiseDistribution {
+        /// The standard deviation asked for.
+        sigma: f64,
+        /// The distribution's complaint.
+        #[source]
+        source: rand_distr::NormalError,
+    },
     /// A file could not be read.
-    #[error("cannot read `{path}`: {message}")]
+    #[error("cannot read `{path}`")]
     Io {
         /// The path.
         path: String,
-        /// The OS message.
-        message: String,
+        /// The OS error.
+        #[source]
+        source: std::io::Error,
     },
 }
 

@@ -25,10 +25,10 @@ impl NoiseSource {
     pub fn new(seed: u64, sigma: f64) -> Result<Self, SimError> {
         check_nonneg("noise_sigma", sigma)?;
         let normal = if sigma > 0.0 {
-            Some(Normal::new(0.0, sigma).map_err(|e| SimError::Numerical {
-                what: "noise distribution",
-                detail: e.to_string(),
-            })?)
+            Some(
+                Normal::new(0.0, sigma)
+                    .map_err(|source| SimError::NoiseDistribution { sigma, source })?,
+            )
         } else {
             None
         };

@@ -372,20 +372,9 @@ fn rekey(prefix: &str, e: SimError) -> SimError {
 impl Session {
     /// Parse and validate a session from TOML text; errors name the key.
     pub fn from_toml_str(text: &str) -> Result<Self, SimError> {
-        let s: Session = toml::from_str(text).map_err(|e| {
-            let msg = e.message().to_string();
-            // toml reports unknown/missing fields in the message; the span locates the line
-            let line = e
-                .span()
-                .map(|sp| text[..sp.start.min(text.len())].lines().count().max(1));
-            let key = extract_backticked(&msg).unwrap_or_else(|| "<toml>".into());
-            sess_err(
-                key,
-                match line {
-                    Some(l) => format!("{msg} (line {l})"),
-                    None => msg,
-                },
-            )
+        let s: Session = toml::from_str(text).map_err(|source| SimError::SessionToml {
+            key: extract_backticked(source.message()).unwrap_or_else(|| "<toml>".into()),
+            source: Box::new(source),
         })?;
         s.validate()?;
         Ok(s)
@@ -394,9 +383,9 @@ impl Session {
     /// Read, parse and validate a session file.
     pub fn from_path(path: impl AsRef<Path>) -> Result<Self, SimError> {
         let p = path.as_ref();
-        let text = std::fs::read_to_string(p).map_err(|e| SimError::Io {
+        let text = std::fs::read_to_string(p).map_err(|source| SimError::Io {
             path: p.display().to_string(),
-            message: e.to_string(),
+            source,
         })?;
         Self::from_toml_str(&text)
     }

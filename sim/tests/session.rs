@@ -155,6 +155,14 @@ fn err_key(text: &str) -> String {
     }
 }
 
+/// The key of a session that does not parse (unknown or missing key): the parser's error is the cause.
+fn parse_err_key(text: &str) -> String {
+    match Session::from_toml_str(text) {
+        Err(SimError::SessionToml { key, .. }) => key,
+        other => panic!("expected a session parse error, got {other:?}"),
+    }
+}
+
 const HEAD: &str = "[tool]\n[material]\nname = \"S7\"\n";
 
 #[test]
@@ -176,8 +184,11 @@ fn errors_name_the_key() {
         err_key(&g("").replace("depth_um = 40", "depth_um = 500")),
         "plan[0].depth.depth_um"
     );
-    assert_eq!(err_key(&g("bogus = 1")), "bogus");
-    assert_eq!(err_key(&g("").replace("length_mm = 20\n", "")), "length_mm");
+    assert_eq!(parse_err_key(&g("bogus = 1")), "bogus");
+    assert_eq!(
+        parse_err_key(&g("").replace("length_mm = 20\n", "")),
+        "length_mm"
+    );
     assert_eq!(
         err_key(&g("[[effects]]\nname = \"gremlins\"")),
         "effects[0].name"
@@ -201,6 +212,7 @@ fn errors_name_the_key() {
     );
     assert!(matches!(
         Session::from_path("/nonexistent/x.toml"),
-        Err(SimError::Io { .. })
+        Err(SimError::Io { ref path, ref source })
+            if path == "/nonexistent/x.toml" && source.kind() == std::io::ErrorKind::NotFound
     ));
 }

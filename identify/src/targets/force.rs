@@ -388,11 +388,7 @@ fn conditions(
             };
             opts.base
                 .check_conditions(&cond)
-                .map_err(|e| IdentifyError::InvalidParameter {
-                    name: format!("row {i}: {e}"),
-                    value: f64::NAN,
-                    allowed: "cut conditions the force model accepts",
-                })?;
+                .map_err(|source| IdentifyError::RejectedConditions { row: i, source })?;
             Ok(cond)
         })
         .collect()
@@ -521,9 +517,10 @@ pub fn identify_force(data: &ForceData<'_>, opts: &ForceOptions) -> Result<Ident
     let p_base = DVector::from_iterator(free.len(), free.iter().map(|f| f.get(&opts.base)));
     let (f0, _) = op
         .predict(&p_base, false)
-        .map_err(|e| IdentifyError::ModelEvaluation {
+        .map_err(|source| IdentifyError::ModelEvaluation {
             model: "force".into(),
-            cause: e.to_string(),
+            what: "forces at the base parameters".into(),
+            source,
         })?;
     let w2: Vec<f64> = op.sw.iter().map(|s| s * s).collect();
     let num: f64 = f0

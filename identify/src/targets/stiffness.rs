@@ -229,7 +229,7 @@ pub fn identify_stiffness(data: &StiffnessData<'_>, opts: &StiffnessOptions) -> 
             .values()
             .next()
             .cloned()
-            .ok_or_else(|| IdentifyError::Solver("no group".into()))?
+            .ok_or(IdentifyError::SolverState { what: "no group" })?
     } else {
         combine("stiffness", &reports)
     };
