@@ -184,6 +184,6 @@ pub enum DatasetError {
         /// The atomic writer's error (it names the step: creating the temporary file, writing,
         /// syncing, renaming), whose source is the I/O or encoding error.
         #[source]
-        source: ModelError,
+        source: Box<ModelError>,
     },
 }

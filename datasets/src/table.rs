@@ -806,7 +806,7 @@ where
     millcomp_models::write_atomic(path, |f| fill(f).map_err(std::io::Error::other)).map_err(
         |source| DatasetError::Write {
             file: path.to_path_buf(),
-            source,
+            source: Box::new(source),
         },
     )
 }

@@ -2,9 +2,7 @@
 //! `bench/peers/identify_goldens.py`, which records the scipy version and the exact call): same
 //! data, same model, same starting point; parameters must agree to 1e-6 relative.
 
-mod common;
-
-use common::tol;
+use crate::common::tol;
 use millcomp_identify::targets::thermal::*;
 use millcomp_identify::{NlsOptions, ParamSpec, fit_nonlinear};
 use nalgebra::DVector;

@@ -1,10 +1,8 @@
 //! Jacobian checks that need more than the unit tests: the spindle's finite-difference Jacobian
 //! against an independent closed form, and every verb's operator through `check_jacobian`.
 
-mod common;
-
+use crate::common::tol;
 use argmin::core::Jacobian;
-use common::tol;
 use millcomp_identify::check_jacobian;
 use millcomp_identify::targets::spindle::*;
 use millcomp_sim::spindle::{DeadTimeModel, PztSpindle};

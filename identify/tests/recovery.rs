@@ -2,11 +2,9 @@
 //! models plus Gaussian noise; estimates must be unbiased within their SE, reported SEs must match
 //! the spread of the estimates, and 95 % intervals must cover the truth in 92–98 % of the sets.
 
-mod common;
-
 use std::collections::BTreeMap;
 
-use common::{assert_honest, recovery, tol};
+use crate::common::{assert_honest, recovery, tol};
 use millcomp_identify::targets::stiffness::*;
 use millcomp_identify::targets::thermal::*;
 use rand::SeedableRng;

@@ -1,6 +1,6 @@
 //! Each effect changes the simulated groove profile the way its seed describes (sign, magnitude, what it
 //! depends on), and analytic gradients agree with finite differences.
-mod common;
+use crate::common;
 
 use approx::assert_relative_eq;
 use millcomp_sim::effects::{EFFECT_NAMES, EffectContext, default_effect, fd_gradient};

@@ -1,5 +1,5 @@
 //! Cutting-force model against the published figures of `000_…txt`.
-mod common;
+use crate::common;
 
 use approx::assert_abs_diff_eq;
 use millcomp_sim::force::{BallEndForceModel, CutConditions, FlankLaw, ForceParams};

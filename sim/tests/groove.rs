@@ -1,5 +1,5 @@
 //! Groove stage against `000_…txt` ch. 6–7.
-mod common;
+use crate::common;
 
 use approx::assert_relative_eq;
 use millcomp_sim::force::{CutConditions, S7_GROOVE_FORCE_SCALE};

@@ -1,5 +1,5 @@
 //! Session files and the measured-groove CSV contract (DESIGN.md).
-mod common;
+use crate::common;
 
 use millcomp_sim::SimError;
 use millcomp_sim::sensors::NoiseSpec;

@@ -1,5 +1,5 @@
 //! The PZT spindle plant fitted to all published figures at once (`000_…txt` §5.2.4–5.2.5).
-mod common;
+use crate::common;
 
 use approx::assert_relative_eq;
 use argmin::core::{CostFunction, Error, Executor};

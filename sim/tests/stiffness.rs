@@ -1,5 +1,5 @@
 //! Stiffness against `000_…txt` §5.2.3, §6.1, §7.2.1 and `003_…txt` §2.2.
-mod common;
+use crate::common;
 
 use approx::assert_relative_eq;
 use millcomp_sim::stiffness::{

@@ -1,5 +1,5 @@
 //! Thin-wall stage against `004_…txt` Table 5.
-mod common;
+use crate::common;
 
 use approx::{assert_abs_diff_eq, assert_relative_eq};
 use millcomp_sim::thinwall::{

@@ -1,0 +1,11 @@
+//! The integration tests of millcomp-identify, one binary: a module per subject, the shared helpers in
+//! `common`.
+
+mod common;
+
+mod bad_input;
+mod golden;
+mod jacobians;
+mod recovery;
+mod saved_model;
+mod table33;
