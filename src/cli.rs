@@ -38,6 +38,9 @@ pub enum Command {
     Identify(IdentifyArgs),
     /// Find where simulation and measurement disagree and name the missing physical effect.
     Diagnose(DiagnoseArgs),
+    /// Commission a scenario's machine: calibration experiments through its instruments, identified into
+    /// one model bundle the controllers are built from.
+    Commission(CommissionArgs),
     /// Simulate a session or a closed-loop scenario.
     Simulate(SimulateArgs),
     /// Run controllers over many conditions and compare them statistically.
@@ -56,6 +59,23 @@ pub struct DemoArgs {
     /// Worker threads of the demo batch (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+}
+
+/// `millcomp commission`.
+#[derive(Debug, Args)]
+pub struct CommissionArgs {
+    /// Groove scenario (TOML): its truth plant, instruments, noise and `[commissioning]` plan.
+    pub scenario: PathBuf,
+    /// Write the model bundle here (kind `bundle`, the common model-file format).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Seed of the experiments' noise (default: the scenario's seed).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Instead of one commissioning: a coverage study over this many seeds, each with its own drawn
+    /// instrument errors, counting how often each 95 % interval covers the value the truth implies.
+    #[arg(long)]
+    pub coverage: Option<u64>,
 }
 
 /// `millcomp doe …`.

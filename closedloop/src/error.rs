@@ -64,6 +64,16 @@ pub enum ClosedLoopError {
         #[source]
         source: rand_distr::NormalError,
     },
+    /// A commissioning experiment could not be designed or identified (bad data, not a poor fit: a poor fit
+    /// is a warning in the bundle).
+    #[error("commissioning: the {experiment} failed")]
+    Commissioning {
+        /// Which experiment (`force calibration`, `spindle step test`, `load-deflection test`, …).
+        experiment: &'static str,
+        /// The design's or identification's error.
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync + 'static>,
+    },
     /// The least-squares fit of the simulated stiffness calibration failed.
     #[error("numerical failure in `stiffness calibration fit`")]
     CalibrationFit {

@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use millcomp_sim::groove::{GrooveConfig, GrooveStage, GrooveStepOutput};
 use millcomp_sim::material::Material;
-use millcomp_sim::sensors::NoiseSpec;
+use millcomp_sim::sensors::{InstrumentErrors, NoiseSpec};
 use millcomp_sim::spindle::PztSpindle;
 use millcomp_sim::stiffness::TiltedToolStiffness;
 
@@ -21,10 +21,11 @@ use millcomp_mpc::pid::{AntiWindup, PidGains};
 use millcomp_mpc::predictor::ForcePredictor;
 
 use crate::calibration::{CalibratedStiffness, calibrate_stiffness};
+use crate::commissioning::{CommissioningPlant, commission, nominal_force_model};
 use crate::error::{ClosedLoopError, invalid};
 use crate::faults::{SolverFailures, groove_measurement};
 use crate::model_errors::ForceErrors;
-use crate::model_files::{load_force_params, load_response_surface, load_spindle};
+use crate::model_files::{load_bundle, load_force_params, load_response_surface, load_spindle};
 use crate::report::{Metrics, ModelSummary, RunOutput, RunReport, Trace};
 use crate::scenario::{ControllerKind, GrooveScenario, Scenario};
 
@@ -63,8 +64,12 @@ fn deepest(g: &GrooveScenario) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Build the truth plant and the controllers' models for a groove scenario (see `closedloop/SCENARIOS.md`).
-pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, ClosedLoopError> {
+/// The truth plant of a groove scenario: thesis plant, the scenario's program and material, sensor noise,
+/// instrument errors and (when asked) the force scale calibrated to the uncompensated deflection.
+///
+/// # Errors
+/// [`ClosedLoopError::InvalidConfig`] without a `[groove]` table; the physics crate's errors.
+pub fn groove_truth(s: &Scenario) -> Result<GrooveConfig, ClosedLoopError> {
     let g = s
         .groove
         .as_ref()
@@ -86,6 +91,11 @@ pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, ClosedLoopError> {
         seed: s.seed.wrapping_mul(31).wrapping_add(2),
         sigma: s.truth.gauge_noise_um,
     });
+    truth.instruments = match (s.truth.instruments, s.truth.draw_instruments) {
+        (Some(i), _) => i,
+        (None, true) => InstrumentErrors::draw(s.seed),
+        (None, false) => InstrumentErrors::default(),
+    };
     truth.validate()?;
     if let Some(target) = g.calibrate_uncompensated_um {
         // the static deflection is proportional to the force scale up to the small depth feedback:
@@ -101,6 +111,30 @@ pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, ClosedLoopError> {
             truth.force_model.params.force_scale = scale;
         }
         truth.validate()?;
+    }
+    Ok(truth)
+}
+
+/// Build the truth plant and the controllers' models for a groove scenario (see `closedloop/SCENARIOS.md`).
+pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, ClosedLoopError> {
+    let g = s
+        .groove
+        .as_ref()
+        .ok_or_else(|| invalid("groove", "missing", "a [groove] table"))?;
+    let truth = groove_truth(s)?;
+    if let Some(models) = bundle_models(s, &truth, &g.material)? {
+        return Ok(GrooveSetup {
+            truth_force_scale: truth.force_model.params.force_scale,
+            model_spindle: models.spindle,
+            model_force: match &s.control.force_response_surface {
+                Some(path) => ForcePredictor::ResponseSurface(load_response_surface(path)?),
+                None => ForcePredictor::Mechanistic(models.force),
+            },
+            model_stiffness: models.stiffness.stiffness()?,
+            calibration: models.stiffness,
+            force_errors: ForceErrors::default(),
+            truth,
+        });
     }
     let force_errors = s
         .truth
@@ -146,6 +180,62 @@ pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, ClosedLoopError> {
         calibration,
         force_errors,
     })
+}
+
+/// The controllers' models built from a bundle: nothing of the truth but what the commissioning measured.
+struct BundleModels {
+    spindle: PztSpindle,
+    force: millcomp_sim::force::BallEndForceModel,
+    stiffness: CalibratedStiffness,
+}
+
+/// The bundle a scenario names (`control.bundle`) or commissions (`control.commission`), turned into the
+/// controllers' models; `None` when the scenario uses neither.
+fn bundle_models(
+    s: &Scenario,
+    truth: &GrooveConfig,
+    material: &str,
+) -> Result<Option<BundleModels>, ClosedLoopError> {
+    let (bundle, origin) = match (&s.control.bundle, s.control.commission) {
+        (None, false) => return Ok(None),
+        (Some(path), _) => (load_bundle(path)?, std::path::PathBuf::from(path)),
+        (None, true) => {
+            let plant = CommissioningPlant {
+                truth,
+                instruments: truth.instruments,
+                force_noise_n: s.truth.force_noise_n,
+                gauge_noise_um: s.truth.gauge_noise_um,
+                material,
+            };
+            let c = commission(&plant, &s.commissioning, s.seed.wrapping_add(11))?;
+            (c.bundle, std::path::PathBuf::from("<commissioned>"))
+        }
+    };
+    bundle.check_material(material, &origin)?;
+    let spindle =
+        millcomp_mpc::identified::spindle_plant(&bundle.spindle(&origin, "the controllers")?)?;
+    let force = millcomp_mpc::identified::force_model_with(
+        &bundle.force(&origin, "the controllers' force predictor")?,
+        &nominal_force_model(material)?,
+    )?;
+    let k = bundle.stiffness(&origin, "the controllers' deflection model")?;
+    let se = |name: &str| {
+        k.covariance
+            .get(name, name)
+            .map(f64::sqrt)
+            .unwrap_or(f64::NAN)
+    };
+    let stiffness = CalibratedStiffness {
+        axial_n_per_um: k.axial_n_per_um,
+        radial_n_per_um: k.radial_n_per_um,
+        axial_std_err: se("axial_stiffness_n_per_um"),
+        radial_std_err: se("radial_stiffness_n_per_um"),
+    };
+    Ok(Some(BundleModels {
+        spindle,
+        force,
+        stiffness,
+    }))
 }
 
 /// The controllers' preview of a groove setup, tabulated every `dx_mm`.

@@ -37,6 +37,7 @@
 
 pub mod batch;
 pub mod calibration;
+pub mod commissioning;
 pub mod error;
 pub mod faults;
 pub mod groove;

@@ -5,7 +5,8 @@
 use std::path::Path;
 
 use millcomp_models::{
-    ForceModelParams, IdentifiedModel, ModelError, ModelFile, ResponseSurface, SpindleModel,
+    ForceModelParams, IdentifiedModel, ModelBundle, ModelError, ModelFile, ResponseSurface,
+    SpindleModel,
 };
 use millcomp_mpc::predictor::ResponseSurface as SurfacePredictor;
 
@@ -56,4 +57,13 @@ pub fn load_force_params(path: &str) -> Result<ForceModelParams, ClosedLoopError
 pub fn load_response_surface(path: &str) -> Result<SurfacePredictor, ClosedLoopError> {
     let file: ModelFile<ResponseSurface> = load(path, &ResponseSurface::KINDS)?;
     Ok(SurfacePredictor::new(file.model, path)?)
+}
+
+/// A model bundle written by `millcomp commission --out` (kind `bundle`).
+///
+/// # Errors
+/// As [`load_spindle`], for kind `bundle`.
+pub fn load_bundle(path: &str) -> Result<ModelBundle, ClosedLoopError> {
+    let file: ModelFile<ModelBundle> = load(path, &ModelBundle::KINDS)?;
+    Ok(file.model)
 }

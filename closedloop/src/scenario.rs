@@ -9,11 +9,13 @@ use serde::{Deserialize, Serialize};
 
 use millcomp_sim::feed::{FeedChange, WorkpieceExit};
 use millcomp_sim::groove::{DEFAULT_FEED_ACCEL_MM_S2, DepthProfile};
+use millcomp_sim::sensors::InstrumentErrors;
 
 use millcomp_mpc::config::MAX_HORIZON;
 use millcomp_mpc::{MpcConfig, MpcError};
 
 use crate::calibration::StiffnessCalibration;
+use crate::commissioning::CommissioningPlan;
 use crate::error::{ClosedLoopError, invalid};
 use crate::model_errors::ForceErrors;
 
@@ -247,6 +249,14 @@ pub struct TruthSpec {
     /// Gauge noise σ (µm).
     #[serde(default = "default_gauge_noise")]
     pub gauge_noise_um: f64,
+    /// Explicit instrument and set-up errors of the truth (force-sensor gain and drift, touch-off, gauge
+    /// zero; `millcomp_sim::sensors::InstrumentErrors`). Exact when neither this nor `draw_instruments`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub instruments: Option<InstrumentErrors>,
+    /// Draw the instrument errors from their documented spreads with the scenario's seed
+    /// (`InstrumentErrors::draw`); ignored when `instruments` is given.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub draw_instruments: bool,
 }
 
 fn default_force_error_max() -> f64 {
@@ -268,6 +278,8 @@ impl Default for TruthSpec {
             stiffness_error: 0.0,
             force_noise_n: default_force_noise(),
             gauge_noise_um: default_gauge_noise(),
+            instruments: None,
+            draw_instruments: false,
         }
     }
 }
@@ -303,6 +315,15 @@ pub struct ControlSpec {
     /// in the controllers' preview; its factors must be process parameters (`closedloop/SCENARIOS.md`).
     #[serde(default)]
     pub force_response_surface: Option<String>,
+    /// A model bundle (`millcomp commission --out`, kind `bundle`): the controllers' spindle, force model
+    /// and stiffness all come from it (with the nominal material and tool for what the force fit held
+    /// fixed); not together with `spindle_model` or `force_model`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bundle: Option<String>,
+    /// Commission the truth plant (the scenario's `[commissioning]` plan, its seed) and build the
+    /// controllers from the resulting bundle; not together with `bundle`, `spindle_model` or `force_model`.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub commission: bool,
 }
 
 fn default_dt() -> f64 {
@@ -329,6 +350,8 @@ impl Default for ControlSpec {
             spindle_model: None,
             force_model: None,
             force_response_surface: None,
+            bundle: None,
+            commission: false,
         }
     }
 }
@@ -394,6 +417,13 @@ pub struct Scenario {
     /// Injected faults.
     #[serde(default)]
     pub faults: Vec<Fault>,
+    /// The commissioning plan (used by `control.commission` and `millcomp commission`).
+    #[serde(default, skip_serializing_if = "is_default_plan")]
+    pub commissioning: CommissioningPlan,
+}
+
+fn is_default_plan(p: &CommissioningPlan) -> bool {
+    *p == CommissioningPlan::default()
 }
 
 fn default_seed() -> u64 {
@@ -478,6 +508,36 @@ impl Scenario {
                 ),
                 other => other,
             })?;
+        }
+        let c = &self.control;
+        if c.bundle.is_some() || c.commission {
+            let from = if c.bundle.is_some() {
+                "control.bundle"
+            } else {
+                "control.commission"
+            };
+            for (key, given) in [
+                ("control.spindle_model", c.spindle_model.is_some()),
+                ("control.force_model", c.force_model.is_some()),
+                ("control.commission", c.commission && c.bundle.is_some()),
+            ] {
+                if given {
+                    return Err(invalid(
+                        key,
+                        "given",
+                        format!(
+                            "not together with {from}: the bundle provides the controllers' models"
+                        ),
+                    ));
+                }
+            }
+            if self.stage != StageKind::Groove {
+                return Err(invalid(
+                    from,
+                    "given",
+                    "only for stage = \"groove\" (the thin wall is not commissioned yet)",
+                ));
+            }
         }
         match self.stage {
             StageKind::Groove => {

@@ -25,7 +25,7 @@ use crate::force::{
     BallEndForceModel, CutConditions, ForceParams, PreparedCut, S7_GROOVE_FORCE_SCALE,
 };
 use crate::material::Material;
-use crate::sensors::{CapacitanceGauge, ForceSensor, NoiseSpec};
+use crate::sensors::{CapacitanceGauge, ForceSensor, InstrumentErrors, NoiseSpec};
 use crate::spindle::{DiscretePztSpindle, PztSpindle, SpindleStep};
 use crate::stiffness::TiltedToolStiffness;
 use crate::tool::BallEndTool;
@@ -227,6 +227,10 @@ pub struct GrooveConfig {
     pub force_noise: Option<NoiseSpec>,
     /// Optional gauge noise (σ in µm).
     pub gauge_noise: Option<NoiseSpec>,
+    /// Errors of the instruments and of the set-up that no model of the plant contains (force-sensor
+    /// gain and drift, touch-off, gauge zero); exact by default.
+    #[serde(default)]
+    pub instruments: InstrumentErrors,
 }
 
 /// Default feed-axis acceleration (mm/s²) for feed changes: 100 mm/s² (≈ 0.01 g), the path acceleration of
@@ -349,6 +353,7 @@ impl GrooveConfig {
             force_channel: ForceChannel::WorkpieceZ,
             force_noise: None,
             gauge_noise: None,
+            instruments: InstrumentErrors::default(),
         };
         c.validate()?;
         Ok(c)
@@ -359,6 +364,7 @@ impl GrooveConfig {
         self.force_model.validate()?;
         self.stiffness.validate()?;
         self.spindle.validate()?;
+        self.instruments.validate()?;
         self.program.validate(self.force_model.tool.radius_um)
     }
 
@@ -561,8 +567,8 @@ impl GrooveStage {
         let engagement = self.cfg.engagement(x);
         let d_cmd = self.cfg.program.depth_at(x);
         let pzt_z = tip_um * self.sin_a;
-        let d_cut =
-            (d_cmd - self.deflection_um + pzt_z).clamp(0.0, self.cfg.force_model.tool.radius_um);
+        let d_cut = (d_cmd + self.cfg.instruments.touch_off_um - self.deflection_um + pzt_z)
+            .clamp(0.0, self.cfg.force_model.tool.radius_um);
         if (d_cut - self.prepared_depth).abs() > 1e-3
             || (upfeed - self.prepared_upfeed).abs() > 1e-4 * self.prepared_upfeed
         {
@@ -580,14 +586,19 @@ impl GrooveStage {
         self.deflection_um = peak * self.compliance_um_per_n;
         let coupling = self.cfg.spindle.force_coupling_n_per_um * tip_um;
         let spindle_raw_true = fz * self.cos_a / SPINDLE_Y_CALIBRATION + coupling;
+        let instruments = self.cfg.instruments;
         let force_meas = match self.cfg.force_channel {
-            ForceChannel::WorkpieceZ => self.force_sensor.measure(fz),
+            ForceChannel::WorkpieceZ => self
+                .force_sensor
+                .measure(instruments.force_reading(fz, self.t_s)),
             ForceChannel::SpindleCalibrated => {
-                let raw = self.force_sensor.measure(spindle_raw_true);
+                let raw = self
+                    .force_sensor
+                    .measure(instruments.force_reading(spindle_raw_true, self.t_s));
                 (raw - coupling) * SPINDLE_Y_CALIBRATION / self.cos_a
             }
         };
-        let gauge = self.gauge.measure_um(tip_um);
+        let gauge = self.gauge.measure_um(tip_um) + instruments.gauge_offset_um;
         let out = GrooveStepOutput {
             t_s: self.t_s,
             x_mm: x,

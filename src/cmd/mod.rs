@@ -4,6 +4,7 @@
 use crate::cli::{Cli, Command};
 
 mod batch;
+mod commission;
 mod datasets;
 mod demo;
 mod diagnose;
@@ -48,6 +49,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Doe(c) => doe::run(c, json),
         Command::Identify(a) => identify::run(a, json),
         Command::Diagnose(a) => diagnose::run(a, json),
+        Command::Commission(a) => commission::run(a, json),
         Command::Simulate(a) => simulate::run(a, json),
         Command::Batch(a) => batch::run(a, json),
     }

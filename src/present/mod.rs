@@ -2,6 +2,7 @@
 //! verbs in `cmd/` hand it here to be printed or drawn.
 
 pub mod batch;
+pub mod commission;
 pub mod diagnose;
 pub mod doe;
 pub mod plot;

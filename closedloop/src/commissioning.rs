@@ -1,0 +1,766 @@
+//! Commissioning, as a machine is commissioned: calibration experiments run on the truth plant *through its
+//! instruments* (force sensor with its gain error, drift, noise and quantisation; capacitance gauge with its
+//! zero offset and noise; dial indicator with its resolution), each identified with `millcomp-identify`,
+//! the results written as one [`ModelBundle`]. Nothing of the truth crosses except what the instruments
+//! read; the starting model is the *nominal* one a user has (published material table, catalogue tool,
+//! force scale 1).
+//!
+//! The three experiments:
+//! 1. **Force calibration**: a full-factorial DOE (`millcomp-doe`) over depth and upfeed at the plant's
+//!    speed and tilt, `replicates` times; each run is cut for `revolutions` revolutions, the force sensor is
+//!    zeroed before the cut (as in `000_…txt` §3.4) and sampled `samples_per_rev` times per revolution; the
+//!    traces are synchronously averaged over the revolutions (so the noise averages out without bias) and
+//!    the free force parameters fitted to them (`identify force`, trace form).
+//! 2. **Spindle step test** in air: from a bias voltage (so that the gauge reads inside its range), a
+//!    voltage step held for `step_duration_s`, the gauge sampled every `step_dt_s`; three structures fitted
+//!    (`identify spindle`: 2nd order; + a real pole; + pole and dead time) and the one with the smallest
+//!    BIC kept (the choice and the BICs go into the bundle's warnings/experiments).
+//! 3. **Load–deflection** (`000_…txt` §5.2.3): hanging masses, read by a dial indicator
+//!    ([`StiffnessCalibration`]), axial and radial directions fitted by `identify stiffness`.
+//!
+//! [`Commissioned::pseudo_true`] is what each identified parameter *should* come out as — the value the
+//! truth implies for it through the same instruments: the same fit on the same experiment without noise
+//! and quantisation (force, spindle), and the truth's stiffness (loads and indicator are unbiased). The
+//! coverage study compares the intervals to it.
+
+use std::collections::BTreeMap;
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde::{Deserialize, Serialize};
+
+use millcomp_doe::{DesignKind, DesignRequest, FactorSpec, Level, generate};
+use millcomp_identify::targets::Identified;
+use millcomp_identify::targets::force::{
+    ForceConditions, ForceData, ForceOptions, ForceParam, ForceTraceData, identify_force,
+};
+use millcomp_identify::targets::spindle::{SpindleData, SpindleOptions, identify_spindle};
+use millcomp_identify::targets::stiffness::{StiffnessData, StiffnessOptions, identify_stiffness};
+use millcomp_models::{IdentifiedModel, ModelBundle};
+use millcomp_sim::force::{BallEndForceModel, CutConditions, ForceParams};
+use millcomp_sim::groove::GrooveConfig;
+use millcomp_sim::material::Material;
+use millcomp_sim::sensors::{ForceSensor, InstrumentErrors};
+use millcomp_sim::tool::BallEndTool;
+
+use crate::calibration::{G_N_PER_KG, StiffnessCalibration};
+use crate::error::{ClosedLoopError, invalid};
+
+/// The tool a user orders and measures: Ø0.8 mm ball end (radius 400 µm), runout 10 µm as the thesis
+/// measured it (`000_…txt` §6.2), wearland 5 µm as the starting value of the fit (the measured grooves of
+/// Fig. 7-9).
+pub const NOMINAL_TOOL: (f64, f64, f64) = (400.0, 5.0, 10.0);
+
+/// The settings of a commissioning (`[commissioning]` of a scenario; every key optional).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CommissioningPlan {
+    /// Depth levels of the force DOE (µm).
+    pub force_depths_um: Vec<f64>,
+    /// Upfeed levels of the force DOE (µm/rev).
+    pub force_upfeeds_um: Vec<f64>,
+    /// Replicates of the force DOE.
+    pub replicates: usize,
+    /// Revolutions cut per run (synchronously averaged).
+    pub revolutions: usize,
+    /// Force samples per revolution.
+    pub samples_per_rev: usize,
+    /// Force parameters fitted (the rest at the nominal values): names of `identify force --free`.
+    pub force_free: Vec<String>,
+    /// Bias voltage of the step test (V).
+    pub step_bias_v: f64,
+    /// Voltage step (V).
+    pub step_v: f64,
+    /// Duration of the step test after the step (s).
+    pub step_duration_s: f64,
+    /// Gauge sampling interval of the step test (s).
+    pub step_dt_s: f64,
+    /// The load–deflection test.
+    pub stiffness: StiffnessCalibration,
+    /// Acceptance: the largest relative standard error of a parameter that sets the deflection prediction
+    /// (the fitted force parameters and the two stiffnesses); above it the bundle carries a warning that
+    /// the experiment was too small for the model to be trusted.
+    pub accept_rel_se: f64,
+}
+
+impl Default for CommissioningPlan {
+    /// A 3×3 full factorial (depth 20/50/80 µm — the thesis' groove range; upfeed 5/10/15 µm/rev around
+    /// its 10 µm/rev), 2 replicates, 20 revolutions at 72 samples each; W and wearland free; a 10 V step
+    /// from 20 V (≈ 0.5 µm, the thesis' step of Fig. 5-15) for 30 ms sampled at 20 kHz; the thesis'
+    /// hanging-mass calibration.
+    fn default() -> Self {
+        Self {
+            force_depths_um: vec![20.0, 50.0, 80.0],
+            force_upfeeds_um: vec![5.0, 10.0, 15.0],
+            replicates: 2,
+            revolutions: 20,
+            samples_per_rev: 72,
+            force_free: vec!["w_mpa".into(), "wearland_um".into()],
+            step_bias_v: 20.0,
+            step_v: 10.0,
+            step_duration_s: 0.03,
+            step_dt_s: 5e-5,
+            stiffness: StiffnessCalibration::default(),
+            accept_rel_se: 0.05,
+        }
+    }
+}
+
+/// The plant as the commissioning sees it: the truth and its instruments, with the sensors' noise levels.
+#[derive(Debug, Clone)]
+pub struct CommissioningPlant<'a> {
+    /// The truth plant (force model, stiffness, spindle) and the program's speed and tilt.
+    pub truth: &'a GrooveConfig,
+    /// The instruments' errors.
+    pub instruments: InstrumentErrors,
+    /// Force-sensor noise σ (N); quantisation is the same value (`000_…txt` §5.2.2: 0.04 N).
+    pub force_noise_n: f64,
+    /// Gauge noise σ (µm).
+    pub gauge_noise_um: f64,
+    /// The workpiece material's name (the nominal model's material; written into the bundle).
+    pub material: &'a str,
+}
+
+/// One identified experiment: the fit and what it was.
+#[derive(Debug, Clone)]
+pub struct Experiment {
+    /// What was done, in words.
+    pub description: String,
+    /// The identification.
+    pub fit: Identified,
+}
+
+/// The result of a commissioning.
+#[derive(Debug, Clone)]
+pub struct Commissioned {
+    /// The bundle the controllers are built from.
+    pub bundle: ModelBundle,
+    /// Force calibration.
+    pub force: Experiment,
+    /// Spindle step test (the selected structure).
+    pub spindle: Experiment,
+    /// BIC of each spindle structure tried (name → BIC; the smallest was kept).
+    pub spindle_bic: Vec<(String, f64)>,
+    /// Load–deflection test.
+    pub stiffness: Experiment,
+    /// The value the truth implies for each identified parameter through the same instruments (see the
+    /// module docs), by parameter name (`force.w_mpa`, `spindle.zeta`, `stiffness.axial_stiffness_n_per_um`…).
+    pub pseudo_true: BTreeMap<String, f64>,
+}
+
+impl Commissioned {
+    /// Every identified parameter with its estimate, 95 % interval and pseudo-true value:
+    /// `(name, estimate, [lo, hi], pseudo_true)`.
+    pub fn intervals(&self) -> Vec<(String, f64, [f64; 2], f64)> {
+        let mut out = Vec::new();
+        for (prefix, e) in [
+            ("force", &self.force),
+            ("spindle", &self.spindle),
+            ("stiffness", &self.stiffness),
+        ] {
+            for (name, ci) in &e.fit.report.ci95 {
+                let key = format!("{prefix}.{name}");
+                if let Some(&t) = self.pseudo_true.get(&key) {
+                    out.push((key, e.fit.report.params[name], *ci, t));
+                }
+            }
+        }
+        out
+    }
+}
+
+/// The nominal force model a user starts from: the published material, the catalogue tool
+/// ([`NOMINAL_TOOL`]), force scale 1.
+///
+/// # Errors
+/// [`ClosedLoopError::Sim`] for an unknown material.
+pub fn nominal_force_model(material: &str) -> Result<BallEndForceModel, ClosedLoopError> {
+    let (r, wl, ro) = NOMINAL_TOOL;
+    Ok(BallEndForceModel::new(
+        Material::by_name(material)?,
+        BallEndTool::new(r, wl, ro)?,
+        ForceParams::default(),
+    )?)
+}
+
+/// Run the three experiments on the plant and identify them (seeded).
+///
+/// # Errors
+/// Bad plan values ([`ClosedLoopError::InvalidScenario`] naming `commissioning.<key>`), the physics
+/// crate's errors, and identification errors ([`ClosedLoopError::Commissioning`] naming the experiment).
+/// A fit that did not converge or is poorly identified is *not* an error: its warnings go into the bundle.
+pub fn commission(
+    plant: &CommissioningPlant<'_>,
+    plan: &CommissioningPlan,
+    seed: u64,
+) -> Result<Commissioned, ClosedLoopError> {
+    validate_plan(plan)?;
+    let mut pseudo_true = BTreeMap::new();
+
+    let (force, force_desc) = force_experiment(plant, plan, seed, true)?;
+    let (force_ideal, _) = force_experiment(plant, plan, seed, false)?;
+    for (k, v) in &force_ideal.report.params {
+        pseudo_true.insert(format!("force.{k}"), *v);
+    }
+
+    let (spindle, spindle_bic, spindle_desc, structure) =
+        spindle_experiment(plant, plan, seed, true, None)?;
+    let (spindle_ideal, _, _, _) = spindle_experiment(plant, plan, seed, false, Some(structure))?;
+    for (k, v) in &spindle_ideal.report.params {
+        pseudo_true.insert(format!("spindle.{k}"), *v);
+    }
+
+    let (stiffness, stiffness_desc) = stiffness_experiment(plant, plan, seed)?;
+    pseudo_true.insert(
+        "stiffness.axial_stiffness_n_per_um".into(),
+        plant.truth.stiffness.axial_n_per_um,
+    );
+    pseudo_true.insert(
+        "stiffness.radial_stiffness_n_per_um".into(),
+        plant.truth.stiffness.radial_n_per_um,
+    );
+    // the indicator offsets are pure instrument zeros (truth 0)
+    pseudo_true.insert("stiffness.axial_offset_um".into(), 0.0);
+    pseudo_true.insert("stiffness.radial_offset_um".into(), 0.0);
+
+    let mut warnings = Vec::new();
+    for (what, fit) in [
+        ("force", &force),
+        ("spindle", &spindle),
+        ("stiffness", &stiffness),
+    ] {
+        warnings.extend(fit.report.warnings.iter().map(|w| format!("{what}: {w}")));
+    }
+    for (what, fit) in [("force", &force), ("stiffness", &stiffness)] {
+        for (name, v) in &fit.report.params {
+            if what == "stiffness" && !name.ends_with("stiffness_n_per_um") {
+                continue;
+            }
+            let rel = fit.report.se(name) / v.abs();
+            if !(rel <= plan.accept_rel_se) {
+                warnings.push(format!(
+                    "{what}: {name} has a relative standard error of {:.1} %, above the {:.1} % the plan \
+                     accepts (commissioning.accept_rel_se): the experiment is too small to trust this model",
+                    100.0 * rel,
+                    100.0 * plan.accept_rel_se
+                ));
+            }
+        }
+    }
+    let bundle = ModelBundle {
+        material: plant.material.to_string(),
+        experiments: vec![
+            force_desc.clone(),
+            spindle_desc.clone(),
+            stiffness_desc.clone(),
+        ],
+        warnings,
+        spindle: Some(spindle.model.clone()),
+        force: Some(force.model.clone()),
+        stiffness: Some(stiffness.model.clone()),
+    };
+    Ok(Commissioned {
+        bundle,
+        force: Experiment {
+            description: force_desc,
+            fit: force,
+        },
+        spindle: Experiment {
+            description: spindle_desc,
+            fit: spindle,
+        },
+        spindle_bic,
+        stiffness: Experiment {
+            description: stiffness_desc,
+            fit: stiffness,
+        },
+        pseudo_true,
+    })
+}
+
+fn validate_plan(p: &CommissioningPlan) -> Result<(), ClosedLoopError> {
+    let key = |k: &str| format!("commissioning.{k}");
+    for (name, levels) in [
+        ("force_depths_um", &p.force_depths_um),
+        ("force_upfeeds_um", &p.force_upfeeds_um),
+    ] {
+        if levels.is_empty() || levels.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
+            return Err(invalid(
+                key(name),
+                format!("{levels:?}"),
+                "one or more finite levels > 0",
+            ));
+        }
+    }
+    for (name, v) in [
+        ("replicates", p.replicates),
+        ("revolutions", p.revolutions),
+        ("samples_per_rev", p.samples_per_rev),
+    ] {
+        if v == 0 {
+            return Err(invalid(key(name), v, "at least 1"));
+        }
+    }
+    for (name, v) in [
+        ("step_v", p.step_v),
+        ("step_duration_s", p.step_duration_s),
+        ("step_dt_s", p.step_dt_s),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(invalid(key(name), v, "finite and > 0"));
+        }
+    }
+    if !(p.step_bias_v.is_finite() && p.step_bias_v >= 0.0) {
+        return Err(invalid(
+            key("step_bias_v"),
+            p.step_bias_v,
+            "finite and >= 0",
+        ));
+    }
+    if p.step_duration_s / p.step_dt_s > 20_000.0 {
+        return Err(invalid(
+            key("step_duration_s"),
+            p.step_duration_s,
+            "at most 20 000 samples of step_dt_s",
+        ));
+    }
+    if !(p.accept_rel_se.is_finite() && p.accept_rel_se > 0.0) {
+        return Err(invalid(
+            key("accept_rel_se"),
+            p.accept_rel_se,
+            "finite and > 0",
+        ));
+    }
+    if p.force_free.is_empty() {
+        return Err(invalid(
+            key("force_free"),
+            "[]",
+            "at least one force parameter",
+        ));
+    }
+    Ok(())
+}
+
+fn fmt_levels(v: &[f64]) -> String {
+    v.iter()
+        .map(|x| format!("{x}"))
+        .collect::<Vec<_>>()
+        .join("/")
+}
+
+/// The force calibration; `noisy = false` gives the pseudo-true fit (same instruments' gain and drift, no
+/// noise, no quantisation).
+fn force_experiment(
+    plant: &CommissioningPlant<'_>,
+    plan: &CommissioningPlan,
+    seed: u64,
+    noisy: bool,
+) -> Result<(Identified, String), ClosedLoopError> {
+    let mut factors = Vec::new();
+    let mut levels_of = Vec::new();
+    for (name, levels) in [
+        ("depth_um", &plan.force_depths_um),
+        ("upfeed_um", &plan.force_upfeeds_um),
+    ] {
+        if levels.len() > 1 {
+            let spec = format!("{name}={}", fmt_levels(levels).replace('/', ":"));
+            factors.push(FactorSpec::parse(&spec).map_err(|source| {
+                ClosedLoopError::Commissioning {
+                    experiment: "force calibration design",
+                    source: Box::new(source),
+                }
+            })?);
+            levels_of.push(name);
+        }
+    }
+    let program = &plant.truth.program;
+    // the runs: (depth, upfeed) in run order
+    let runs: Vec<(f64, f64)> = if factors.is_empty() {
+        vec![(plan.force_depths_um[0], plan.force_upfeeds_um[0]); plan.replicates]
+    } else {
+        let mut req = DesignRequest::new(DesignKind::Full, factors);
+        req.replicates = plan.replicates;
+        req.seed = Some(seed ^ 0xd0e);
+        let design = generate(&req).map_err(|source| ClosedLoopError::Commissioning {
+            experiment: "force calibration design",
+            source: Box::new(source),
+        })?;
+        let mut runs: Vec<_> = design.runs.iter().collect();
+        runs.sort_by_key(|r| r.run_order);
+        runs.iter()
+            .map(|r| {
+                let mut d = plan.force_depths_um[0];
+                let mut f = plan.force_upfeeds_um[0];
+                for (i, name) in levels_of.iter().enumerate() {
+                    if let Level::Num(v) = r.actual[i] {
+                        if *name == "depth_um" {
+                            d = v;
+                        } else {
+                            f = v;
+                        }
+                    }
+                }
+                (d, f)
+            })
+            .collect()
+    };
+    let spr = plan.samples_per_rev;
+    let rev_s = 60.0 / program.speed_rpm;
+    let (mut depth, mut upfeed, mut speed, mut tilt, mut rot, mut fz) =
+        (vec![], vec![], vec![], vec![], vec![], vec![]);
+    for (k, &(d, f)) in runs.iter().enumerate() {
+        let cond = CutConditions::new(d, f, program.speed_rpm, program.tilt_deg)?;
+        let prepared = plant.truth.force_model.prepare(&cond);
+        let mut sensor = if noisy {
+            ForceSensor::new(
+                plant.force_noise_n,
+                plant.force_noise_n,
+                seed.wrapping_mul(1009).wrapping_add(k as u64),
+            )?
+        } else {
+            ForceSensor::ideal()
+        };
+        let mut sum = vec![0.0; spr];
+        for r in 0..plan.revolutions {
+            for (j, s) in sum.iter_mut().enumerate() {
+                let phase = j as f64 / spr as f64;
+                let t = (r as f64 + phase) * rev_s;
+                let true_fz = prepared.forces(2.0 * std::f64::consts::PI * phase)[2];
+                *s += sensor.measure(plant.instruments.force_reading(true_fz, t));
+            }
+        }
+        for (j, s) in sum.iter().enumerate() {
+            depth.push(d);
+            upfeed.push(f);
+            speed.push(program.speed_rpm);
+            tilt.push(program.tilt_deg);
+            rot.push(360.0 * j as f64 / spr as f64);
+            fz.push(s / plan.revolutions as f64);
+        }
+    }
+    let free = plan
+        .force_free
+        .iter()
+        .map(|n| ForceParam::parse(n))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|source| ClosedLoopError::Commissioning {
+            experiment: "force calibration",
+            source: Box::new(source),
+        })?;
+    // start W where the nominal model's mean force matches the measured mean (the model is close to
+    // proportional to W): a start 3–4× off (the groove's calibrated force scale) otherwise costs hundreds
+    // of trust-region steps
+    let mut base = nominal_force_model(plant.material)?;
+    let mut predicted = 0.0;
+    for (i, &r) in rot.iter().enumerate() {
+        let cond = CutConditions::new(depth[i], upfeed[i], speed[i], tilt[i])?;
+        predicted += base.forces_at(&cond, r.to_radians())[2];
+    }
+    let measured: f64 = fz.iter().sum();
+    if predicted.is_finite() && predicted > 0.0 && measured > 0.0 {
+        base.material.w_mpa *= measured / predicted;
+    }
+    let mut common = millcomp_identify::targets::thermal::CommonOptions::default();
+    // identify's defaults (ftol 1e-14, gtol 1e-12) are meant for small fits; on ~1300 noisy trace samples
+    // the gradient cosine settles at its rounding floor above 1e-12 and the fit can stall at the optimum
+    // without meeting a tolerance. scipy's least_squares defaults (gtol 1e-8) stop it there; ftol 1e-10
+    // leaves a parameter error below √(1e-10·n)·SE ≈ 4e-4 SE.
+    common.nls.ftol = 1e-10;
+    common.nls.xtol = 1e-10;
+    common.nls.gtol = 1e-8;
+    common.nls.max_iter = common.nls.max_iter.max(1000);
+    let opts = ForceOptions {
+        base,
+        common,
+        free,
+        default_tilt_deg: program.tilt_deg,
+        ..ForceOptions::default()
+    };
+    let data = ForceData::Traces(ForceTraceData {
+        conditions: ForceConditions {
+            depth_um: &depth,
+            upfeed_um: &upfeed,
+            speed_rpm: Some(&speed),
+            tilt_deg: Some(&tilt),
+        },
+        rot_deg: &rot,
+        fx_n: None,
+        fy_n: None,
+        fz_n: Some(&fz),
+    });
+    let fit = identify_force(&data, &opts).map_err(|source| ClosedLoopError::Commissioning {
+        experiment: "force calibration",
+        source: Box::new(source),
+    })?;
+    let desc = format!(
+        "force: full factorial depth_um {} x upfeed_um {}, {} replicate(s), {} runs at {} rpm and tilt {} deg, \
+         {} revolutions each synchronously averaged at {} samples/rev; free {}",
+        fmt_levels(&plan.force_depths_um),
+        fmt_levels(&plan.force_upfeeds_um),
+        plan.replicates,
+        runs.len(),
+        program.speed_rpm,
+        program.tilt_deg,
+        plan.revolutions,
+        spr,
+        plan.force_free.join(", ")
+    );
+    Ok((fit, desc))
+}
+
+/// Spindle structures tried, in order of complexity: (name, extra pole, dead time).
+pub const SPINDLE_STRUCTURES: [(&str, bool, bool); 3] = [
+    ("2nd order", false, false),
+    ("2nd order + pole", true, false),
+    ("2nd order + pole + dead time", true, true),
+];
+
+/// Bayesian information criterion of a least-squares fit: `n ln(RSS/n) + p ln n`.
+pub fn bic(fit: &Identified) -> f64 {
+    let n = fit.report.n_obs as f64;
+    let p = fit.report.params.len() as f64;
+    let rss = fit.report.rms_residual.value.powi(2) * n;
+    n * (rss / n).max(f64::MIN_POSITIVE).ln() + p * n.ln()
+}
+
+type SpindleOutcome = (Identified, Vec<(String, f64)>, String, usize);
+
+fn spindle_experiment(
+    plant: &CommissioningPlant<'_>,
+    plan: &CommissioningPlan,
+    seed: u64,
+    noisy: bool,
+    structure: Option<usize>,
+) -> Result<SpindleOutcome, ClosedLoopError> {
+    let mut sp = plant.truth.spindle.discretize(plan.step_dt_s)?;
+    let pre = (0.005 / plan.step_dt_s).round() as usize;
+    let post = (plan.step_duration_s / plan.step_dt_s).round() as usize;
+    // settle at the bias before recording
+    let settle = (0.2 / plan.step_dt_s).round() as usize;
+    for _ in 0..settle {
+        sp.step(plan.step_bias_v);
+    }
+    let noise = Normal::new(0.0, if noisy { plant.gauge_noise_um } else { 0.0 }).map_err(|_| {
+        invalid(
+            "truth.gauge_noise_um",
+            plant.gauge_noise_um,
+            "finite and >= 0",
+        )
+    })?;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5_7e9);
+    let (mut t, mut u, mut y) = (vec![], vec![], vec![]);
+    for k in 0..pre + post {
+        let v = if k < pre {
+            plan.step_bias_v
+        } else {
+            plan.step_bias_v + plan.step_v
+        };
+        // sample the gauge before applying this interval's command (ZOH: y[k] depends on u[..k])
+        let tip = sp.tip_um();
+        t.push(k as f64 * plan.step_dt_s);
+        u.push(v);
+        y.push(tip + plant.instruments.gauge_offset_um + noise.sample(&mut rng));
+        sp.step(v);
+    }
+    let data = SpindleData {
+        t_s: &t,
+        u_v: &u,
+        y_um: &y,
+    };
+    let mut fits = Vec::new();
+    let which: Vec<usize> = match structure {
+        Some(i) => vec![i],
+        None => (0..SPINDLE_STRUCTURES.len()).collect(),
+    };
+    for &i in &which {
+        let (_, pole, dead) = SPINDLE_STRUCTURES[i];
+        let opts = SpindleOptions {
+            extra_pole: pole,
+            dead_time: dead,
+            ..SpindleOptions::default()
+        };
+        let fit =
+            identify_spindle(&data, &opts).map_err(|source| ClosedLoopError::Commissioning {
+                experiment: "spindle step test",
+                source: Box::new(source),
+            })?;
+        fits.push((i, fit));
+    }
+    let bics: Vec<(String, f64)> = fits
+        .iter()
+        .map(|(i, f)| (SPINDLE_STRUCTURES[*i].0.to_string(), bic(f)))
+        .collect();
+    let best = (0..fits.len())
+        .min_by(|&a, &b| bics[a].1.total_cmp(&bics[b].1))
+        .unwrap_or(0);
+    let (chosen, mut fit) = fits.swap_remove(best);
+    if structure.is_none() {
+        let list = bics
+            .iter()
+            .map(|(n, b)| format!("{n} {b:.1}"))
+            .collect::<Vec<_>>()
+            .join(", ");
+        fit.report.warnings.push(format!(
+            "structure chosen by BIC: {} (BIC {list})",
+            SPINDLE_STRUCTURES[chosen].0
+        ));
+        fit.model.warnings = fit.report.warnings.clone();
+    }
+    let desc = format!(
+        "spindle: step test in air, {} V -> {} V, {} s after the step sampled every {} s by the gauge; \
+         structure {} chosen by BIC",
+        plan.step_bias_v,
+        plan.step_bias_v + plan.step_v,
+        plan.step_duration_s,
+        plan.step_dt_s,
+        SPINDLE_STRUCTURES[chosen].0
+    );
+    Ok((fit, bics, desc, chosen))
+}
+
+fn stiffness_experiment(
+    plant: &CommissioningPlant<'_>,
+    plan: &CommissioningPlan,
+    seed: u64,
+) -> Result<(Identified, String), ClosedLoopError> {
+    let cal = &plan.stiffness;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(7));
+    let noise = Normal::new(0.0, cal.noise_um.max(0.0))
+        .map_err(|source| ClosedLoopError::CalibrationNoise { source })?;
+    let radial_g: Vec<f64> = std::iter::once(50.0)
+        .chain((1..=10).map(|i| 100.0 * i as f64))
+        .collect();
+    let axial_g: Vec<f64> = (1..=10).map(|i| 100.0 * i as f64).collect();
+    let (mut load, mut defl, mut dir) = (vec![], vec![], vec![]);
+    for (name, masses, k) in [
+        ("axial", &axial_g, plant.truth.stiffness.axial_n_per_um),
+        ("radial", &radial_g, plant.truth.stiffness.radial_n_per_um),
+    ] {
+        for m in masses {
+            let f = m * 1e-3 * G_N_PER_KG;
+            for _ in 0..cal.trials.max(1) {
+                let mut r = f / k + noise.sample(&mut rng);
+                if cal.indicator_resolution_um > 0.0 {
+                    r = (r / cal.indicator_resolution_um).round() * cal.indicator_resolution_um;
+                }
+                load.push(f);
+                defl.push(r);
+                dir.push(name.to_string());
+            }
+        }
+    }
+    let fit = identify_stiffness(
+        &StiffnessData {
+            load_n: &load,
+            deflection_um: &defl,
+            direction: Some(&dir),
+        },
+        &StiffnessOptions {
+            tilt_deg: vec![plant.truth.program.tilt_deg],
+            ..StiffnessOptions::default()
+        },
+    )
+    .map_err(|source| ClosedLoopError::Commissioning {
+        experiment: "load-deflection test",
+        source: Box::new(source),
+    })?;
+    let desc = format!(
+        "stiffness: hanging masses 100-1000 g axial, 50-1000 g radial, {} trial(s) each, dial indicator \
+         resolution {} um, noise {} um",
+        cal.trials, cal.indicator_resolution_um, cal.noise_um
+    );
+    Ok((fit, desc))
+}
+
+/// Whether every model of a bundle came out of its identification usable (converged); the warnings stay
+/// in the bundle either way.
+pub fn all_converged(bundle: &ModelBundle) -> bool {
+    [&bundle.spindle, &bundle.force, &bundle.stiffness]
+        .iter()
+        .all(|m: &&Option<IdentifiedModel>| {
+            m.as_ref()
+                .is_some_and(|m| m.status == millcomp_models::FitStatus::Converged)
+        })
+}
+
+/// One parameter of a coverage study.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CoverageRow {
+    /// Parameter (`force.w_mpa`, …).
+    pub parameter: String,
+    /// Commissionings whose 95 % interval covered the pseudo-true value.
+    pub covered: usize,
+    /// Commissionings run.
+    pub n: usize,
+    /// Two-sided binomial p-value of `covered` under a true coverage of 95 %.
+    pub p_value: f64,
+    /// Median |estimate − pseudo-true| / standard error.
+    pub median_abs_z: f64,
+}
+
+/// Commission the plant `seeds.len()` times, each with its own instrument draw
+/// ([`InstrumentErrors::draw`]) and measurement noise, and count per parameter how often the 95 % interval
+/// covers the pseudo-true value; `progress` is called after each commissioning.
+///
+/// # Errors
+/// As [`commission`].
+pub fn coverage_study(
+    truth: &GrooveConfig,
+    material: &str,
+    force_noise_n: f64,
+    gauge_noise_um: f64,
+    plan: &CommissioningPlan,
+    seeds: std::ops::Range<u64>,
+    mut progress: impl FnMut(),
+) -> Result<Vec<CoverageRow>, ClosedLoopError> {
+    let mut hits: BTreeMap<String, (usize, usize, Vec<f64>)> = BTreeMap::new();
+    for seed in seeds {
+        let plant = CommissioningPlant {
+            truth,
+            instruments: InstrumentErrors::draw(seed),
+            force_noise_n,
+            gauge_noise_um,
+            material,
+        };
+        let c = commission(&plant, plan, seed)?;
+        for (name, est, ci, t) in c.intervals() {
+            let e = hits.entry(name).or_default();
+            e.0 += usize::from(ci[0] <= t && t <= ci[1]);
+            e.1 += 1;
+            let half = (ci[1] - ci[0]) / 2.0;
+            let se = half / 1.96;
+            e.2.push(if se > 0.0 {
+                (est - t).abs() / se
+            } else {
+                f64::INFINITY
+            });
+        }
+        progress();
+    }
+    Ok(hits
+        .into_iter()
+        .map(|(parameter, (covered, n, mut z))| {
+            z.sort_by(f64::total_cmp);
+            CoverageRow {
+                parameter,
+                covered,
+                n,
+                p_value: binomial_two_sided(covered, n, 0.95),
+                median_abs_z: z.get(z.len() / 2).copied().unwrap_or(f64::NAN),
+            }
+        })
+        .collect())
+}
+
+/// Two-sided binomial test p-value: `2·min(P(X ≤ k), P(X ≥ k))`, capped at 1 (statrs' binomial).
+pub fn binomial_two_sided(k: usize, n: usize, p: f64) -> f64 {
+    use statrs::distribution::{Binomial, Discrete, DiscreteCDF};
+    let Ok(b) = Binomial::new(p, n as u64) else {
+        return f64::NAN;
+    };
+    let k = k as u64;
+    let lower = b.cdf(k);
+    let upper = 1.0 - b.cdf(k) + b.pmf(k);
+    (2.0 * lower.min(upper)).min(1.0)
+}

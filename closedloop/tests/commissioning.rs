@@ -1,0 +1,183 @@
+//! Commissioning: the intervals cover the values the truth implies at the rate they claim, a too-small
+//! experiment says so, and a bundle that does not fit the scenario is an error naming file and key.
+
+use millcomp_closedloop::commissioning::{
+    CommissioningPlan, CommissioningPlant, commission, coverage_study,
+};
+use millcomp_closedloop::groove::{groove_setup, groove_truth};
+use millcomp_models::{ModelFile, Provenance};
+use millcomp_sim::groove::GrooveConfig;
+use millcomp_sim::sensors::InstrumentErrors;
+
+use crate::common::scenario;
+
+/// Family-wise level of the coverage test: 1 % (the binomial test at 1 %), split over the
+/// parameters by Bonferroni so that the whole test, not each parameter, fails by chance 1 % of the time.
+const FAMILY_ALPHA: f64 = 0.01;
+
+#[test]
+fn intervals_cover_the_pseudo_true_values_at_95_percent_over_200_seeds() {
+    // the 20° thesis plant with the §6.2 tool (8 µm wearland), sensor noise as in the shipped scenarios
+    let truth = GrooveConfig::thesis(20.0, 8.0).unwrap();
+    let rows = coverage_study(
+        &truth,
+        "S7",
+        0.04,
+        0.01,
+        &CommissioningPlan::default(),
+        1..201,
+        || {},
+    )
+    .unwrap();
+    // force (2), spindle (6 with the selected structure), stiffness (2 stiffnesses + 2 offsets)
+    assert!(rows.len() >= 10, "{rows:?}");
+    let per_parameter = FAMILY_ALPHA / rows.len() as f64;
+    for r in &rows {
+        assert_eq!(r.n, 200, "{r:?}");
+        assert!(
+            r.p_value >= per_parameter,
+            "{}: {}/{} covered, p = {:.2e} < {per_parameter:.1e}",
+            r.parameter,
+            r.covered,
+            r.n,
+            r.p_value
+        );
+        // a standard normal |z| has median 0.674: the standard errors are neither optimistic nor inflated
+        assert!(
+            (0.45..1.0).contains(&r.median_abs_z),
+            "{}: median |z| {}",
+            r.parameter,
+            r.median_abs_z
+        );
+    }
+}
+
+#[test]
+fn the_force_fit_sees_the_truth_through_the_sensor_gain() {
+    // pseudo-true W scales with the sensor gain: a 3 % high gain reads 3 % more force
+    let truth = GrooveConfig::thesis(20.0, 8.0).unwrap();
+    let plan = CommissioningPlan::default();
+    let w = |gain: f64| {
+        let plant = CommissioningPlant {
+            truth: &truth,
+            instruments: InstrumentErrors {
+                force_gain: gain,
+                ..InstrumentErrors::default()
+            },
+            force_noise_n: 0.04,
+            gauge_noise_um: 0.01,
+            material: "S7",
+        };
+        commission(&plant, &plan, 3).unwrap().pseudo_true["force.w_mpa"]
+    };
+    let ratio = w(1.03) / w(1.0);
+    assert!((ratio - 1.03).abs() < 0.005, "ratio {ratio}");
+}
+
+#[test]
+fn a_too_small_force_experiment_produces_identification_warnings() {
+    // one condition cut for one revolution, 8 samples, four force parameters free: the trace shape still
+    // separates them (condition number ≈ 27) but W comes out ±5 % (1σ) — the bundle must say the
+    // experiment is too small rather than hand the controllers a model it cannot vouch for
+    let truth = GrooveConfig::thesis(20.0, 8.0).unwrap();
+    let plant = CommissioningPlant {
+        truth: &truth,
+        instruments: InstrumentErrors::default(),
+        force_noise_n: 0.04,
+        gauge_noise_um: 0.01,
+        material: "S7",
+    };
+    let plan = CommissioningPlan {
+        force_depths_um: vec![50.0],
+        force_upfeeds_um: vec![10.0],
+        replicates: 1,
+        revolutions: 1,
+        samples_per_rev: 8,
+        force_free: ["w_mpa", "mu_rake", "mu_flank", "wearland_um"]
+            .map(String::from)
+            .to_vec(),
+        ..CommissioningPlan::default()
+    };
+    let c = commission(&plant, &plan, 1).unwrap();
+    let force_warnings: Vec<_> = c
+        .bundle
+        .warnings
+        .iter()
+        .filter(|w| w.starts_with("force:") && w.contains("too small"))
+        .collect();
+    assert!(
+        !force_warnings.is_empty(),
+        "no warning for a one-condition force calibration: {:?}",
+        c.bundle.warnings
+    );
+}
+
+fn bundle_file(dir: &std::path::Path, edit: impl FnOnce(&mut toml::Table)) -> std::path::PathBuf {
+    let s = scenario("groove_s7_20deg_commissioned.toml");
+    let truth = groove_truth(&s).unwrap();
+    let plant = CommissioningPlant {
+        truth: &truth,
+        instruments: truth.instruments,
+        force_noise_n: 0.04,
+        gauge_noise_um: 0.01,
+        material: "S7",
+    };
+    let c = commission(&plant, &CommissioningPlan::default(), 5).unwrap();
+    let path = dir.join("bundle.toml");
+    ModelFile::new("bundle", c.bundle, Provenance::now("test", "test"))
+        .save(&path)
+        .unwrap();
+    let mut t: toml::Table = std::fs::read_to_string(&path).unwrap().parse().unwrap();
+    edit(&mut t);
+    std::fs::write(&path, toml::to_string(&t).unwrap()).unwrap();
+    path
+}
+
+fn setup_error(bundle: &std::path::Path) -> String {
+    let mut s = scenario("groove_s7_20deg_commissioned.toml");
+    s.control.commission = false;
+    s.control.bundle = Some(bundle.display().to_string());
+    match groove_setup(&s) {
+        Ok(_) => "no error".into(),
+        Err(e) => millcomp_closedloop::error_chain(&e),
+    }
+}
+
+#[test]
+fn a_scenario_runs_on_a_saved_bundle_and_bad_bundles_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = bundle_file(dir.path(), |_| {});
+    assert_eq!(setup_error(&good), "no error");
+
+    let missing = bundle_file(dir.path(), |t| {
+        t["model"].as_table_mut().unwrap().remove("spindle");
+    });
+    let e = setup_error(&missing);
+    assert!(
+        e.contains("model.spindle") && e.contains("bundle.toml"),
+        "{e}"
+    );
+
+    let version = bundle_file(dir.path(), |t| {
+        t["header"]["version"] = toml::Value::Integer(99);
+    });
+    let e = setup_error(&version);
+    assert!(e.contains("version") && e.contains("bundle.toml"), "{e}");
+
+    let material = bundle_file(dir.path(), |t| {
+        t["model"]["material"] = toml::Value::String("6061".into());
+    });
+    let e = setup_error(&material);
+    assert!(
+        e.contains("model.material") && e.contains("6061") && e.contains("bundle.toml"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_bundle_with_its_own_models_named_too_is_refused() {
+    let mut s = scenario("groove_s7_20deg_commissioned.toml");
+    s.control.force_model = Some("force.toml".into());
+    let e = s.validate().unwrap_err().to_string();
+    assert!(e.contains("control.force_model"), "{e}");
+}

@@ -1,0 +1,96 @@
+//! `millcomp commission SCENARIO`: the scenario's machine commissioned through its instruments (force
+//! calibration DOE, spindle step test, load–deflection test), written as one model bundle; or, with
+//! `--coverage N`, the coverage study of the intervals over N seeds.
+
+use std::io::IsTerminal;
+
+use anyhow::{Context, bail};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use millcomp_closedloop::Scenario;
+use millcomp_closedloop::commissioning::{CommissioningPlant, commission, coverage_study};
+use millcomp_closedloop::groove::groove_truth;
+use millcomp_closedloop::scenario::StageKind;
+use millcomp_models::{InputFile, ModelFile};
+use serde_json::json;
+
+use crate::cli::CommissionArgs;
+use crate::cmd::{print_json, provenance};
+use crate::present::commission::{commissioning_text, coverage_text};
+
+pub fn run(args: CommissionArgs, json: bool) -> anyhow::Result<()> {
+    let s = Scenario::load(&args.scenario)?;
+    if s.stage != StageKind::Groove {
+        bail!(
+            "{}: stage: commissioning is implemented for groove scenarios (the thin wall is not commissioned yet)",
+            args.scenario.display()
+        );
+    }
+    let material = s
+        .groove
+        .as_ref()
+        .map(|g| g.material.clone())
+        .unwrap_or_default();
+    let truth = groove_truth(&s)?;
+    let seed = args.seed.unwrap_or(s.seed);
+    if let Some(n) = args.coverage {
+        if n == 0 {
+            bail!("--coverage: give at least 1 seed");
+        }
+        let bar = if !json && std::io::stderr().is_terminal() {
+            let b = ProgressBar::with_draw_target(Some(n), ProgressDrawTarget::stderr());
+            if let Ok(style) = ProgressStyle::with_template(
+                "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} commissionings (eta {eta})",
+            ) {
+                b.set_style(style);
+            }
+            b
+        } else {
+            ProgressBar::hidden()
+        };
+        let rows = coverage_study(
+            &truth,
+            &material,
+            s.truth.force_noise_n,
+            s.truth.gauge_noise_um,
+            &s.commissioning,
+            seed..seed + n,
+            || bar.inc(1),
+        )?;
+        bar.finish_and_clear();
+        if json {
+            return print_json(
+                &json!({ "scenario": s.name, "seeds": [seed, seed + n - 1], "coverage": rows }),
+            );
+        }
+        print!("{}", coverage_text(&s.name, seed, n, &rows));
+        return Ok(());
+    }
+    let plant = CommissioningPlant {
+        truth: &truth,
+        instruments: truth.instruments,
+        force_noise_n: s.truth.force_noise_n,
+        gauge_noise_um: s.truth.gauge_noise_um,
+        material: &material,
+    };
+    let c = commission(&plant, &s.commissioning, seed)?;
+    if let Some(out) = &args.out {
+        let inputs = vec![InputFile::from_path(&args.scenario)?];
+        ModelFile::new("bundle", c.bundle.clone(), provenance(inputs))
+            .save(out)
+            .with_context(|| format!("writing {}", out.display()))?;
+    }
+    if json {
+        return print_json(&json!({
+            "scenario": s.name,
+            "seed": seed,
+            "bundle": c.bundle,
+            "spindle_bic": c.spindle_bic,
+            "out": args.out.as_ref().map(|p| p.display().to_string()),
+        }));
+    }
+    print!("{}", commissioning_text(&s.name, seed, &c));
+    if let Some(out) = &args.out {
+        println!("written: {}", out.display());
+    }
+    Ok(())
+}
