@@ -4,6 +4,7 @@
 mod common;
 
 mod batch;
+mod commission;
 mod datasets;
 mod demo;
 mod diagnose;
