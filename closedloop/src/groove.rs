@@ -15,7 +15,7 @@ use millcomp_sim::stiffness::TiltedToolStiffness;
 
 use millcomp_mpc::groove::{
     DeflectionPlan, GrooveController, GrooveMpcSettings, MpcGrooveController, NoneController,
-    OpenLoopController, PidController,
+    OpenLoopController, PidController, TunedPidController,
 };
 use millcomp_mpc::pid::{AntiWindup, PidGains};
 use millcomp_mpc::predictor::ForcePredictor;
@@ -331,6 +331,21 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Close
                 v_max,
                 dt,
             )?)
+        }
+        ControllerKind::PidTuned => {
+            let c = TunedPidController::new(
+                &t.program,
+                &setup.model_spindle,
+                &setup.model_stiffness,
+                v_max,
+                dt,
+            )?;
+            let d = c.design();
+            notes.push(format!(
+                "pid-tuned: kp {:.3} V/um, ki {:.1} V/(um s) (Ms {:.2}, crossover {:.0} rad/s) on the controllers' spindle model",
+                d.kp_v_per_um, d.ki_v_per_um_s, d.ms, d.crossover_rad_s
+            ));
+            Box::new(c)
         }
         ControllerKind::Threshold => {
             return Err(ClosedLoopError::InvalidConfig {

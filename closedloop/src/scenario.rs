@@ -37,6 +37,11 @@ pub enum ControllerKind {
     /// The root-locus design PID (P 844, I 130 820, D 0.4), no anti-windup.
     #[serde(rename = "pid-design")]
     PidDesign,
+    /// The strongest feedback PI a control engineer would build today: the MPC's signal chain, gains from
+    /// a fixed rule on the controllers' spindle model (largest integral gain with Ms ≤ 1.6,
+    /// `millcomp_mpc::tuning`), conditional-integration anti-windup.
+    #[serde(rename = "pid-tuned")]
+    PidTuned,
     /// Thin-wall iterative compensation with a 0.5 µm threshold (`004_…txt` §3.2).
     #[serde(rename = "threshold")]
     Threshold,
@@ -46,24 +51,26 @@ pub enum ControllerKind {
 }
 
 /// All controller names, in CLI order.
-pub const CONTROLLER_NAMES: [&str; 7] = [
+pub const CONTROLLER_NAMES: [&str; 8] = [
     "none",
     "open-loop",
     "pid",
     "pid-aw",
     "pid-design",
+    "pid-tuned",
     "threshold",
     "mpc",
 ];
 
 impl ControllerKind {
     /// All kinds, in [`CONTROLLER_NAMES`] order.
-    pub const ALL: [ControllerKind; 7] = [
+    pub const ALL: [ControllerKind; 8] = [
         ControllerKind::None,
         ControllerKind::OpenLoop,
         ControllerKind::Pid,
         ControllerKind::PidAntiWindup,
         ControllerKind::PidDesign,
+        ControllerKind::PidTuned,
         ControllerKind::Threshold,
         ControllerKind::Mpc,
     ];

@@ -63,7 +63,7 @@ fn thin_wall_controller(
         ControllerKind::Threshold => Box::new(ThresholdController::new(plan.clone())),
         ControllerKind::Pid => Box::new(PiController::new(plan.clone())),
         ControllerKind::Mpc => Box::new(MpcThinWallController::new(plan.clone(), horizon)?),
-        ControllerKind::PidAntiWindup | ControllerKind::PidDesign => {
+        ControllerKind::PidAntiWindup | ControllerKind::PidDesign | ControllerKind::PidTuned => {
             return Err(thin_wall_refuses(kind));
         }
     })
@@ -86,7 +86,7 @@ pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Cl
         .ok_or_else(|| invalid("thin_wall", "missing", "a [thin_wall] table"))?;
     if matches!(
         kind,
-        ControllerKind::PidAntiWindup | ControllerKind::PidDesign
+        ControllerKind::PidAntiWindup | ControllerKind::PidDesign | ControllerKind::PidTuned
     ) {
         return Err(thin_wall_refuses(kind));
     }

@@ -288,6 +288,79 @@ impl GrooveController for PidController {
     }
 }
 
+/// `pid-tuned`: the strongest feedback PID a control engineer would build today on the commissioned plant,
+/// reading exactly what the MPC reads — force through the [`MPC_FORCE_PREFILTER_HZ`] low-pass and the
+/// one-revolution sliding peak, times the controllers' tip compliance = wanted tip; the raw gauge — with
+/// PI gains from the fixed rule of [`crate::tuning`] (largest integral gain with `Ms ≤ 1.6` on the
+/// controllers' spindle model) and conditional-integration anti-windup, at the stage rate.
+#[derive(Debug, Clone)]
+pub struct TunedPidController {
+    force_lp: Biquad,
+    peak: SlidingMax,
+    pid: Pid,
+    tip_per_n: f64,
+    design: crate::tuning::PiDesign,
+}
+
+impl TunedPidController {
+    /// The controller for the program's speed and tilt, designed on `model_spindle`, output
+    /// 0–`voltage_max_v`, at `dt_s`.
+    ///
+    /// # Errors
+    /// Those of [`crate::tuning::pi_max_sensitivity`]; [`MpcError::Sim`] for a pre-filter above Nyquist or
+    /// a tilt the stiffness cannot take.
+    pub fn new(
+        program: &GrooveProgram,
+        model_spindle: &PztSpindle,
+        model_stiffness: &TiltedToolStiffness,
+        voltage_max_v: f64,
+        dt_s: f64,
+    ) -> Result<Self, MpcError> {
+        let design = crate::tuning::pi_max_sensitivity(model_spindle, crate::tuning::MS_MAX, dt_s)?;
+        let steps_per_rev = (60.0 / program.speed_rpm / dt_s).round() as usize;
+        Ok(Self {
+            force_lp: Biquad::low_pass(
+                MPC_FORCE_PREFILTER_HZ,
+                std::f64::consts::FRAC_1_SQRT_2,
+                dt_s,
+            )?,
+            peak: SlidingMax::new(steps_per_rev.max(1)),
+            pid: Pid::new(
+                PidGains {
+                    p: design.kp_v_per_um,
+                    i: design.ki_v_per_um_s,
+                    d: 0.0,
+                },
+                AntiWindup::Clamping,
+                1.0,
+                0.0,
+                voltage_max_v,
+                dt_s,
+            ),
+            tip_per_n: model_stiffness.pzt_compliance_um_per_n(program.tilt_deg)?,
+            design,
+        })
+    }
+
+    /// The PI design in use.
+    pub fn design(&self) -> crate::tuning::PiDesign {
+        self.design
+    }
+}
+
+impl GrooveController for TunedPidController {
+    fn command(&mut self, last: Option<&GrooveMeasurement>, _: f64) -> f64 {
+        let Some(o) = last else { return 0.0 };
+        let fpk = self.peak.step(self.force_lp.step(o.force_meas_n));
+        let wanted_tip = if fpk.is_finite() {
+            fpk * self.tip_per_n
+        } else {
+            0.0
+        };
+        self.pid.step(wanted_tip - o.gauge_um)
+    }
+}
+
 /// How the groove MPC is set up: timing, horizon and amplifier limits (the control settings), an
 /// optional full configuration, and the sensors' noise levels its Kalman filter assumes.
 #[derive(Debug, Clone, PartialEq)]

@@ -61,6 +61,7 @@ pub mod replay;
 pub mod spindle_mpc;
 pub mod stats;
 pub mod thin_wall;
+pub mod tuning;
 
 pub use config::MpcConfig;
 pub use controller::{MpcController, MpcStep, PreviewWindow};
