@@ -7,6 +7,7 @@
 
 use std::time::Instant;
 
+use millcomp_sim::actuator::{BoucWenParams, LogCreepParams};
 use millcomp_sim::groove::{GrooveConfig, GrooveStage, GrooveStepOutput};
 use millcomp_sim::material::Material;
 use millcomp_sim::sensors::{InstrumentErrors, NoiseSpec};
@@ -96,6 +97,10 @@ pub fn groove_truth(s: &Scenario) -> Result<GrooveConfig, ClosedLoopError> {
         (None, true) => InstrumentErrors::draw(s.seed),
         (None, false) => InstrumentErrors::default(),
     };
+    if s.truth.pzt_nonlinear {
+        truth.spindle.hysteresis = Some(BoucWenParams::DEFAULT);
+        truth.spindle.creep = Some(LogCreepParams::DEFAULT);
+    }
     truth.validate()?;
     if let Some(target) = g.calibrate_uncompensated_um {
         // the static deflection is proportional to the force scale up to the small depth feedback:

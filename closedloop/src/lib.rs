@@ -38,6 +38,7 @@
 pub mod batch;
 pub mod calibration;
 pub mod commissioning;
+pub mod compare;
 pub mod error;
 pub mod faults;
 pub mod groove;

@@ -264,6 +264,10 @@ pub struct TruthSpec {
     /// (`InstrumentErrors::draw`); ignored when `instruments` is given.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub draw_instruments: bool,
+    /// Give the truth's PZT stack its hysteresis (Bouc–Wen, 12 % of the stroke over a full cycle) and
+    /// creep (1.5 % per decade) — `millcomp_sim::actuator`; linear when false.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub pzt_nonlinear: bool,
 }
 
 fn default_force_error_max() -> f64 {
@@ -287,6 +291,7 @@ impl Default for TruthSpec {
             gauge_noise_um: default_gauge_noise(),
             instruments: None,
             draw_instruments: false,
+            pzt_nonlinear: false,
         }
     }
 }

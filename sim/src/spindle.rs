@@ -30,6 +30,7 @@
 use nalgebra::DVector;
 use serde::{Deserialize, Serialize};
 
+use crate::actuator::{BoucWen, BoucWenParams, LogCreep, LogCreepParams};
 use crate::error::{SimError, check_nonneg, check_positive, check_range};
 use crate::lti::{ContinuousLti, DiscreteLti};
 
@@ -69,6 +70,13 @@ pub struct PztSpindle {
     pub force_coupling_n_per_um: f64,
     /// Controller-output-to-volts scale: `volts = loop_v_per_unit · u` (see module docs).
     pub loop_v_per_unit: f64,
+    /// Rate-independent hysteresis of the stack on the drive voltage ([`crate::actuator::BoucWen`]);
+    /// none in a linear model.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hysteresis: Option<BoucWenParams>,
+    /// Creep of the stack after a voltage change ([`crate::actuator::LogCreep`]); none in a linear model.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub creep: Option<LogCreepParams>,
 }
 
 impl Default for PztSpindle {
@@ -99,6 +107,8 @@ impl PztSpindle {
             actuator_stroke_um: 20.0,
             force_coupling_n_per_um: 0.44,
             loop_v_per_unit: crate::spindle_figures::FITTED.loop_v_per_unit,
+            hysteresis: None,
+            creep: None,
         };
         s.validate()?;
         Ok(s)
@@ -118,6 +128,12 @@ impl PztSpindle {
         check_positive("voltage_max_v", self.voltage_max_v)?;
         check_positive("actuator_stroke_um", self.actuator_stroke_um)?;
         check_nonneg("force_coupling_n_per_um", self.force_coupling_n_per_um)?;
+        if let Some(h) = &self.hysteresis {
+            h.validate()?;
+        }
+        if let Some(c) = &self.creep {
+            c.validate()?;
+        }
         check_positive("loop_v_per_unit", self.loop_v_per_unit)?;
         Ok(())
     }
@@ -175,6 +191,16 @@ impl PztSpindle {
             voltage_max_v: self.voltage_max_v,
             last_v: 0.0,
             force_coupling_n_per_um: self.force_coupling_n_per_um,
+            hysteresis: self
+                .hysteresis
+                .map(|p| BoucWen::new(p, self.voltage_max_v))
+                .transpose()?,
+            creep: self.creep.map(|p| LogCreep::new(p, dt_s)).transpose()?,
+            at_rest: (None, None),
+        })
+        .map(|mut d: DiscretePztSpindle| {
+            d.at_rest = (d.hysteresis.clone(), d.creep.clone());
+            d
         })
     }
 }
@@ -204,6 +230,10 @@ pub struct DiscretePztSpindle {
     voltage_max_v: f64,
     last_v: f64,
     force_coupling_n_per_um: f64,
+    hysteresis: Option<BoucWen>,
+    creep: Option<LogCreep>,
+    /// The nonlinear elements at rest, for [`DiscretePztSpindle::reset`].
+    at_rest: (Option<BoucWen>, Option<LogCreep>),
 }
 
 /// One step of the spindle.
@@ -229,6 +259,8 @@ impl DiscretePztSpindle {
         self.delay.iter_mut().for_each(|v| *v = 0.0);
         self.delay_pos = 0;
         self.last_v = 0.0;
+        self.hysteresis = self.at_rest.0.clone();
+        self.creep = self.at_rest.1.clone();
     }
 
     /// Current tool-tip displacement (µm) without advancing (the output for zero feed-through).
@@ -250,11 +282,19 @@ impl DiscretePztSpindle {
             self.last_v
         };
         self.last_v = v;
+        // the stack's nonlinearity acts on the drive voltage before its linear dynamics (Hammerstein)
+        let mut v_stack = v;
+        if let Some(h) = &mut self.hysteresis {
+            v_stack = h.step(v_stack);
+        }
+        if let Some(c) = &mut self.creep {
+            v_stack = c.step(v_stack);
+        }
         let u = if self.delay.is_empty() {
-            v
+            v_stack
         } else {
             let out = self.delay[self.delay_pos];
-            self.delay[self.delay_pos] = v;
+            self.delay[self.delay_pos] = v_stack;
             self.delay_pos = (self.delay_pos + 1) % self.delay.len();
             out
         };
@@ -271,6 +311,42 @@ impl DiscretePztSpindle {
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
+
+    #[test]
+    fn a_stack_with_hysteresis_opens_a_loop_of_its_documented_width_at_the_tip() {
+        // a slow (2 s) 0 → 1000 V → 0 triangle: the linear dynamics are quasi-static, so the widest gap
+        // between the rising and the falling branch at the tip is the hysteresis loop itself
+        let mut s = PztSpindle::default();
+        s.hysteresis = Some(BoucWenParams::DEFAULT);
+        let dt = 1e-4;
+        let mut d = s.discretize(dt).unwrap();
+        let n = 10_000;
+        let mut up = vec![0.0; n + 1];
+        for (k, u) in up.iter_mut().enumerate() {
+            *u = d.step(1000.0 * k as f64 / n as f64).tip_um;
+        }
+        let mut width: f64 = 0.0;
+        for k in (0..=n).rev() {
+            let down = d.step(1000.0 * k as f64 / n as f64).tip_um;
+            width = width.max(down - up[k]);
+        }
+        let stroke = s.gain_um_per_v * 1000.0;
+        let pct = 100.0 * width / stroke;
+        assert!(
+            (pct - crate::actuator::BoucWen::DEFAULT_WIDTH_PCT).abs() < 1.0,
+            "loop width {pct} % of the stroke"
+        );
+        // and a linear stack has none
+        let mut lin = PztSpindle::default().discretize(dt).unwrap();
+        let a: Vec<f64> = (0..=n)
+            .map(|k| lin.step(1000.0 * k as f64 / n as f64).tip_um)
+            .collect();
+        let b = (0..=n)
+            .rev()
+            .map(|k| lin.step(1000.0 * k as f64 / n as f64).tip_um);
+        let lin_width = b.zip(a.iter().rev()).fold(0.0f64, |m, (d, u)| m.max(d - u));
+        assert!(lin_width < 0.02 * stroke, "{lin_width}");
+    }
 
     #[test]
     fn dc_gain_and_stroke() {

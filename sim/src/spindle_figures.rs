@@ -86,6 +86,8 @@ impl FittedSpindle {
             actuator_stroke_um: 20.0,
             force_coupling_n_per_um: 0.44,
             loop_v_per_unit: self.loop_v_per_unit,
+            hysteresis: None,
+            creep: None,
         }
     }
 }

@@ -1,0 +1,200 @@
+//! Controllers compared over scenarios and seeds: every (scenario, seed) run with every controller, the
+//! metrics summarised as medians with distribution-free 95 % intervals (order statistics of the binomial,
+//! no normality assumed).
+//!
+//! A *seed* replaces the scenario's `seed`: the sensor noise, the instrument draw
+//! (`truth.draw_instruments`), the force-model errors of the uncommissioned scenarios and, for
+//! commissioned ones, the commissioning's own noise. All controllers of one (scenario, seed) see the same
+//! truth, the same noise and — commissioned — the same bundle.
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::error::ClosedLoopError;
+use crate::report::RunReport;
+use crate::runner::run_scenario;
+use crate::scenario::{ControllerKind, Scenario, StageKind};
+
+/// One metric of one controller on one scenario, over the seeds.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CompareRow {
+    /// Scenario name.
+    pub scenario: String,
+    /// Metric (`pp_error_um`, `change_peak_um`, `wall_<nominal>um_error_pct`).
+    pub metric: String,
+    /// Controller name.
+    pub controller: String,
+    /// Seeds run.
+    pub n: usize,
+    /// Median over the seeds.
+    pub median: f64,
+    /// Distribution-free interval of the median (coverage ≥ 95 %; NaN below 6 seeds).
+    pub ci95: [f64; 2],
+}
+
+/// The metrics of one run that the comparison reports.
+pub fn metrics_of(s: &Scenario, r: &RunReport) -> Vec<(String, f64)> {
+    match s.stage {
+        StageKind::Groove => {
+            let mut m = vec![("pp_error_um".to_string(), r.metrics.pp_error_um)];
+            if let Some(p) = r.process_change_peak_um {
+                m.push(("change_peak_um".to_string(), p));
+            }
+            m
+        }
+        StageKind::ThinWall => {
+            let nominal = s
+                .thin_wall
+                .as_ref()
+                .map(|t| t.walls_um.clone())
+                .unwrap_or_default();
+            r.metrics
+                .thickness_error_pct
+                .clone()
+                .unwrap_or_default()
+                .into_iter()
+                .enumerate()
+                .map(|(i, e)| {
+                    let w = nominal.get(i).copied().unwrap_or(f64::NAN);
+                    (format!("wall_{w}um_error_pct"), e)
+                })
+                .collect()
+        }
+    }
+}
+
+/// The order-statistic interval of the median of `sorted` (ascending): ranks `k` and `n + 1 − k` with the
+/// largest `k` such that `P(Bin(n, ½) < k) ≤ 2.5 %`; NaN when no such `k ≥ 1` exists (n < 6).
+///
+/// # Examples
+/// ```
+/// use millcomp_closedloop::compare::median_ci95;
+/// let x: Vec<f64> = (1..=10).map(f64::from).collect();
+/// // n = 10: ranks 2 and 9 (coverage 97.9 %)
+/// assert_eq!(median_ci95(&x), [2.0, 9.0]);
+/// assert!(median_ci95(&x[..5])[0].is_nan());
+/// ```
+pub fn median_ci95(sorted: &[f64]) -> [f64; 2] {
+    let n = sorted.len();
+    // P(Bin(n, ½) ≤ j) by summing the probabilities
+    let mut cdf = 0.0;
+    let mut choose = 1.0f64; // C(n, j)
+    let mut k = 0usize;
+    for j in 0..n {
+        cdf += choose * 0.5f64.powi(n as i32);
+        if cdf <= 0.025 {
+            k = j + 1; // P(X ≤ j) = P(X < j + 1) ≤ 2.5 %: rank j + 1 is admissible
+        } else {
+            break;
+        }
+        choose *= (n - j) as f64 / (j + 1) as f64;
+    }
+    if k == 0 {
+        return [f64::NAN, f64::NAN];
+    }
+    [sorted[k - 1], sorted[n - k]]
+}
+
+fn median(sorted: &[f64]) -> f64 {
+    let n = sorted.len();
+    if n == 0 {
+        return f64::NAN;
+    }
+    if n % 2 == 1 {
+        sorted[n / 2]
+    } else {
+        0.5 * (sorted[n / 2 - 1] + sorted[n / 2])
+    }
+}
+
+/// Run every scenario with every controller its stage has, for each seed of `seeds`, in parallel
+/// (rayon); `progress` is called after each run.
+///
+/// # Errors
+/// The first run error (scenario validation, model files, construction), naming the scenario, seed and
+/// controller.
+pub fn compare(
+    scenarios: &[Scenario],
+    controllers: &[ControllerKind],
+    seeds: std::ops::Range<u64>,
+    progress: &(dyn Fn() + Sync),
+) -> Result<Vec<CompareRow>, ClosedLoopError> {
+    let mut jobs = Vec::new();
+    for (i, s) in scenarios.iter().enumerate() {
+        for seed in seeds.clone() {
+            for &c in controllers {
+                if runs_on(s.stage, c) {
+                    jobs.push((i, seed, c));
+                }
+            }
+        }
+    }
+    let results: Vec<Result<(usize, ControllerKind, Vec<(String, f64)>), ClosedLoopError>> = jobs
+        .par_iter()
+        .map(|&(i, seed, c)| {
+            let mut s = scenarios[i].clone();
+            s.seed = seed;
+            let r = run_scenario(&s, c).map_err(|e| ClosedLoopError::InvalidConfig {
+                key: format!("{} (seed {seed}, controller {c})", s.name),
+                value: "run".into(),
+                allowed: crate::error::error_chain(&e),
+            })?;
+            progress();
+            Ok((i, c, metrics_of(&s, &r)))
+        })
+        .collect();
+    let mut values: std::collections::BTreeMap<(usize, String, usize), Vec<f64>> =
+        Default::default();
+    for r in results {
+        let (i, c, metrics) = r?;
+        let ci = controllers.iter().position(|k| *k == c).unwrap_or(0);
+        for (m, v) in metrics {
+            values.entry((i, m, ci)).or_default().push(v);
+        }
+    }
+    Ok(values
+        .into_iter()
+        .map(|((i, metric, ci), mut v)| {
+            v.sort_by(f64::total_cmp);
+            CompareRow {
+                scenario: scenarios[i].name.clone(),
+                metric,
+                controller: controllers[ci].name().to_string(),
+                n: v.len(),
+                median: median(&v),
+                ci95: median_ci95(&v),
+            }
+        })
+        .collect())
+}
+
+/// Whether a stage has a controller.
+pub fn runs_on(stage: StageKind, c: ControllerKind) -> bool {
+    match stage {
+        StageKind::Groove => c != ControllerKind::Threshold,
+        StageKind::ThinWall => matches!(
+            c,
+            ControllerKind::None
+                | ControllerKind::OpenLoop
+                | ControllerKind::Pid
+                | ControllerKind::Threshold
+                | ControllerKind::Mpc
+        ),
+    }
+}
+
+/// A scenario turned into its commissioned form: instrument errors drawn from the seed, a PZT stack with
+/// hysteresis and creep, the controllers built from a commissioning of the truth (the models it named, if
+/// any, dropped). Thin walls are returned unchanged (not commissioned yet).
+pub fn commissioned(s: &Scenario) -> Scenario {
+    let mut s = s.clone();
+    if s.stage == StageKind::Groove {
+        s.truth.draw_instruments = true;
+        s.truth.pzt_nonlinear = true;
+        s.control.commission = true;
+        s.control.bundle = None;
+        s.control.spindle_model = None;
+        s.control.force_model = None;
+    }
+    s
+}
