@@ -43,7 +43,7 @@
 //! problem), so the F reference with q = the candidate's free-parameter count is approximate; the
 //! false-alarm rate over clean seeded sessions is measured in `tests/sweeps.rs` (report).
 //!
-//! # Example
+//! # Examples
 //! ```
 //! use millcomp_diagnose::{DiagnoseOptions, Measured, diagnose};
 //! // the committed `probe_tilt_offset` synthetic session, regenerated in memory
@@ -94,14 +94,23 @@ pub use structure::StructureItem;
 /// model is then simulated once).
 ///
 /// # Errors
-/// [`DiagnoseError::InvalidOption`] for `alpha` outside (0, 1); [`DiagnoseError::UnknownCandidate`]
-/// for a candidate name that is not registered; [`DiagnoseError::Session`] when sim cannot evaluate
-/// the session; [`DiagnoseError::InvalidPoints`] / [`DiagnoseError::NonFinite`] when the measured
-/// points or force rows are not a measurement; [`DiagnoseError::SessionMismatch`] when they are not
-/// this session's plan. A candidate that cannot be tested or fitted is not an error: it is listed in
-/// [`DiagnoseReport::skipped`] or [`DiagnoseReport::notes`].
+/// * [`DiagnoseError::InvalidOption`] for `alpha` outside (0, 1);
+/// * [`DiagnoseError::UnknownCandidate`] for a name in `opts.candidates` that is not registered;
+/// * [`DiagnoseError::Session`] when sim cannot evaluate the session (its plan or effects, or —
+///   with a force trace — its force model at the measured conditions);
+/// * [`DiagnoseError::InvalidPoints`] when the measured points are not a measurement (a
+///   non-finite value, `coolant_on` not 0/1, time going backwards in a groove), and
+///   [`DiagnoseError::NonFinite`] for a NaN or infinite force-trace value;
+/// * [`DiagnoseError::SessionMismatch`] when the points or the force rows are not this session's
+///   plan point by point (row, column and both values named);
+/// * [`DiagnoseError::NominalOffset`] when [`DiagnoseOptions::free_offset`] is set and the offset
+///   cannot be fitted.
 ///
-/// # Example
+/// A candidate that cannot be tested or fitted is not an error: it is listed in
+/// [`DiagnoseReport::skipped`] or [`DiagnoseReport::notes`]. ([`DiagnoseError::BadCandidate`]
+/// comes only from a custom registry, [`Diagnoser::with_registry`].)
+///
+/// # Examples
 /// ```
 /// use millcomp_diagnose::{DiagnoseError, DiagnoseOptions, Measured, diagnose};
 /// let case = millcomp_synthetic::cases()

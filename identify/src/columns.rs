@@ -42,6 +42,10 @@ pub enum Target {
 
 impl FromStr for Target {
     type Err = IdentifyError;
+    /// Parses `spindle`, `stiffness`, `force`, `thermal` or `wall`.
+    ///
+    /// # Errors
+    /// [`IdentifyError::UnknownTarget`] for any other name.
     fn from_str(s: &str) -> Result<Self> {
         Ok(match s {
             "spindle" => Target::Spindle,
@@ -150,7 +154,30 @@ impl<'a> Picker<'a> {
     }
 }
 
-/// Runs target `target` on named columns (see the module table for the names).
+/// Runs target `target` on named columns (see the module table for the names). Columns the target
+/// does not read are listed in [`Identified::notes`].
+///
+/// # Errors
+/// [`IdentifyError::MissingColumn`] naming a required column that is absent;
+/// [`IdentifyError::Physics`] when `opts.material` is not a material sim knows (force target);
+/// otherwise the errors of the target's function ([`identify_spindle`], [`identify_stiffness`],
+/// [`identify_force`], [`identify_thermal`], [`identify_wall`]).
+///
+/// # Examples
+/// ```
+/// use millcomp_identify::{Columns, IdentifyError, IdentifyOptions, Target, identify_columns};
+/// let mut cols = Columns::new();
+/// cols.insert("load_n", (1..=10).map(|i| i as f64).collect());
+/// cols.insert("deflection_um", (1..=10).map(|i| i as f64 / 0.114 + if i % 2 == 0 { 0.01 } else { -0.01 }).collect());
+/// cols.insert("temp_c", vec![20.0; 10]);
+/// let target: Target = "stiffness".parse().unwrap();
+/// let fit = identify_columns(target, &cols, &IdentifyOptions::default()).unwrap();
+/// assert!((fit.report.param("stiffness_n_per_um") - 0.114).abs() < 1e-4);
+/// assert_eq!(fit.notes, vec!["column `temp_c` is not used by `identify stiffness` and was ignored"]);
+/// // the wall target reads `force_n`, which these columns do not have
+/// let e = identify_columns(Target::Wall, &cols, &IdentifyOptions::default()).unwrap_err();
+/// assert!(matches!(&e, IdentifyError::MissingColumn { column, .. } if column == "force_n"));
+/// ```
 pub fn identify_columns(
     target: Target,
     cols: &Columns,

@@ -38,19 +38,41 @@ pub struct LinearFit {
 /// * `y` — n observations (unit `unit`, used in the `rms_residual_<unit>` key);
 /// * `weights` — optional inverse variances (> 0), one per row.
 ///
-/// Errors on NaN (naming column and row), length mismatch, `n ≤ p`, non-positive weights.
+/// A rank-deficient design is not an error: the report's status is `rank_deficient` and a warning
+/// names the combination the data cannot see.
 ///
+/// # Errors
+/// * [`IdentifyError::InvalidParameter`] (`names.len()`) unless there is one name per design
+///   column, or (`weights[row]`) for a weight that is not > 0;
+/// * [`IdentifyError::LengthMismatch`] when `y` or `weights` does not have one value per design row;
+/// * [`IdentifyError::NonFinite`] naming the column (`y`, `weights` or the design column's name)
+///   and the row of the first NaN or infinite value;
+/// * [`IdentifyError::TooFewPoints`] unless there are more rows than columns;
+/// * [`IdentifyError::SolverState`] if the triangular solve of a full-rank QR fails (a broken
+///   invariant, not bad input).
+///
+/// # Examples
 /// ```
-/// use millcomp_identify::{fit_linear, LinearMethod};
+/// use millcomp_identify::{IdentifyError, LinearMethod, fit_linear};
 /// use nalgebra::DMatrix;
-/// // y = 2 + 3x exactly, plus a tiny alternating perturbation.
+/// // y = [1, 3, 2, 5, 4] at x = 0..4; by hand (Σx = 10, Σx² = 30, Sxx = 10): slope 0.8,
+/// // intercept 1.4, RSS 3.6, s² = 1.2, SE(slope) = √(1.2/10), SE(intercept) = √(1.2·30/(5·10))
 /// let x = [0.0, 1.0, 2.0, 3.0, 4.0];
-/// let y: Vec<f64> = x.iter().enumerate().map(|(i, x)| 2.0 + 3.0 * x + if i % 2 == 0 { 1e-3 } else { -1e-3 }).collect();
+/// let y = [1.0, 3.0, 2.0, 5.0, 4.0];
 /// let a = DMatrix::from_fn(5, 2, |i, j| if j == 0 { 1.0 } else { x[i] });
 /// let names = ["intercept".to_string(), "slope".to_string()];
 /// let fit = fit_linear(&names, &a, &y, None, LinearMethod::Qr, "line", "um").unwrap();
-/// assert!((fit.report.param("slope") - 3.0).abs() < 1e-3);
-/// assert_eq!(fit.report.rank, 2);
+/// let r = &fit.report;
+/// assert_eq!((r.rank, r.dof), (2, 3));
+/// assert!((r.param("slope") - 0.8).abs() < 1e-12 && (r.param("intercept") - 1.4).abs() < 1e-12);
+/// assert!((r.se("slope") - 0.12f64.sqrt()).abs() < 1e-12);
+/// assert!((r.se("intercept") - 0.72f64.sqrt()).abs() < 1e-12);
+/// // 95 % interval: ± t₀.₉₇₅(3)·SE, t₀.₉₇₅(3) = 3.1824463 (scipy.stats.t.ppf(0.975, 3))
+/// assert!((r.ci95["slope"][1] - (0.8 + 3.1824463 * 0.12f64.sqrt())).abs() < 1e-6);
+///
+/// // two rows cannot determine a line with an uncertainty
+/// let e = fit_linear(&names, &a.rows(0, 2).into_owned(), &y[..2], None, LinearMethod::Qr, "line", "um");
+/// assert!(matches!(e, Err(IdentifyError::TooFewPoints { got: 2, needed: 3, .. })));
 /// ```
 pub fn fit_linear(
     names: &[String],

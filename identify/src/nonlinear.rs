@@ -442,9 +442,24 @@ impl<M: ResidualModel> Solver<LsqProblem<M>, LsqState> for TrustRegionLsq {
 /// Fits `model` by bounded nonlinear least squares (see the module docs for the method).
 ///
 /// `kind` names the model in the report; `unit` is the data unit of the residuals (the
-/// `rms_residual_<unit>` key). Errors: bad bounds / start, `n ≤ p`, model not evaluable at the
-/// start. Non-convergence is a report with status `max_iter`.
+/// `rms_residual_<unit>` key). Non-convergence is not an error: it is a report with status
+/// `max_iter` and a warning.
 ///
+/// # Errors
+/// * [`IdentifyError::BadBounds`] for a parameter whose bounds are NaN, not `lower < upper`, or
+///   `lower = +∞` / `upper = −∞`;
+/// * [`IdentifyError::InitialOutsideBounds`] for a starting value that is not finite or not
+///   strictly inside its bounds;
+/// * [`IdentifyError::InvalidParameter`] for an option out of range: `ftol`, `xtol`,
+///   `initial_radius` not a finite positive number, `gtol` negative or not finite;
+/// * [`IdentifyError::ModelEvaluation`] when the model fails at the starting point, or its
+///   residuals or Jacobian fail at the estimate (the model's error is the source);
+/// * [`IdentifyError::NonFiniteResidual`] when a residual is NaN or infinite at the starting point;
+/// * [`IdentifyError::TooFewPoints`] unless there are more residuals than parameters;
+/// * [`IdentifyError::Solver`] / [`IdentifyError::SolverState`] when argmin fails internally or
+///   ends without a parameter vector.
+///
+/// # Examples
 /// ```
 /// use argmin::core::{Error, Jacobian, Operator};
 /// use millcomp_identify::{fit_nonlinear, NlsOptions, ParamSpec, ResidualModel};
@@ -468,11 +483,20 @@ impl<M: ResidualModel> Solver<LsqProblem<M>, LsqState> for TrustRegionLsq {
 /// }
 /// impl ResidualModel for Decay {}
 /// let t: Vec<f64> = (0..30).map(|i| i as f64 * 0.1).collect();
-/// let y = t.iter().enumerate().map(|(i, t)| 5.0 * (-1.5 * t).exp() + if i % 2 == 0 { 1e-4 } else { -1e-4 }).collect();
-/// let fit = fit_nonlinear(Decay { t, y }, &[ParamSpec::positive("a", 1.0), ParamSpec::positive("b", 0.5)],
+/// let y: Vec<f64> = t.iter().enumerate().map(|(i, t)| 5.0 * (-1.5 * t).exp() + if i % 2 == 0 { 1e-4 } else { -1e-4 }).collect();
+/// let fit = fit_nonlinear(Decay { t: t.clone(), y: y.clone() }, &[ParamSpec::positive("a", 1.0), ParamSpec::positive("b", 0.5)],
 ///                         &NlsOptions::default(), "decay", "um").unwrap();
 /// assert_eq!(fit.report.status, millcomp_identify::FitStatus::Converged);
 /// assert!((fit.report.param("b") - 1.5).abs() < 1e-3);
+/// // the ±1e-4 perturbation leaves a residual RMS of 1.0e-4 and moves a, b by less than 3e-5;
+/// // the standard errors (≈ 7e-5, 3e-5) cover that
+/// assert!((fit.report.rms_residual.value - 1.0e-4).abs() < 1e-6);
+/// assert!((fit.report.param("a") - 5.0).abs() < 3e-5 && (fit.report.param("b") - 1.5).abs() < 1e-5);
+/// assert!((fit.report.param("a") - 5.0).abs() < 2.0 * fit.report.se("a"));
+/// // a start on the bound (b ≥ 0) is refused before anything is evaluated
+/// let e = fit_nonlinear(Decay { t, y }, &[ParamSpec::positive("a", 1.0), ParamSpec::positive("b", 0.0)],
+///                       &NlsOptions::default(), "decay", "um").unwrap_err();
+/// assert!(matches!(e, millcomp_identify::IdentifyError::InitialOutsideBounds { .. }));
 /// ```
 pub fn fit_nonlinear<M: ResidualModel>(
     model: M,

@@ -700,6 +700,20 @@ impl Effect for FluteRunout {
 }
 
 /// An effect with its default (seed) parameters.
+///
+/// # Errors
+/// [`SimError::UnknownEffect`] for a name not in [`EFFECT_NAMES`] (the message lists them).
+///
+/// # Examples
+/// ```
+/// use millcomp_sim::SimError;
+/// use millcomp_sim::effects::{EffectContext, default_effect};
+/// // 002 §7.3–7.4: probe tip tilted 0.107°, reference tool Ø6 mm, finishing tool Ø1 mm:
+/// // Δl = (6 − 1)/2 · tan 0.107° = 4.67 µm, the same at every point
+/// let probe = default_effect("probe_tilt_offset").unwrap();
+/// assert!((probe.depth_offset_um(&EffectContext::default()) - 4.67).abs() < 0.005);
+/// assert!(matches!(default_effect("gremlins"), Err(SimError::UnknownEffect { .. })));
+/// ```
 pub fn default_effect(name: &str) -> Result<Box<dyn Effect>, SimError> {
     Ok(match name {
         "coolant_thermal_drift" => Box::new(CoolantThermalDrift::default()),
@@ -720,6 +734,32 @@ pub fn default_effect(name: &str) -> Result<Box<dyn Effect>, SimError> {
 
 /// Build an effect from a name and a parameter map (missing keys keep the seed defaults; unknown keys are
 /// errors naming the key).
+///
+/// # Errors
+/// [`SimError::UnknownEffect`] as [`default_effect`]; [`SimError::EffectParameter`] naming the
+/// parameter when a key is not one of the effect's parameters or a value is outside its range.
+///
+/// # Examples
+/// ```
+/// use std::collections::BTreeMap;
+/// use millcomp_sim::SimError;
+/// use millcomp_sim::effects::{EffectContext, effect_from_params};
+/// // coolant drift of +8.5 µm (002 §7.1) with τ = 900 s: 45 min = 3τ after the coolant is switched
+/// // on, 1 − e⁻³ = 95 % of it has appeared
+/// let params = BTreeMap::from([("amplitude_um".to_string(), 8.5)]);
+/// let drift = effect_from_params("coolant_thermal_drift", &params).unwrap();
+/// assert_eq!(drift.params(), vec![("amplitude_um", 8.5), ("time_constant_s", 900.0)]);
+/// let on = [(0.0, true)];
+/// let ctx = EffectContext { t_s: 2700.0, coolant_events: &on, ..Default::default() };
+/// assert!((drift.depth_offset_um(&ctx) - 8.5 * (1.0 - (-3.0f64).exp())).abs() < 1e-12);
+///
+/// let bad = BTreeMap::from([("tau_s".to_string(), 900.0)]);
+/// let e = effect_from_params("coolant_thermal_drift", &bad).unwrap_err();
+/// assert!(matches!(&e, SimError::EffectParameter { param, .. } if param == "tau_s"));
+/// let bad = BTreeMap::from([("time_constant_s".to_string(), 0.0)]);
+/// let e = effect_from_params("coolant_thermal_drift", &bad).unwrap_err();
+/// assert!(matches!(&e, SimError::EffectParameter { param, .. } if param == "time_constant_s"));
+/// ```
 pub fn effect_from_params(
     name: &str,
     params: &BTreeMap<String, f64>,

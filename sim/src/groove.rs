@@ -337,6 +337,10 @@ impl GrooveConfig {
     /// The thesis' groove: S7, 0–80 µm over 20 mm, 10 000 rpm, 10 µm/rev, tilt `tilt_deg`, long (4 mm shank)
     /// tool with wearland `wearland_um` (§6.2 simulation: 8 µm; the measured grooves of Fig. 7-9: 5 µm) and
     /// runout 10 µm, measured stiffness, force scale [`S7_GROOVE_FORCE_SCALE`].
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`]: `wearland_um` outside `[0, 400]` µm (the ball radius) or
+    /// `tilt_deg` outside `0 <= tilt_deg < 90`. Example in the crate documentation.
     pub fn thesis(tilt_deg: f64, wearland_um: f64) -> Result<Self, SimError> {
         let c = Self {
             force_model: BallEndForceModel::new(
@@ -360,6 +364,10 @@ impl GrooveConfig {
     }
 
     /// Validate everything (errors name the parameter).
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] from [`BallEndForceModel::validate`],
+    /// [`TiltedToolStiffness::validate`], [`PztSpindle::validate`] or [`GrooveProgram::validate`].
     pub fn validate(&self) -> Result<(), SimError> {
         self.force_model.validate()?;
         self.stiffness.validate()?;
@@ -400,6 +408,11 @@ impl GrooveConfig {
 
     /// Quasi-static (per-revolution peak) uncompensated z-deflection (µm) at programmed depth
     /// `depth_cmd_um`, solved self-consistently: `δ = Fz,peak(d_cmd − δ)/kz` by fixed-point iteration.
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`]: the program's `tilt_deg` outside `[0, 90)`, or cut
+    /// conditions the force model rejects ([`BallEndForceModel::check_conditions`]; the depth is
+    /// clamped to the ball, so only a bad speed or upfeed).
     pub fn static_deflection_um(&self, depth_cmd_um: f64) -> Result<f64, SimError> {
         let c = self
             .stiffness
@@ -478,6 +491,11 @@ pub struct GrooveStage {
 
 impl GrooveStage {
     /// Build a stage stepping at `dt_s`.
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] when [`GrooveConfig::validate`] fails, `dt_s` is not a finite
+    /// positive number, or a noise sigma is negative or not finite; [`SimError::Numerical`] when
+    /// the spindle's discretisation at `dt_s` is not finite.
     pub fn new(cfg: GrooveConfig, dt_s: f64) -> Result<Self, SimError> {
         cfg.validate()?;
         check_positive("dt_s", dt_s)?;

@@ -99,6 +99,23 @@ impl Material {
     }
 
     /// Look a material up by name (case-insensitive; `AISI1018`, `Al6061`, `brass` accepted as aliases).
+    ///
+    /// # Errors
+    /// [`SimError::Session`] with key `material.name` for a name that is neither one of
+    /// [`MATERIAL_NAMES`] nor an alias; the message lists the allowed names.
+    ///
+    /// # Examples
+    /// ```
+    /// use millcomp_sim::SimError;
+    /// use millcomp_sim::material::Material;
+    /// // 000 Table 4-1: modeled parameter W and elastic modulus E of 6061
+    /// let al = Material::by_name("al6061").unwrap();
+    /// assert_eq!((al.name.as_str(), al.w_mpa, al.e_gpa), ("6061", 2500.0, 70.0));
+    /// // flow stress σs = W/3 (Arcona's assumption, 000 §2.1): S7's W = 6000 → 2000 MPa
+    /// assert_eq!(Material::by_name(" s7 ").unwrap().flow_stress_mpa(), 2000.0);
+    /// let e = Material::by_name("unobtainium").unwrap_err();
+    /// assert!(matches!(&e, SimError::Session { key, .. } if key == "material.name"));
+    /// ```
     pub fn by_name(name: &str) -> Result<Self, SimError> {
         match name.trim().to_ascii_uppercase().as_str() {
             "S7" => Ok(Self::s7()),
@@ -114,6 +131,10 @@ impl Material {
     }
 
     /// Validate all parameters.
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] naming `w_mpa` or `e_gpa` (not a finite positive number),
+    /// `mu_rake` or `mu_flank` (outside `[0, 2]`), or `hardness_mpa` (negative or not finite).
     pub fn validate(&self) -> Result<(), SimError> {
         check_positive("w_mpa", self.w_mpa)?;
         check_positive("e_gpa", self.e_gpa)?;

@@ -22,6 +22,31 @@ pub struct NoiseSource {
 
 impl NoiseSource {
     /// Noise with standard deviation `sigma` (0 → none) from `seed`.
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] (`noise_sigma`) when `sigma` is negative or not finite. (The
+    /// distribution's own refusal, [`SimError::NoiseDistribution`], is kept for completeness; after
+    /// that check it has nothing left to refuse.)
+    ///
+    /// # Examples
+    /// ```
+    /// use millcomp_sim::SimError;
+    /// use millcomp_sim::sensors::NoiseSource;
+    /// // the thesis' force channel: σ = 0.04 N (000 §5.2.2)
+    /// let mut a = NoiseSource::new(7, 0.04).unwrap();
+    /// let xs: Vec<f64> = (0..10_000).map(|_| a.sample()).collect();
+    /// // seeded: the same seed replays the same samples
+    /// let mut b = NoiseSource::new(7, 0.04).unwrap();
+    /// assert!(xs.iter().all(|&x| x == b.sample()));
+    /// // mean within 4 standard errors (4 · 0.04/√10 000 = 0.0016) of 0, σ within 3 %
+    /// let mean = xs.iter().sum::<f64>() / 1e4;
+    /// let sd = (xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / 9999.0).sqrt();
+    /// assert!(mean.abs() < 0.0016 && (sd - 0.04).abs() / 0.04 < 0.03);
+    /// // σ = 0: exact
+    /// assert_eq!(NoiseSource::new(7, 0.0).unwrap().sample(), 0.0);
+    /// let e = NoiseSource::new(7, -0.04).unwrap_err();
+    /// assert!(matches!(e, SimError::InvalidParameter { name: "noise_sigma", .. }));
+    /// ```
     pub fn new(seed: u64, sigma: f64) -> Result<Self, SimError> {
         check_nonneg("noise_sigma", sigma)?;
         let normal = if sigma > 0.0 {
@@ -80,6 +105,10 @@ impl ForceSensor {
     }
 
     /// Sensor with noise σ `noise_sigma_n`, resolution `resolution_n`, seeded.
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] naming `resolution_n` or `noise_sigma` when it is negative or
+    /// not finite.
     pub fn new(noise_sigma_n: f64, resolution_n: f64, seed: u64) -> Result<Self, SimError> {
         check_nonneg("resolution_n", resolution_n)?;
         Ok(Self {
@@ -89,6 +118,9 @@ impl ForceSensor {
     }
 
     /// The thesis' spindle/workpiece force channel: σ = resolution = 0.04 N (§5.2.2).
+    ///
+    /// # Errors
+    /// As [`Self::new`]; with the thesis' constants it does not fail.
     pub fn thesis(seed: u64) -> Result<Self, SimError> {
         Self::new(0.04, 0.04, seed)
     }
@@ -124,6 +156,10 @@ impl CapacitanceGauge {
     }
 
     /// Custom gauge.
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] naming `range_um` or `sensitivity_um_per_v` (not a finite
+    /// positive number), `offset_um` (not finite) or `noise_sigma` (negative or not finite).
     pub fn new(
         range_um: f64,
         sensitivity_um_per_v: f64,

@@ -371,6 +371,51 @@ fn rekey(prefix: &str, e: SimError) -> SimError {
 
 impl Session {
     /// Parse and validate a session from TOML text; errors name the key.
+    ///
+    /// # Errors
+    /// * [`SimError::SessionToml`] when the text is not TOML or not a session: a required key is
+    ///   missing, a key is unknown (anywhere) or of the wrong type; `key` is the key the parser
+    ///   names (`<toml>` when it names none), the parser's error (with the line) is the source.
+    /// * [`SimError::Session`] when [`Self::validate`] rejects a value, with its key path: a
+    ///   number out of range (`plan[2].tilt_deg`, `tool.wearland_um`, …), an unknown material,
+    ///   flank law, effect or effect parameter, an empty `plan`, or a groove giving both or neither
+    ///   of `upfeed_um` and `feed_mm_min`.
+    ///
+    /// # Examples
+    /// ```
+    /// use millcomp_sim::SimError;
+    /// use millcomp_sim::session::{PlanItem, Session};
+    /// let text = r#"
+    /// name = "one groove"
+    /// [tool]
+    /// wearland_um = 8.0
+    /// [material]
+    /// name = "S7"
+    /// [[plan]]
+    /// kind = "groove"
+    /// speed_rpm = 10000.0
+    /// upfeed_um = 10.0
+    /// tilt_deg = 20.0
+    /// length_mm = 2.0
+    /// measure_every_mm = 1.0
+    /// depth = { kind = "constant", depth_um = 80.0 }
+    /// "#;
+    /// let s = Session::from_toml_str(text).unwrap();
+    /// // omitted keys take their defaults: runout 10 µm, Table 5-1 measured stiffness (000 §5.2.3)
+    /// assert_eq!(s.tool.runout_um, 10.0);
+    /// let kz = s.stiffness().unwrap().z_stiffness_n_per_um(20.0).unwrap();
+    /// assert!((kz - 0.5715).abs() < 1e-4);
+    /// // 10 µm/rev at 10 000 rpm is 100 mm/min: the 2 mm groove takes 1.2 s
+    /// let PlanItem::Groove(g) = &s.plan[0] else { unreachable!() };
+    /// assert!((g.duration_s() - 1.2).abs() < 1e-12);
+    ///
+    /// // a value out of range is named by its key path ...
+    /// let e = Session::from_toml_str(&text.replace("tilt_deg = 20.0", "tilt_deg = 95.0")).unwrap_err();
+    /// assert!(matches!(&e, SimError::Session { key, .. } if key == "plan[0].tilt_deg"));
+    /// // ... and an unknown key by the parser
+    /// let e = Session::from_toml_str(&text.replace("upfeed_um", "upfeed")).unwrap_err();
+    /// assert!(matches!(&e, SimError::SessionToml { key, .. } if key == "upfeed"));
+    /// ```
     pub fn from_toml_str(text: &str) -> Result<Self, SimError> {
         let s: Session = toml::from_str(text).map_err(|source| SimError::SessionToml {
             key: extract_backticked(source.message()).unwrap_or_else(|| "<toml>".into()),
@@ -381,6 +426,10 @@ impl Session {
     }
 
     /// Read, parse and validate a session file.
+    ///
+    /// # Errors
+    /// [`SimError::Io`] (with the path, the OS error as source) when the file cannot be read;
+    /// otherwise as [`Self::from_toml_str`].
     pub fn from_path(path: impl AsRef<Path>) -> Result<Self, SimError> {
         let p = path.as_ref();
         let text = std::fs::read_to_string(p).map_err(|source| SimError::Io {
@@ -391,6 +440,10 @@ impl Session {
     }
 
     /// The material with overrides applied.
+    ///
+    /// # Errors
+    /// [`SimError::Session`]: key `material.name` for an unknown material, `material.<field>` for
+    /// an override out of range.
     pub fn material(&self) -> Result<Material, SimError> {
         let mut m = Material::by_name(&self.material.name)?;
         if let Some(v) = self.material.w_mpa {
@@ -410,6 +463,10 @@ impl Session {
     }
 
     /// The force model described by the session.
+    ///
+    /// # Errors
+    /// [`SimError::Session`] naming the key: `tool.<field>` or `force_model.<field>` out of range,
+    /// `force_model.flank_law` unknown, or as [`Self::material`].
     pub fn force_model(&self) -> Result<BallEndForceModel, SimError> {
         let tool = BallEndTool::new(
             self.tool.radius_um,
@@ -444,6 +501,10 @@ impl Session {
     }
 
     /// The stiffness described by the session.
+    ///
+    /// # Errors
+    /// [`SimError::Session`] (`stiffness.axial_n_per_um` or `stiffness.radial_n_per_um`) for a
+    /// stiffness that is not a finite positive number.
     pub fn stiffness(&self) -> Result<TiltedToolStiffness, SimError> {
         TiltedToolStiffness::new(
             self.stiffness.axial_n_per_um,
@@ -453,6 +514,10 @@ impl Session {
     }
 
     /// The enabled effects.
+    ///
+    /// # Errors
+    /// [`SimError::Session`]: `effects[i].name` for an unknown effect, `effects[i].params.<name>`
+    /// for an unknown or out-of-range parameter (disabled effects are checked too).
     pub fn effects(&self) -> Result<Vec<Box<dyn Effect>>, SimError> {
         let mut out = Vec::new();
         for (i, e) in self.effects.iter().enumerate() {
@@ -474,6 +539,13 @@ impl Session {
     }
 
     /// Validate everything; errors name the key (`plan[2].tilt_deg`, …).
+    ///
+    /// # Errors
+    /// [`SimError::Session`]: as [`Self::force_model`], [`Self::stiffness`] and [`Self::effects`];
+    /// `plan` when the plan is empty; `plan[i].<field>` for a groove or pause value out of range
+    /// (`start_s`, `speed_rpm`, `tilt_deg`, `length_mm`, `measure_every_mm`, `x_offset_mm`,
+    /// `upfeed_um` / `feed_mm_min` — exactly one of them —, `duration_s`, `depth.<field>` deeper
+    /// than the ball radius or unsorted).
     pub fn validate(&self) -> Result<(), SimError> {
         let fm = self.force_model()?;
         self.stiffness()?;
@@ -773,6 +845,10 @@ impl Session {
     /// Validates the session and plays its plan out: the time line and the nominal context of every
     /// measured point (module documentation: `δz` by fixed-point iteration on a per-groove table of
     /// peak z-force vs actual depth).
+    ///
+    /// # Errors
+    /// [`SimError::Session`] as [`Self::validate`] (the force-model evaluations that follow only
+    /// see conditions validation has accepted).
     pub fn contexts(&self) -> Result<SessionContexts, SimError> {
         self.validate()?;
         let model = self.force_model()?;
@@ -866,6 +942,47 @@ impl Session {
 
 /// Simulate a session: one [`GroovePoint`] per measured point, in plan order — the nominal contexts
 /// ([`Session::contexts`]) plus the offsets of the session's effects, plus seeded noise.
+///
+/// # Errors
+/// [`SimError::Session`] as [`Session::validate`]; [`SimError::InvalidParameter`] (`noise_sigma`)
+/// when `opts.noise` has a negative or non-finite sigma.
+///
+/// # Examples
+/// ```
+/// use millcomp_sim::sensors::NoiseSpec;
+/// use millcomp_sim::session::{Session, SimOptions, simulate_session};
+/// // the thesis' groove (000 ch. 6): S7, wearland 8 µm, 20° tilt, 10 µm/rev at 10 000 rpm, 80 µm deep,
+/// // forces scaled by `force::S7_GROOVE_FORCE_SCALE`
+/// let s = Session::from_toml_str(r#"
+/// [tool]
+/// wearland_um = 8.0
+/// [material]
+/// name = "S7"
+/// [force_model]
+/// force_scale = 3.7396
+/// [[plan]]
+/// kind = "groove"
+/// speed_rpm = 10000.0
+/// upfeed_um = 10.0
+/// tilt_deg = 20.0
+/// length_mm = 2.0
+/// measure_every_mm = 1.0
+/// depth = { kind = "constant", depth_um = 80.0 }
+/// "#).unwrap();
+/// let pts = simulate_session(&s, &SimOptions::default()).unwrap();
+/// assert_eq!(pts.len(), 3); // x = 0, 1, 2 mm
+/// assert_eq!((pts[2].x_mm, pts[2].feed_mm_min), (2.0, 100.0));
+/// assert!((pts[2].t_s - 1.2).abs() < 1e-12);
+/// // the tool deflects 16.0 µm at the 80 µm end: 000 §6.1 predicted 17 µm and measured 16 µm
+/// let deflection_um = pts[2].depth_cmd_um - pts[2].depth_meas_um;
+/// assert!((deflection_um - 17.0).abs() / 17.0 < 0.15);
+/// assert!((deflection_um - 16.022).abs() < 1e-3);
+/// // seeded measurement noise: the same seed replays the same points
+/// let noisy = SimOptions { noise: Some(NoiseSpec { seed: 1, sigma: 0.2 }) };
+/// let a = simulate_session(&s, &noisy).unwrap();
+/// assert_eq!(a, simulate_session(&s, &noisy).unwrap());
+/// assert!(a.iter().zip(&pts).all(|(a, p)| (a.depth_meas_um - p.depth_meas_um).abs() < 5.0 * 0.2));
+/// ```
 pub fn simulate_session(
     session: &Session,
     opts: &SimOptions,

@@ -83,6 +83,11 @@ impl SteppedTool {
 
     /// Radial stiffness (N/µm), eqs. (15)/(16): `1/k = Σ L³/(3 E I)`, `I = π d⁴/64`.
     ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] when [`Self::validate`] fails: `e_gpa`, a `diameter_mm` or a
+    /// `length_mm` not a finite positive number, or no section at all (`sections`).
+    ///
+    /// # Examples
     /// ```
     /// use millcomp_sim::stiffness::SteppedTool;
     /// // 000 §5.2.3: modelled radial stiffness 0.141 N/µm
@@ -104,6 +109,9 @@ impl SteppedTool {
     }
 
     /// Axial stiffness (N/µm), eq. (17): `1/k = Σ L/(E A)`.
+    ///
+    /// # Errors
+    /// As [`Self::radial_stiffness_n_per_um`].
     pub fn axial_stiffness_n_per_um(&self) -> Result<f64, SimError> {
         self.validate()?;
         let e = self.e_gpa * 1e3;
@@ -120,6 +128,10 @@ impl SteppedTool {
 }
 
 /// Series connection of two springs `k1 k2/(k1 + k2)` (`003_…txt` eq. 2 form).
+///
+/// # Errors
+/// [`SimError::InvalidParameter`] (`stiffness_n_per_um`) when either stiffness is not a finite
+/// positive number.
 pub fn series_n_per_um(k1: f64, k2: f64) -> Result<f64, SimError> {
     check_positive("stiffness_n_per_um", k1)?;
     check_positive("stiffness_n_per_um", k2)?;
@@ -147,6 +159,32 @@ impl Default for TiltedToolStiffness {
 
 impl TiltedToolStiffness {
     /// Build and validate (both stiffnesses > 0).
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] naming `axial_n_per_um` or `radial_n_per_um` when it is not a
+    /// finite positive number.
+    ///
+    /// # Examples
+    /// ```
+    /// use millcomp_sim::SimError;
+    /// use millcomp_sim::stiffness::TiltedToolStiffness;
+    /// // 000 Table 5-1 measured: axial 1.220, radial 0.114 N/µm
+    /// let s = TiltedToolStiffness::new(1.220, 0.114).unwrap();
+    /// // eqs. (26)–(28): PZT travel per newton of z-force at 20/30/40°, published 5.17, 5.75 and
+    /// // 6.57 µm/N (000 §7.2.1); the reconstruction is within 5 % of each
+    /// // (tilt, published, this model)
+    /// let figures = [(20.0, 5.17, 5.1164), (30.0, 5.75, 5.6155), (40.0, 6.57, 6.3868)];
+    /// for (tilt_deg, published, model) in figures {
+    ///     let c = s.pzt_compliance_um_per_n(tilt_deg).unwrap();
+    ///     assert!((c - published).abs() / published < 0.05);
+    ///     assert!((c - model).abs() < 1e-4);
+    /// }
+    /// // the PZT moves the tip radially: at 0° tilt it cannot cancel a z-deflection
+    /// let e = s.pzt_compliance_um_per_n(0.0).unwrap_err();
+    /// assert!(matches!(e, SimError::InvalidParameter { name: "tilt_deg", .. }));
+    /// let e = TiltedToolStiffness::new(1.220, 0.0).unwrap_err();
+    /// assert!(matches!(e, SimError::InvalidParameter { name: "radial_n_per_um", .. }));
+    /// ```
     pub fn new(axial_n_per_um: f64, radial_n_per_um: f64) -> Result<Self, SimError> {
         let s = Self {
             axial_n_per_um,
@@ -164,6 +202,9 @@ impl TiltedToolStiffness {
     }
 
     /// z-compliance (µm/N): `cos²α/k_axial + sin²α/k_radial`.
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] (`tilt_deg`) outside `0 <= tilt_deg < 90`.
     pub fn z_compliance_um_per_n(&self, tilt_deg: f64) -> Result<f64, SimError> {
         check_range("tilt_deg", tilt_deg, 0.0, 89.999_999, "0 <= tilt_deg < 90")?;
         let a = tilt_deg.to_radians();
@@ -172,6 +213,10 @@ impl TiltedToolStiffness {
 
     /// z-stiffness (N/µm) of the tilted tool.
     ///
+    /// # Errors
+    /// As [`Self::z_compliance_um_per_n`].
+    ///
+    /// # Examples
     /// ```
     /// use millcomp_sim::stiffness::TiltedToolStiffness;
     /// // 000 §6.1 publishes 0.597 N/µm at 20°; measured-radial reconstruction gives 0.571 (−4.3 %)
@@ -183,6 +228,9 @@ impl TiltedToolStiffness {
     }
 
     /// Derivatives of the z-compliance with respect to (axial, radial) stiffness (µm/N per N/µm).
+    ///
+    /// # Errors
+    /// As [`Self::z_compliance_um_per_n`].
     pub fn z_compliance_gradient(&self, tilt_deg: f64) -> Result<[f64; 2], SimError> {
         check_range("tilt_deg", tilt_deg, 0.0, 89.999_999, "0 <= tilt_deg < 90")?;
         let a = tilt_deg.to_radians();
@@ -194,6 +242,10 @@ impl TiltedToolStiffness {
 
     /// Radial PZT travel per unit z-force (µm/N) that cancels the z-deflection, eqs. (26)–(28):
     /// `(1/kz)/sin α`. Requires tilt > 0.
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] (`tilt_deg`) outside `0 < tilt_deg < 90` (example at
+    /// [`Self::new`]).
     pub fn pzt_compliance_um_per_n(&self, tilt_deg: f64) -> Result<f64, SimError> {
         check_range(
             "tilt_deg",
@@ -206,6 +258,9 @@ impl TiltedToolStiffness {
     }
 
     /// Axial and radial parts of the z-deflection (µm) for a z-force (N): `(δz,axial, δz,radial)`.
+    ///
+    /// # Errors
+    /// As [`Self::z_compliance_um_per_n`].
     pub fn z_deflection_parts_um(&self, fz_n: f64, tilt_deg: f64) -> Result<(f64, f64), SimError> {
         check_range("tilt_deg", tilt_deg, 0.0, 89.999_999, "0 <= tilt_deg < 90")?;
         let a = tilt_deg.to_radians();
@@ -227,6 +282,11 @@ pub struct MachineStiffness {
 
 impl MachineStiffness {
     /// Build and validate.
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`]: `mean_n_per_um` not a finite positive number,
+    /// `span_n_per_um` negative or not finite, or `span_n_per_um >= 2 * mean_n_per_um` (the minimum
+    /// would not be positive).
     pub fn new(mean_n_per_um: f64, span_n_per_um: f64) -> Result<Self, SimError> {
         let m = Self {
             mean_n_per_um,
@@ -259,6 +319,10 @@ impl MachineStiffness {
     }
 
     /// Eqs. (2)/(4): system (tool + machine in series) stiffness minimum and maximum for tool stiffness `kt`.
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] (`stiffness_n_per_um`) when `kt_n_per_um` (or the machine
+    /// minimum of a struct built without [`Self::new`]) is not a finite positive number.
     pub fn system_min_max(&self, kt_n_per_um: f64) -> Result<(f64, f64), SimError> {
         let (lo, hi) = self.machine_min_max();
         Ok((
@@ -268,6 +332,9 @@ impl MachineStiffness {
     }
 
     /// Eq. (5): span of the system stiffness `kt² ΔkM / ((kt + kM)² − ΔkM²/4)`.
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] (`kt_n_per_um`) when it is not a finite positive number.
     pub fn system_span(&self, kt_n_per_um: f64) -> Result<f64, SimError> {
         check_positive("kt_n_per_um", kt_n_per_um)?;
         let (kt, km, dk) = (kt_n_per_um, self.mean_n_per_um, self.span_n_per_um);

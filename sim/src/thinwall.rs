@@ -127,6 +127,9 @@ pub struct ThinWallConfig {
 
 impl ThinWallConfig {
     /// The 004 set-up for a wall of nominal thickness `nominal_thickness_um`.
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] (`nominal_thickness_um`) outside `[1, 10000]` µm.
     pub fn paper(nominal_thickness_um: f64) -> Result<Self, SimError> {
         let c = Self {
             nominal_thickness_um,
@@ -151,6 +154,13 @@ impl ThinWallConfig {
     }
 
     /// Validate (errors name the parameter).
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] naming the field out of range: `nominal_thickness_um` outside
+    /// `[1, 10000]`; `height_um`, `length_um`, `fz_um`, `tool_diameter_mm`, `speed_rpm`, `e_gpa`,
+    /// `tool_stiffness_n_per_um` not a finite positive number; `ae_um` outside `(0, tool radius]`;
+    /// `ap_um` outside `(0, height_um]`; `flutes` = 0; `kr_n_per_mm2` or the stage's
+    /// `resolution_um` / `accuracy_um` negative; `cells` when `cells_x < 2` or `cells_z < 4`.
     pub fn validate(&self) -> Result<(), SimError> {
         check_range(
             "nominal_thickness_um",
@@ -291,6 +301,35 @@ pub struct ThinWallStage {
 
 impl ThinWallStage {
     /// Build the stage (wall pre-finished to nominal + ae everywhere).
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] when `cfg` fails [`ThinWallConfig::validate`], or its
+    /// `force_noise` sigma is negative or not finite (`noise_sigma`).
+    ///
+    /// # Examples
+    /// ```
+    /// use millcomp_sim::SimError;
+    /// use millcomp_sim::thinwall::{ThinWallConfig, ThinWallStage};
+    /// // the 004 set-up, 100 µm wall, cut without compensation (stage command held at 0)
+    /// let cfg = ThinWallConfig::paper(100.0).unwrap();
+    /// let dt_s = cfg.length_um / cfg.feed_um_s() / cfg.cells_x as f64; // one grid cell per step
+    /// let mut stage = ThinWallStage::new(cfg).unwrap();
+    /// let first = stage.step(dt_s, 0.0);
+    /// // full engagement on the top layer: 8.35 N pushes the wall 6.79 µm and the tool 4.13 µm away
+    /// assert!((first.force_n - 8.3498).abs() < 1e-3);
+    /// assert!((first.wall_deflection_um - 6.7887).abs() < 1e-3);
+    /// assert!((first.tool_deflection_um - 4.1319).abs() < 1e-3);
+    /// let rest = stage.run(dt_s, |_| 0.0).unwrap();
+    /// assert!(stage.done() && rest.last().unwrap().done);
+    /// // 004 Table 5: the uncompensated 100 µm wall comes out 106.7 µm thick (a target of the
+    /// // K_r / tool-stiffness calibration, module documentation)
+    /// assert!((stage.mean_thickness_um() - 106.7).abs() < 0.05);
+    ///
+    /// let mut bad = ThinWallConfig::paper(100.0).unwrap();
+    /// bad.ap_um = 0.0;
+    /// let e = ThinWallStage::new(bad).unwrap_err();
+    /// assert!(matches!(e, SimError::InvalidParameter { name: "ap_um", .. }));
+    /// ```
     pub fn new(cfg: ThinWallConfig) -> Result<Self, SimError> {
         cfg.validate()?;
         let sensor = match cfg.force_noise {
@@ -483,6 +522,9 @@ impl ThinWallStage {
     }
 
     /// Run all layers with a command policy; returns the steps.
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] (`dt_s`) when `dt_s` is not a finite positive number.
     pub fn run(
         &mut self,
         dt_s: f64,
@@ -499,11 +541,17 @@ impl ThinWallStage {
 }
 
 /// Uncompensated final mean thickness (µm) of the 004 wall of nominal thickness `nominal_um`.
+///
+/// # Errors
+/// [`SimError::InvalidParameter`] (`nominal_thickness_um`) outside `[1, 10000]` µm.
 pub fn uncompensated_thickness_um(nominal_um: f64) -> Result<f64, SimError> {
     uncompensated_thickness_for(&ThinWallConfig::paper(nominal_um)?)
 }
 
 /// Uncompensated final mean thickness (µm) of the wall described by `cfg` (stage held at 0).
+///
+/// # Errors
+/// As [`ThinWallStage::new`].
 pub fn uncompensated_thickness_for(cfg: &ThinWallConfig) -> Result<f64, SimError> {
     let dt = cfg.length_um / cfg.feed_um_s() / cfg.cells_x as f64;
     let mut st = ThinWallStage::new(cfg.clone())?;
@@ -539,6 +587,9 @@ pub struct ThresholdCompensator {
 
 impl ThresholdCompensator {
     /// A compensator with threshold `threshold_um` (µm), starting at a zero command.
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] (`threshold_um`) when it is negative or not finite.
     pub fn new(threshold_um: f64) -> Result<Self, SimError> {
         check_nonneg("threshold_um", threshold_um)?;
         Ok(Self {
@@ -589,6 +640,9 @@ pub struct WallPlan {
 
 /// Plan a wall with a model `model` (a config with the model's parameters; use an exact stage and no noise):
 /// step a digital twin that compensates perfectly (fixed point per step on clones).
+///
+/// # Errors
+/// As [`ThinWallStage::new`].
 pub fn plan_compensated_wall(model: &ThinWallConfig) -> Result<WallPlan, SimError> {
     let dt = model.length_um / model.feed_um_s() / model.cells_x as f64;
     let mut st = ThinWallStage::new(model.clone())?;
@@ -621,6 +675,9 @@ pub fn plan_compensated_wall(model: &ThinWallConfig) -> Result<WallPlan, SimErro
 /// ([`ThresholdCompensator::paper`]) whose eq.-18 model is `cfg` itself (the ideal case used for the
 /// calibration): at step k the deformation is the force measured at step k − 1 × the planned eq.-18
 /// compliance of step k − 1 ([`WallPlan::eq18_compliance`]).
+///
+/// # Errors
+/// As [`ThinWallStage::new`].
 pub fn threshold_compensated_thickness_for(cfg: &ThinWallConfig) -> Result<f64, SimError> {
     let mut model = cfg.clone();
     model.force_noise = None;

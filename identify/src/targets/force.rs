@@ -65,6 +65,10 @@ impl ForceParam {
     }
 
     /// Parse a name as printed by [`ForceParam::name`] (for the CLI's `--free` option).
+    ///
+    /// # Errors
+    /// [`IdentifyError::MissingColumn`] with the unknown name as `column` and the allowed names in
+    /// the reason.
     pub fn parse(name: &str) -> Result<Self> {
         Ok(match name {
             "w_mpa" | "w" => ForceParam::W,
@@ -399,9 +403,55 @@ type NamedColumn<'a> = Option<(&'static str, &'a [f64])>;
 
 /// Identifies force-model parameters from peak forces or per-revolution traces.
 ///
-/// Errors: NaN (column, row), length mismatches, no force column, conditions the physics crate
-/// rejects (depth beyond the ball radius, tilt ≥ 90°), too few observations for the free
-/// parameters, an empty `free` list.
+/// # Errors
+/// * [`IdentifyError::MissingColumn`] for an empty `opts.free` (`free`) or data without any force
+///   component;
+/// * [`IdentifyError::LengthMismatch`] when a condition or force column is not as long as the
+///   rows (`depth_um` for peaks, `rot_deg` for traces);
+/// * [`IdentifyError::NonFinite`] naming the column and row of a NaN or infinite value;
+/// * [`IdentifyError::RejectedConditions`] naming the row whose cut the physics crate rejects
+///   (depth beyond the ball radius or negative, upfeed or speed ≤ 0, tilt outside `[0, 90)`);
+///   sim's error is the source;
+/// * [`IdentifyError::TooFewPoints`] unless there are more observations than free parameters
+///   and, for peaks, at least as many distinct cut conditions as free parameters;
+/// * [`IdentifyError::InvalidParameter`] for a zero force observation with
+///   `opts.relative_errors` (weight 1/|F|);
+/// * [`IdentifyError::ModelEvaluation`] when the base model cannot be evaluated (e.g. a base
+///   material outside sim's ranges);
+/// * the errors of [`fit_nonlinear`], e.g. [`IdentifyError::InitialOutsideBounds`] for a base
+///   friction coefficient outside `(0, 3)` when it is free.
+///
+/// # Examples
+/// ```
+/// use millcomp_identify::targets::force::*;
+/// // 000 Table 3-3: 6061, 2³ DOE in depth (µm), speed (rpm) and upfeed (µm/rev), max X/Y/Z force (N)
+/// let depth = [200.0, 100.0, 100.0, 200.0, 200.0, 100.0, 200.0, 100.0];
+/// let speed = [1e4, 1e4, 2e4, 2e4, 2e4, 2e4, 1e4, 1e4];
+/// let upfeed = [20.0, 20.0, 10.0, 10.0, 20.0, 20.0, 10.0, 10.0];
+/// let fx = [3.34, 1.78, 0.94, 1.91, 3.60, 2.20, 2.20, 1.00];
+/// let fy = [1.75, 1.33, 0.93, 1.64, 2.30, 1.75, 2.10, 1.10];
+/// let fz = [2.17, 1.24, 0.59, 0.83, 2.00, 1.50, 1.40, 0.82];
+/// let conditions = ForceConditions { depth_um: &depth, upfeed_um: &upfeed, speed_rpm: Some(&speed), tilt_deg: None };
+/// let data = ForceData::Peaks(PeakForceData { conditions, max_fx_n: Some(&fx), max_fy_n: Some(&fy), max_fz_n: Some(&fz) });
+/// // W free (the thesis' own procedure, §4.1), everything else 6061 and the default tool
+/// let fit = identify_force(&data, &ForceOptions::default()).unwrap();
+/// let r = &fit.report;
+/// assert_eq!((r.n_obs, r.dof), (24, 23));
+/// // least squares on the 24 peaks: W = 2049 MPa, SE 173, 95 % interval [1691, 2407]; the thesis
+/// // set W = 2500 by hand (Table 4-1), outside that interval
+/// assert!((r.param("w_mpa") - 2049.0).abs() < 1.0 && (r.se("w_mpa") - 173.0).abs() < 1.0);
+/// let ci = r.ci95["w_mpa"];
+/// assert!((ci[0] - 1691.1).abs() < 1.0 && (ci[1] - 2406.9).abs() < 1.0);
+/// // the residuals in row order are correlated (the model's shape, not noise): the report says so
+/// assert!(r.warnings.iter().any(|w| w.contains("autocorrelated")));
+///
+/// // 450 µm is deeper than the Ø0.8 mm ball: the row is named
+/// let deep = [450.0, 100.0, 100.0, 200.0, 200.0, 100.0, 200.0, 100.0];
+/// let conditions = ForceConditions { depth_um: &deep, ..conditions };
+/// let data = ForceData::Peaks(PeakForceData { conditions, max_fx_n: Some(&fx), max_fy_n: None, max_fz_n: None });
+/// let e = identify_force(&data, &ForceOptions::default());
+/// assert!(matches!(e, Err(millcomp_identify::IdentifyError::RejectedConditions { row: 0, .. })));
+/// ```
 pub fn identify_force(data: &ForceData<'_>, opts: &ForceOptions) -> Result<Identified> {
     if opts.free.is_empty() {
         return Err(IdentifyError::MissingColumn {

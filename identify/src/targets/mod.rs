@@ -21,6 +21,31 @@ pub mod wall;
 /// `ci95`, `rms_residual_<unit>`, `status`, `warnings`, ...) plus `derived` and `groups` when not
 /// empty; `model` (the saveable form) is not serialised — save it as kind [`Identified::kind`] in a
 /// `millcomp_models::ModelFile`.
+///
+/// # Examples
+/// Save a fit in the common model-file format (`models/MODEL.md`) and load it back:
+/// ```
+/// use millcomp_identify::IdentifiedModel;
+/// use millcomp_identify::targets::wall::*;
+/// use millcomp_models::{ModelFile, Provenance};
+/// // a wall of 0.25 N/µm, deflections perturbed by ±0.01 µm
+/// let f: Vec<f64> = (1..=12).map(|i| 0.1 * i as f64).collect();
+/// let d: Vec<f64> = f.iter().enumerate().map(|(i, f)| f / 0.25 + 0.01 * ((i % 3) as f64 - 1.0)).collect();
+/// let fit = identify_wall(&WallData { force_n: &f, deflection_um: &d }, &WallOptions::default()).unwrap();
+/// let k = fit.report.param("wall_stiffness_n_per_um");
+/// assert!((k - 0.25).abs() < 2.0 * fit.report.se("wall_stiffness_n_per_um"));
+///
+/// let dir = tempfile::tempdir().unwrap();
+/// let path = dir.path().join("wall.toml");
+/// let provenance = Provenance::now("millcomp 0.1.0", "millcomp identify wall wall.csv --save wall.toml");
+/// ModelFile::new(&fit.kind, fit.model.clone(), provenance).save(&path).unwrap();
+/// let back = ModelFile::<IdentifiedModel>::load(&path, &["wall"]).unwrap();
+/// assert_eq!(back.header.kind, "wall");
+/// assert_eq!(back.model, fit.model); // estimates, standard errors and covariance, bit for bit
+/// assert_eq!(back.model.params["wall_stiffness_n_per_um"], k);
+/// // a reader that needs another kind refuses the file
+/// assert!(ModelFile::<IdentifiedModel>::load(&path, &["spindle"]).is_err());
+/// ```
 #[derive(Debug, Clone, Serialize)]
 pub struct Identified {
     /// The fit report (all parameters of the model).

@@ -288,8 +288,44 @@ fn start(data: &SpindleData<'_>, opts: &SpindleOptions) -> BTreeMap<String, f64>
 
 /// Identifies the spindle plant from step-response data.
 ///
-/// Errors: NaN (column, row), non-monotone `t_s`, constant `u_v` (no excitation: gain and
-/// dynamics unidentifiable), constant `y_um`, too few rows, `SampleDelay` dead-time model.
+/// # Errors
+/// * [`IdentifyError::LengthMismatch`] when `u_v` or `y_um` is not as long as `t_s`;
+/// * [`IdentifyError::NonFinite`] naming the column and row of a NaN or infinite value;
+/// * [`IdentifyError::NonMonotoneTime`] when `t_s` does not strictly increase;
+/// * [`IdentifyError::TooFewPoints`] unless there are more rows than parameters (4 to 6);
+/// * [`IdentifyError::ConstantInput`] for a constant `u_v` (no excitation: gain and dynamics
+///   unidentifiable) or a constant `y_um` (no response);
+/// * [`IdentifyError::InvalidParameter`] (`dead_time_model`) for a dead time with
+///   [`DeadTimeModel::SampleDelay`] (not differentiable in `dead_time_s`);
+/// * the errors of [`fit_nonlinear`]: e.g. [`IdentifyError::InitialOutsideBounds`] for a start in
+///   `opts.initial` outside its bounds (ζ in (0, 10), dead time in (0, 0.1) s, the others > 0).
+///
+/// # Examples
+/// ```
+/// use millcomp_identify::targets::spindle::*;
+/// use millcomp_sim::spindle::PztSpindle;
+/// // the thesis' plant (000 §5.2.4: ζ = 0.46, ωn = 1302 rad/s, 0.05 µm/V) answering a 10 V step,
+/// // sampled at 50 kHz for 6 ms, with the gauge's 0.25 µm initial offset (§5.2.5) and a ±4 nm
+/// // deterministic perturbation
+/// let plant = PztSpindle::new(0.05, 0.46, 1302.0, None, None).unwrap();
+/// let t: Vec<f64> = (0..300).map(|k| k as f64 * 2e-5).collect();
+/// let u: Vec<f64> = (0..300).map(|k| if k >= 20 { 10.0 } else { 0.0 }).collect();
+/// let y: Vec<f64> = simulate_spindle_um(&plant, &t, &u, 0.25).unwrap().iter().enumerate()
+///     .map(|(i, y)| y + 0.002 * ((i * 7 % 5) as f64 - 2.0))
+///     .collect();
+/// let fit = identify_spindle(&SpindleData { t_s: &t, u_v: &u, y_um: &y }, &SpindleOptions::default()).unwrap();
+/// let r = &fit.report;
+/// assert_eq!(fit.kind, "spindle");
+/// // every parameter within 2 standard errors of the plant that made the data
+/// for (name, truth) in [("gain_um_per_v", 0.05), ("zeta", 0.46), ("wn_rad_s", 1302.0), ("offset_um", 0.25)] {
+///     assert!((r.param(name) - truth).abs() < 2.0 * r.se(name), "{name}");
+/// }
+/// assert!((r.param("zeta") - 0.4601).abs() < 1e-4 && (r.param("wn_rad_s") - 1302.1).abs() < 0.1);
+///
+/// let flat = vec![10.0; 300];
+/// let e = identify_spindle(&SpindleData { t_s: &t, u_v: &flat, y_um: &y }, &SpindleOptions::default());
+/// assert!(matches!(e, Err(millcomp_identify::IdentifyError::ConstantInput { ref column, .. }) if column == "u_v"));
+/// ```
 pub fn identify_spindle(data: &SpindleData<'_>, opts: &SpindleOptions) -> Result<Identified> {
     let n = data.t_s.len();
     validate::same_len("u_v", data.u_v, "t_s", n)?;

@@ -175,9 +175,20 @@ fn check_common(data: &ThermalData<'_>) -> Result<()> {
 
 /// Fits a thermal drift model (see the module docs for the formulas).
 ///
-/// Errors name the column and row: NaN, non-monotone `t_s`, missing `temp_c`/`speed_rpm` for the
-/// model that needs it, constant `drift_um` or `temp_c` (nothing to identify), too few rows.
+/// # Errors
+/// * [`IdentifyError::LengthMismatch`] when `drift_um` (or the `temp_c` / `speed_rpm` the model
+///   reads) is not as long as `t_s`;
+/// * [`IdentifyError::NonFinite`] naming the column and row of a NaN or infinite value;
+/// * [`IdentifyError::NonMonotoneTime`] when `t_s` does not strictly increase;
+/// * [`IdentifyError::MissingColumn`] for `temp_c` (linear-temperature model) or `speed_rpm`
+///   (speed-dependent model) when the model needs it and it is absent;
+/// * [`IdentifyError::ConstantInput`] for a constant `drift_um` (exponential and speed-dependent
+///   models), a constant `temp_c` (linear-temperature model), or a `speed_rpm` that is never > 0;
+/// * [`IdentifyError::InvalidParameter`] for a negative `speed_rpm`;
+/// * [`IdentifyError::TooFewPoints`] unless there are more rows than parameters (2 to 4);
+/// * the errors of [`fit_nonlinear`] / [`fit_linear`].
 ///
+/// # Examples
 /// ```
 /// use millcomp_identify::targets::thermal::*;
 /// // 002 §7.1: coolant drift +8.5 µm settling in ~45 min → τ ≈ 15 min = 900 s.
@@ -189,6 +200,15 @@ fn check_common(data: &ThermalData<'_>) -> Result<()> {
 ///                            ThermalModel::Exponential, &CommonOptions::default()).unwrap();
 /// assert!((fit.report.param("amplitude_um") - 8.5).abs() < 0.1);
 /// assert!((fit.report.param("tau_s") - 900.0).abs() < 30.0);
+/// // the 95 % intervals cover the values the data were made with
+/// let (a, tau) = (fit.report.ci95["amplitude_um"], fit.report.ci95["tau_s"]);
+/// assert!(a[0] < 8.5 && 8.5 < a[1] && tau[0] < 900.0 && 900.0 < tau[1]);
+/// assert!((fit.report.param("tau_s") - 896.86).abs() < 0.01);
+/// assert_eq!(fit.kind, "thermal_exponential");
+/// // the linear-temperature model needs the spindle temperature
+/// let e = identify_thermal(&ThermalData { t_s: &t, drift_um: &y, speed_rpm: None, temp_c: None },
+///                          ThermalModel::LinearTemperature, &CommonOptions::default());
+/// assert!(matches!(e, Err(millcomp_identify::IdentifyError::MissingColumn { ref column, .. }) if column == "temp_c"));
 /// ```
 pub fn identify_thermal(
     data: &ThermalData<'_>,

@@ -63,6 +63,16 @@ pub fn cantilever_tip_stiffness_n_per_um(e_gpa: f64, g: &WallGeometry) -> f64 {
 
 /// Fits the wall's effective stiffness (and the effective modulus when the geometry is given).
 ///
+/// # Errors
+/// * [`IdentifyError::LengthMismatch`] when `deflection_um` is not as long as `force_n`;
+/// * [`IdentifyError::NonFinite`] naming the column and row of a NaN or infinite value;
+/// * [`IdentifyError::TooFewPoints`] for fewer than 3 rows;
+/// * [`IdentifyError::ConstantInput`] when `force_n` does not vary;
+/// * [`IdentifyError::InvalidParameter`] for a geometry dimension that is not a finite positive
+///   number, or a deflection that does not grow with the force (slope ≤ 0);
+/// * the errors of [`fit_nonlinear`] (not expected once the checks above have passed).
+///
+/// # Examples
 /// ```
 /// use millcomp_identify::targets::wall::*;
 /// let g = WallGeometry { height_um: 800.0, thickness_um: 100.0, length_um: 5000.0 };
@@ -72,6 +82,12 @@ pub fn cantilever_tip_stiffness_n_per_um(e_gpa: f64, g: &WallGeometry) -> f64 {
 /// let fit = identify_wall(&WallData { force_n: &f, deflection_um: &d },
 ///                         &WallOptions { geometry: Some(g), ..Default::default() }).unwrap();
 /// assert!((fit.derived["e_gpa"].value - 100.0).abs() < 2.0);
+/// // 3EI/l³ by hand: 3 · 1e5 N/mm² · (5 · 0.1³/12) mm⁴ / 0.8³ mm³ = 244.14 N/mm
+/// assert!((k - 0.244140625).abs() < 1e-12);
+/// // the fitted modulus's interval covers the 100 GPa the data were made with
+/// let ci = fit.derived["e_gpa"].ci95;
+/// assert!(ci[0] < 100.0 && 100.0 < ci[1]);
+/// assert!((fit.derived["e_gpa"].value - 99.864).abs() < 1e-3);
 /// ```
 pub fn identify_wall(data: &WallData<'_>, opts: &WallOptions) -> Result<Identified> {
     let n = data.force_n.len();
