@@ -253,7 +253,7 @@ pub struct DiagnoseArgs {
 pub struct SimulateArgs {
     /// Session file (TOML) or closed-loop scenario file.
     pub file: PathBuf,
-    /// Controller for scenarios: none | open-loop | pid | threshold | mpc.
+    /// Controller for scenarios: none | open-loop | pid | pid-aw | pid-design | pid-tuned | threshold | mpc.
     #[arg(long)]
     pub controller: Option<String>,
     /// Output CSV (default: stdout for sessions).

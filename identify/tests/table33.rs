@@ -14,41 +14,21 @@ struct Doe {
 }
 
 fn load() -> Doe {
+    // through the one table reader (polars), as every table in the project
     let path = format!(
         "{}/../datasets/data/clayton_doe.csv",
         env!("CARGO_MANIFEST_DIR")
     );
-    let text = std::fs::read_to_string(&path).expect("clayton_doe.csv");
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
-    let (cd, cs, cu, cx, cy, cz) = (
-        col("depth_um"),
-        col("speed_rpm"),
-        col("upfeed_um"),
-        col("max_fx_n"),
-        col("max_fy_n"),
-        col("max_fz_n"),
-    );
-    let mut d = Doe {
-        depth: vec![],
-        speed: vec![],
-        upfeed: vec![],
-        fx: vec![],
-        fy: vec![],
-        fz: vec![],
-    };
-    for l in lines.filter(|l| !l.trim().is_empty()) {
-        let f: Vec<&str> = l.split(',').collect();
-        let v = |i: usize| f[i].parse::<f64>().unwrap();
-        d.depth.push(v(cd));
-        d.speed.push(v(cs));
-        d.upfeed.push(v(cu));
-        d.fx.push(v(cx));
-        d.fy.push(v(cy));
-        d.fz.push(v(cz));
+    let t = millcomp_datasets::read_any(std::path::Path::new(&path)).expect("clayton_doe.csv");
+    let col = |name: &str| t.f64s(name).unwrap_or_else(|e| panic!("{e}"));
+    Doe {
+        depth: col("depth_um"),
+        speed: col("speed_rpm"),
+        upfeed: col("upfeed_um"),
+        fx: col("max_fx_n"),
+        fy: col("max_fy_n"),
+        fz: col("max_fz_n"),
     }
-    d
 }
 
 fn fit(free: Vec<ForceParam>) -> millcomp_identify::Identified {
