@@ -238,7 +238,7 @@ pub fn commission(
                 continue;
             }
             let rel = fit.report.se(name) / v.abs();
-            if !(rel <= plan.accept_rel_se) {
+            if rel.is_nan() || rel > plan.accept_rel_se {
                 warnings.push(format!(
                     "{what}: {name} has a relative standard error of {:.1} %, above the {:.1} % the plan \
                      accepts (commissioning.accept_rel_se): the experiment is too small to trust this model",

@@ -32,6 +32,9 @@ pub struct CompareRow {
     pub ci95: [f64; 2],
 }
 
+/// One run's scenario index, controller and metrics.
+type RunMetrics = (usize, ControllerKind, Vec<(String, f64)>);
+
 /// The metrics of one run that the comparison reports.
 pub fn metrics_of(s: &Scenario, r: &RunReport) -> Vec<(String, f64)> {
     match s.stage {
@@ -129,7 +132,7 @@ pub fn compare(
             }
         }
     }
-    let results: Vec<Result<(usize, ControllerKind, Vec<(String, f64)>), ClosedLoopError>> = jobs
+    let results: Vec<Result<RunMetrics, ClosedLoopError>> = jobs
         .par_iter()
         .map(|&(i, seed, c)| {
             let mut s = scenarios[i].clone();

@@ -375,8 +375,10 @@ mod tests {
     fn a_stack_with_hysteresis_opens_a_loop_of_its_documented_width_at_the_tip() {
         // a slow (2 s) 0 → 1000 V → 0 triangle: the linear dynamics are quasi-static, so the widest gap
         // between the rising and the falling branch at the tip is the hysteresis loop itself
-        let mut s = PztSpindle::default();
-        s.hysteresis = Some(BoucWenParams::DEFAULT);
+        let s = PztSpindle {
+            hysteresis: Some(BoucWenParams::DEFAULT),
+            ..PztSpindle::default()
+        };
         let dt = 1e-4;
         let mut d = s.discretize(dt).unwrap();
         let n = 10_000;
