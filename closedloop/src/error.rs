@@ -397,7 +397,7 @@ pub(crate) fn invalid(
 /// assert_eq!(e.to_string(), "--controllers");
 /// assert_eq!(
 ///     error_chain(&e),
-///     "--controllers: unknown controller `lqr`: allowed none, open-loop, pid, pid-aw, pid-design, \
+///     "--controllers: unknown controller `lqr`: allowed none, open-loop, pid, pid-aw, pid-design, pid-tuned, \
 ///      threshold, mpc"
 /// );
 /// ```
