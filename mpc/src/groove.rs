@@ -42,6 +42,37 @@ use crate::stats::SolverStats;
 /// peak is kept, low enough to take the 0.04 N sensor noise down by ~2×.
 pub const MPC_FORCE_PREFILTER_HZ: f64 = 2000.0;
 
+/// The force chain the MPC and `pid-tuned` read through: the measured force through the
+/// [`MPC_FORCE_PREFILTER_HZ`] 2nd-order low-pass, then the one-revolution sliding peak ([`SlidingMax`]).
+#[derive(Debug, Clone)]
+pub struct ForcePeakChain {
+    low_pass: Biquad,
+    peak: SlidingMax,
+}
+
+impl ForcePeakChain {
+    /// The chain for a spindle at `speed_rpm`, sampled every `dt_s`.
+    ///
+    /// # Errors
+    /// [`MpcError::Sim`] for a pre-filter above Nyquist.
+    pub fn new(speed_rpm: f64, dt_s: f64) -> Result<Self, MpcError> {
+        let steps_per_rev = (60.0 / speed_rpm / dt_s).round() as usize;
+        Ok(Self {
+            low_pass: Biquad::low_pass(
+                MPC_FORCE_PREFILTER_HZ,
+                std::f64::consts::FRAC_1_SQRT_2,
+                dt_s,
+            )?,
+            peak: SlidingMax::new(steps_per_rev.max(1)),
+        })
+    }
+
+    /// One force sample (N) in, the filtered per-revolution peak (N) out.
+    pub fn step(&mut self, force_n: f64) -> f64 {
+        self.peak.step(self.low_pass.step(force_n))
+    }
+}
+
 /// What the groove controllers measure at each stage step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GrooveMeasurement {
@@ -295,8 +326,7 @@ impl GrooveController for PidController {
 /// controllers' spindle model) and conditional-integration anti-windup, at the stage rate.
 #[derive(Debug, Clone)]
 pub struct TunedPidController {
-    force_lp: Biquad,
-    peak: SlidingMax,
+    force: ForcePeakChain,
     pid: Pid,
     tip_per_n: f64,
     design: crate::tuning::PiDesign,
@@ -317,14 +347,8 @@ impl TunedPidController {
         dt_s: f64,
     ) -> Result<Self, MpcError> {
         let design = crate::tuning::pi_max_sensitivity(model_spindle, crate::tuning::MS_MAX, dt_s)?;
-        let steps_per_rev = (60.0 / program.speed_rpm / dt_s).round() as usize;
         Ok(Self {
-            force_lp: Biquad::low_pass(
-                MPC_FORCE_PREFILTER_HZ,
-                std::f64::consts::FRAC_1_SQRT_2,
-                dt_s,
-            )?,
-            peak: SlidingMax::new(steps_per_rev.max(1)),
+            force: ForcePeakChain::new(program.speed_rpm, dt_s)?,
             pid: Pid::new(
                 PidGains {
                     p: design.kp_v_per_um,
@@ -351,7 +375,7 @@ impl TunedPidController {
 impl GrooveController for TunedPidController {
     fn command(&mut self, last: Option<&GrooveMeasurement>, _: f64) -> f64 {
         let Some(o) = last else { return 0.0 };
-        let fpk = self.peak.step(self.force_lp.step(o.force_meas_n));
+        let fpk = self.force.step(o.force_meas_n);
         let wanted_tip = if fpk.is_finite() {
             fpk * self.tip_per_n
         } else {
@@ -468,8 +492,7 @@ impl StaleDetector {
 pub struct MpcGrooveController {
     mpc: MpcController,
     plan: DeflectionPlan,
-    force_lp: Biquad,
-    peak: SlidingMax,
+    force: ForcePeakChain,
     compliance: f64,
     sin_a: f64,
     every: usize,
@@ -500,16 +523,10 @@ impl MpcGrooveController {
         let mpc = groove_mpc(model_spindle, model_stiffness, program.tilt_deg, settings)?;
         let dt = settings.dt_s;
         let n = mpc.config().horizon;
-        let steps_per_rev = (60.0 / program.speed_rpm / dt).round() as usize;
         Ok(Self {
             mpc,
             plan,
-            force_lp: Biquad::low_pass(
-                MPC_FORCE_PREFILTER_HZ,
-                std::f64::consts::FRAC_1_SQRT_2,
-                dt,
-            )?,
-            peak: SlidingMax::new(steps_per_rev),
+            force: ForcePeakChain::new(program.speed_rpm, dt)?,
             compliance: model_stiffness.z_compliance_um_per_n(program.tilt_deg)?,
             sin_a: program.tilt_deg.to_radians().sin(),
             every: settings.mpc_every,
@@ -540,7 +557,7 @@ impl GrooveController for MpcGrooveController {
             .unwrap_or((0.0, 0.0));
         let force_stale = self.stale[0].stale(force);
         let gauge_stale = self.stale[1].stale(gauge);
-        let fpk = self.peak.step(self.force_lp.step(force));
+        let fpk = self.force.step(force);
         let run_now = self.k % self.every == 0;
         self.k += 1;
         if !run_now {
