@@ -98,15 +98,17 @@ pub fn median_ci95(sorted: &[f64]) -> [f64; 2] {
     [sorted[k - 1], sorted[n - k]]
 }
 
-fn median(sorted: &[f64]) -> f64 {
-    let n = sorted.len();
-    if n == 0 {
+/// Median of `v` (sorted in place; NaN when empty).
+pub(crate) fn median(v: &mut [f64]) -> f64 {
+    if v.is_empty() {
         return f64::NAN;
     }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
     if n % 2 == 1 {
-        sorted[n / 2]
+        v[n / 2]
     } else {
-        0.5 * (sorted[n / 2 - 1] + sorted[n / 2])
+        0.5 * (v[n / 2 - 1] + v[n / 2])
     }
 }
 
@@ -114,8 +116,8 @@ fn median(sorted: &[f64]) -> f64 {
 /// (rayon); `progress` is called after each run.
 ///
 /// # Errors
-/// The first run error (scenario validation, model files, construction), naming the scenario, seed and
-/// controller.
+/// [`ClosedLoopError::CompareRun`] naming the scenario, seed and controller of the first run that failed
+/// (scenario validation, model files, construction), its error as the source.
 pub fn compare(
     scenarios: &[Scenario],
     controllers: &[ControllerKind],
@@ -126,7 +128,7 @@ pub fn compare(
     for (i, s) in scenarios.iter().enumerate() {
         for seed in seeds.clone() {
             for &c in controllers {
-                if runs_on(s.stage, c) {
+                if c.runs_on(s.stage) {
                     jobs.push((i, seed, c));
                 }
             }
@@ -137,10 +139,11 @@ pub fn compare(
         .map(|&(i, seed, c)| {
             let mut s = scenarios[i].clone();
             s.seed = seed;
-            let r = run_scenario(&s, c).map_err(|e| ClosedLoopError::InvalidConfig {
-                key: format!("{} (seed {seed}, controller {c})", s.name),
-                value: "run".into(),
-                allowed: crate::error::error_chain(&e),
+            let r = run_scenario(&s, c).map_err(|e| ClosedLoopError::CompareRun {
+                scenario: s.name.clone(),
+                seed,
+                controller: c.name().to_string(),
+                source: Box::new(e),
             })?;
             progress();
             Ok((i, c, metrics_of(&s, &r)))
@@ -158,32 +161,17 @@ pub fn compare(
     Ok(values
         .into_iter()
         .map(|((i, metric, ci), mut v)| {
-            v.sort_by(f64::total_cmp);
+            let median = median(&mut v);
             CompareRow {
                 scenario: scenarios[i].name.clone(),
                 metric,
                 controller: controllers[ci].name().to_string(),
                 n: v.len(),
-                median: median(&v),
+                median,
                 ci95: median_ci95(&v),
             }
         })
         .collect())
-}
-
-/// Whether a stage has a controller.
-pub fn runs_on(stage: StageKind, c: ControllerKind) -> bool {
-    match stage {
-        StageKind::Groove => c != ControllerKind::Threshold,
-        StageKind::ThinWall => matches!(
-            c,
-            ControllerKind::None
-                | ControllerKind::OpenLoop
-                | ControllerKind::Pid
-                | ControllerKind::Threshold
-                | ControllerKind::Mpc
-        ),
-    }
 }
 
 /// A scenario turned into its commissioned form: instrument errors drawn from the seed, a PZT stack with

@@ -226,6 +226,19 @@ pub enum ClosedLoopError {
         /// The value and what is allowed.
         message: String,
     },
+    /// A run of a comparison failed (`closedloop::compare`).
+    #[error("{scenario} (seed {seed}, controller {controller})")]
+    CompareRun {
+        /// Scenario name.
+        scenario: String,
+        /// The seed it ran with.
+        seed: u64,
+        /// The controller.
+        controller: String,
+        /// Why.
+        #[source]
+        source: Box<ClosedLoopError>,
+    },
     /// A row of a batch's scenario table does not make a valid scenario.
     #[error("{origin}: row {row}")]
     Row {

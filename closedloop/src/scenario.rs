@@ -75,6 +75,20 @@ impl ControllerKind {
         ControllerKind::Mpc,
     ];
 
+    /// Whether the stage has this controller: `threshold` is the thin wall's (004) baseline only;
+    /// `pid-aw`, `pid-design` and `pid-tuned` are the PZT spindle's only.
+    pub fn runs_on(self, stage: StageKind) -> bool {
+        match stage {
+            StageKind::Groove => self != ControllerKind::Threshold,
+            StageKind::ThinWall => !matches!(
+                self,
+                ControllerKind::PidAntiWindup
+                    | ControllerKind::PidDesign
+                    | ControllerKind::PidTuned
+            ),
+        }
+    }
+
     /// The CLI/JSON name.
     pub fn name(self) -> &'static str {
         CONTROLLER_NAMES[Self::ALL.iter().position(|k| *k == self).unwrap_or(0)]

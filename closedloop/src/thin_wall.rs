@@ -27,7 +27,7 @@ use crate::error::{ClosedLoopError, invalid};
 use crate::faults::{SolverFailures, thin_wall_measurement};
 use crate::model_errors::ForceErrors;
 use crate::report::{Metrics, ModelSummary, RunOutput, RunReport, Trace, WallReport};
-use crate::scenario::{ControllerKind, Scenario, ThinWallScenario};
+use crate::scenario::{ControllerKind, Scenario, StageKind, ThinWallScenario};
 
 fn truth_config(
     s: &Scenario,
@@ -84,10 +84,7 @@ pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Cl
         .thin_wall
         .as_ref()
         .ok_or_else(|| invalid("thin_wall", "missing", "a [thin_wall] table"))?;
-    if matches!(
-        kind,
-        ControllerKind::PidAntiWindup | ControllerKind::PidDesign | ControllerKind::PidTuned
-    ) {
+    if !kind.runs_on(StageKind::ThinWall) {
         return Err(thin_wall_refuses(kind));
     }
     let force_errors = s

@@ -13,6 +13,7 @@ use serde::Serialize;
 use super::exec::{METRICS, RunRecord, load_record, read_plan, read_shard, write_text};
 use super::factors::FactorValue;
 use super::plan::{Plan, Shard};
+use crate::compare::median;
 use crate::error::{ClosedLoopError, error_chain};
 
 /// The ANOVA of one metric.
@@ -65,19 +66,6 @@ pub struct BatchSummary {
     pub files: Vec<String>,
     /// Notes (analyses that could not be made, and why).
     pub notes: Vec<String>,
-}
-
-fn median(v: &mut [f64]) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
 }
 
 /// Whether factor `name` holds labels (text) rather than numbers in this plan.
