@@ -49,6 +49,40 @@ fn default_trials() -> usize {
     3
 }
 
+impl StiffnessCalibration {
+    /// The indicator's noise distribution.
+    ///
+    /// # Errors
+    /// [`ClosedLoopError::CalibrationNoise`] for a non-finite `noise_um`.
+    pub fn noise(&self) -> Result<Normal<f64>, ClosedLoopError> {
+        Normal::new(0.0, self.noise_um.max(0.0))
+            .map_err(|source| ClosedLoopError::CalibrationNoise { source })
+    }
+
+    /// The indicator's reading (µm) of a true deflection: plus one draw of `noise`, rounded to
+    /// `indicator_resolution_um`.
+    pub fn reading_um(&self, true_um: f64, noise: &Normal<f64>, rng: &mut ChaCha8Rng) -> f64 {
+        let r = true_um + noise.sample(rng);
+        if self.indicator_resolution_um > 0.0 {
+            (r / self.indicator_resolution_um).round() * self.indicator_resolution_um
+        } else {
+            r
+        }
+    }
+}
+
+/// The thesis' radial calibration masses (g): 50, then 100 … 1000 in 100 g steps (`000_…txt` §5.2.3).
+pub fn radial_masses_g() -> Vec<f64> {
+    std::iter::once(50.0)
+        .chain((1..=10).map(|i| 100.0 * i as f64))
+        .collect()
+}
+
+/// The thesis' axial calibration masses (g): 100 … 1000 in 100 g steps (`000_…txt` §5.2.3).
+pub fn axial_masses_g() -> Vec<f64> {
+    (1..=10).map(|i| 100.0 * i as f64).collect()
+}
+
 impl Default for StiffnessCalibration {
     fn default() -> Self {
         Self {
@@ -103,19 +137,13 @@ pub fn fit_compliance(
     rng: &mut ChaCha8Rng,
     what: &str,
 ) -> Result<(f64, f64), ClosedLoopError> {
-    let noise = Normal::new(0.0, cal.noise_um.max(0.0))
-        .map_err(|source| ClosedLoopError::CalibrationNoise { source })?;
+    let noise = cal.noise()?;
     let mut f = Vec::new();
     let mut d = Vec::new();
     for &force in forces_n {
         for _ in 0..cal.trials.max(1) {
-            let mut reading = force / truth_k + noise.sample(rng);
-            if cal.indicator_resolution_um > 0.0 {
-                reading =
-                    (reading / cal.indicator_resolution_um).round() * cal.indicator_resolution_um;
-            }
             f.push(force);
-            d.push(reading);
+            d.push(cal.reading_um(force / truth_k, &noise, rng));
         }
     }
     let a = DMatrix::from_column_slice(f.len(), 1, &f);
@@ -157,10 +185,8 @@ pub fn calibrate_stiffness(
     seed: u64,
 ) -> Result<CalibratedStiffness, ClosedLoopError> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let radial_masses: Vec<f64> = std::iter::once(50.0)
-        .chain((1..=10).map(|i| 100.0 * i as f64))
-        .collect();
-    let axial_masses: Vec<f64> = (1..=10).map(|i| 100.0 * i as f64).collect();
+    let radial_masses = radial_masses_g();
+    let axial_masses = axial_masses_g();
     let (kr, ser) = fit_one(
         truth.radial_n_per_um,
         &radial_masses,

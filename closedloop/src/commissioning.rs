@@ -37,15 +37,16 @@ use millcomp_identify::targets::force::{
 };
 use millcomp_identify::targets::spindle::{SpindleData, SpindleOptions, identify_spindle};
 use millcomp_identify::targets::stiffness::{StiffnessData, StiffnessOptions, identify_stiffness};
-use millcomp_models::{IdentifiedModel, ModelBundle};
+use millcomp_models::ModelBundle;
 use millcomp_sim::force::{BallEndForceModel, CutConditions, ForceParams};
 use millcomp_sim::groove::GrooveConfig;
 use millcomp_sim::material::Material;
 use millcomp_sim::sensors::{ForceSensor, InstrumentErrors};
 use millcomp_sim::tool::BallEndTool;
 
-use crate::calibration::{G_N_PER_KG, StiffnessCalibration};
+use crate::calibration::{G_N_PER_KG, StiffnessCalibration, axial_masses_g, radial_masses_g};
 use crate::error::{ClosedLoopError, invalid};
+use crate::scenario::Scenario;
 
 /// The tool a user orders and measures: Ø0.8 mm ball end (radius 400 µm), runout 10 µm as the thesis
 /// measured it (`000_…txt` §6.2), wearland 5 µm as the starting value of the fit (the measured grooves of
@@ -120,6 +121,20 @@ pub struct CommissioningPlant<'a> {
     pub gauge_noise_um: f64,
     /// The workpiece material's name (the nominal model's material; written into the bundle).
     pub material: &'a str,
+}
+
+impl<'a> CommissioningPlant<'a> {
+    /// The plant of a groove scenario: its truth (`crate::groove::groove_truth`, with its instruments) and
+    /// the scenario's sensor noise and material.
+    pub fn of_scenario(s: &'a Scenario, truth: &'a GrooveConfig) -> Self {
+        Self {
+            truth,
+            instruments: truth.instruments,
+            force_noise_n: s.truth.force_noise_n,
+            gauge_noise_um: s.truth.gauge_noise_um,
+            material: s.groove.as_ref().map_or("", |g| g.material.as_str()),
+        }
+    }
 }
 
 /// One identified experiment: the fit and what it was.
@@ -409,9 +424,13 @@ fn force_experiment(
     let rev_s = 60.0 / program.speed_rpm;
     let (mut depth, mut upfeed, mut speed, mut tilt, mut rot, mut fz) =
         (vec![], vec![], vec![], vec![], vec![], vec![]);
+    // the nominal model's force at the same samples, for the fit's starting W (below)
+    let mut base = nominal_force_model(plant.material)?;
+    let mut predicted = 0.0;
     for (k, &(d, f)) in runs.iter().enumerate() {
         let cond = CutConditions::new(d, f, program.speed_rpm, program.tilt_deg)?;
         let prepared = plant.truth.force_model.prepare(&cond);
+        let nominal = base.prepare(&cond);
         let mut sensor = if noisy {
             ForceSensor::new(
                 plant.force_noise_n,
@@ -435,7 +454,9 @@ fn force_experiment(
             upfeed.push(f);
             speed.push(program.speed_rpm);
             tilt.push(program.tilt_deg);
-            rot.push(360.0 * j as f64 / spr as f64);
+            let rot_deg = 360.0 * j as f64 / spr as f64;
+            rot.push(rot_deg);
+            predicted += nominal.forces(rot_deg.to_radians())[2];
             fz.push(s / plan.revolutions as f64);
         }
     }
@@ -451,12 +472,6 @@ fn force_experiment(
     // start W where the nominal model's mean force matches the measured mean (the model is close to
     // proportional to W): a start 3–4× off (the groove's calibrated force scale) otherwise costs hundreds
     // of trust-region steps
-    let mut base = nominal_force_model(plant.material)?;
-    let mut predicted = 0.0;
-    for (i, &r) in rot.iter().enumerate() {
-        let cond = CutConditions::new(depth[i], upfeed[i], speed[i], tilt[i])?;
-        predicted += base.forces_at(&cond, r.to_radians())[2];
-    }
     let measured: f64 = fz.iter().sum();
     if predicted.is_finite() && predicted > 0.0 && measured > 0.0 {
         base.material.w_mpa *= measured / predicted;
@@ -626,26 +641,25 @@ fn stiffness_experiment(
 ) -> Result<(Identified, String), ClosedLoopError> {
     let cal = &plan.stiffness;
     let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(7));
-    let noise = Normal::new(0.0, cal.noise_um.max(0.0))
-        .map_err(|source| ClosedLoopError::CalibrationNoise { source })?;
-    let radial_g: Vec<f64> = std::iter::once(50.0)
-        .chain((1..=10).map(|i| 100.0 * i as f64))
-        .collect();
-    let axial_g: Vec<f64> = (1..=10).map(|i| 100.0 * i as f64).collect();
+    let noise = cal.noise()?;
     let (mut load, mut defl, mut dir) = (vec![], vec![], vec![]);
     for (name, masses, k) in [
-        ("axial", &axial_g, plant.truth.stiffness.axial_n_per_um),
-        ("radial", &radial_g, plant.truth.stiffness.radial_n_per_um),
+        (
+            "axial",
+            axial_masses_g(),
+            plant.truth.stiffness.axial_n_per_um,
+        ),
+        (
+            "radial",
+            radial_masses_g(),
+            plant.truth.stiffness.radial_n_per_um,
+        ),
     ] {
         for m in masses {
             let f = m * 1e-3 * G_N_PER_KG;
             for _ in 0..cal.trials.max(1) {
-                let mut r = f / k + noise.sample(&mut rng);
-                if cal.indicator_resolution_um > 0.0 {
-                    r = (r / cal.indicator_resolution_um).round() * cal.indicator_resolution_um;
-                }
                 load.push(f);
-                defl.push(r);
+                defl.push(cal.reading_um(f / k, &noise, &mut rng));
                 dir.push(name.to_string());
             }
         }
@@ -671,17 +685,6 @@ fn stiffness_experiment(
         cal.trials, cal.indicator_resolution_um, cal.noise_um
     );
     Ok((fit, desc))
-}
-
-/// Whether every model of a bundle came out of its identification usable (converged); the warnings stay
-/// in the bundle either way.
-pub fn all_converged(bundle: &ModelBundle) -> bool {
-    [&bundle.spindle, &bundle.force, &bundle.stiffness]
-        .iter()
-        .all(|m: &&Option<IdentifiedModel>| {
-            m.as_ref()
-                .is_some_and(|m| m.status == millcomp_models::FitStatus::Converged)
-        })
 }
 
 /// One parameter of a coverage study.

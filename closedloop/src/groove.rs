@@ -205,13 +205,7 @@ fn bundle_models(
         (None, false) => return Ok(None),
         (Some(path), _) => (load_bundle(path)?, std::path::PathBuf::from(path)),
         (None, true) => {
-            let plant = CommissioningPlant {
-                truth,
-                instruments: truth.instruments,
-                force_noise_n: s.truth.force_noise_n,
-                gauge_noise_um: s.truth.gauge_noise_um,
-                material,
-            };
+            let plant = CommissioningPlant::of_scenario(s, truth);
             let c = commission(&plant, &s.commissioning, s.seed.wrapping_add(11))?;
             (c.bundle, std::path::PathBuf::from("<commissioned>"))
         }

@@ -115,13 +115,7 @@ fn a_too_small_force_experiment_produces_identification_warnings() {
 fn bundle_file(dir: &std::path::Path, edit: impl FnOnce(&mut toml::Table)) -> std::path::PathBuf {
     let s = scenario("groove_s7_20deg_commissioned.toml");
     let truth = groove_truth(&s).unwrap();
-    let plant = CommissioningPlant {
-        truth: &truth,
-        instruments: truth.instruments,
-        force_noise_n: 0.04,
-        gauge_noise_um: 0.01,
-        material: "S7",
-    };
+    let plant = CommissioningPlant::of_scenario(&s, &truth);
     let c = commission(&plant, &CommissioningPlan::default(), 5).unwrap();
     let path = dir.join("bundle.toml");
     ModelFile::new("bundle", c.bundle, Provenance::now("test", "test"))

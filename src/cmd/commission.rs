@@ -65,13 +65,7 @@ pub fn run(args: CommissionArgs, json: bool) -> anyhow::Result<()> {
         print!("{}", coverage_text(&s.name, seed, n, &rows));
         return Ok(());
     }
-    let plant = CommissioningPlant {
-        truth: &truth,
-        instruments: truth.instruments,
-        force_noise_n: s.truth.force_noise_n,
-        gauge_noise_um: s.truth.gauge_noise_um,
-        material: &material,
-    };
+    let plant = CommissioningPlant::of_scenario(&s, &truth);
     let c = commission(&plant, &s.commissioning, seed)?;
     if let Some(out) = &args.out {
         let inputs = vec![InputFile::from_path(&args.scenario)?];
