@@ -38,20 +38,14 @@ use millcomp_identify::targets::force::{
 use millcomp_identify::targets::spindle::{SpindleData, SpindleOptions, identify_spindle};
 use millcomp_identify::targets::stiffness::{StiffnessData, StiffnessOptions, identify_stiffness};
 use millcomp_models::ModelBundle;
-use millcomp_sim::force::{BallEndForceModel, CutConditions, ForceParams};
+use millcomp_mpc::identified::NominalTool;
+use millcomp_sim::force::{BallEndForceModel, CutConditions};
 use millcomp_sim::groove::GrooveConfig;
-use millcomp_sim::material::Material;
 use millcomp_sim::sensors::{ForceSensor, InstrumentErrors};
-use millcomp_sim::tool::BallEndTool;
 
 use crate::calibration::{G_N_PER_KG, StiffnessCalibration, axial_masses_g, radial_masses_g};
 use crate::error::{ClosedLoopError, invalid};
 use crate::scenario::Scenario;
-
-/// The tool a user orders and measures: Ø0.8 mm ball end (radius 400 µm), runout 10 µm as the thesis
-/// measured it (`000_…txt` §6.2), wearland 5 µm as the starting value of the fit (the measured grooves of
-/// Fig. 7-9).
-pub const NOMINAL_TOOL: (f64, f64, f64) = (400.0, 5.0, 10.0);
 
 /// The settings of a commissioning (`[commissioning]` of a scenario; every key optional).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -186,17 +180,13 @@ impl Commissioned {
 }
 
 /// The nominal force model a user starts from: the published material, the catalogue tool
-/// ([`NOMINAL_TOOL`]), force scale 1.
+/// ([`NominalTool::thesis_ball_end`]: radius 400 µm, runout 10 µm as measured, wearland 5 µm as the
+/// starting value), force scale 1.
 ///
 /// # Errors
-/// [`ClosedLoopError::Sim`] for an unknown material.
+/// [`ClosedLoopError::Mpc`] for an unknown material.
 pub fn nominal_force_model(material: &str) -> Result<BallEndForceModel, ClosedLoopError> {
-    let (r, wl, ro) = NOMINAL_TOOL;
-    Ok(BallEndForceModel::new(
-        Material::by_name(material)?,
-        BallEndTool::new(r, wl, ro)?,
-        ForceParams::default(),
-    )?)
+    Ok(NominalTool::thesis_ball_end(material).force_model()?)
 }
 
 /// Run the three experiments on the plant and identify them (seeded).

@@ -81,7 +81,7 @@ pub fn thin_wall_measurement(
     }
     ThinWallMeasurement {
         force_meas_n: f,
-        stage_um: o.stage_um,
+        encoder_um: o.encoder_um,
     }
 }
 

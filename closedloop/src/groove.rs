@@ -2,27 +2,28 @@
 //! `000_…txt` ch. 6–7) with every controller of [`millcomp_mpc::groove`].
 //!
 //! The truth plant is sim's stage configured from the scenario; the controllers get the program, their
-//! own models (identified stiffness, perturbed or identified force model, spindle model) and the
+//! own models — identified from a commissioning of the plant or a bundle ([`groove_setup`]) — and the
 //! measured signals only. Error = depth cut − programmed depth.
 
+use std::path::PathBuf;
 use std::time::Instant;
 
 use millcomp_sim::actuator::{BoucWenParams, LogCreepParams};
 use millcomp_sim::groove::{GrooveConfig, GrooveStage, GrooveStepOutput};
 use millcomp_sim::material::Material;
 use millcomp_sim::sensors::{InstrumentErrors, NoiseSpec};
-use millcomp_sim::spindle::PztSpindle;
-use millcomp_sim::stiffness::TiltedToolStiffness;
 
 use millcomp_mpc::groove::{
     DeflectionPlan, GrooveController, GrooveMpcSettings, MpcGrooveController, NoneController,
     OpenLoopController, PidController, TunedPidController,
 };
+use millcomp_mpc::identified::{
+    IdentifiedForceModel, IdentifiedSpindle, IdentifiedStiffness, NominalTool,
+};
 use millcomp_mpc::pid::{AntiWindup, PidGains};
 use millcomp_mpc::predictor::ForcePredictor;
 
-use crate::calibration::{CalibratedStiffness, calibrate_stiffness};
-use crate::commissioning::{CommissioningPlant, commission, nominal_force_model};
+use crate::commissioning::{CommissioningPlant, commission};
 use crate::error::{ClosedLoopError, invalid};
 use crate::faults::{SolverFailures, groove_measurement};
 use crate::model_errors::ForceErrors;
@@ -36,23 +37,26 @@ pub const CHANGE_WINDOW_BEFORE_MM: f64 = 0.5;
 /// See [`CHANGE_WINDOW_BEFORE_MM`].
 pub const CHANGE_WINDOW_AFTER_MM: f64 = 2.0;
 
-/// Everything a groove run needs: the truth stage configuration and the controllers' models.
+/// Everything a groove run needs: the truth stage configuration and the controllers' models — typed so
+/// that only identified models and the catalogue can make them ([`millcomp_mpc::identified`]).
 #[derive(Debug, Clone)]
 pub struct GrooveSetup {
     /// Truth plant.
     pub truth: GrooveConfig,
-    /// Controllers' force predictor (mechanistic or response surface).
+    /// The catalogue tool and material the controllers' force model starts from.
+    pub nominal_tool: NominalTool,
+    /// Controllers' force predictor (identified mechanistic model or response surface).
     pub model_force: ForcePredictor,
-    /// Controllers' stiffness (identified, times `1 + stiffness_error`).
-    pub model_stiffness: TiltedToolStiffness,
-    /// Controllers' spindle model.
-    pub model_spindle: PztSpindle,
-    /// The simulated calibration.
-    pub calibration: CalibratedStiffness,
-    /// The force-parameter errors used.
+    /// Controllers' stiffness (identified, times `1 + truth.stiffness_error`).
+    pub model_stiffness: IdentifiedStiffness,
+    /// Controllers' spindle model (identified).
+    pub model_spindle: IdentifiedSpindle,
+    /// The deliberate force-parameter errors laid on the identified force model.
     pub force_errors: ForceErrors,
     /// Truth force scale (calibrated or sim's default).
     pub truth_force_scale: f64,
+    /// Where the controllers' models came from, for the run notes.
+    pub models_from: String,
 }
 
 fn deepest(g: &GrooveScenario) -> f64 {
@@ -121,26 +125,44 @@ pub fn groove_truth(s: &Scenario) -> Result<GrooveConfig, ClosedLoopError> {
 }
 
 /// Build the truth plant and the controllers' models for a groove scenario (see `closedloop/SCENARIOS.md`).
+///
+/// The controllers' models come from a bundle: the one `control.bundle` names, or else a commissioning of
+/// the truth plant (`[commissioning]`, the scenario's seed). Saved models (`control.spindle_model`,
+/// `control.force_model`, `control.force_response_surface`) replace the bundle's piece; the deliberate
+/// errors of `[truth]` (`force_errors` / `force_error_max`, `stiffness_error`) are laid on top. Nothing
+/// of the truth reaches a controller but what these experiments measured.
+///
+/// # Errors
+/// [`ClosedLoopError::InvalidConfig`] without a `[groove]` table or with two force predictors; bundle and
+/// model-file errors naming the file and key; commissioning and physics errors.
 pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, ClosedLoopError> {
     let g = s
         .groove
         .as_ref()
         .ok_or_else(|| invalid("groove", "missing", "a [groove] table"))?;
     let truth = groove_truth(s)?;
-    if let Some(models) = bundle_models(s, &truth, &g.material)? {
-        return Ok(GrooveSetup {
-            truth_force_scale: truth.force_model.params.force_scale,
-            model_spindle: models.spindle,
-            model_force: match &s.control.force_response_surface {
-                Some(path) => ForcePredictor::ResponseSurface(load_response_surface(path)?),
-                None => ForcePredictor::Mechanistic(models.force),
-            },
-            model_stiffness: models.stiffness.stiffness()?,
-            calibration: models.stiffness,
-            force_errors: ForceErrors::default(),
-            truth,
-        });
-    }
+    let nominal_tool = NominalTool::thesis_ball_end(&g.material);
+    let (bundle, origin) = match &s.control.bundle {
+        Some(path) => (load_bundle(path)?, PathBuf::from(path)),
+        None => {
+            let plant = CommissioningPlant::of_scenario(s, &truth);
+            let c = commission(&plant, &s.commissioning, s.seed.wrapping_add(11))?;
+            (c.bundle, PathBuf::from("<commissioned>"))
+        }
+    };
+    bundle.check_material(&g.material, &origin)?;
+    let mut from = vec![if s.control.bundle.is_some() {
+        format!("bundle {}", origin.display())
+    } else {
+        "a commissioning of the plant".to_string()
+    }];
+    let model_spindle = match &s.control.spindle_model {
+        Some(path) => {
+            from.push(format!("spindle from {path}"));
+            IdentifiedSpindle::new(&load_spindle(path)?)?
+        }
+        None => IdentifiedSpindle::new(&bundle.spindle(&origin, "the controllers")?)?,
+    };
     let force_errors = s
         .truth
         .force_errors
@@ -153,88 +175,38 @@ pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, ClosedLoopError> {
                 "one force predictor: either an identified model or a response surface",
             ));
         }
-        (Some(path), None) => {
-            ForcePredictor::Mechanistic(millcomp_mpc::identified::force_model_with(
-                &load_force_params(path)?,
-                &truth.force_model,
-            )?)
+        (None, Some(path)) => {
+            from.push(format!("force response surface from {path}"));
+            ForcePredictor::ResponseSurface(load_response_surface(path)?)
         }
-        (None, Some(path)) => ForcePredictor::ResponseSurface(load_response_surface(path)?),
-        (None, None) => ForcePredictor::Mechanistic(force_errors.apply(&truth.force_model)?),
+        (Some(path), None) => {
+            from.push(format!("force model from {path}"));
+            ForcePredictor::Mechanistic(
+                IdentifiedForceModel::new(&load_force_params(path)?, &nominal_tool)?
+                    .perturbed(&force_errors.relative())?,
+            )
+        }
+        (None, None) => ForcePredictor::Mechanistic(
+            IdentifiedForceModel::new(
+                &bundle.force(&origin, "the controllers' force predictor")?,
+                &nominal_tool,
+            )?
+            .perturbed(&force_errors.relative())?,
+        ),
     };
-    let model_spindle = match &s.control.spindle_model {
-        Some(path) => millcomp_mpc::identified::spindle_plant(&load_spindle(path)?)?,
-        None => truth.spindle.clone(),
-    };
-    let calibration = calibrate_stiffness(
-        &truth.stiffness,
-        &s.truth.stiffness_calibration,
-        s.seed.wrapping_add(7),
-    )?;
-    let f = 1.0 + s.truth.stiffness_error;
-    let model_stiffness = TiltedToolStiffness::new(
-        calibration.axial_n_per_um * f,
-        calibration.radial_n_per_um * f,
-    )?;
+    let model_stiffness =
+        IdentifiedStiffness::new(&bundle.stiffness(&origin, "the controllers' deflection model")?)?
+            .scaled(1.0 + s.truth.stiffness_error)?;
     Ok(GrooveSetup {
         truth_force_scale: truth.force_model.params.force_scale,
-        model_spindle,
         truth,
+        nominal_tool,
         model_force,
         model_stiffness,
-        calibration,
+        model_spindle,
         force_errors,
+        models_from: from.join("; "),
     })
-}
-
-/// The controllers' models built from a bundle: nothing of the truth but what the commissioning measured.
-struct BundleModels {
-    spindle: PztSpindle,
-    force: millcomp_sim::force::BallEndForceModel,
-    stiffness: CalibratedStiffness,
-}
-
-/// The bundle a scenario names (`control.bundle`) or commissions (`control.commission`), turned into the
-/// controllers' models; `None` when the scenario uses neither.
-fn bundle_models(
-    s: &Scenario,
-    truth: &GrooveConfig,
-    material: &str,
-) -> Result<Option<BundleModels>, ClosedLoopError> {
-    let (bundle, origin) = match (&s.control.bundle, s.control.commission) {
-        (None, false) => return Ok(None),
-        (Some(path), _) => (load_bundle(path)?, std::path::PathBuf::from(path)),
-        (None, true) => {
-            let plant = CommissioningPlant::of_scenario(s, truth);
-            let c = commission(&plant, &s.commissioning, s.seed.wrapping_add(11))?;
-            (c.bundle, std::path::PathBuf::from("<commissioned>"))
-        }
-    };
-    bundle.check_material(material, &origin)?;
-    let spindle =
-        millcomp_mpc::identified::spindle_plant(&bundle.spindle(&origin, "the controllers")?)?;
-    let force = millcomp_mpc::identified::force_model_with(
-        &bundle.force(&origin, "the controllers' force predictor")?,
-        &nominal_force_model(material)?,
-    )?;
-    let k = bundle.stiffness(&origin, "the controllers' deflection model")?;
-    let se = |name: &str| {
-        k.covariance
-            .get(name, name)
-            .map(f64::sqrt)
-            .unwrap_or(f64::NAN)
-    };
-    let stiffness = CalibratedStiffness {
-        axial_n_per_um: k.axial_n_per_um,
-        radial_n_per_um: k.radial_n_per_um,
-        axial_std_err: se("axial_stiffness_n_per_um"),
-        radial_std_err: se("radial_stiffness_n_per_um"),
-    };
-    Ok(Some(BundleModels {
-        spindle,
-        force,
-        stiffness,
-    }))
 }
 
 /// The controllers' preview of a groove setup, tabulated every `dx_mm`.
@@ -243,7 +215,7 @@ pub fn deflection_plan(setup: &GrooveSetup, dx_mm: f64) -> Result<DeflectionPlan
         &setup.truth.program,
         &setup.model_force,
         &setup.model_stiffness,
-        setup.truth.force_model.tool.radius_um,
+        setup.nominal_tool.radius_um,
         dx_mm,
     )?)
 }
@@ -256,7 +228,7 @@ pub fn mpc_settings(setup: &GrooveSetup, s: &Scenario) -> GrooveMpcSettings {
         mpc_every: s.control.mpc_every,
         horizon: s.control.horizon,
         slew_v_per_cycle: s.control.slew_v_per_cycle,
-        voltage_max_v: setup.truth.spindle.voltage_max_v,
+        voltage_max_v: setup.model_spindle.plant().voltage_max_v,
         config: s.control.mpc.clone(),
         force_noise_n: s.truth.force_noise_n,
         gauge_noise_um: s.truth.gauge_noise_um,
@@ -294,8 +266,9 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Close
     let t = &setup.truth;
     let dt = s.control.dt_s;
     let plan = deflection_plan(&setup, 0.01)?;
-    let v_max = t.spindle.voltage_max_v;
-    let mut notes = Vec::new();
+    // the amplifier's rated maximum (a catalogue value, carried by the identified spindle's defaults)
+    let v_max = setup.model_spindle.plant().voltage_max_v;
+    let mut notes = vec![format!("controllers' models from {}", setup.models_from)];
     let mut ctl: Box<dyn GrooveController> = match kind {
         ControllerKind::None => Box::new(NoneController),
         ControllerKind::OpenLoop => {
@@ -358,7 +331,7 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Close
             &t.program,
             &setup.model_spindle,
             &setup.model_stiffness,
-            t.force_model.tool.flutes,
+            setup.nominal_tool.flutes,
             &mpc_settings(&setup, s),
         )?),
     };
@@ -458,6 +431,7 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Close
     }
     let kz_model = setup
         .model_stiffness
+        .stiffness()
         .z_stiffness_n_per_um(t.program.tilt_deg)?;
     let kz_truth = t.stiffness.z_stiffness_n_per_um(t.program.tilt_deg)?;
     let report = RunReport {

@@ -11,6 +11,7 @@
 
 use millcomp_mpc::qp::QpData;
 use millcomp_mpc::replay::QpSequence;
+use millcomp_mpc::identified::IdentifiedSpindle;
 use millcomp_mpc::spindle_mpc::{OUT_ERROR, default_spindle_config, spindle_prediction_model};
 use millcomp_mpc::{MpcConfig, MpcController, MpcError, PreviewWindow};
 use millcomp_sim::PztSpindle;
@@ -65,7 +66,17 @@ pub fn record_spindle_sequence_with(
 ) -> Result<QpSequence, ClosedLoopError> {
     let horizon = cfg.horizon;
     let sp = bench_spindle();
-    let model = spindle_prediction_model(&sp, BENCH_DT_S)?;
+    // a solver benchmark, not a comparison: the MPC's (identified) model has the plant's values
+    let identified = IdentifiedSpindle::new(&millcomp_models::SpindleModel {
+        gain_um_per_v: sp.gain_um_per_v,
+        zeta: sp.zeta,
+        wn_rad_s: sp.wn_rad_s,
+        pole_rad_s: sp.pole_rad_s,
+        dead_time_s: sp.dead_time_s,
+        dead_time_pade_order: None,
+        covariance: Default::default(),
+    })?;
+    let model = spindle_prediction_model(&identified, BENCH_DT_S)?;
     let cfg = cfg.clone();
     let mut mpc = MpcController::new(&model, &cfg)?;
     let mut plant = sp.discretize(BENCH_DT_S)?;

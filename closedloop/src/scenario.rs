@@ -252,10 +252,11 @@ fn default_wall_length() -> f64 {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TruthSpec {
-    /// Bound of the seeded force-parameter errors (relative, ≤ 0.5). Ignored if `force_errors` is given.
-    #[serde(default = "default_force_error_max")]
+    /// Bound of the seeded force-parameter errors laid on the controllers' identified force model
+    /// (relative, ≤ 0.5; 0 = none). Ignored if `force_errors` is given.
+    #[serde(default)]
     pub force_error_max: f64,
-    /// Explicit force-parameter errors (relative).
+    /// Explicit force-parameter errors (relative) laid on the controllers' identified force model.
     #[serde(default)]
     pub force_errors: Option<ForceErrors>,
     /// Simulated stiffness calibration.
@@ -284,9 +285,6 @@ pub struct TruthSpec {
     pub pzt_nonlinear: bool,
 }
 
-fn default_force_error_max() -> f64 {
-    0.15
-}
 fn default_force_noise() -> f64 {
     0.04
 }
@@ -297,7 +295,7 @@ fn default_gauge_noise() -> f64 {
 impl Default for TruthSpec {
     fn default() -> Self {
         Self {
-            force_error_max: default_force_error_max(),
+            force_error_max: 0.0,
             force_errors: None,
             stiffness_calibration: StiffnessCalibration::default(),
             stiffness_error: 0.0,
@@ -780,7 +778,7 @@ depth = { kind = "ramp", from_um = 0.0, to_um = 80.0 }
         let s = Scenario::from_toml_str(GROOVE, "g20.toml").unwrap();
         let g = s.groove.unwrap();
         assert_eq!(g.speed_rpm, 10_000.0);
-        assert_eq!(s.truth.force_error_max, 0.15);
+        assert_eq!(s.truth.force_error_max, 0.0);
         assert_eq!(s.control.mpc_every, 10);
     }
 

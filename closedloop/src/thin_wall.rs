@@ -2,10 +2,12 @@
 //! every controller of [`millcomp_mpc::thin_wall`].
 //!
 //! Per wall, the truth is sim's stage configured from the scenario (force noise, stage accuracy); the
-//! controllers' model is the same wall with the identified tool stiffness (a simulated calibration:
-//! loads 0.5–5 N on the tool, deflection read on the stage's 0.1 µm grating ruler, σ 0.05 µm, 3
-//! trials), E = 100 GPa (Table 4) and the force coefficient with the scenario's force error, planned by
-//! [`millcomp_mpc::thin_wall::plan_wall`].
+//! controllers' model ([`millcomp_mpc::identified::WallModel`]) is the programmed wall with the
+//! published material and force coefficient of 004 (E = 100 GPa, Table 4; the coefficient times
+//! `1 + truth.force_errors.w_mpa`) and the identified tool stiffness (a simulated calibration: loads
+//! 0.5–5 N on the tool, deflection read on the stage's 0.1 µm grating ruler, σ 0.05 µm, 3 trials),
+//! planned by [`millcomp_mpc::thin_wall::plan_wall`]. The controllers read the force sensor and the
+//! stage's grating ruler, which does not see the stage's ±0.5 µm positioning accuracy error.
 
 use std::time::Instant;
 
@@ -16,6 +18,7 @@ use millcomp_sim::sensors::NoiseSpec;
 use millcomp_sim::thinwall::{ThinWallConfig, ThinWallStage, ThinWallStepOutput};
 
 use millcomp_mpc::SolverStats;
+use millcomp_mpc::identified::{WallModel, WallProgram};
 use millcomp_mpc::thin_wall::{
     MpcThinWallController, NoneController, OpenLoopController, PiController, STAGE_MAX_UM,
     STAGE_MIN_UM, ThinWallController, ThresholdController, WallPlan, estimated_deflection_um,
@@ -130,12 +133,16 @@ pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Cl
         )?;
         let k_tool_model = k_tool_id * (1.0 + s.truth.stiffness_error);
         k_tool_rel = k_tool_model / truth.tool_stiffness_n_per_um - 1.0;
-        let mut model = truth.clone();
-        model.e_gpa = 100.0 * (1.0 + s.truth.stiffness_error);
-        model.tool_stiffness_n_per_um = k_tool_model;
-        model.kr_n_per_mm2 *= 1.0 + force_errors.w_mpa;
-        model.force_noise = None;
-        model.stage.accuracy_seed = None;
+        let program = WallProgram {
+            thickness_um: nominal,
+            height_um: tw.height_um,
+            ae_um: tw.ae_um,
+            ap_um: tw.ap_um,
+            fz_um: tw.fz_um,
+            length_um: tw.length_mm * 1000.0,
+        };
+        let model = WallModel::published_004(&program, k_tool_model)?
+            .scaled(1.0 + s.truth.stiffness_error, 1.0 + force_errors.w_mpa)?;
         let plan = plan_wall(&model)?;
         let dt = plan.dt_s;
         let mut ctl = thin_wall_controller(kind, &plan, s.control.horizon)?;

@@ -74,7 +74,6 @@ fn exit_mpc_no_undersize_and_half_of_pid() {
 #[test]
 fn response_surface_predictor_drives_the_preview() {
     use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze, response_surface};
-    use millcomp_sim::groove::GrooveConfig;
 
     let mut s = around_change(scenario("groove_s7_20deg_feed_step.toml"));
     s.truth.force_errors = Some(millcomp_closedloop::model_errors::ForceErrors {
@@ -83,14 +82,12 @@ fn response_surface_predictor_drives_the_preview() {
         mu_flank: 0.0,
         wearland_um: 0.0,
     });
-    // "measured" peak forces: the truth model scaled as the controllers' (W + 5 %)
-    let truth = GrooveConfig::thesis(20.0, 8.0).unwrap();
-    let model = s
-        .truth
-        .force_errors
-        .unwrap()
-        .apply(&truth.force_model)
-        .unwrap();
+    // the controllers' own mechanistic model (commissioned, W + 5 % on top) tabulated on the grid
+    let setup = millcomp_closedloop::groove::groove_setup(&s).unwrap();
+    let millcomp_mpc::predictor::ForcePredictor::Mechanistic(model) = &setup.model_force else {
+        panic!("a mechanistic predictor");
+    };
+    let program = &setup.truth.program;
     let (mut d, mut u, mut f) = (Vec::new(), Vec::new(), Vec::new());
     for depth in [20.0, 40.0, 60.0, 80.0] {
         for upfeed in [5.0, 12.5, 20.0] {
@@ -98,7 +95,8 @@ fn response_surface_predictor_drives_the_preview() {
             u.push(upfeed);
             f.push(
                 model
-                    .peak_z_force_n(&truth.conditions_at(depth, upfeed))
+                    .model()
+                    .peak_z_force_n(&program.conditions_at(depth, upfeed))
                     .unwrap(),
             );
         }

@@ -1,7 +1,7 @@
 //! The groove controllers of millcomp-mpc on sim's groove stage: the thesis' 20° S7 groove (0 → 80 µm
 //! over 20 mm), cut uncompensated, with open-loop compensation, the published PID and the MPC. The
-//! controllers are built from the program and models of their own — here sim's force model with W 10 %
-//! high, the Table 5-1 stiffness and the nominal spindle — and see only the measured force and gauge.
+//! controllers are built from the program and identified models only — here the values a commissioning
+//! of this plant gave, with W 10 % high — and see only the measured force and gauge.
 //! (`millcomp-closedloop` does the same from scenario files, with identified models and faults.)
 //!
 //! ```text
@@ -14,6 +14,10 @@ use millcomp_mpc::MpcError;
 use millcomp_mpc::groove::{
     DeflectionPlan, GrooveController, GrooveMeasurement, GrooveMpcSettings, MpcGrooveController,
     NoneController, OpenLoopController, PidController,
+};
+use millcomp_models::{ForceModelParams, SpindleModel, StiffnessModel};
+use millcomp_mpc::identified::{
+    IdentifiedForceModel, IdentifiedSpindle, IdentifiedStiffness, NominalTool,
 };
 use millcomp_mpc::pid::{AntiWindup, PidGains};
 use millcomp_mpc::predictor::ForcePredictor;
@@ -57,18 +61,44 @@ fn run() -> Result<(), MpcError> {
     };
     truth.program.length_mm = length_mm;
     let program = truth.program.clone();
-    // the controllers' models: W 10 % high, the published stiffness, the nominal spindle
-    let mut force = truth.force_model.clone();
-    force.material.w_mpa *= 1.1;
+    // the controllers' models: what `millcomp commission` identified on this plant (the 20° groove
+    // scenario with `commission = true`, seed 20: W 22 444 MPa, wearland 8.00 µm, spindle 0.0499 µm/V,
+    // ζ 0.336, ωn 2824 rad/s, pole 2996 rad/s, dead time 0.378 ms, stiffness 1.101 / 0.1144 N/µm), with
+    // W 10 % high on top
+    let tool = NominalTool::thesis_ball_end("S7");
+    let force = IdentifiedForceModel::new(
+        &ForceModelParams {
+            fitted: [
+                ("w_mpa".to_string(), 1.1 * 22_443.9),
+                ("wearland_um".to_string(), 8.0),
+            ]
+            .into(),
+            fixed: Default::default(),
+            covariance: Default::default(),
+        },
+        &tool,
+    )?;
     let predictor = ForcePredictor::Mechanistic(force);
-    let stiffness = millcomp_sim::stiffness::TiltedToolStiffness::default();
-    let spindle = millcomp_sim::PztSpindle::default();
-    let v_max = spindle.voltage_max_v;
+    let stiffness = IdentifiedStiffness::new(&StiffnessModel {
+        axial_n_per_um: 1.101,
+        radial_n_per_um: 0.1144,
+        covariance: Default::default(),
+    })?;
+    let spindle = IdentifiedSpindle::new(&SpindleModel {
+        gain_um_per_v: 0.0499,
+        zeta: 0.336,
+        wn_rad_s: 2824.0,
+        pole_rad_s: Some(2996.0),
+        dead_time_s: Some(3.78e-4),
+        dead_time_pade_order: Some(2),
+        covariance: Default::default(),
+    })?;
+    let v_max = spindle.plant().voltage_max_v;
     let plan = DeflectionPlan::new(
         &program,
         &predictor,
         &stiffness,
-        truth.force_model.tool.radius_um,
+        tool.radius_um,
         0.01,
     )?;
     let settings = GrooveMpcSettings {
@@ -111,7 +141,7 @@ fn run() -> Result<(), MpcError> {
                 &program,
                 &spindle,
                 &stiffness,
-                truth.force_model.tool.flutes,
+                tool.flutes,
                 &settings,
             )?),
         ),

@@ -1,84 +1,371 @@
-//! The controllers' model equations built from identified models (`millcomp-models`): an identified
-//! spindle as sim's PZT-spindle transfer function, identified force-model parameters substituted into the
-//! ball-end force model's equations. What crosses here was estimated from measurements.
+//! The controllers' models, and the only way to make them: from identified models (`millcomp-models`)
+//! and the catalogue (published material, ordered tool). What crosses here was estimated from
+//! measurements.
+//!
+//! Every controller of this crate takes these types — [`IdentifiedSpindle`], [`IdentifiedStiffness`],
+//! [`IdentifiedForceModel`] (inside [`crate::predictor::ForcePredictor`]), [`WallModel`] — and none of
+//! the simulator's (`PztSpindle`, `TiltedToolStiffness`, `BallEndForceModel`, `ThinWallConfig`). Their
+//! fields are private, so a truth plant cannot be wrapped into one: a controller built from the truth
+//! does not compile.
+//!
+//! ```compile_fail
+//! // the truth's spindle handed to a controller: PztSpindle is not an IdentifiedSpindle
+//! use millcomp_mpc::groove::TunedPidController;
+//! use millcomp_mpc::identified::IdentifiedStiffness;
+//! use millcomp_models::StiffnessModel;
+//! let truth = millcomp_sim::PztSpindle::default();
+//! let k = IdentifiedStiffness::new(&StiffnessModel {
+//!     axial_n_per_um: 1.22, radial_n_per_um: 0.114, covariance: Default::default(),
+//! }).unwrap();
+//! let program = millcomp_sim::groove::GrooveProgram::thesis(20.0);
+//! let _ = TunedPidController::new(&program, &truth, &k, 1000.0, 5e-5);
+//! ```
+//!
+//! ```compile_fail
+//! // nor can the truth be wrapped: the field is private
+//! let truth = millcomp_sim::PztSpindle::default();
+//! let _ = millcomp_mpc::identified::IdentifiedSpindle(truth);
+//! ```
+//!
+//! The same controller from an identified spindle compiles and runs:
+//! ```
+//! use millcomp_mpc::groove::TunedPidController;
+//! use millcomp_mpc::identified::{IdentifiedSpindle, IdentifiedStiffness};
+//! use millcomp_models::{SpindleModel, StiffnessModel};
+//! let spindle = IdentifiedSpindle::new(&SpindleModel {
+//!     gain_um_per_v: 0.05, zeta: 0.46, wn_rad_s: 1302.0, pole_rad_s: Some(37_000.0),
+//!     dead_time_s: None, dead_time_pade_order: None, covariance: Default::default(),
+//! }).unwrap();
+//! let k = IdentifiedStiffness::new(&StiffnessModel {
+//!     axial_n_per_um: 1.22, radial_n_per_um: 0.114, covariance: Default::default(),
+//! }).unwrap();
+//! let program = millcomp_sim::groove::GrooveProgram::thesis(20.0);
+//! let c = TunedPidController::new(&program, &spindle, &k, 1000.0, 5e-5).unwrap();
+//! assert!(c.design().ms <= 1.6 + 1e-9);
+//! ```
 
-use millcomp_models::{ForceModelParams, SpindleModel};
-use millcomp_sim::force::BallEndForceModel;
+use millcomp_models::{ForceModelParams, SpindleModel, StiffnessModel};
+use millcomp_sim::force::{BallEndForceModel, ForceParams};
+use millcomp_sim::material::Material;
 use millcomp_sim::spindle::{DeadTimeModel, PztSpindle};
+use millcomp_sim::stiffness::TiltedToolStiffness;
+use millcomp_sim::thinwall::ThinWallConfig;
+use millcomp_sim::tool::BallEndTool;
 
 use crate::error::{MpcError, invalid};
 
-/// The identified spindle as the physics crate's transfer function (the extra pole and dead time when they
-/// were fitted, the dead time as a Padé approximant of the recorded order; the other fields — voltage range,
-/// loop gain — at the physics crate's defaults).
-///
-/// # Errors
-/// [`MpcError::IdentifiedModel`] (key `spindle_model`) when the physics crate rejects the parameters.
-///
-/// # Examples
-/// ```
-/// use millcomp_models::{NamedMatrix, SpindleModel};
-/// let m = SpindleModel {
-///     gain_um_per_v: 0.05, zeta: 0.46, wn_rad_s: 1302.0, pole_rad_s: None, dead_time_s: None,
-///     dead_time_pade_order: None, covariance: NamedMatrix::default(),
-/// };
-/// let s = millcomp_mpc::identified::spindle_plant(&m).unwrap();
-/// assert_eq!(s.zeta, 0.46);
-/// ```
-pub fn spindle_plant(m: &SpindleModel) -> Result<PztSpindle, MpcError> {
-    let mut s = PztSpindle::new(
-        m.gain_um_per_v,
-        m.zeta,
-        m.wn_rad_s,
-        m.pole_rad_s,
-        m.dead_time_s,
-    )
-    .map_err(|source| MpcError::IdentifiedModel {
-        key: "spindle_model".into(),
-        value: format!("{m:?}"),
-        source,
-    })?;
-    s.dead_time_model = match m.dead_time_pade_order {
-        Some(1) => DeadTimeModel::Pade1,
-        _ => DeadTimeModel::Pade2,
-    };
-    Ok(s)
+/// The controllers' spindle: an identified PZT-spindle transfer function (the extra pole and dead time
+/// when they were fitted, the dead time as a Padé approximant of the recorded order; the fields an
+/// identification does not give — voltage range, loop scale — at the physics crate's catalogue
+/// defaults).
+#[derive(Debug, Clone)]
+pub struct IdentifiedSpindle(PztSpindle);
+
+impl IdentifiedSpindle {
+    /// From an identified spindle model.
+    ///
+    /// # Errors
+    /// [`MpcError::IdentifiedModel`] (key `spindle_model`) when the physics crate rejects the parameters.
+    ///
+    /// # Examples
+    /// ```
+    /// use millcomp_models::{NamedMatrix, SpindleModel};
+    /// let m = SpindleModel {
+    ///     gain_um_per_v: 0.05, zeta: 0.46, wn_rad_s: 1302.0, pole_rad_s: None, dead_time_s: None,
+    ///     dead_time_pade_order: None, covariance: NamedMatrix::default(),
+    /// };
+    /// let s = millcomp_mpc::identified::IdentifiedSpindle::new(&m).unwrap();
+    /// assert_eq!(s.plant().zeta, 0.46);
+    /// ```
+    pub fn new(m: &SpindleModel) -> Result<Self, MpcError> {
+        let mut s = PztSpindle::new(
+            m.gain_um_per_v,
+            m.zeta,
+            m.wn_rad_s,
+            m.pole_rad_s,
+            m.dead_time_s,
+        )
+        .map_err(|source| MpcError::IdentifiedModel {
+            key: "spindle_model".into(),
+            value: format!("{m:?}"),
+            source,
+        })?;
+        s.dead_time_model = match m.dead_time_pade_order {
+            Some(1) => DeadTimeModel::Pade1,
+            _ => DeadTimeModel::Pade2,
+        };
+        Ok(Self(s))
+    }
+
+    /// The transfer function (read only).
+    pub fn plant(&self) -> &PztSpindle {
+        &self.0
+    }
 }
 
-/// `base` with the identified force-model parameters substituted (W, rake and flank friction, wearland,
-/// runout — whichever were fitted).
-///
-/// # Errors
-/// [`MpcError::InvalidConfig`] (key `force_model.<name>`) for a parameter the force model does not have,
-/// [`MpcError::IdentifiedModel`] (key `force_model`) for values it rejects.
-pub fn force_model_with(
-    p: &ForceModelParams,
-    base: &BallEndForceModel,
-) -> Result<BallEndForceModel, MpcError> {
-    let mut m = base.clone();
-    for (name, v) in &p.fitted {
-        match name.as_str() {
-            "w_mpa" => m.material.w_mpa = *v,
-            "mu_rake" => m.material.mu_rake = *v,
-            "mu_flank" => m.material.mu_flank = *v,
-            "wearland_um" => m.tool.wearland_um = *v,
-            "runout_um" => m.tool.runout_um = *v,
-            other => {
-                return Err(invalid(
-                    format!("force_model.{other}"),
-                    v,
-                    format!(
-                        "a force-model parameter ({})",
-                        ForceModelParams::PARAMETERS.join(", ")
-                    ),
-                ));
-            }
+/// The controllers' tool/spindle stiffness: identified axial and radial stiffness (a load–deflection
+/// calibration), possibly scaled for a what-if study.
+#[derive(Debug, Clone, Copy)]
+pub struct IdentifiedStiffness(TiltedToolStiffness);
+
+impl IdentifiedStiffness {
+    /// From an identified stiffness model.
+    ///
+    /// # Errors
+    /// [`MpcError::IdentifiedModel`] (key `stiffness`) for a non-positive or non-finite stiffness.
+    ///
+    /// # Examples
+    /// ```
+    /// use millcomp_models::StiffnessModel;
+    /// use millcomp_mpc::identified::IdentifiedStiffness;
+    /// let k = IdentifiedStiffness::new(&StiffnessModel {
+    ///     axial_n_per_um: 1.22, radial_n_per_um: 0.114, covariance: Default::default(),
+    /// }).unwrap();
+    /// // 10 % stiffer for a sensitivity study
+    /// let k2 = k.scaled(1.1).unwrap();
+    /// assert!((k2.stiffness().radial_n_per_um - 0.1254).abs() < 1e-12);
+    /// ```
+    pub fn new(m: &StiffnessModel) -> Result<Self, MpcError> {
+        Self::from_values(m.axial_n_per_um, m.radial_n_per_um)
+    }
+
+    fn from_values(axial: f64, radial: f64) -> Result<Self, MpcError> {
+        TiltedToolStiffness::new(axial, radial)
+            .map(Self)
+            .map_err(|source| MpcError::IdentifiedModel {
+                key: "stiffness".into(),
+                value: format!("axial {axial} N/um, radial {radial} N/um"),
+                source,
+            })
+    }
+
+    /// Both stiffnesses times `factor` (a deliberate model error for a sensitivity study).
+    ///
+    /// # Errors
+    /// [`MpcError::IdentifiedModel`] when the product is not a positive stiffness.
+    pub fn scaled(&self, factor: f64) -> Result<Self, MpcError> {
+        Self::from_values(
+            self.0.axial_n_per_um * factor,
+            self.0.radial_n_per_um * factor,
+        )
+    }
+
+    /// The stiffness (read only).
+    pub fn stiffness(&self) -> &TiltedToolStiffness {
+        &self.0
+    }
+}
+
+/// The catalogue: what a user knows before any measurement — the published material by name and the
+/// tool as ordered (ball radius, flutes) with the runout and wearland a toolmaker states or a microscope
+/// shows. The starting point of every force model the controllers use.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NominalTool {
+    /// Material name (published properties, `millcomp_sim::material::Material::by_name`).
+    pub material: String,
+    /// Ball radius (µm).
+    pub radius_um: f64,
+    /// Wearland (µm) before the force fit.
+    pub wearland_um: f64,
+    /// Runout (µm).
+    pub runout_um: f64,
+    /// Number of flutes.
+    pub flutes: u32,
+}
+
+impl NominalTool {
+    /// The thesis' tool as ordered: Ø0.8 mm two-flute ball end (radius 400 µm), runout 10 µm as measured
+    /// (`000_…txt` §6.2), wearland 5 µm as the starting value (the measured grooves of Fig. 7-9).
+    pub fn thesis_ball_end(material: &str) -> Self {
+        Self {
+            material: material.to_string(),
+            radius_um: 400.0,
+            wearland_um: 5.0,
+            runout_um: 10.0,
+            flutes: 2,
         }
     }
-    m.validate().map_err(|source| MpcError::IdentifiedModel {
-        key: "force_model".into(),
-        value: format!("{:?}", p.fitted),
-        source,
-    })?;
-    Ok(m)
+
+    /// The nominal force model: published material, this tool, force scale 1.
+    ///
+    /// # Errors
+    /// [`MpcError::Sim`] for an unknown material or an invalid tool.
+    pub fn force_model(&self) -> Result<BallEndForceModel, MpcError> {
+        let mut tool = BallEndTool::new(self.radius_um, self.wearland_um, self.runout_um)?;
+        tool.flutes = self.flutes;
+        Ok(BallEndForceModel::new(
+            Material::by_name(&self.material)?,
+            tool,
+            ForceParams::default(),
+        )?)
+    }
+}
+
+/// The controllers' force model: the nominal model ([`NominalTool::force_model`]) with the identified
+/// parameters substituted (W, rake and flank friction, wearland, runout — whichever were fitted).
+#[derive(Debug, Clone)]
+pub struct IdentifiedForceModel(BallEndForceModel);
+
+impl IdentifiedForceModel {
+    /// From identified parameters on the nominal tool.
+    ///
+    /// # Errors
+    /// [`MpcError::InvalidConfig`] (key `force_model.<name>`) for a parameter the force model does not
+    /// have, [`MpcError::IdentifiedModel`] (key `force_model`) for values it rejects, [`MpcError::Sim`]
+    /// for a bad nominal tool.
+    ///
+    /// # Examples
+    /// ```
+    /// use millcomp_models::ForceModelParams;
+    /// use millcomp_mpc::identified::{IdentifiedForceModel, NominalTool};
+    /// let p = ForceModelParams {
+    ///     fitted: [("w_mpa".to_string(), 3000.0), ("wearland_um".to_string(), 7.5)].into(),
+    ///     fixed: Default::default(),
+    ///     covariance: Default::default(),
+    /// };
+    /// let m = IdentifiedForceModel::new(&p, &NominalTool::thesis_ball_end("S7")).unwrap();
+    /// assert_eq!(m.model().material.w_mpa, 3000.0);
+    /// assert_eq!(m.model().tool.wearland_um, 7.5);
+    /// assert_eq!(m.model().tool.runout_um, 10.0); // the catalogue's, not fitted
+    /// ```
+    pub fn new(p: &ForceModelParams, nominal: &NominalTool) -> Result<Self, MpcError> {
+        let mut m = nominal.force_model()?;
+        for (name, v) in &p.fitted {
+            set_force_param(&mut m, name, *v)?;
+        }
+        m.validate().map_err(|source| MpcError::IdentifiedModel {
+            key: "force_model".into(),
+            value: format!("{:?}", p.fitted),
+            source,
+        })?;
+        Ok(Self(m))
+    }
+
+    /// This model with parameters multiplied by `1 + ε` (a deliberate model error for a robustness
+    /// study), `rel` as `(name, ε)` with names of [`ForceModelParams::PARAMETERS`].
+    ///
+    /// # Errors
+    /// As [`IdentifiedForceModel::new`].
+    pub fn perturbed(&self, rel: &[(&str, f64)]) -> Result<Self, MpcError> {
+        let mut m = self.0.clone();
+        for (name, e) in rel {
+            let v = match *name {
+                "w_mpa" => m.material.w_mpa,
+                "mu_rake" => m.material.mu_rake,
+                "mu_flank" => m.material.mu_flank,
+                "wearland_um" => m.tool.wearland_um,
+                "runout_um" => m.tool.runout_um,
+                other => return Err(unknown_force_param(other, *e)),
+            };
+            set_force_param(&mut m, name, v * (1.0 + e))?;
+        }
+        m.validate().map_err(|source| MpcError::IdentifiedModel {
+            key: "force_model".into(),
+            value: format!("{rel:?}"),
+            source,
+        })?;
+        Ok(Self(m))
+    }
+
+    /// The model (read only).
+    pub fn model(&self) -> &BallEndForceModel {
+        &self.0
+    }
+}
+
+fn unknown_force_param(name: &str, v: f64) -> MpcError {
+    invalid(
+        format!("force_model.{name}"),
+        v,
+        format!(
+            "a force-model parameter ({})",
+            ForceModelParams::PARAMETERS.join(", ")
+        ),
+    )
+}
+
+fn set_force_param(m: &mut BallEndForceModel, name: &str, v: f64) -> Result<(), MpcError> {
+    match name {
+        "w_mpa" => m.material.w_mpa = v,
+        "mu_rake" => m.material.mu_rake = v,
+        "mu_flank" => m.material.mu_flank = v,
+        "wearland_um" => m.tool.wearland_um = v,
+        "runout_um" => m.tool.runout_um = v,
+        other => return Err(unknown_force_param(other, v)),
+    }
+    Ok(())
+}
+
+/// The geometry of a thin wall as programmed (`004_…txt` Tables 2–3): what the NC program says.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WallProgram {
+    /// Nominal thickness (µm).
+    pub thickness_um: f64,
+    /// Height (µm).
+    pub height_um: f64,
+    /// Radial depth of cut ae (µm).
+    pub ae_um: f64,
+    /// Axial depth per layer ap (µm).
+    pub ap_um: f64,
+    /// Feed per tooth (µm).
+    pub fz_um: f64,
+    /// Length (µm).
+    pub length_um: f64,
+}
+
+/// The controllers' model of a thin wall: the programmed geometry, the published material and force
+/// coefficients of `004_…txt` (Table 4: H59 brass, E = 100 GPa) — each possibly scaled for a what-if
+/// study — and the identified tool stiffness; exact stage, no noise (a digital twin for planning).
+#[derive(Debug, Clone)]
+pub struct WallModel(ThinWallConfig);
+
+impl WallModel {
+    /// The published wall of `004_…txt` with the program's geometry and the identified tool stiffness
+    /// (N/µm, e.g. a load–deflection calibration).
+    ///
+    /// # Errors
+    /// [`MpcError::Sim`] for a geometry or stiffness the wall model rejects.
+    ///
+    /// # Examples
+    /// ```
+    /// use millcomp_mpc::identified::{WallModel, WallProgram};
+    /// let program = WallProgram {
+    ///     thickness_um: 100.0, height_um: 800.0, ae_um: 50.0, ap_um: 200.0, fz_um: 1.6,
+    ///     length_um: 5000.0,
+    /// };
+    /// let m = WallModel::published_004(&program, 0.2).unwrap();
+    /// assert_eq!(m.config().e_gpa, 100.0);
+    /// assert_eq!(m.config().tool_stiffness_n_per_um, 0.2);
+    /// ```
+    pub fn published_004(program: &WallProgram, tool_stiffness_n_per_um: f64) -> Result<Self, MpcError> {
+        let mut c = ThinWallConfig::paper(program.thickness_um)?;
+        c.height_um = program.height_um;
+        c.ae_um = program.ae_um;
+        c.ap_um = program.ap_um;
+        c.fz_um = program.fz_um;
+        c.length_um = program.length_um;
+        c.tool_stiffness_n_per_um = tool_stiffness_n_per_um;
+        c.force_noise = None;
+        c.stage.accuracy_seed = None;
+        c.validate()?;
+        Ok(Self(c))
+    }
+
+    /// This model with Young's modulus and the radial force coefficient times the given factors (a
+    /// deliberate model error for a sensitivity study).
+    ///
+    /// # Errors
+    /// [`MpcError::Sim`] for a product the wall model rejects.
+    pub fn scaled(&self, e_factor: f64, force_factor: f64) -> Result<Self, MpcError> {
+        let mut c = self.0.clone();
+        c.e_gpa *= e_factor;
+        c.kr_n_per_mm2 *= force_factor;
+        c.validate()?;
+        Ok(Self(c))
+    }
+
+    /// The configuration of the digital twin (read only).
+    pub fn config(&self) -> &ThinWallConfig {
+        &self.0
+    }
 }

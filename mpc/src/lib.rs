@@ -4,8 +4,8 @@
 //! process, solved every control cycle with [Clarabel](https://clarabel.org) (QP built once, only
 //! `q`/`b` updated per cycle), and the published baselines it is compared against (PID with the
 //! thesis' signal chain, open-loop compensation, the thin wall's 0.5 µm threshold compensation, none).
-//! They are built from the controllers' own models (identified stiffness, force predictor, spindle
-//! model) and the planned process, and read the measured signals through sim's filters
+//! They are built from the controllers' own models — the types of [`identified`], which only
+//! identified models and the catalogue can make (identified stiffness, force predictor, spindle model) and the planned process, and read the measured signals through sim's filters
 //! (`millcomp_sim::filters`: the 500 Hz low-pass, the nested peak-and-hold, the one sliding peak
 //! detector). They never see the truth plant: running them against it is `millcomp-closedloop`'s job.
 //!
@@ -28,20 +28,35 @@
 //!   open-loop, threshold, PI and MPC controllers on the controllers' [`thin_wall::WallPlan`].
 //!
 //! ```
-//! use millcomp_mpc::groove::{GrooveController, GrooveMeasurement, OpenLoopController, DeflectionPlan};
+//! use millcomp_models::{ForceModelParams, SpindleModel, StiffnessModel};
+//! use millcomp_mpc::groove::{GrooveController, OpenLoopController, DeflectionPlan};
+//! use millcomp_mpc::identified::{
+//!     IdentifiedForceModel, IdentifiedSpindle, IdentifiedStiffness, NominalTool,
+//! };
 //! use millcomp_mpc::predictor::ForcePredictor;
-//! use millcomp_sim::groove::{GrooveConfig, GrooveProgram};
-//! use millcomp_sim::stiffness::TiltedToolStiffness;
-//! // the controllers' models: sim's force model and the Table 5-1 stiffness, the thesis' 20° program
+//! use millcomp_sim::groove::GrooveProgram;
+//! // the controllers' models, identified (here typed in: a commissioning bundle gives them) on the
+//! // catalogue tool; the thesis' 20° program
 //! let program = GrooveProgram::thesis(20.0);
-//! let force = ForcePredictor::Mechanistic(GrooveConfig::thesis(20.0, 8.0).unwrap().force_model);
-//! let stiffness = TiltedToolStiffness::default();
-//! let plan = DeflectionPlan::new(&program, &force, &stiffness, 400.0, 0.01).unwrap();
-//! let spindle = millcomp_sim::PztSpindle::default();
+//! let tool = NominalTool::thesis_ball_end("S7");
+//! let p = ForceModelParams {
+//!     fitted: [("wearland_um".to_string(), 8.0)].into(),
+//!     fixed: Default::default(),
+//!     covariance: Default::default(),
+//! };
+//! let force = ForcePredictor::Mechanistic(IdentifiedForceModel::new(&p, &tool).unwrap());
+//! let stiffness = IdentifiedStiffness::new(&StiffnessModel {
+//!     axial_n_per_um: 1.22, radial_n_per_um: 0.114, covariance: Default::default(),
+//! }).unwrap();
+//! let plan = DeflectionPlan::new(&program, &force, &stiffness, tool.radius_um, 0.01).unwrap();
+//! let spindle = IdentifiedSpindle::new(&SpindleModel {
+//!     gain_um_per_v: 0.05, zeta: 0.46, wn_rad_s: 1302.0, pole_rad_s: None, dead_time_s: None,
+//!     dead_time_pade_order: None, covariance: Default::default(),
+//! }).unwrap();
 //! let mut open_loop = OpenLoopController::new(plan.clone(), &program, &spindle, 1000.0);
 //! // half-way (6 s, x = 10 mm, 40 µm programmed depth) it drives the tip to the planned deflection
 //! let v = open_loop.command(None, 6.0);
-//! let tip_um = v * spindle.gain_um_per_v;
+//! let tip_um = v * spindle.plant().gain_um_per_v;
 //! let dz = plan.deflection_at(10.0);
 //! assert!((tip_um * 20f64.to_radians().sin() - dz).abs() < 1e-9);
 //! assert!(dz > 0.0 && v < 1000.0);

@@ -10,7 +10,9 @@
 //!   prediction (a polynomial below its data) is taken as 0 N.
 
 use millcomp_models::FactorCoding;
-use millcomp_sim::force::{BallEndForceModel, CutConditions};
+use millcomp_sim::force::CutConditions;
+
+use crate::identified::IdentifiedForceModel;
 
 use crate::error::{MpcError, invalid};
 
@@ -95,8 +97,8 @@ impl ResponseSurface {
 /// The controllers' force predictor.
 #[derive(Debug, Clone)]
 pub enum ForcePredictor {
-    /// Mechanistic ball-end model.
-    Mechanistic(BallEndForceModel),
+    /// Mechanistic ball-end model with identified parameters.
+    Mechanistic(IdentifiedForceModel),
     /// Response surface from a DOE.
     ResponseSurface(ResponseSurface),
 }
@@ -105,7 +107,7 @@ impl ForcePredictor {
     /// Per-revolution peak z-force (N) of a cut.
     pub fn peak_z_force_n(&self, c: &CutConditions) -> Result<f64, MpcError> {
         match self {
-            ForcePredictor::Mechanistic(m) => Ok(m.peak_z_force_n(c)?),
+            ForcePredictor::Mechanistic(m) => Ok(m.model().peak_z_force_n(c)?),
             ForcePredictor::ResponseSurface(r) => r.peak_z_force_n(c),
         }
     }

@@ -1,7 +1,7 @@
 //! MPC design for the PZT-actuated spindle (groove stage, `000_…txt` §5.2, ch. 7).
 //!
 //! Prediction model: the spindle plant (volts → tool-tip µm, the identified or nominal
-//! [`PztSpindle`]) sampled at the control period, with **two outputs** built from the same tip row of C:
+//! `PztSpindle` as an [`IdentifiedSpindle`]) sampled at the control period, with **two outputs** built from the same tip row of C:
 //!
 //! - output 0, *gauge*: the tip displacement measured by the capacitance gauge (weight 0, no disturbance);
 //! - output 1, *depth error*: `e = tip − δ` where δ is the z-deflection of the tool. This is the thesis'
@@ -14,7 +14,9 @@
 //! The QP minimises `Σ e²` with a move penalty, keeps the command in `[0, voltage_max]` and within the slew
 //! limit, and softly bounds `|e| ≤ e_max` (over- and under-size) with an exact penalty.
 
-use millcomp_sim::{DiscreteLti, PztSpindle};
+use millcomp_sim::DiscreteLti;
+
+use crate::identified::IdentifiedSpindle;
 use nalgebra::DMatrix;
 
 use crate::config::{
@@ -29,9 +31,12 @@ pub const OUT_GAUGE: usize = 0;
 pub const OUT_ERROR: usize = 1;
 
 /// Two-output discrete prediction model of the spindle (see the module docs). Dead time, if any, is kept
-/// as the Padé approximant of [`PztSpindle::to_lti`].
-pub fn spindle_prediction_model(spindle: &PztSpindle, dt_s: f64) -> Result<DiscreteLti, MpcError> {
-    let single = spindle.to_lti()?.discretize_zoh(dt_s)?;
+/// as the Padé approximant of `PztSpindle::to_lti`.
+pub fn spindle_prediction_model(
+    spindle: &IdentifiedSpindle,
+    dt_s: f64,
+) -> Result<DiscreteLti, MpcError> {
+    let single = spindle.plant().to_lti()?.discretize_zoh(dt_s)?;
     let n = single.n_states();
     let mut c = DMatrix::zeros(2, n);
     for j in 0..n {
@@ -114,9 +119,20 @@ mod tests {
 
     #[test]
     fn tracks_a_known_deflection_with_preview() {
-        let sp = PztSpindle::new(0.05, 0.46, 1302.0, Some(37_000.0), None).unwrap();
+        // the truth plant and the same spindle as identified (exact, for this design check)
+        let sp = millcomp_sim::PztSpindle::new(0.05, 0.46, 1302.0, Some(37_000.0), None).unwrap();
+        let id = IdentifiedSpindle::new(&millcomp_models::SpindleModel {
+            gain_um_per_v: 0.05,
+            zeta: 0.46,
+            wn_rad_s: 1302.0,
+            pole_rad_s: Some(37_000.0),
+            dead_time_s: None,
+            dead_time_pade_order: None,
+            covariance: Default::default(),
+        })
+        .unwrap();
         let dt = 5e-4;
-        let model = spindle_prediction_model(&sp, dt).unwrap();
+        let model = spindle_prediction_model(&id, dt).unwrap();
         let cfg = default_spindle_config(20, 1000.0, 100.0);
         let mut mpc = MpcController::new(&model, &cfg).unwrap();
         let mut plant = sp.discretize(dt).unwrap();

@@ -24,9 +24,7 @@
 
 use millcomp_sim::DiscreteLti;
 pub use millcomp_sim::thinwall::WallPlan;
-use millcomp_sim::thinwall::{
-    THRESHOLD_004_UM, ThinWallConfig, ThresholdCompensator, plan_compensated_wall,
-};
+use millcomp_sim::thinwall::{THRESHOLD_004_UM, ThresholdCompensator, plan_compensated_wall};
 use nalgebra::DMatrix;
 
 use crate::config::{
@@ -35,6 +33,7 @@ use crate::config::{
 };
 use crate::controller::{MpcController, PreviewWindow};
 use crate::error::MpcError;
+use crate::identified::WallModel;
 use crate::stats::SolverStats;
 
 /// The 004 compensation threshold (µm), sim's [`millcomp_sim::thinwall::THRESHOLD_004_UM`].
@@ -53,17 +52,19 @@ pub const PI_KI: f64 = 0.7;
 pub struct ThinWallMeasurement {
     /// Measured force (N).
     pub force_meas_n: f64,
-    /// Stage position read on the grating ruler (µm).
-    pub stage_um: f64,
+    /// Stage position read on the grating ruler (µm, 0.1 µm resolution). The ruler reports where the
+    /// stage was sent; the stage's ±0.5 µm positioning accuracy error (004 §2.2) is not in it.
+    pub encoder_um: f64,
 }
 
-/// Plan a wall with the controllers' model (`model`: a wall configuration with the model's parameters,
-/// exact stage, no noise): sim's [`plan_compensated_wall`] (a digital twin compensating perfectly).
+/// Plan a wall with the controllers' model ([`WallModel`]: the programmed geometry, the published
+/// material and force coefficient, the identified tool stiffness): sim's [`plan_compensated_wall`] run as
+/// a digital twin compensating perfectly.
 ///
 /// # Errors
 /// [`MpcError::Sim`] for an invalid wall configuration.
-pub fn plan_wall(model: &ThinWallConfig) -> Result<WallPlan, MpcError> {
-    Ok(plan_compensated_wall(model)?)
+pub fn plan_wall(model: &WallModel) -> Result<WallPlan, MpcError> {
+    Ok(plan_compensated_wall(model.config())?)
 }
 
 /// Index of the plan step whose measurement arrives at step `k` (`k − 1`, clamped to the plan).
@@ -236,7 +237,7 @@ impl PiController {
 impl ThinWallController for PiController {
     fn command(&mut self, k: usize, last: Option<&ThinWallMeasurement>) -> f64 {
         if let Some(m) = last {
-            let e = estimated_deflection_um(&self.plan, k, last) - m.stage_um;
+            let e = estimated_deflection_um(&self.plan, k, last) - m.encoder_um;
             if e.is_finite() {
                 self.u += PI_KP * (e - self.e_prev) + PI_KI * e;
                 self.e_prev = e;
@@ -285,7 +286,7 @@ impl ThinWallController for MpcThinWallController {
         for j in 0..h {
             self.window.offsets[j * 2 + 1] = self.plan.deflection_um[(k + j).min(n_steps - 1)];
         }
-        let stage_meas = last.map_or(0.0, |m| m.stage_um);
+        let stage_meas = last.map_or(0.0, |m| m.encoder_um);
         let y = match last {
             Some(_) => [
                 stage_meas,

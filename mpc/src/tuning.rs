@@ -14,6 +14,8 @@
 use millcomp_sim::spindle::PztSpindle;
 use serde::Serialize;
 
+use crate::identified::IdentifiedSpindle;
+
 use crate::error::{MpcError, invalid};
 
 /// The robustness bound of the rule.
@@ -79,13 +81,26 @@ fn max_sensitivity(s: &PztSpindle, kp: f64, ki: f64, delay_s: f64, ws: &[f64]) -
 ///
 /// # Examples
 /// ```
-/// use millcomp_sim::spindle::PztSpindle;
-/// let s = PztSpindle::default(); // sim's fitted spindle (0.05 µm/V, ζ 0.31, ωn 2811 rad/s, pole, dead time)
+/// use millcomp_models::SpindleModel;
+/// use millcomp_mpc::identified::IdentifiedSpindle;
+/// // an identified spindle: 0.05 µm/V, ζ 0.31, ωn 2811 rad/s, a pole at 37 000 rad/s, 0.1 ms dead time
+/// let s = IdentifiedSpindle::new(&SpindleModel {
+///     gain_um_per_v: 0.05, zeta: 0.31, wn_rad_s: 2811.0, pole_rad_s: Some(37_000.0),
+///     dead_time_s: Some(1e-4), dead_time_pade_order: Some(2), covariance: Default::default(),
+/// }).unwrap();
 /// let d = millcomp_mpc::tuning::pi_max_sensitivity(&s, 1.6, 5e-5).unwrap();
 /// assert!(d.ms <= 1.6 + 1e-9);
 /// assert!(d.ki_v_per_um_s > 0.0 && d.kp_v_per_um >= 0.0);
 /// ```
-pub fn pi_max_sensitivity(s: &PztSpindle, ms_max: f64, dt_s: f64) -> Result<PiDesign, MpcError> {
+pub fn pi_max_sensitivity(
+    s: &IdentifiedSpindle,
+    ms_max: f64,
+    dt_s: f64,
+) -> Result<PiDesign, MpcError> {
+    pi_max_sensitivity_of(s.plant(), ms_max, dt_s)
+}
+
+fn pi_max_sensitivity_of(s: &PztSpindle, ms_max: f64, dt_s: f64) -> Result<PiDesign, MpcError> {
     if !(dt_s.is_finite() && dt_s > 0.0) {
         return Err(invalid("dt_s", dt_s, "finite and > 0"));
     }
@@ -167,7 +182,7 @@ mod tests {
     #[test]
     fn the_design_meets_its_bound_and_a_larger_ki_would_not() {
         let s = PztSpindle::default();
-        let d = pi_max_sensitivity(&s, MS_MAX, 5e-5).unwrap();
+        let d = pi_max_sensitivity_of(&s, MS_MAX, 5e-5).unwrap();
         let ws = frequencies();
         assert!(d.ms <= MS_MAX + 1e-9);
         let worse = max_sensitivity(&s, d.kp_v_per_um, d.ki_v_per_um_s * 1.01, 1.5 * 5e-5, &ws);

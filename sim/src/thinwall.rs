@@ -274,8 +274,12 @@ pub struct ThinWallStepOutput {
     pub wall_deflection_um: f64,
     /// Tool deflection (µm).
     pub tool_deflection_um: f64,
-    /// Stage position actually reached (µm, + = towards the tool).
+    /// Stage position actually reached (µm, + = towards the tool), including the positioning accuracy
+    /// error.
     pub stage_um: f64,
+    /// Stage position read on its grating ruler (µm): the quantised command it was sent to. The accuracy
+    /// error (the ruler's own scale and mounting error) is not in it.
+    pub encoder_um: f64,
     /// Average moment of inertia per µm of wall length, eq. 17 (µm⁴/µm).
     pub i_ave_um3: f64,
     /// True once every layer has been cut.
@@ -292,6 +296,7 @@ pub struct ThinWallStage {
     layer: usize,
     x_um: f64,
     stage_um: f64,
+    encoder_um: f64,
     last_cmd: f64,
     rng: Option<ChaCha8Rng>,
     sensor: ForceSensor,
@@ -343,6 +348,7 @@ impl ThinWallStage {
             layer: 0,
             x_um: 0.0,
             stage_um: 0.0,
+            encoder_um: 0.0,
             last_cmd: f64::NAN,
             sensor,
             finished: false,
@@ -434,6 +440,7 @@ impl ThinWallStage {
                 Some(r) => self.cfg.stage.accuracy_um * (2.0 * r.random::<f64>() - 1.0),
                 None => 0.0,
             };
+            self.encoder_um = q;
             self.stage_um = q + err;
         }
         let nz = self.cfg.cells_z;
@@ -500,6 +507,7 @@ impl ThinWallStage {
             wall_deflection_um: w,
             tool_deflection_um: td,
             stage_um: self.stage_um,
+            encoder_um: self.encoder_um,
             i_ave_um3: self.i_ave_um3(),
             done: self.finished,
         }

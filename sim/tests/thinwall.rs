@@ -83,6 +83,32 @@ fn uncompensated_thicknesses_follow_table_5() {
 }
 
 #[test]
+fn the_grating_ruler_reads_the_command_not_the_accuracy_error() {
+    // 004 §2.2: 0.1 µm resolution, 0.5 µm accuracy. With a seeded accuracy error the stage lands off its
+    // command by up to 0.5 µm; the ruler (what a controller reads) shows only the quantised command.
+    let mut cfg = ThinWallConfig::paper(100.0).unwrap();
+    cfg.stage.accuracy_seed = Some(7);
+    let dt = cfg.length_um / cfg.feed_um_s() / cfg.cells_x as f64;
+    let mut st = ThinWallStage::new(cfg).unwrap();
+    let mut worst: f64 = 0.0;
+    let mut k = 0;
+    while !st.done() && k < 90 {
+        k += 1;
+        let cmd = 1.0 + 0.37 * k as f64;
+        let o = st.step(dt, cmd);
+        // the ruler's 0.1 µm resolution: within half a count of the command, on the 0.1 µm grid
+        assert!((o.encoder_um - cmd).abs() <= 0.05 + 1e-9, "{} vs {cmd}", o.encoder_um);
+        assert_abs_diff_eq!(o.encoder_um * 10.0, (o.encoder_um * 10.0).round(), epsilon = 1e-6);
+        let off = o.stage_um - o.encoder_um;
+        assert!(off.abs() <= 0.5 + 1e-12, "{off}");
+        worst = worst.max(off.abs());
+    }
+    assert_eq!(k, 90, "the wall is longer than 90 stage steps");
+    // uniform in ±0.5 µm over 90 moves: the largest is near the bound (P(max < 0.4) = 0.8^90 ≈ 2e-9)
+    assert!(worst > 0.4, "{worst}");
+}
+
+#[test]
 fn stage_command_reduces_the_thickness_and_force_is_measured() {
     let cfg = ThinWallConfig::paper(100.0).unwrap();
     let dt = cfg.length_um / cfg.feed_um_s() / cfg.cells_x as f64;
