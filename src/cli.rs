@@ -64,18 +64,33 @@ pub struct DemoArgs {
 /// `millcomp commission`.
 #[derive(Debug, Args)]
 pub struct CommissionArgs {
-    /// Groove scenario (TOML): its truth plant, instruments, noise and `[commissioning]` plan.
-    pub scenario: PathBuf,
+    /// Groove scenario (TOML): its truth plant, instruments, noise and `[commissioning]` plan. Not with
+    /// `--spindle/--force/--stiffness`, which assemble a bundle from your own identified models instead.
+    #[arg(required_unless_present_any = ["spindle", "force", "stiffness"])]
+    pub scenario: Option<PathBuf>,
     /// Write the model bundle here (kind `bundle`, the common model-file format).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Seed of the experiments' noise (default: the scenario's seed).
-    #[arg(long)]
+    #[arg(long, requires = "scenario")]
     pub seed: Option<u64>,
     /// Instead of one commissioning: a coverage study over this many seeds, each with its own drawn
     /// instrument errors, counting how often each 95 % interval covers the value the truth implies.
-    #[arg(long)]
+    #[arg(long, requires = "scenario")]
     pub coverage: Option<u64>,
+    /// Your machine's spindle model (`millcomp identify spindle STEP.csv --save`), for a bundle from your
+    /// own calibration records.
+    #[arg(long, conflicts_with = "scenario", requires = "material")]
+    pub spindle: Option<PathBuf>,
+    /// Your force model (`millcomp identify force CUTS.csv --save`).
+    #[arg(long, conflicts_with = "scenario", requires = "material")]
+    pub force: Option<PathBuf>,
+    /// Your stiffness model (`millcomp identify stiffness LOADS.csv --save`).
+    #[arg(long, conflicts_with = "scenario", requires = "material")]
+    pub stiffness: Option<PathBuf>,
+    /// The workpiece material the force model was identified on (with `--spindle/--force/--stiffness`).
+    #[arg(long)]
+    pub material: Option<String>,
 }
 
 /// `millcomp doe …`.

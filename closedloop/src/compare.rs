@@ -174,9 +174,10 @@ pub fn compare(
         .collect())
 }
 
-/// A scenario turned into its commissioned form: instrument errors drawn from the seed, a PZT stack with
-/// hysteresis and creep, the controllers built from a commissioning of the truth (the models it named, if
-/// any, dropped). Thin walls are returned unchanged (not commissioned yet).
+/// A scenario turned into its hard form: instrument errors drawn from the seed, a PZT stack with
+/// hysteresis and creep, the controllers built from the commissioning of the truth alone (the models it
+/// named, if any, dropped; no deliberate force-model errors on top — the commissioning's own errors are
+/// the test). Thin walls are returned unchanged (not commissioned yet).
 pub fn commissioned(s: &Scenario) -> Scenario {
     let mut s = s.clone();
     if s.stage == StageKind::Groove {
@@ -186,6 +187,8 @@ pub fn commissioned(s: &Scenario) -> Scenario {
         s.control.bundle = None;
         s.control.spindle_model = None;
         s.control.force_model = None;
+        s.truth.force_error_max = 0.0;
+        s.truth.force_errors = None;
     }
     s
 }

@@ -9,9 +9,9 @@
 //! the chip-thickness exponent of the force model the peak force grows by ≈ 60 %), the planned deflection
 //! 10 % low (model error), and seeded Gaussian noise on both measurements.
 
+use millcomp_mpc::identified::IdentifiedSpindle;
 use millcomp_mpc::qp::QpData;
 use millcomp_mpc::replay::QpSequence;
-use millcomp_mpc::identified::IdentifiedSpindle;
 use millcomp_mpc::spindle_mpc::{OUT_ERROR, default_spindle_config, spindle_prediction_model};
 use millcomp_mpc::{MpcConfig, MpcController, MpcError, PreviewWindow};
 use millcomp_sim::PztSpindle;

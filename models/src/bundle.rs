@@ -86,6 +86,97 @@ impl ModelBundle {
         )
     }
 
+    /// A bundle assembled from models identified separately from the user's own calibration records
+    /// (`millcomp identify spindle|force|stiffness FILE --save MODEL.toml`): each file is loaded as its
+    /// kind and checked through its typed view, so a file of the wrong kind, another format version or
+    /// one missing a parameter is refused here, naming the file and the key. The experiments record each
+    /// file with the command that made it; the models' warnings are kept, prefixed by their part.
+    ///
+    /// # Errors
+    /// [`ModelError::InvalidValue`] naming `model` when no file is given; the loading and view errors of
+    /// each file (I/O, format, version, kind, missing or invalid parameters).
+    ///
+    /// # Examples
+    /// ```
+    /// use millcomp_models::{ModelBundle, ModelFile, Provenance, IdentifiedModel};
+    /// # let dir = tempfile::tempdir().unwrap();
+    /// # let path = dir.path().join("k.toml");
+    /// let k: IdentifiedModel = toml::from_str(r#"
+    /// status = "converged"
+    /// n_obs = 60
+    /// dof = 56
+    /// rms_residual = 0.3
+    /// residual_unit = "um"
+    /// [params]
+    /// axial_stiffness_n_per_um = 1.21
+    /// radial_stiffness_n_per_um = 0.115
+    /// [std_err]
+    /// axial_stiffness_n_per_um = 0.03
+    /// radial_stiffness_n_per_um = 0.001
+    /// [covariance]
+    /// names = []
+    /// values = []
+    /// "#).unwrap();
+    /// ModelFile::new("stiffness", k, Provenance::now("millcomp", "identify stiffness cal.csv"))
+    ///     .save(&path)
+    ///     .unwrap();
+    /// let b = ModelBundle::from_files("S7", None, None, Some(&path)).unwrap();
+    /// assert_eq!(b.stiffness(&path, "pid").unwrap().radial_n_per_um, 0.115);
+    /// assert!(b.experiments[0].contains("identify stiffness cal.csv"));
+    /// assert!(b.spindle.is_none());
+    /// ```
+    pub fn from_files(
+        material: &str,
+        spindle: Option<&Path>,
+        force: Option<&Path>,
+        stiffness: Option<&Path>,
+    ) -> Result<Self> {
+        if spindle.is_none() && force.is_none() && stiffness.is_none() {
+            return Err(ModelError::InvalidValue {
+                path: Path::new("<bundle>").to_path_buf(),
+                key: "model".into(),
+                value: "no model file".into(),
+                allowed: "at least one of a spindle, force or stiffness model".into(),
+            });
+        }
+        let mut b = ModelBundle {
+            material: material.to_string(),
+            experiments: Vec::new(),
+            warnings: Vec::new(),
+            spindle: None,
+            force: None,
+            stiffness: None,
+        };
+        for (part, path) in [
+            ("spindle", spindle),
+            ("force", force),
+            ("stiffness", stiffness),
+        ] {
+            let Some(path) = path else { continue };
+            let f = crate::ModelFile::<IdentifiedModel>::load(path, &[part])?;
+            match part {
+                "spindle" => SpindleModel::from_identified(&f.model, path).map(|_| ())?,
+                "force" => ForceModelParams::from_identified(&f.model, path).map(|_| ())?,
+                _ => StiffnessModel::from_identified(&f.model, path).map(|_| ())?,
+            }
+            b.experiments.push(format!(
+                "{part}: {} (`{}`, {} observations, {:?})",
+                path.display(),
+                f.header.provenance.command,
+                f.model.n_obs,
+                f.model.status
+            ));
+            b.warnings
+                .extend(f.model.warnings.iter().map(|w| format!("{part}: {w}")));
+            match part {
+                "spindle" => b.spindle = Some(f.model),
+                "force" => b.force = Some(f.model),
+                _ => b.stiffness = Some(f.model),
+            }
+        }
+        Ok(b)
+    }
+
     /// Checks that the force model was commissioned on `material` (the material a scenario cuts).
     ///
     /// # Errors

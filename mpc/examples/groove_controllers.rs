@@ -10,12 +10,12 @@
 
 use std::process::ExitCode;
 
+use millcomp_models::{ForceModelParams, SpindleModel, StiffnessModel};
 use millcomp_mpc::MpcError;
 use millcomp_mpc::groove::{
     DeflectionPlan, GrooveController, GrooveMeasurement, GrooveMpcSettings, MpcGrooveController,
     NoneController, OpenLoopController, PidController,
 };
-use millcomp_models::{ForceModelParams, SpindleModel, StiffnessModel};
 use millcomp_mpc::identified::{
     IdentifiedForceModel, IdentifiedSpindle, IdentifiedStiffness, NominalTool,
 };
@@ -94,13 +94,7 @@ fn run() -> Result<(), MpcError> {
         covariance: Default::default(),
     })?;
     let v_max = spindle.plant().voltage_max_v;
-    let plan = DeflectionPlan::new(
-        &program,
-        &predictor,
-        &stiffness,
-        tool.radius_um,
-        0.01,
-    )?;
+    let plan = DeflectionPlan::new(&program, &predictor, &stiffness, tool.radius_um, 0.01)?;
     let settings = GrooveMpcSettings {
         dt_s: DT_S,
         mpc_every: 10,

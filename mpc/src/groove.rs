@@ -22,11 +22,11 @@
 //!   ([`SlidingMax`]) of the 2 kHz-low-passed force × compliance; a sensor reading that stays
 //!   bit-identical too long is left out of the measurement update.
 
+use crate::identified::{IdentifiedSpindle, IdentifiedStiffness};
 use millcomp_sim::DiscreteLti;
 use millcomp_sim::feed::FeedProfile;
 use millcomp_sim::filters::{Biquad, FirstOrderFilter, PeakHold, SlidingMax};
 use millcomp_sim::groove::GrooveProgram;
-use crate::identified::{IdentifiedSpindle, IdentifiedStiffness};
 use nalgebra::DMatrix;
 
 use crate::config::MpcConfig;
@@ -453,7 +453,9 @@ pub fn groove_mpc(
                 settings.slew_v_per_cycle,
             );
             // measured error channel: σ ≈ compliance × σ of the filtered per-revolution force peak
-            let comp = model_stiffness.stiffness().z_compliance_um_per_n(tilt_deg)?;
+            let comp = model_stiffness
+                .stiffness()
+                .z_compliance_um_per_n(tilt_deg)?;
             let sf = (settings.force_noise_n * 0.5).max(0.005);
             c.kalman.measurement_noise = vec![
                 (settings.gauge_noise_um.max(0.005)).powi(2),

@@ -337,7 +337,10 @@ impl WallModel {
     /// assert_eq!(m.config().e_gpa, 100.0);
     /// assert_eq!(m.config().tool_stiffness_n_per_um, 0.2);
     /// ```
-    pub fn published_004(program: &WallProgram, tool_stiffness_n_per_um: f64) -> Result<Self, MpcError> {
+    pub fn published_004(
+        program: &WallProgram,
+        tool_stiffness_n_per_um: f64,
+    ) -> Result<Self, MpcError> {
         let mut c = ThinWallConfig::paper(program.thickness_um)?;
         c.height_um = program.height_um;
         c.ae_um = program.ae_um;

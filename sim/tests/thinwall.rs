@@ -97,8 +97,16 @@ fn the_grating_ruler_reads_the_command_not_the_accuracy_error() {
         let cmd = 1.0 + 0.37 * k as f64;
         let o = st.step(dt, cmd);
         // the ruler's 0.1 µm resolution: within half a count of the command, on the 0.1 µm grid
-        assert!((o.encoder_um - cmd).abs() <= 0.05 + 1e-9, "{} vs {cmd}", o.encoder_um);
-        assert_abs_diff_eq!(o.encoder_um * 10.0, (o.encoder_um * 10.0).round(), epsilon = 1e-6);
+        assert!(
+            (o.encoder_um - cmd).abs() <= 0.05 + 1e-9,
+            "{} vs {cmd}",
+            o.encoder_um
+        );
+        assert_abs_diff_eq!(
+            o.encoder_um * 10.0,
+            (o.encoder_um * 10.0).round(),
+            epsilon = 1e-6
+        );
         let off = o.stage_um - o.encoder_um;
         assert!(off.abs() <= 0.5 + 1e-12, "{off}");
         worst = worst.max(off.abs());

@@ -10,19 +10,22 @@ use millcomp_closedloop::Scenario;
 use millcomp_closedloop::commissioning::{CommissioningPlant, commission, coverage_study};
 use millcomp_closedloop::groove::groove_truth;
 use millcomp_closedloop::scenario::StageKind;
-use millcomp_models::{InputFile, ModelFile};
+use millcomp_models::{InputFile, ModelBundle, ModelFile};
 use serde_json::json;
 
 use crate::cli::CommissionArgs;
 use crate::cmd::{print_json, provenance};
-use crate::present::commission::{commissioning_text, coverage_text};
+use crate::present::commission::{bundle_text, commissioning_text, coverage_text};
 
 pub fn run(args: CommissionArgs, json: bool) -> anyhow::Result<()> {
-    let s = Scenario::load(&args.scenario)?;
+    let Some(scenario) = args.scenario.clone() else {
+        return from_files(&args, json);
+    };
+    let s = Scenario::load(&scenario)?;
     if s.stage != StageKind::Groove {
         bail!(
             "{}: stage: commissioning is implemented for groove scenarios (the thin wall is not commissioned yet)",
-            args.scenario.display()
+            scenario.display()
         );
     }
     let material = s
@@ -68,7 +71,7 @@ pub fn run(args: CommissionArgs, json: bool) -> anyhow::Result<()> {
     let plant = CommissioningPlant::of_scenario(&s, &truth);
     let c = commission(&plant, &s.commissioning, seed)?;
     if let Some(out) = &args.out {
-        let inputs = vec![InputFile::from_path(&args.scenario)?];
+        let inputs = vec![InputFile::from_path(&scenario)?];
         ModelFile::new("bundle", c.bundle.clone(), provenance(inputs))
             .save(out)
             .with_context(|| format!("writing {}", out.display()))?;
@@ -83,6 +86,41 @@ pub fn run(args: CommissionArgs, json: bool) -> anyhow::Result<()> {
         }));
     }
     print!("{}", commissioning_text(&s.name, seed, &c));
+    if let Some(out) = &args.out {
+        println!("written: {}", out.display());
+    }
+    Ok(())
+}
+
+/// A bundle assembled from the user's own identified models (`--spindle/--force/--stiffness`).
+fn from_files(args: &CommissionArgs, json: bool) -> anyhow::Result<()> {
+    let material = args
+        .material
+        .as_deref()
+        .context("--material: give the workpiece material the force model was identified on")?;
+    let bundle = ModelBundle::from_files(
+        material,
+        args.spindle.as_deref(),
+        args.force.as_deref(),
+        args.stiffness.as_deref(),
+    )?;
+    if let Some(out) = &args.out {
+        let inputs = [&args.spindle, &args.force, &args.stiffness]
+            .into_iter()
+            .flatten()
+            .map(|p| InputFile::from_path(p))
+            .collect::<Result<Vec<_>, _>>()?;
+        ModelFile::new("bundle", bundle.clone(), provenance(inputs))
+            .save(out)
+            .with_context(|| format!("writing {}", out.display()))?;
+    }
+    if json {
+        return print_json(&json!({
+            "bundle": bundle,
+            "out": args.out.as_ref().map(|p| p.display().to_string()),
+        }));
+    }
+    print!("{}", bundle_text(&bundle));
     if let Some(out) = &args.out {
         println!("written: {}", out.display());
     }

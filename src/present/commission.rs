@@ -4,6 +4,7 @@
 use std::fmt::Write;
 
 use millcomp_closedloop::commissioning::{Commissioned, CoverageRow};
+use millcomp_models::ModelBundle;
 
 /// One commissioning: experiments, parameters (estimate, standard error, 95 % interval), warnings.
 pub fn commissioning_text(scenario: &str, seed: u64, c: &Commissioned) -> String {
@@ -50,6 +51,51 @@ pub fn commissioning_text(scenario: &str, seed: u64, c: &Commissioned) -> String
     } else {
         let _ = writeln!(s, "warnings:");
         for w in &c.bundle.warnings {
+            let _ = writeln!(s, "  {w}");
+        }
+    }
+    s
+}
+
+/// A bundle assembled from the user's own models: its parts, each parameter with its standard error,
+/// the warnings.
+pub fn bundle_text(b: &ModelBundle) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "bundle from your own models (material {})", b.material);
+    for e in &b.experiments {
+        let _ = writeln!(s, "  {e}");
+    }
+    let _ = writeln!(s);
+    let _ = writeln!(
+        s,
+        "{:<38} {:>14} {:>12}",
+        "parameter", "estimate", "std err"
+    );
+    for (prefix, m) in [
+        ("force", &b.force),
+        ("spindle", &b.spindle),
+        ("stiffness", &b.stiffness),
+    ] {
+        let Some(m) = m else {
+            let _ = writeln!(s, "{:<38} {:>14}", format!("{prefix}.*"), "(none)");
+            continue;
+        };
+        for (name, v) in &m.params {
+            let se = m.std_err.get(name).copied().unwrap_or(f64::NAN);
+            let _ = writeln!(
+                s,
+                "{:<38} {:>14} {:>12}",
+                format!("{prefix}.{name}"),
+                num(*v),
+                num(se)
+            );
+        }
+    }
+    if b.warnings.is_empty() {
+        let _ = writeln!(s, "warnings: none");
+    } else {
+        let _ = writeln!(s, "warnings:");
+        for w in &b.warnings {
             let _ = writeln!(s, "  {w}");
         }
     }
