@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 use millcomp_sim::feed::{FeedChange, WorkpieceExit};
 use millcomp_sim::groove::{DEFAULT_FEED_ACCEL_MM_S2, DepthProfile};
 use millcomp_sim::sensors::InstrumentErrors;
+use millcomp_sim::thinwall::WallGeometry;
 
 use millcomp_mpc::config::MAX_HORIZON;
 use millcomp_mpc::{MpcConfig, MpcError};
@@ -227,6 +228,20 @@ pub struct ThinWallScenario {
     /// Wall length (mm).
     #[serde(default = "default_wall_length")]
     pub length_mm: f64,
+}
+
+impl ThinWallScenario {
+    /// The programmed geometry of the wall of nominal thickness `nominal_um`.
+    pub fn geometry(&self, nominal_um: f64) -> WallGeometry {
+        WallGeometry {
+            nominal_thickness_um: nominal_um,
+            height_um: self.height_um,
+            length_um: self.length_mm * 1000.0,
+            ae_um: self.ae_um,
+            ap_um: self.ap_um,
+            fz_um: self.fz_um,
+        }
+    }
 }
 
 fn default_walls() -> Vec<f64> {

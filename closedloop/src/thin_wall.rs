@@ -18,7 +18,7 @@ use millcomp_sim::sensors::NoiseSpec;
 use millcomp_sim::thinwall::{ThinWallConfig, ThinWallStage, ThinWallStepOutput};
 
 use millcomp_mpc::SolverStats;
-use millcomp_mpc::identified::{WallModel, WallProgram};
+use millcomp_mpc::identified::WallModel;
 use millcomp_mpc::thin_wall::{
     MpcThinWallController, NoneController, OpenLoopController, PiController, STAGE_MAX_UM,
     STAGE_MIN_UM, ThinWallController, ThresholdController, WallPlan, estimated_deflection_um,
@@ -38,12 +38,7 @@ fn truth_config(
     nominal: f64,
     wall_index: usize,
 ) -> Result<ThinWallConfig, ClosedLoopError> {
-    let mut c = ThinWallConfig::paper(nominal)?;
-    c.height_um = tw.height_um;
-    c.ae_um = tw.ae_um;
-    c.ap_um = tw.ap_um;
-    c.fz_um = tw.fz_um;
-    c.length_um = tw.length_mm * 1000.0;
+    let mut c = ThinWallConfig::paper(nominal)?.with_geometry(&tw.geometry(nominal))?;
     let seed = s.seed.wrapping_mul(1000).wrapping_add(wall_index as u64);
     c.force_noise = (s.truth.force_noise_n > 0.0).then_some(NoiseSpec {
         seed: seed.wrapping_add(11),
@@ -133,15 +128,7 @@ pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Cl
         )?;
         let k_tool_model = k_tool_id * (1.0 + s.truth.stiffness_error);
         k_tool_rel = k_tool_model / truth.tool_stiffness_n_per_um - 1.0;
-        let program = WallProgram {
-            thickness_um: nominal,
-            height_um: tw.height_um,
-            ae_um: tw.ae_um,
-            ap_um: tw.ap_um,
-            fz_um: tw.fz_um,
-            length_um: tw.length_mm * 1000.0,
-        };
-        let model = WallModel::published_004(&program, k_tool_model)?
+        let model = WallModel::published_004(&tw.geometry(nominal), k_tool_model)?
             .scaled(1.0 + s.truth.stiffness_error, 1.0 + force_errors.w_mpa)?;
         let plan = plan_wall(&model)?;
         let dt = plan.dt_s;

@@ -49,7 +49,7 @@ use millcomp_sim::force::{BallEndForceModel, ForceParams};
 use millcomp_sim::material::Material;
 use millcomp_sim::spindle::{DeadTimeModel, PztSpindle};
 use millcomp_sim::stiffness::TiltedToolStiffness;
-use millcomp_sim::thinwall::ThinWallConfig;
+use millcomp_sim::thinwall::{ThinWallConfig, WallGeometry};
 use millcomp_sim::tool::BallEndTool;
 
 use crate::error::{MpcError, invalid};
@@ -231,13 +231,8 @@ impl IdentifiedForceModel {
     pub fn new(p: &ForceModelParams, nominal: &NominalTool) -> Result<Self, MpcError> {
         let mut m = nominal.force_model()?;
         for (name, v) in &p.fitted {
-            set_force_param(&mut m, name, *v)?;
+            m = with_force_param(&m, name, *v)?;
         }
-        m.validate().map_err(|source| MpcError::IdentifiedModel {
-            key: "force_model".into(),
-            value: format!("{:?}", p.fitted),
-            source,
-        })?;
         Ok(Self(m))
     }
 
@@ -249,21 +244,9 @@ impl IdentifiedForceModel {
     pub fn perturbed(&self, rel: &[(&str, f64)]) -> Result<Self, MpcError> {
         let mut m = self.0.clone();
         for (name, e) in rel {
-            let v = match *name {
-                "w_mpa" => m.material.w_mpa,
-                "mu_rake" => m.material.mu_rake,
-                "mu_flank" => m.material.mu_flank,
-                "wearland_um" => m.tool.wearland_um,
-                "runout_um" => m.tool.runout_um,
-                other => return Err(unknown_force_param(other, *e)),
-            };
-            set_force_param(&mut m, name, v * (1.0 + e))?;
+            let v = m.param(name).ok_or_else(|| unknown_force_param(name, *e))?;
+            m = with_force_param(&m, name, v * (1.0 + e))?;
         }
-        m.validate().map_err(|source| MpcError::IdentifiedModel {
-            key: "force_model".into(),
-            value: format!("{rel:?}"),
-            source,
-        })?;
         Ok(Self(m))
     }
 
@@ -284,33 +267,21 @@ fn unknown_force_param(name: &str, v: f64) -> MpcError {
     )
 }
 
-fn set_force_param(m: &mut BallEndForceModel, name: &str, v: f64) -> Result<(), MpcError> {
-    match name {
-        "w_mpa" => m.material.w_mpa = v,
-        "mu_rake" => m.material.mu_rake = v,
-        "mu_flank" => m.material.mu_flank = v,
-        "wearland_um" => m.tool.wearland_um = v,
-        "runout_um" => m.tool.runout_um = v,
-        other => return Err(unknown_force_param(other, v)),
+/// `m` with the identified parameter `name` (one of [`ForceModelParams::PARAMETERS`]) set to `v`.
+fn with_force_param(
+    m: &BallEndForceModel,
+    name: &str,
+    v: f64,
+) -> Result<BallEndForceModel, MpcError> {
+    if !ForceModelParams::PARAMETERS.contains(&name) {
+        return Err(unknown_force_param(name, v));
     }
-    Ok(())
-}
-
-/// The geometry of a thin wall as programmed (`004_…txt` Tables 2–3): what the NC program says.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct WallProgram {
-    /// Nominal thickness (µm).
-    pub thickness_um: f64,
-    /// Height (µm).
-    pub height_um: f64,
-    /// Radial depth of cut ae (µm).
-    pub ae_um: f64,
-    /// Axial depth per layer ap (µm).
-    pub ap_um: f64,
-    /// Feed per tooth (µm).
-    pub fz_um: f64,
-    /// Length (µm).
-    pub length_um: f64,
+    m.with_param(name, v)
+        .map_err(|source| MpcError::IdentifiedModel {
+            key: "force_model".into(),
+            value: format!("{name} = {v}"),
+            source,
+        })
 }
 
 /// The controllers' model of a thin wall: the programmed geometry, the published material and force
@@ -328,25 +299,21 @@ impl WallModel {
     ///
     /// # Examples
     /// ```
-    /// use millcomp_mpc::identified::{WallModel, WallProgram};
-    /// let program = WallProgram {
-    ///     thickness_um: 100.0, height_um: 800.0, ae_um: 50.0, ap_um: 200.0, fz_um: 1.6,
-    ///     length_um: 5000.0,
+    /// use millcomp_mpc::identified::WallModel;
+    /// use millcomp_sim::thinwall::WallGeometry;
+    /// let program = WallGeometry {
+    ///     nominal_thickness_um: 100.0, height_um: 800.0, length_um: 5000.0, ae_um: 50.0, ap_um: 200.0,
+    ///     fz_um: 1.6,
     /// };
     /// let m = WallModel::published_004(&program, 0.2).unwrap();
     /// assert_eq!(m.config().e_gpa, 100.0);
     /// assert_eq!(m.config().tool_stiffness_n_per_um, 0.2);
     /// ```
     pub fn published_004(
-        program: &WallProgram,
+        program: &WallGeometry,
         tool_stiffness_n_per_um: f64,
     ) -> Result<Self, MpcError> {
-        let mut c = ThinWallConfig::paper(program.thickness_um)?;
-        c.height_um = program.height_um;
-        c.ae_um = program.ae_um;
-        c.ap_um = program.ap_um;
-        c.fz_um = program.fz_um;
-        c.length_um = program.length_um;
+        let mut c = ThinWallConfig::paper(program.nominal_thickness_um)?.with_geometry(program)?;
         c.tool_stiffness_n_per_um = tool_stiffness_n_per_um;
         c.force_noise = None;
         c.stage.accuracy_seed = None;

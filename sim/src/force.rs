@@ -650,29 +650,50 @@ impl BallEndForceModel {
         j
     }
 
-    /// Copy with one of [`FORCE_JACOBIAN_PARAMS`] replaced (used by FD tests and identification).
+    /// The value of a parameter by name: one of [`FORCE_JACOBIAN_PARAMS`], `runout_um` or `force_scale`;
+    /// `None` for any other name.
+    ///
+    /// ```
+    /// use millcomp_sim::force::BallEndForceModel;
+    /// let m = BallEndForceModel::default(); // S7, wearland 8 µm, runout 10 µm
+    /// assert_eq!(m.param("wearland_um"), Some(8.0));
+    /// assert_eq!(m.param("runout_um"), Some(10.0));
+    /// assert_eq!(m.param("rake_deg"), None);
+    /// ```
+    pub fn param(&self, name: &str) -> Option<f64> {
+        let mut m = self.clone();
+        m.param_mut(name).map(|p| *p)
+    }
+
+    fn param_mut(&mut self, name: &str) -> Option<&mut f64> {
+        Some(match name {
+            "w_mpa" => &mut self.material.w_mpa,
+            "mu_rake" => &mut self.material.mu_rake,
+            "mu_flank" => &mut self.material.mu_flank,
+            "wearland_um" => &mut self.tool.wearland_um,
+            "runout_um" => &mut self.tool.runout_um,
+            "force_scale" => &mut self.params.force_scale,
+            _ => return None,
+        })
+    }
+
+    /// Copy with one parameter replaced: one of [`FORCE_JACOBIAN_PARAMS`], `runout_um` or `force_scale`
+    /// (used by FD tests, identification and the controllers' identified models).
     ///
     /// # Errors
-    /// [`SimError::Session`] (key = `name`) for a name that is neither in [`FORCE_JACOBIAN_PARAMS`]
-    /// nor `force_scale`; [`SimError::InvalidParameter`] when the new value fails
-    /// [`Self::validate`].
+    /// [`SimError::Session`] (key = `name`) for any other name; [`SimError::InvalidParameter`] when the
+    /// new value fails [`Self::validate`].
     pub fn with_param(&self, name: &str, value: f64) -> Result<Self, SimError> {
         let mut m = self.clone();
-        match name {
-            "w_mpa" => m.material.w_mpa = value,
-            "mu_rake" => m.material.mu_rake = value,
-            "mu_flank" => m.material.mu_flank = value,
-            "wearland_um" => m.tool.wearland_um = value,
-            "force_scale" => m.params.force_scale = value,
-            _ => {
-                return Err(SimError::Session {
-                    key: name.into(),
-                    message: format!(
-                        "unknown force-model parameter; allowed {FORCE_JACOBIAN_PARAMS:?} or force_scale"
-                    ),
-                });
-            }
-        }
+        let Some(p) = m.param_mut(name) else {
+            return Err(SimError::Session {
+                key: name.into(),
+                message: format!(
+                    "unknown force-model parameter; allowed {FORCE_JACOBIAN_PARAMS:?}, runout_um or force_scale"
+                ),
+            });
+        };
+        *p = value;
         m.validate()?;
         Ok(m)
     }
@@ -729,12 +750,7 @@ mod tests {
             for rot in [0.4, 1.2, 2.0, 3.6, 5.0] {
                 let j = m.forces_jacobian(&c, rot);
                 for (k, name) in FORCE_JACOBIAN_PARAMS.iter().enumerate() {
-                    let v = match *name {
-                        "w_mpa" => m.material.w_mpa,
-                        "mu_rake" => m.material.mu_rake,
-                        "mu_flank" => m.material.mu_flank,
-                        _ => m.tool.wearland_um,
-                    };
+                    let v = m.param(name).unwrap();
                     let h = 1e-6 * v.abs().max(1.0);
                     let fp = m.with_param(name, v + h).unwrap().forces_at(&c, rot);
                     let fm = m.with_param(name, v - h).unwrap().forces_at(&c, rot);

@@ -125,7 +125,52 @@ pub struct ThinWallConfig {
     pub cells_z: usize,
 }
 
+/// The geometry of a thin wall as programmed (`004_…txt` Tables 2–3): what the NC program says, and all
+/// a wall model needs to know of the part besides the material and the tool.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WallGeometry {
+    /// Nominal thickness (µm).
+    pub nominal_thickness_um: f64,
+    /// Height (µm).
+    pub height_um: f64,
+    /// Length (µm).
+    pub length_um: f64,
+    /// Radial depth of cut ae (µm).
+    pub ae_um: f64,
+    /// Axial depth per layer ap (µm).
+    pub ap_um: f64,
+    /// Feed per tooth (µm).
+    pub fz_um: f64,
+}
+
 impl ThinWallConfig {
+    /// This set-up with the wall of `g` (the material, tool, stage and grid kept).
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] naming the geometry field out of range ([`ThinWallConfig::validate`]).
+    ///
+    /// # Examples
+    /// ```
+    /// use millcomp_sim::thinwall::{ThinWallConfig, WallGeometry};
+    /// let g = WallGeometry {
+    ///     nominal_thickness_um: 80.0, height_um: 600.0, length_um: 3000.0, ae_um: 40.0, ap_um: 150.0,
+    ///     fz_um: 1.2,
+    /// };
+    /// let c = ThinWallConfig::paper(100.0).unwrap().with_geometry(&g).unwrap();
+    /// assert_eq!((c.nominal_thickness_um, c.height_um, c.ap_um), (80.0, 600.0, 150.0));
+    /// assert_eq!(c.e_gpa, 100.0); // 004's material kept
+    /// ```
+    pub fn with_geometry(mut self, g: &WallGeometry) -> Result<Self, SimError> {
+        self.nominal_thickness_um = g.nominal_thickness_um;
+        self.height_um = g.height_um;
+        self.length_um = g.length_um;
+        self.ae_um = g.ae_um;
+        self.ap_um = g.ap_um;
+        self.fz_um = g.fz_um;
+        self.validate()?;
+        Ok(self)
+    }
+
     /// The 004 set-up for a wall of nominal thickness `nominal_thickness_um`.
     ///
     /// # Errors
