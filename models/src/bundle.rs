@@ -139,42 +139,43 @@ impl ModelBundle {
                 allowed: "at least one of a spindle, force or stiffness model".into(),
             });
         }
-        let mut b = ModelBundle {
-            material: material.to_string(),
-            experiments: Vec::new(),
-            warnings: Vec::new(),
-            spindle: None,
-            force: None,
-            stiffness: None,
-        };
-        for (part, path) in [
-            ("spindle", spindle),
-            ("force", force),
-            ("stiffness", stiffness),
-        ] {
-            let Some(path) = path else { continue };
+        let mut experiments = Vec::new();
+        let mut warnings = Vec::new();
+        // each part: loaded as its kind, checked through its typed view, recorded with its command
+        let mut load = |part: &str,
+                        path: Option<&Path>,
+                        check: fn(&IdentifiedModel, &Path) -> Result<()>|
+         -> Result<Option<IdentifiedModel>> {
+            let Some(path) = path else { return Ok(None) };
             let f = crate::ModelFile::<IdentifiedModel>::load(path, &[part])?;
-            match part {
-                "spindle" => SpindleModel::from_identified(&f.model, path).map(|_| ())?,
-                "force" => ForceModelParams::from_identified(&f.model, path).map(|_| ())?,
-                _ => StiffnessModel::from_identified(&f.model, path).map(|_| ())?,
-            }
-            b.experiments.push(format!(
+            check(&f.model, path)?;
+            experiments.push(format!(
                 "{part}: {} (`{}`, {} observations, {:?})",
                 path.display(),
                 f.header.provenance.command,
                 f.model.n_obs,
                 f.model.status
             ));
-            b.warnings
-                .extend(f.model.warnings.iter().map(|w| format!("{part}: {w}")));
-            match part {
-                "spindle" => b.spindle = Some(f.model),
-                "force" => b.force = Some(f.model),
-                _ => b.stiffness = Some(f.model),
-            }
-        }
-        Ok(b)
+            warnings.extend(f.model.warnings.iter().map(|w| format!("{part}: {w}")));
+            Ok(Some(f.model))
+        };
+        let spindle = load("spindle", spindle, |m, p| {
+            SpindleModel::from_identified(m, p).map(drop)
+        })?;
+        let force = load("force", force, |m, p| {
+            ForceModelParams::from_identified(m, p).map(drop)
+        })?;
+        let stiffness = load("stiffness", stiffness, |m, p| {
+            StiffnessModel::from_identified(m, p).map(drop)
+        })?;
+        Ok(ModelBundle {
+            material: material.to_string(),
+            experiments,
+            warnings,
+            spindle,
+            force,
+            stiffness,
+        })
     }
 
     /// Checks that the force model was commissioned on `material` (the material a scenario cuts).
