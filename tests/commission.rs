@@ -72,19 +72,25 @@ const STIFFNESS_RUN: &str = "datasets/runs/stiffness_masses_synthetic.csv";
 /// The committed, seeded generator of `datasets/runs/stiffness_masses_synthetic.csv` (documented in
 /// `datasets/runs/README.md`): the thesis' hanging-mass calibration (`000_…txt` §5.2.3: 50, 100 … 1000 g
 /// radial, 100 … 1000 g axial, three trials) on the Table 5-1 measured stiffnesses (1.220 axial, 0.114
-/// radial N/µm), read on a dial indicator with σ = 0.5 µm noise rounded to its 1 µm resolution.
+/// radial N/µm), read on the commissioning's dial indicator (`StiffnessCalibration::default()`: σ = 0.5 µm
+/// noise, rounded to its 1 µm resolution).
 fn generate_stiffness_run() -> String {
-    use millcomp_closedloop::calibration::{G_N_PER_KG, axial_masses_g, radial_masses_g};
-    let mut noise = millcomp_sim::sensors::NoiseSource::new(9, 0.5).expect("noise");
+    use millcomp_closedloop::calibration::{
+        G_N_PER_KG, StiffnessCalibration, axial_masses_g, radial_masses_g,
+    };
+    use rand_chacha::rand_core::SeedableRng;
+    let cal = StiffnessCalibration::default();
+    let noise = cal.noise().expect("noise");
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
     let mut out = String::from("load_n,deflection_um,direction\n");
     for (direction, k, masses) in [
         ("radial", 0.114, radial_masses_g()),
         ("axial", 1.220, axial_masses_g()),
     ] {
-        for _trial in 0..3 {
+        for _trial in 0..cal.trials {
             for m in &masses {
                 let load = m * 1e-3 * G_N_PER_KG;
-                let reading = (load / k + noise.sample()).round();
+                let reading = cal.reading_um(load / k, &noise, &mut rng);
                 out.push_str(&format!("{load:.5},{reading:.0},{direction}\n"));
             }
         }
