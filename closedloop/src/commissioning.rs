@@ -192,7 +192,7 @@ pub fn nominal_force_model(material: &str) -> Result<BallEndForceModel, ClosedLo
 /// Run the three experiments on the plant and identify them (seeded).
 ///
 /// # Errors
-/// Bad plan values ([`ClosedLoopError::InvalidScenario`] naming `commissioning.<key>`), the physics
+/// Bad plan values ([`ClosedLoopError::InvalidConfig`] naming `commissioning.<key>`), the physics
 /// crate's errors, and identification errors ([`ClosedLoopError::Commissioning`] naming the experiment).
 /// A fit that did not converge or is poorly identified is *not* an error: its warnings go into the bundle.
 pub fn commission(

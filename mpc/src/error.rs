@@ -10,7 +10,7 @@
 use thiserror::Error;
 
 /// The errors Clarabel reports at set-up ([`clarabel::solver::SolverError`]), on a data update
-/// ([`clarabel::solver::DataUpdateError`]) or on a settings change ([`clarabel::solver::SettingsError`]).
+/// ([`clarabel::solver::DataUpdateError`]) or on a settings change (clarabel's `SettingsError`, not public in 0.11).
 pub type ClarabelError = Box<dyn std::error::Error + Send + Sync + 'static>;
 
 /// Errors of the controllers (bad configuration, inconsistent models, solver set-up).
