@@ -69,8 +69,9 @@ fn deepest(g: &GrooveScenario) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// The truth plant of a groove scenario: thesis plant, the scenario's program and material, sensor noise,
-/// instrument errors and (when asked) the force scale calibrated to the uncompensated deflection.
+/// The truth plant of a groove scenario: thesis plant, the scenario's program and material, the tool's
+/// deviations from the catalogue tool (`truth.tool` / `truth.draw_tool`), sensor noise, instrument errors
+/// and (when asked) the force scale calibrated to the uncompensated deflection.
 ///
 /// # Errors
 /// [`ClosedLoopError::InvalidConfig`] without a `[groove]` table; the physics crate's errors.
@@ -88,6 +89,12 @@ pub fn groove_truth(s: &Scenario) -> Result<GrooveConfig, ClosedLoopError> {
     truth.program.feed_changes = g.feed_steps.clone();
     truth.program.feed_accel_mm_s2 = g.feed_accel_mm_s2;
     truth.program.exit = g.exit;
+    match (s.truth.tool, s.truth.draw_tool) {
+        (Some(t), _) => t.apply(&mut truth.force_model)?,
+        (None, true) => millcomp_sim::tool_variation::ToolVariation::draw(s.seed)
+            .apply(&mut truth.force_model)?,
+        (None, false) => {}
+    }
     truth.force_noise = (s.truth.force_noise_n > 0.0).then_some(NoiseSpec {
         seed: s.seed.wrapping_mul(31).wrapping_add(1),
         sigma: s.truth.force_noise_n,

@@ -294,6 +294,15 @@ pub struct TruthSpec {
     /// (`InstrumentErrors::draw`); ignored when `instruments` is given.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub draw_instruments: bool,
+    /// Explicit deviations of the truth's tool from the catalogue tool (wearland and runout offsets, force
+    /// factor; `millcomp_sim::tool_variation::ToolVariation`). The catalogue tool when neither this nor
+    /// `draw_tool`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tool: Option<millcomp_sim::tool_variation::ToolVariation>,
+    /// Draw the truth's tool deviations from their documented fresh-tool spreads with the scenario's seed
+    /// (`ToolVariation::draw`); ignored when `tool` is given.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub draw_tool: bool,
     /// Give the truth's PZT stack its hysteresis (Bouc–Wen, 12 % of the stroke over a full cycle) and
     /// creep (1.5 % per decade) — `millcomp_sim::actuator`; linear when false.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
@@ -318,6 +327,8 @@ impl Default for TruthSpec {
             gauge_noise_um: default_gauge_noise(),
             instruments: None,
             draw_instruments: false,
+            tool: None,
+            draw_tool: false,
             pzt_nonlinear: false,
         }
     }

@@ -82,3 +82,62 @@ fn identified_model_paths_are_checked() {
         other => panic!("{other:?}"),
     }
 }
+
+/// `truth.draw_tool` draws a different fresh tool per seed; `truth.tool = {…}` is applied as given and
+/// wins over `draw_tool`; neither leaves the catalogue tool (`millcomp_sim::tool_variation`).
+#[test]
+fn truth_tool_variation_keys_reach_the_truth_force_model() {
+    use millcomp_closedloop::groove::groove_truth;
+    use millcomp_sim::force::S7_GROOVE_FORCE_SCALE;
+    let base = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../datasets/scenarios/groove_s7_20deg.toml"),
+    )
+    .unwrap();
+    let with = |seed: u64, truth_keys: &str| {
+        let t = base
+            .replace("seed = 20", &format!("seed = {seed}"))
+            .replace("[truth]\n", &format!("[truth]\n{truth_keys}\n"));
+        let s = Scenario::from_toml_str(&t, "t").unwrap();
+        groove_truth(&s)
+    };
+    let catalogue = with(1, "").unwrap().force_model;
+    assert_eq!(
+        (catalogue.tool.wearland_um, catalogue.tool.runout_um),
+        (8.0, 10.0)
+    );
+    assert_eq!(catalogue.params.force_scale, S7_GROOVE_FORCE_SCALE);
+
+    // drawn: one tool per seed, each differing from the catalogue tool, within the documented spreads
+    let a = with(1, "draw_tool = true").unwrap().force_model;
+    let b = with(2, "draw_tool = true").unwrap().force_model;
+    assert_ne!(a, b);
+    for m in [&a, &b] {
+        assert_ne!(*m, catalogue);
+        assert!((m.tool.wearland_um - 8.0).abs() <= 1.0);
+        assert!((m.tool.runout_um - 10.0).abs() <= 2.0);
+        assert_eq!(m.material, catalogue.material);
+    }
+    assert_eq!(a, with(1, "draw_tool = true").unwrap().force_model);
+
+    // explicit: applied as given, and it wins over draw_tool
+    let keys = "tool = { wearland_offset_um = -1.0, runout_offset_um = -2.0, force_factor = 1.1 }";
+    for extra in ["", "\ndraw_tool = true"] {
+        let m = with(1, &format!("{keys}{extra}")).unwrap().force_model;
+        assert_eq!((m.tool.wearland_um, m.tool.runout_um), (7.0, 8.0));
+        assert!((m.params.force_scale - 1.1 * S7_GROOVE_FORCE_SCALE).abs() < 1e-12);
+    }
+    // a partial table keeps the other deviations at the catalogue's
+    let m = with(1, "tool = { runout_offset_um = 1.5 }")
+        .unwrap()
+        .force_model;
+    assert_eq!((m.tool.wearland_um, m.tool.runout_um), (8.0, 11.5));
+    assert_eq!(m.params.force_scale, S7_GROOVE_FORCE_SCALE);
+    // a tool with no wearland left is refused, naming the tool parameter
+    let e = with(1, "tool = { wearland_offset_um = -9.0 }").unwrap_err();
+    assert!(
+        millcomp_closedloop::error_chain(&e).contains("wearland_um"),
+        "{}",
+        millcomp_closedloop::error_chain(&e)
+    );
+}
