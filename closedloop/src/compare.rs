@@ -174,7 +174,7 @@ pub fn compare(
         .collect())
 }
 
-/// A scenario turned into its hard form: instrument errors drawn from the seed, a PZT stack with
+/// A scenario turned into its hard form: instrument errors and a fresh tool drawn from the seed, a PZT stack with
 /// hysteresis and creep, the controllers built from the commissioning of the truth alone (the models it
 /// named, if any, dropped; no deliberate force-model errors on top — the commissioning's own errors are
 /// the test). Thin walls are returned unchanged (not commissioned yet).
@@ -182,6 +182,7 @@ pub fn commissioned(s: &Scenario) -> Scenario {
     let mut s = s.clone();
     if s.stage == StageKind::Groove {
         s.truth.draw_instruments = true;
+        s.truth.draw_tool = true;
         s.truth.pzt_nonlinear = true;
         s.control.commission = true;
         s.control.bundle = None;
