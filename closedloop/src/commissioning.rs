@@ -17,11 +17,16 @@
 //!    BIC kept (the choice and the BICs go into the bundle's warnings/experiments).
 //! 3. **Load–deflection** (`000_…txt` §5.2.3): hanging masses, read by a dial indicator
 //!    ([`StiffnessCalibration`]), axial and radial directions fitted by `identify stiffness`.
+//! 4. **Sensors at rest**: the force channel (spindle in air, not cutting) and the gauge (PZT held) recorded
+//!    for `noise_samples` samples every `step_dt_s`; each channel's noise level is its sample standard
+//!    deviation (quantisation included), with the χ² 95 % interval. The MPC's Kalman filter takes its
+//!    measurement noise from here.
 //!
 //! [`Commissioned::pseudo_true`] is what each identified parameter *should* come out as — the value the
 //! truth implies for it through the same instruments: the same fit on the same experiment without noise
-//! and quantisation (force, spindle), and the truth's stiffness (loads and indicator are unbiased). The
-//! coverage study compares the intervals to it.
+//! and quantisation (force, spindle), the truth's stiffness (loads and indicator are unbiased), and the
+//! standard deviation of the truth's noise through the channel's quantiser (sensors at rest). The coverage
+//! study compares the intervals to it.
 
 use std::collections::BTreeMap;
 
@@ -37,11 +42,11 @@ use millcomp_identify::targets::force::{
 };
 use millcomp_identify::targets::spindle::{SpindleData, SpindleOptions, identify_spindle};
 use millcomp_identify::targets::stiffness::{StiffnessData, StiffnessOptions, identify_stiffness};
-use millcomp_models::ModelBundle;
+use millcomp_models::{FitStatus, IdentifiedModel, ModelBundle, NamedMatrix, SensorNoise};
 use millcomp_mpc::identified::NominalTool;
 use millcomp_sim::force::{BallEndForceModel, CutConditions};
 use millcomp_sim::groove::GrooveConfig;
-use millcomp_sim::sensors::{ForceSensor, InstrumentErrors};
+use millcomp_sim::sensors::{CapacitanceGauge, ForceSensor, InstrumentErrors};
 
 use crate::calibration::{G_N_PER_KG, StiffnessCalibration, axial_masses_g, radial_masses_g};
 use crate::error::{ClosedLoopError, invalid};
@@ -73,6 +78,8 @@ pub struct CommissioningPlan {
     pub step_dt_s: f64,
     /// The load–deflection test.
     pub stiffness: StiffnessCalibration,
+    /// Samples of each sensor's record at rest (every `step_dt_s`).
+    pub noise_samples: usize,
     /// Acceptance: the largest relative standard error of a parameter that sets the deflection prediction
     /// (the fitted force parameters and the two stiffnesses); above it the bundle carries a warning that
     /// the experiment was too small for the model to be trusted.
@@ -83,7 +90,7 @@ impl Default for CommissioningPlan {
     /// A 3×3 full factorial (depth 20/50/80 µm — the thesis' groove range; upfeed 5/10/15 µm/rev around
     /// its 10 µm/rev), 2 replicates, 20 revolutions at 72 samples each; W and wearland free; a 10 V step
     /// from 20 V (≈ 0.5 µm, the thesis' step of Fig. 5-15) for 30 ms sampled at 20 kHz; the thesis'
-    /// hanging-mass calibration.
+    /// hanging-mass calibration; 2000 samples (0.1 s) of each sensor at rest.
     fn default() -> Self {
         Self {
             force_depths_um: vec![20.0, 50.0, 80.0],
@@ -97,6 +104,7 @@ impl Default for CommissioningPlan {
             step_duration_s: 0.03,
             step_dt_s: 5e-5,
             stiffness: StiffnessCalibration::default(),
+            noise_samples: 2000,
             accept_rel_se: 0.05,
         }
     }
@@ -140,6 +148,17 @@ pub struct Experiment {
     pub fit: Identified,
 }
 
+/// The sensors' record at rest: the levels as a saveable model and their 95 % intervals.
+#[derive(Debug, Clone)]
+pub struct NoiseRecord {
+    /// What was done, in words.
+    pub description: String,
+    /// The levels (kind `sensor_noise`: `force_noise_n`, `gauge_noise_um`) with standard errors.
+    pub model: IdentifiedModel,
+    /// χ² 95 % interval of each level.
+    pub ci95: BTreeMap<String, [f64; 2]>,
+}
+
 /// The result of a commissioning.
 #[derive(Debug, Clone)]
 pub struct Commissioned {
@@ -153,6 +172,8 @@ pub struct Commissioned {
     pub spindle_bic: Vec<(String, f64)>,
     /// Load–deflection test.
     pub stiffness: Experiment,
+    /// The sensors' record at rest.
+    pub sensor_noise: NoiseRecord,
     /// The value the truth implies for each identified parameter through the same instruments (see the
     /// module docs), by parameter name (`force.w_mpa`, `spindle.zeta`, `stiffness.axial_stiffness_n_per_um`…).
     pub pseudo_true: BTreeMap<String, f64>,
@@ -173,6 +194,12 @@ impl Commissioned {
                 if let Some(&t) = self.pseudo_true.get(&key) {
                     out.push((key, e.fit.report.params[name], *ci, t));
                 }
+            }
+        }
+        for (name, ci) in &self.sensor_noise.ci95 {
+            let key = format!("sensor_noise.{name}");
+            if let Some(&t) = self.pseudo_true.get(&key) {
+                out.push((key, self.sensor_noise.model.params[name], *ci, t));
             }
         }
         out
@@ -229,6 +256,13 @@ pub fn commission(
     pseudo_true.insert("stiffness.axial_offset_um".into(), 0.0);
     pseudo_true.insert("stiffness.radial_offset_um".into(), 0.0);
 
+    let sensor_noise = noise_experiment(plant, plan, seed)?;
+    pseudo_true.insert(
+        "sensor_noise.force_noise_n".into(),
+        quantised_sd(plant.force_noise_n, plant.force_noise_n),
+    );
+    pseudo_true.insert("sensor_noise.gauge_noise_um".into(), plant.gauge_noise_um);
+
     let mut warnings = Vec::new();
     for (what, fit) in [
         ("force", &force),
@@ -259,11 +293,13 @@ pub fn commission(
             force_desc.clone(),
             spindle_desc.clone(),
             stiffness_desc.clone(),
+            sensor_noise.description.clone(),
         ],
         warnings,
         spindle: Some(spindle.model.clone()),
         force: Some(force.model.clone()),
         stiffness: Some(stiffness.model.clone()),
+        sensor_noise: Some(sensor_noise.model.clone()),
     };
     Ok(Commissioned {
         bundle,
@@ -280,6 +316,7 @@ pub fn commission(
             description: stiffness_desc,
             fit: stiffness,
         },
+        sensor_noise,
         pseudo_true,
     })
 }
@@ -321,6 +358,13 @@ fn validate_plan(p: &CommissioningPlan) -> Result<(), ClosedLoopError> {
             key("step_bias_v"),
             p.step_bias_v,
             "finite and >= 0",
+        ));
+    }
+    if !(10..=1_000_000).contains(&p.noise_samples) {
+        return Err(invalid(
+            key("noise_samples"),
+            p.noise_samples,
+            "10 to 1 000 000",
         ));
     }
     if p.step_duration_s / p.step_dt_s > 20_000.0 {
@@ -675,6 +719,110 @@ fn stiffness_experiment(
         cal.trials, cal.indicator_resolution_um, cal.noise_um
     );
     Ok((fit, desc))
+}
+
+/// The standard deviation of `N(0, σ²)` read through a quantiser of step `q` (σ when `q` is 0): the level
+/// a record at rest measures. Summed over the quantiser's levels within ±12 σ.
+fn quantised_sd(sigma: f64, q: f64) -> f64 {
+    use statrs::distribution::{ContinuousCDF, Normal as StdNormal};
+    if q <= 0.0 || sigma <= 0.0 {
+        return sigma.max(0.0);
+    }
+    let Ok(n) = StdNormal::new(0.0, sigma) else {
+        return sigma;
+    };
+    let k_max = (12.0 * sigma / q).ceil() as i64 + 1;
+    (-k_max..=k_max)
+        .map(|k| {
+            let x = k as f64 * q;
+            let p = n.cdf(x + 0.5 * q) - n.cdf(x - 0.5 * q);
+            p * x * x
+        })
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// Each sensor recorded at rest: the force channel (zeroed, spindle in air) and the gauge (PZT held at the
+/// step test's bias, the tip at mid-range). The level is the sample standard deviation; its standard error
+/// σ̂/√(2(n−1)) and its 95 % interval from χ²(n−1).
+fn noise_experiment(
+    plant: &CommissioningPlant<'_>,
+    plan: &CommissioningPlan,
+    seed: u64,
+) -> Result<NoiseRecord, ClosedLoopError> {
+    use statrs::distribution::{ChiSquared, ContinuousCDF};
+    let n = plan.noise_samples;
+    let mut force = ForceSensor::new(plant.force_noise_n, plant.force_noise_n, seed ^ 0x0015_e0f0)?;
+    let mut gauge = CapacitanceGauge::new(
+        50.0,
+        2.5,
+        plant.instruments.gauge_offset_um,
+        plant.gauge_noise_um,
+        seed ^ 0x0015_e06a,
+    )?;
+    let (mut f, mut g) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    for k in 0..n {
+        let t = k as f64 * plan.step_dt_s;
+        f.push(force.measure(plant.instruments.force_reading(0.0, t)));
+        g.push(gauge.measure_um(25.0));
+    }
+    let sd = |x: &[f64]| {
+        let m = x.iter().sum::<f64>() / x.len() as f64;
+        (x.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (x.len() - 1) as f64).sqrt()
+    };
+    let dof = (n - 1) as f64;
+    let chi =
+        ChiSquared::new(dof).map_err(|_| invalid("commissioning.noise_samples", n, ">= 10"))?;
+    let (c_hi, c_lo) = (chi.inverse_cdf(0.975), chi.inverse_cdf(0.025));
+    let mut params = BTreeMap::new();
+    let mut std_err = BTreeMap::new();
+    let mut ci95 = BTreeMap::new();
+    for (name, x) in [(SensorNoise::PARAMS[0], &f), (SensorNoise::PARAMS[1], &g)] {
+        let s = sd(x);
+        params.insert(name.to_string(), s);
+        std_err.insert(name.to_string(), s / (2.0 * dof).sqrt());
+        ci95.insert(
+            name.to_string(),
+            [s * (dof / c_hi).sqrt(), s * (dof / c_lo).sqrt()],
+        );
+    }
+    let names: Vec<String> = SensorNoise::PARAMS.iter().map(|s| s.to_string()).collect();
+    let covariance = NamedMatrix {
+        values: names
+            .iter()
+            .enumerate()
+            .map(|(i, a)| {
+                (0..names.len())
+                    .map(|j| if i == j { std_err[a].powi(2) } else { 0.0 })
+                    .collect()
+            })
+            .collect(),
+        names,
+    };
+    let model = IdentifiedModel {
+        status: FitStatus::Converged,
+        n_obs: n,
+        dof: n - 1,
+        // no model is fitted: the levels are the records' sample standard deviations
+        rms_residual: 0.0,
+        residual_unit: "none".into(),
+        warnings: vec![],
+        params,
+        std_err,
+        fixed: BTreeMap::new(),
+        derived: BTreeMap::new(),
+        covariance,
+    };
+    let description = format!(
+        "sensor_noise: force channel (spindle in air) and gauge (PZT held) recorded at rest, {n} samples \
+         every {} s each; sample standard deviations",
+        plan.step_dt_s
+    );
+    Ok(NoiseRecord {
+        description,
+        model,
+        ci95,
+    })
 }
 
 /// One parameter of a coverage study.

@@ -13,6 +13,7 @@ use millcomp_sim::groove::{GrooveConfig, GrooveStage, GrooveStepOutput};
 use millcomp_sim::material::Material;
 use millcomp_sim::sensors::{InstrumentErrors, NoiseSpec};
 
+use millcomp_models::SensorNoise;
 use millcomp_mpc::groove::{
     DeflectionPlan, GrooveController, GrooveMpcSettings, MpcGrooveController, NoneController,
     OpenLoopController, PidController, TunedPidController,
@@ -55,6 +56,9 @@ pub struct GrooveSetup {
     pub force_errors: ForceErrors,
     /// Truth force scale (calibrated or sim's default).
     pub truth_force_scale: f64,
+    /// The sensors' noise levels the MPC's Kalman filter assumes (from the bundle: its record at rest or
+    /// its fits' residuals), or why the bundle has none.
+    pub sensor_noise: Result<SensorNoise, String>,
     /// Where the controllers' models came from, for the run notes.
     pub models_from: String,
 }
@@ -204,6 +208,13 @@ pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, ClosedLoopError> {
     let model_stiffness =
         IdentifiedStiffness::new(&bundle.stiffness(&origin, "the controllers' deflection model")?)?
             .scaled(1.0 + s.truth.stiffness_error)?;
+    let sensor_noise = match bundle.sensor_noise(&origin, "the MPC's Kalman filter") {
+        Ok((noise, source)) => {
+            from.push(format!("sensor noise from {source}"));
+            Ok(noise)
+        }
+        Err(e) => Err(e.to_string()),
+    };
     Ok(GrooveSetup {
         truth_force_scale: truth.force_model.params.force_scale,
         truth,
@@ -212,6 +223,7 @@ pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, ClosedLoopError> {
         model_stiffness,
         model_spindle,
         force_errors,
+        sensor_noise,
         models_from: from.join("; "),
     })
 }
@@ -228,18 +240,33 @@ pub fn deflection_plan(setup: &GrooveSetup, dx_mm: f64) -> Result<DeflectionPlan
 }
 
 /// The groove MPC's settings from a scenario: its `[control]` table, the amplifier limit and the
-/// sensors' noise levels.
-pub fn mpc_settings(setup: &GrooveSetup, s: &Scenario) -> GrooveMpcSettings {
-    GrooveMpcSettings {
+/// sensors' noise levels the bundle measured (never the truth's).
+///
+/// # Errors
+/// [`ClosedLoopError::InvalidConfig`] naming `control.bundle` when the bundle has neither a record at rest nor
+/// the fits whose residuals stand in for it.
+pub fn mpc_settings(
+    setup: &GrooveSetup,
+    s: &Scenario,
+) -> Result<GrooveMpcSettings, ClosedLoopError> {
+    let noise = setup
+        .sensor_noise
+        .as_ref()
+        .map_err(|e| ClosedLoopError::InvalidConfig {
+            key: "control.bundle".into(),
+            value: "a bundle without the sensors' noise levels".into(),
+            allowed: e.clone(),
+        })?;
+    Ok(GrooveMpcSettings {
         dt_s: s.control.dt_s,
         mpc_every: s.control.mpc_every,
         horizon: s.control.horizon,
         slew_v_per_cycle: s.control.slew_v_per_cycle,
         voltage_max_v: setup.model_spindle.plant().voltage_max_v,
         config: s.control.mpc.clone(),
-        force_noise_n: s.truth.force_noise_n,
-        gauge_noise_um: s.truth.gauge_noise_um,
-    }
+        force_noise_n: noise.force_noise_n,
+        gauge_noise_um: noise.gauge_noise_um,
+    })
 }
 
 /// The x-windows (mm) around the process changes of a groove in which their peak error is taken: each
@@ -339,7 +366,7 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Close
             &setup.model_spindle,
             &setup.model_stiffness,
             setup.nominal_tool.flutes,
-            &mpc_settings(&setup, s),
+            &mpc_settings(&setup, s)?,
         )?),
     };
     let mut pending_failures = SolverFailures::new(s);

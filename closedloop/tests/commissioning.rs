@@ -29,8 +29,14 @@ fn intervals_cover_the_pseudo_true_values_at_95_percent_over_200_seeds() {
         || {},
     )
     .unwrap();
-    // force (2), spindle (6 with the selected structure), stiffness (2 stiffnesses + 2 offsets)
-    assert!(rows.len() >= 10, "{rows:?}");
+    // force (2), spindle (6 with the selected structure), stiffness (2 stiffnesses + 2 offsets), sensor
+    // noise (2)
+    assert!(rows.len() >= 12, "{rows:?}");
+    assert!(
+        rows.iter()
+            .any(|r| r.parameter == "sensor_noise.force_noise_n"),
+        "{rows:?}"
+    );
     let per_parameter = FAMILY_ALPHA / rows.len() as f64;
     for r in &rows {
         assert_eq!(r.n, 200, "{r:?}");
@@ -174,4 +180,51 @@ fn a_bundle_with_its_own_models_named_too_is_refused() {
     s.control.force_model = Some("force.toml".into());
     let e = s.validate().unwrap_err().to_string();
     assert!(e.contains("control.force_model"), "{e}");
+}
+
+#[test]
+fn the_mpc_kalman_filter_takes_the_noise_levels_the_commissioning_measured() {
+    let s = scenario("groove_s7_20deg_commissioned.toml");
+    let setup = groove_setup(&s).unwrap();
+    let mpc = millcomp_closedloop::groove::mpc_settings(&setup, &s).unwrap();
+    // the scenario's force channel: σ 0.04 N quantised at 0.04 N reads σ √(1 + 1/12) ≈ 0.0416 N
+    // (Sheppard); the gauge σ 0.01 µm; 2000 samples at rest give ≈ 1.6 % standard error
+    assert!(
+        (mpc.force_noise_n / 0.0416 - 1.0).abs() < 0.06,
+        "{}",
+        mpc.force_noise_n
+    );
+    assert!(
+        (mpc.gauge_noise_um / 0.01 - 1.0).abs() < 0.06,
+        "{}",
+        mpc.gauge_noise_um
+    );
+    // measured, not copied: never bit-equal to the truth's levels
+    assert_ne!(mpc.force_noise_n, s.truth.force_noise_n);
+    assert_ne!(mpc.gauge_noise_um, s.truth.gauge_noise_um);
+    assert!(
+        setup.models_from.contains("a record at rest"),
+        "{}",
+        setup.models_from
+    );
+
+    // a bundle without the record (e.g. assembled from separate files) falls back on the fits' residuals
+    let dir = tempfile::tempdir().unwrap();
+    let no_record = bundle_file(dir.path(), |t| {
+        t["model"].as_table_mut().unwrap().remove("sensor_noise");
+    });
+    let mut s2 = s.clone();
+    s2.control.commission = false;
+    s2.control.bundle = Some(no_record.display().to_string());
+    let setup = groove_setup(&s2).unwrap();
+    assert!(
+        setup.models_from.contains("residuals"),
+        "{}",
+        setup.models_from
+    );
+    let mpc = millcomp_closedloop::groove::mpc_settings(&setup, &s2).unwrap();
+    assert!(
+        mpc.gauge_noise_um > 0.0 && mpc.force_noise_n > 0.0,
+        "{mpc:?}"
+    );
 }

@@ -9,7 +9,9 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ModelError, Result};
-use crate::identified::{ForceModelParams, IdentifiedModel, SpindleModel, StiffnessModel};
+use crate::identified::{
+    ForceModelParams, IdentifiedModel, SensorNoise, SpindleModel, StiffnessModel,
+};
 
 /// The `[model]` table of a bundle.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -33,6 +35,10 @@ pub struct ModelBundle {
     /// The tool/spindle stiffness (kind `stiffness`, directions `axial` and `radial`).
     #[serde(default)]
     pub stiffness: Option<IdentifiedModel>,
+    /// The sensors' noise levels from a record at rest (kind `sensor_noise`); absent in bundles assembled
+    /// from separate calibration files and in bundles written before it existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensor_noise: Option<IdentifiedModel>,
 }
 
 impl ModelBundle {
@@ -84,6 +90,37 @@ impl ModelBundle {
             Self::need(&self.stiffness, "stiffness", origin, needed_by)?,
             origin,
         )
+    }
+
+    /// The sensors' noise levels a Kalman filter assumes, and where they come from: the bundle's record at
+    /// rest, or else the RMS residuals of its spindle step test and force calibration
+    /// ([`SensorNoise::from_residuals`]).
+    ///
+    /// # Errors
+    /// [`ModelError::MissingKey`] naming `model.sensor_noise` when the bundle has neither a record nor a
+    /// spindle and a force model; the view's errors.
+    pub fn sensor_noise(
+        &self,
+        origin: &Path,
+        needed_by: &str,
+    ) -> Result<(SensorNoise, &'static str)> {
+        if let Some(m) = &self.sensor_noise {
+            return Ok((SensorNoise::from_identified(m, origin)?, "a record at rest"));
+        }
+        match (&self.spindle, &self.force) {
+            (Some(s), Some(f)) => Ok((
+                SensorNoise::from_residuals(s, f, origin)?,
+                "the spindle and force fits' RMS residuals (the bundle has no record at rest)",
+            )),
+            _ => Err(ModelError::MissingKey {
+                path: origin.to_path_buf(),
+                kind: "bundle".into(),
+                key: format!("model.sensor_noise (needed by {needed_by})"),
+                available:
+                    "a sensor_noise record, or a spindle and a force model whose residuals stand in"
+                        .into(),
+            }),
+        }
     }
 
     /// A bundle assembled from models identified separately from the user's own calibration records
@@ -175,6 +212,7 @@ impl ModelBundle {
             spindle,
             force,
             stiffness,
+            sensor_noise: None,
         })
     }
 
@@ -232,6 +270,7 @@ mod tests {
                 ("axial_stiffness_n_per_um", 1.2),
                 ("radial_stiffness_n_per_um", 0.114),
             ])),
+            sensor_noise: None,
         }
     }
 
@@ -247,6 +286,45 @@ mod tests {
         );
         let k = bundle().stiffness(Path::new("m"), "pid-tuned").unwrap();
         assert_eq!(k.radial_n_per_um, 0.114);
+    }
+
+    #[test]
+    fn the_noise_levels_come_from_the_record_else_from_the_residuals_else_an_error() {
+        let origin = Path::new("models.toml");
+        // no record and no spindle: nothing measured the gauge
+        let e = bundle()
+            .sensor_noise(origin, "mpc")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("models.toml") && e.contains("model.sensor_noise") && e.contains("mpc"),
+            "{e}"
+        );
+        // a spindle (residuals in µm) and a force model (residuals in N) stand in
+        let mut b = bundle();
+        b.spindle = Some(identified(&[("gain_um_per_v", 0.044)]));
+        b.force.as_mut().unwrap().residual_unit = "n".into();
+        b.force.as_mut().unwrap().rms_residual = 0.02;
+        let (n, from) = b.sensor_noise(origin, "mpc").unwrap();
+        assert_eq!((n.force_noise_n, n.gauge_noise_um), (0.02, 0.1));
+        assert!(from.contains("residuals"), "{from}");
+        // a force model whose residuals are not in N cannot stand in for the force channel
+        b.force.as_mut().unwrap().residual_unit = "um".into();
+        let e = b.sensor_noise(origin, "mpc").unwrap_err().to_string();
+        assert!(e.contains("model.force.rms_residual"), "{e}");
+        // the record wins, and a negative level is refused naming the key
+        b.sensor_noise = Some(identified(&[
+            ("force_noise_n", 0.0416),
+            ("gauge_noise_um", 0.0101),
+        ]));
+        let (n, from) = b.sensor_noise(origin, "mpc").unwrap();
+        assert_eq!((n.force_noise_n, from), (0.0416, "a record at rest"));
+        b.sensor_noise = Some(identified(&[
+            ("force_noise_n", -0.1),
+            ("gauge_noise_um", 0.0101),
+        ]));
+        let e = b.sensor_noise(origin, "mpc").unwrap_err().to_string();
+        assert!(e.contains("model.params.force_noise_n"), "{e}");
     }
 
     #[test]

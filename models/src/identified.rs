@@ -386,6 +386,82 @@ impl StiffnessModel {
     }
 }
 
+/// The sensors' noise levels a Kalman filter assumes (kind `sensor_noise`, a part of a bundle): the
+/// standard deviation of the force channel and of the gauge, each estimated from a record taken at rest
+/// (the sample standard deviation, quantisation included; `std_err` σ̂/√(2(n−1))).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SensorNoise {
+    /// Force-channel noise σ (N).
+    pub force_noise_n: f64,
+    /// Gauge noise σ (µm).
+    pub gauge_noise_um: f64,
+}
+
+impl SensorNoise {
+    /// Kinds this view reads.
+    pub const KINDS: [&'static str; 1] = ["sensor_noise"];
+    /// Parameter names, in order.
+    pub const PARAMS: [&'static str; 2] = ["force_noise_n", "gauge_noise_um"];
+
+    /// The typed view of an identified `sensor_noise` model.
+    ///
+    /// # Errors
+    /// [`ModelError::MissingKey`] naming `model.params.force_noise_n` or `…gauge_noise_um`;
+    /// [`ModelError::InvalidValue`] for a negative or non-finite level.
+    pub fn from_identified(m: &IdentifiedModel, origin: &Path) -> Result<Self> {
+        let need = |name: &str| -> Result<f64> {
+            let v = m.require(name, origin, "sensor_noise")?;
+            if v.is_finite() && v >= 0.0 {
+                Ok(v)
+            } else {
+                Err(ModelError::InvalidValue {
+                    path: origin.to_path_buf(),
+                    key: format!("model.params.{name}"),
+                    value: v.to_string(),
+                    allowed: "finite and >= 0".into(),
+                })
+            }
+        };
+        Ok(Self {
+            force_noise_n: need(Self::PARAMS[0])?,
+            gauge_noise_um: need(Self::PARAMS[1])?,
+        })
+    }
+
+    /// A stand-in for a bundle without a record at rest: the RMS residuals of the spindle step test (gauge,
+    /// µm) and of the force calibration (N) — measured, but they carry model misfit and the force
+    /// calibration's averaging as well as noise.
+    ///
+    /// # Errors
+    /// [`ModelError::InvalidValue`] naming `model.rms_residual` of the model whose residuals are not in
+    /// the unit needed (`um` for the spindle, `n` for the force model) or not finite.
+    pub fn from_residuals(
+        spindle: &IdentifiedModel,
+        force: &IdentifiedModel,
+        origin: &Path,
+    ) -> Result<Self> {
+        let level = |m: &IdentifiedModel, unit: &str, part: &str| -> Result<f64> {
+            if m.residual_unit.eq_ignore_ascii_case(unit)
+                && m.rms_residual.is_finite()
+                && m.rms_residual >= 0.0
+            {
+                Ok(m.rms_residual)
+            } else {
+                Err(ModelError::InvalidValue {
+                    path: origin.to_path_buf(),
+                    key: format!("model.{part}.rms_residual"),
+                    value: format!("{} {}", m.rms_residual, m.residual_unit),
+                    allowed: format!("finite and >= 0, in {unit}"),
+                })
+            }
+        };
+        Ok(Self {
+            force_noise_n: level(force, "n", "force")?,
+            gauge_noise_um: level(spindle, "um", "spindle")?,
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
