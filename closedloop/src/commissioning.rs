@@ -88,7 +88,8 @@ pub struct CommissioningPlan {
 
 impl Default for CommissioningPlan {
     /// A 3×3 full factorial (depth 20/50/80 µm — the thesis' groove range; upfeed 5/10/15 µm/rev around
-    /// its 10 µm/rev), 2 replicates, 20 revolutions at 72 samples each; W and wearland free; a 10 V step
+    /// its 10 µm/rev), 2 replicates, 20 revolutions at 72 samples each; W, wearland and runout free (a fresh
+    /// tool's wearland and runout are not the catalogue's; the averaged traces show both); a 10 V step
     /// from 20 V (≈ 0.5 µm, the thesis' step of Fig. 5-15) for 30 ms sampled at 20 kHz; the thesis'
     /// hanging-mass calibration; 2000 samples (0.1 s) of each sensor at rest.
     fn default() -> Self {
@@ -98,7 +99,7 @@ impl Default for CommissioningPlan {
             replicates: 2,
             revolutions: 20,
             samples_per_rev: 72,
-            force_free: vec!["w_mpa".into(), "wearland_um".into()],
+            force_free: vec!["w_mpa".into(), "wearland_um".into(), "runout_um".into()],
             step_bias_v: 20.0,
             step_v: 10.0,
             step_duration_s: 0.03,
@@ -180,29 +181,45 @@ pub struct Commissioned {
 }
 
 impl Commissioned {
-    /// Every identified parameter with its estimate, 95 % interval and pseudo-true value:
-    /// `(name, estimate, [lo, hi], pseudo_true)`.
-    pub fn intervals(&self) -> Vec<(String, f64, [f64; 2], f64)> {
+    /// Every identified parameter: `(name, estimate, standard error, 95 % interval)`, named
+    /// `<experiment>.<parameter>` (`force.w_mpa`, …, `sensor_noise.gauge_noise_um`).
+    pub fn parameters(&self) -> Vec<(String, f64, f64, [f64; 2])> {
         let mut out = Vec::new();
         for (prefix, e) in [
             ("force", &self.force),
             ("spindle", &self.spindle),
             ("stiffness", &self.stiffness),
         ] {
-            for (name, ci) in &e.fit.report.ci95 {
-                let key = format!("{prefix}.{name}");
-                if let Some(&t) = self.pseudo_true.get(&key) {
-                    out.push((key, e.fit.report.params[name], *ci, t));
-                }
+            let r = &e.fit.report;
+            for (name, v) in &r.params {
+                let ci = r.ci95.get(name).copied().unwrap_or([f64::NAN; 2]);
+                out.push((format!("{prefix}.{name}"), *v, r.se(name), ci));
             }
         }
-        for (name, ci) in &self.sensor_noise.ci95 {
-            let key = format!("sensor_noise.{name}");
-            if let Some(&t) = self.pseudo_true.get(&key) {
-                out.push((key, self.sensor_noise.model.params[name], *ci, t));
-            }
+        let m = &self.sensor_noise.model;
+        for (name, v) in &m.params {
+            let ci = self
+                .sensor_noise
+                .ci95
+                .get(name)
+                .copied()
+                .unwrap_or([f64::NAN; 2]);
+            let se = m.std_err.get(name).copied().unwrap_or(f64::NAN);
+            out.push((format!("sensor_noise.{name}"), *v, se, ci));
         }
         out
+    }
+
+    /// Every identified parameter with its estimate, 95 % interval and pseudo-true value:
+    /// `(name, estimate, [lo, hi], pseudo_true)`.
+    pub fn intervals(&self) -> Vec<(String, f64, [f64; 2], f64)> {
+        self.parameters()
+            .into_iter()
+            .filter_map(|(name, v, _, ci)| {
+                let t = *self.pseudo_true.get(&name)?;
+                Some((name, v, ci, t))
+            })
+            .collect()
     }
 }
 

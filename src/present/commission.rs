@@ -23,23 +23,15 @@ pub fn commissioning_text(scenario: &str, seed: u64, c: &Commissioned) -> String
         "{:<38} {:>14} {:>12} {:>30}",
         "parameter", "estimate", "std err", "95 % interval"
     );
-    for (prefix, e) in [
-        ("force", &c.force),
-        ("spindle", &c.spindle),
-        ("stiffness", &c.stiffness),
-    ] {
-        let r = &e.fit.report;
-        for (name, v) in &r.params {
-            let ci = r.ci95.get(name).copied().unwrap_or([f64::NAN; 2]);
-            let _ = writeln!(
-                s,
-                "{:<38} {:>14} {:>12} {:>30}",
-                format!("{prefix}.{name}"),
-                num(*v),
-                num(r.se(name)),
-                format!("[{}, {}]", num(ci[0]), num(ci[1]))
-            );
-        }
+    for (name, v, se, ci) in c.parameters() {
+        let _ = writeln!(
+            s,
+            "{:<38} {:>14} {:>12} {:>30}",
+            name,
+            num(v),
+            num(se),
+            format!("[{}, {}]", num(ci[0]), num(ci[1]))
+        );
     }
     let _ = writeln!(s);
     let _ = writeln!(s, "spindle structures (BIC, smallest kept):");
