@@ -106,7 +106,8 @@ fn thin_walls_all_controllers_against_table_5() {
 /// `truth.draw_wall` makes every wall its own part, drawn on the wall's seed (two seeds, two different
 /// walls; within the documented spreads of `millcomp_sim::wall_variation`); `truth.wall = {…}` is applied
 /// as given to every wall and wins over `draw_wall`; a factor that is not a finite positive number is
-/// refused naming `truth.wall.<factor>`; neither key leaves the published wall.
+/// refused naming `truth.wall.<factor>`; neither key leaves the published wall. The hard form of the
+/// comparison draws the part and drops the deliberate force errors.
 #[test]
 fn truth_wall_variation_keys_reach_the_thin_wall_truth() {
     use millcomp_closedloop::thin_wall::thin_wall_truth;
@@ -198,6 +199,13 @@ fn truth_wall_variation_keys_reach_the_thin_wall_truth() {
             other => panic!("{key}: {other:?}"),
         }
     }
+
+    // the hard form: a drawn part, no deliberate force errors
+    let hard = millcomp_closedloop::compare::commissioned(&scenario("thin_wall_h59.toml"));
+    assert!(hard.truth.draw_wall);
+    assert_eq!(hard.truth.force_error_max, 0.0);
+    assert!(hard.truth.force_errors.is_none());
+    hard.validate().unwrap();
 }
 
 /// A drawn part reaches the cut wall: the uncompensated walls differ from the published wall's, and the
