@@ -4,8 +4,9 @@
 //!
 //! `cargo run --release -p millcomp-closedloop --example compare -- [--seeds N] [--commissioned]`
 //!
-//! `--commissioned`: each groove scenario with instrument errors drawn from the seed and controllers built
-//! only from its own commissioning (`millcomp_closedloop::compare::commissioned`).
+//! `--commissioned`: the hard form (`millcomp_closedloop::compare::commissioned`) — each groove scenario
+//! with instrument errors and a tool drawn from the seed and controllers built only from its own
+//! commissioning; each thin wall a part drawn from the seed; no deliberate force-model errors.
 
 use std::path::Path;
 

@@ -3,8 +3,9 @@
 //! no normality assumed).
 //!
 //! A *seed* replaces the scenario's `seed`: the sensor noise, the instrument draw
-//! (`truth.draw_instruments`), the force-model errors of the uncommissioned scenarios and, for
-//! commissioned ones, the commissioning's own noise. All controllers of one (scenario, seed) see the same
+//! (`truth.draw_instruments`), the tool and thin-wall part draws (`truth.draw_tool`, `truth.draw_wall`),
+//! the force-model errors of the uncommissioned scenarios and, for commissioned ones, the
+//! commissioning's own noise. All controllers of one (scenario, seed) see the same
 //! truth, the same noise and — commissioned — the same bundle.
 
 use rayon::prelude::*;
@@ -174,22 +175,30 @@ pub fn compare(
         .collect())
 }
 
-/// A scenario turned into its hard form: instrument errors and a fresh tool drawn from the seed, a PZT stack with
-/// hysteresis and creep, the controllers built from the commissioning of the truth alone (the models it
-/// named, if any, dropped; no deliberate force-model errors on top — the commissioning's own errors are
-/// the test). Thin walls are returned unchanged (not commissioned yet).
+/// A scenario turned into its hard form. Grooves: instrument errors and a fresh tool drawn from the seed,
+/// a PZT stack with hysteresis and creep, the controllers built from the commissioning of the truth alone
+/// (the models it named, if any, dropped). Thin walls: every wall a real part drawn from the seed
+/// (`truth.draw_wall`: its modulus and force coefficient off the published wall the controllers' model
+/// keeps; the thin wall is not commissioned yet). Both: no deliberate force-model errors on top
+/// (`truth.force_error_max` 0, `truth.force_errors` dropped) — what the controllers get wrong comes from
+/// the plant, not from a perturbation laid on their model.
 pub fn commissioned(s: &Scenario) -> Scenario {
     let mut s = s.clone();
-    if s.stage == StageKind::Groove {
-        s.truth.draw_instruments = true;
-        s.truth.draw_tool = true;
-        s.truth.pzt_nonlinear = true;
-        s.control.commission = true;
-        s.control.bundle = None;
-        s.control.spindle_model = None;
-        s.control.force_model = None;
-        s.truth.force_error_max = 0.0;
-        s.truth.force_errors = None;
+    match s.stage {
+        StageKind::Groove => {
+            s.truth.draw_instruments = true;
+            s.truth.draw_tool = true;
+            s.truth.pzt_nonlinear = true;
+            s.control.commission = true;
+            s.control.bundle = None;
+            s.control.spindle_model = None;
+            s.control.force_model = None;
+        }
+        StageKind::ThinWall => {
+            s.truth.draw_wall = true;
+        }
     }
+    s.truth.force_error_max = 0.0;
+    s.truth.force_errors = None;
     s
 }

@@ -303,6 +303,15 @@ pub struct TruthSpec {
     /// (`ToolVariation::draw`); ignored when `tool` is given.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub draw_tool: bool,
+    /// Explicit deviations of the thin-wall truth's part from the published wall (factors on its Young's
+    /// modulus and force coefficient; `millcomp_sim::wall_variation::WallVariation`), the same for every
+    /// wall. The published wall when neither this nor `draw_wall`. Thin-wall scenarios only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wall: Option<millcomp_sim::wall_variation::WallVariation>,
+    /// Draw each wall's part deviations from their documented spreads (`WallVariation::draw`), one part
+    /// per wall on the wall's own seed; ignored when `wall` is given. Thin-wall scenarios only.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub draw_wall: bool,
     /// Give the truth's PZT stack its hysteresis (Bouc–Wen, 12 % of the stroke over a full cycle) and
     /// creep (1.5 % per decade) — `millcomp_sim::actuator`; linear when false.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
@@ -329,6 +338,8 @@ impl Default for TruthSpec {
             draw_instruments: false,
             tool: None,
             draw_tool: false,
+            wall: None,
+            draw_wall: false,
             pzt_nonlinear: false,
         }
     }
@@ -687,6 +698,30 @@ impl Scenario {
                 format!("{fe:?}"),
                 "each |error| <= 0.5",
             ));
+        }
+        if self.stage != StageKind::ThinWall {
+            for (key, given) in [
+                ("truth.wall", tr.wall.is_some()),
+                ("truth.draw_wall", tr.draw_wall),
+            ] {
+                if given {
+                    return Err(invalid(
+                        key,
+                        "given",
+                        "only for stage = \"thin_wall\" (the groove's part is its tool and material)",
+                    ));
+                }
+            }
+        }
+        if let Some(w) = tr.wall {
+            w.validate().map_err(|err| match err {
+                millcomp_sim::SimError::InvalidParameter {
+                    name,
+                    value,
+                    allowed,
+                } => invalid(format!("truth.wall.{name}"), value, allowed),
+                other => other.into(),
+            })?;
         }
         if !(tr.stiffness_error.is_finite()
             && tr.stiffness_error > -0.9

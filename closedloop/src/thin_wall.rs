@@ -1,13 +1,16 @@
 //! Closed-loop runs on sim's thin-wall stage (`millcomp_sim::thinwall::ThinWallStage`, `004_…txt`) with
 //! every controller of [`millcomp_mpc::thin_wall`].
 //!
-//! Per wall, the truth is sim's stage configured from the scenario (force noise, stage accuracy); the
+//! Per wall, the truth is sim's stage configured from the scenario: the part (`truth.wall`, or
+//! `truth.draw_wall` drawing every wall as its own part from the spreads of
+//! `millcomp_sim::wall_variation`; the published wall by default), force noise and stage accuracy. The
 //! controllers' model ([`millcomp_mpc::identified::WallModel`]) is the programmed wall with the
 //! published material and force coefficient of 004 (E = 100 GPa, Table 4; the coefficient times
 //! `1 + truth.force_errors.w_mpa`) and the identified tool stiffness (a simulated calibration: loads
 //! 0.5–5 N on the tool, deflection read on the stage's 0.1 µm grating ruler, σ 0.05 µm, 3 trials),
-//! planned by [`millcomp_mpc::thin_wall::plan_wall`]. The controllers read the force sensor and the
-//! stage's grating ruler, which does not see the stage's ±0.5 µm positioning accuracy error.
+//! planned by [`millcomp_mpc::thin_wall::plan_wall`]: the part's deviations are not in it. The
+//! controllers read the force sensor and the stage's grating ruler, which does not see the stage's
+//! ±0.5 µm positioning accuracy error.
 
 use std::time::Instant;
 
@@ -16,6 +19,7 @@ use rand_chacha::ChaCha8Rng;
 
 use millcomp_sim::sensors::NoiseSpec;
 use millcomp_sim::thinwall::{ThinWallConfig, ThinWallStage, ThinWallStepOutput};
+use millcomp_sim::wall_variation::WallVariation;
 
 use millcomp_mpc::SolverStats;
 use millcomp_mpc::identified::WallModel;
@@ -32,6 +36,44 @@ use crate::model_errors::ForceErrors;
 use crate::report::{Metrics, ModelSummary, RunOutput, RunReport, Trace, WallReport};
 use crate::scenario::{ControllerKind, Scenario, StageKind, ThinWallScenario};
 
+/// The truth plant of wall `wall_index` of a thin-wall scenario: 004's wall with the scenario's geometry,
+/// the part's deviations from the published wall (`truth.wall`, or `truth.draw_wall` drawn on the wall's
+/// own seed — every wall is its own part), force noise and the stage's positioning accuracy.
+///
+/// # Errors
+/// [`ClosedLoopError::InvalidConfig`] without a `[thin_wall]` table (`thin_wall`) or for a wall index
+/// beyond `thin_wall.walls_um`; the physics crate's errors (a `truth.wall` factor out of range names
+/// `e_factor` / `kr_factor`).
+pub fn thin_wall_truth(s: &Scenario, wall_index: usize) -> Result<ThinWallConfig, ClosedLoopError> {
+    let tw = s
+        .thin_wall
+        .as_ref()
+        .ok_or_else(|| invalid("thin_wall", "missing", "a [thin_wall] table"))?;
+    let nominal = *tw.walls_um.get(wall_index).ok_or_else(|| {
+        invalid(
+            "thin_wall.walls_um",
+            format!("index {wall_index}"),
+            format!("an index below {}", tw.walls_um.len()),
+        )
+    })?;
+    truth_config(s, tw, nominal, wall_index)
+}
+
+/// The seed of wall `wall_index`'s own draws (part, force noise, stage accuracy).
+fn wall_seed(s: &Scenario, wall_index: usize) -> u64 {
+    s.seed.wrapping_mul(1000).wrapping_add(wall_index as u64)
+}
+
+/// The part of a wall: `truth.wall` when given, else a draw on the wall's seed when
+/// `truth.draw_wall`, else the published wall.
+fn wall_variation(s: &Scenario, wall_seed: u64) -> WallVariation {
+    match (s.truth.wall, s.truth.draw_wall) {
+        (Some(w), _) => w,
+        (None, true) => WallVariation::draw(wall_seed),
+        (None, false) => WallVariation::NONE,
+    }
+}
+
 fn truth_config(
     s: &Scenario,
     tw: &ThinWallScenario,
@@ -39,7 +81,8 @@ fn truth_config(
     wall_index: usize,
 ) -> Result<ThinWallConfig, ClosedLoopError> {
     let mut c = ThinWallConfig::paper(nominal)?.with_geometry(&tw.geometry(nominal))?;
-    let seed = s.seed.wrapping_mul(1000).wrapping_add(wall_index as u64);
+    let seed = wall_seed(s, wall_index);
+    wall_variation(s, seed).apply(&mut c)?;
     c.force_noise = (s.truth.force_noise_n > 0.0).then_some(NoiseSpec {
         seed: seed.wrapping_add(11),
         sigma: s.truth.force_noise_n,
@@ -109,8 +152,16 @@ pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Cl
     ]);
     let mut simulated = 0.0;
     let mut k_tool_rel = 0.0;
+    let mut part_notes = Vec::new();
     for (wi, &nominal) in tw.walls_um.iter().enumerate() {
         let truth = truth_config(s, tw, nominal, wi)?;
+        let part = wall_variation(s, wall_seed(s, wi));
+        if part != WallVariation::NONE {
+            part_notes.push(format!(
+                "{nominal} um: E x{:.4}, K_r x{:.4}",
+                part.e_factor, part.kr_factor
+            ));
+        }
         // controllers' model: identified tool stiffness, Table-4 E, force coefficient with the force error
         let mut rng = ChaCha8Rng::seed_from_u64(s.seed.wrapping_add(101 + wi as u64));
         let cal = StiffnessCalibration {
@@ -196,6 +247,12 @@ pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Cl
     let mut notes = vec![
         "thin wall: error series = thickness profile over the height (mean along the wall) − nominal, all walls".into(),
     ];
+    if !part_notes.is_empty() {
+        notes.push(format!(
+            "truth part vs the published wall (not in the controllers' model): {}",
+            part_notes.join("; ")
+        ));
+    }
     if kind == ControllerKind::Threshold {
         notes.push("threshold uses the published deformation model (eq. 18 as printed: load at the wall top, evaluated at the cutting height; wall only, no tool deflection)".into());
     }

@@ -102,3 +102,130 @@ fn thin_walls_all_controllers_against_table_5() {
         assert!(m.abs() < t.abs(), "mpc {m} % vs threshold {t} %");
     }
 }
+
+/// `truth.draw_wall` makes every wall its own part, drawn on the wall's seed (two seeds, two different
+/// walls; within the documented spreads of `millcomp_sim::wall_variation`); `truth.wall = {…}` is applied
+/// as given to every wall and wins over `draw_wall`; a factor that is not a finite positive number is
+/// refused naming `truth.wall.<factor>`; neither key leaves the published wall. The hard form of the
+/// comparison draws the part and drops the deliberate force errors.
+#[test]
+fn truth_wall_variation_keys_reach_the_thin_wall_truth() {
+    use millcomp_closedloop::thin_wall::thin_wall_truth;
+    use millcomp_closedloop::{ClosedLoopError, Scenario};
+    use millcomp_sim::thinwall::{THINWALL_KR_N_PER_MM2, ThinWallConfig};
+    let base = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../datasets/scenarios/thin_wall_h59.toml"),
+    )
+    .unwrap();
+    let scenario_with = |seed: u64, truth_keys: &str| {
+        let t = base
+            .replace("seed = 4", &format!("seed = {seed}"))
+            .replace("[truth]\n", &format!("[truth]\n{truth_keys}\n"));
+        Scenario::from_toml_str(&t, "t")
+    };
+    let walls = |seed: u64, truth_keys: &str| -> Vec<ThinWallConfig> {
+        let s = scenario_with(seed, truth_keys).unwrap();
+        (0..3).map(|i| thin_wall_truth(&s, i).unwrap()).collect()
+    };
+    let material = |c: &ThinWallConfig| (c.e_gpa, c.kr_n_per_mm2);
+
+    // default: the published wall (E = 100 GPa, the calibrated K_r) on every wall
+    for c in walls(1, "") {
+        assert_eq!(material(&c), (100.0, THINWALL_KR_N_PER_MM2));
+    }
+
+    // drawn: two seeds give two different walls; within a scenario every wall is its own part; seeded;
+    // inside the documented spreads (E uniform ±8 %, K_r within 5 σ of its 4 %)
+    let a = walls(1, "draw_wall = true");
+    let b = walls(2, "draw_wall = true");
+    assert_eq!(a, walls(1, "draw_wall = true"));
+    for (ca, cb) in a.iter().zip(&b) {
+        assert_ne!(material(ca), material(cb));
+        for c in [ca, cb] {
+            assert_ne!(material(c), (100.0, THINWALL_KR_N_PER_MM2));
+            assert!((c.e_gpa / 100.0 - 1.0).abs() <= 0.08, "{}", c.e_gpa);
+            assert!((c.kr_n_per_mm2 / THINWALL_KR_N_PER_MM2 - 1.0).abs() < 0.2);
+        }
+    }
+    assert_ne!(material(&a[0]), material(&a[1]));
+    // only the material moves: geometry, tool, stage seed as without the part
+    let published = walls(1, "");
+    for (c, p) in a.iter().zip(&published) {
+        let mut c = c.clone();
+        (c.e_gpa, c.kr_n_per_mm2) = material(p);
+        assert_eq!(&c, p);
+    }
+
+    // explicit: applied as given to every wall, and it wins over draw_wall
+    for extra in ["", "\ndraw_wall = true"] {
+        for c in walls(
+            1,
+            &format!("wall = {{ e_factor = 1.05, kr_factor = 0.97 }}{extra}"),
+        ) {
+            assert!((c.e_gpa - 105.0).abs() < 1e-12);
+            assert!((c.kr_n_per_mm2 - 0.97 * THINWALL_KR_N_PER_MM2).abs() < 1e-9);
+        }
+    }
+    // a partial table keeps the other factor at 1
+    for c in walls(1, "wall = { kr_factor = 1.1 }") {
+        assert_eq!(c.e_gpa, 100.0);
+        assert!((c.kr_n_per_mm2 - 1.1 * THINWALL_KR_N_PER_MM2).abs() < 1e-9);
+    }
+
+    // invalid: refused at load, naming the key
+    let key_of = |keys: &str| match scenario_with(1, keys) {
+        Err(ClosedLoopError::InvalidConfig { key, .. }) => key,
+        other => panic!("{keys}: expected InvalidConfig, got {other:?}"),
+    };
+    assert_eq!(key_of("wall = { e_factor = 0.0 }"), "truth.wall.e_factor");
+    assert_eq!(
+        key_of("wall = { kr_factor = -0.5 }\ndraw_wall = true"),
+        "truth.wall.kr_factor"
+    );
+    assert_eq!(key_of("wall = { e_factor = nan }"), "truth.wall.e_factor");
+    // unknown factor: the parser names it
+    let e = scenario_with(1, "wall = { e_gpa = 90.0 }").unwrap_err();
+    assert!(e.to_string().contains("e_gpa"), "{e}");
+    // the keys belong to the thin wall only
+    let groove = scenario("groove_s7_20deg.toml");
+    let mut drawn = groove.clone();
+    drawn.truth.draw_wall = true;
+    let mut given = groove.clone();
+    given.truth.wall = Some(millcomp_sim::wall_variation::WallVariation::NONE);
+    for (key, s) in [("truth.draw_wall", drawn), ("truth.wall", given)] {
+        match s.validate() {
+            Err(ClosedLoopError::InvalidConfig { key: k, .. }) => assert_eq!(k, key),
+            other => panic!("{key}: {other:?}"),
+        }
+    }
+
+    // the hard form: a drawn part, no deliberate force errors
+    let hard = millcomp_closedloop::compare::commissioned(&scenario("thin_wall_h59.toml"));
+    assert!(hard.truth.draw_wall);
+    assert_eq!(hard.truth.force_error_max, 0.0);
+    assert!(hard.truth.force_errors.is_none());
+    hard.validate().unwrap();
+}
+
+/// A drawn part reaches the cut wall: the uncompensated walls differ from the published wall's, and the
+/// run report names the part's factors.
+#[test]
+fn a_drawn_part_changes_the_cut_wall() {
+    let exact = scenario("thin_wall_h59.toml");
+    let mut part = exact.clone();
+    part.truth.draw_wall = true;
+    let (r0, r1) = (
+        run_scenario(&exact, ControllerKind::None).unwrap(),
+        run_scenario(&part, ControllerKind::None).unwrap(),
+    );
+    for (t0, t1) in pct(&r0).iter().zip(pct(&r1)) {
+        assert!((t0 - t1).abs() > 1e-6, "{t0} vs {t1}");
+    }
+    assert!(
+        r1.notes.iter().any(|n| n.contains("truth part")),
+        "{:?}",
+        r1.notes
+    );
+    assert!(!r0.notes.iter().any(|n| n.contains("truth part")));
+}

@@ -14,6 +14,7 @@
 //! | [`groove`], [`feed`] | steppable groove plant; feed changes with axis acceleration, workpiece exit | 16.0 µm deflection at 80 µm (published 17) |
 //! | [`thinwall`] | steppable thin-wall plant (004), the 004 threshold rule, joint K_r/tool calibration | 87.6/106.7/126.1 vs 85.9/106.7/127.8 µm; threshold 2.19 % (published 2.19 %) |
 //! | [`tool_variation`] | tool-to-tool variation of fresh tools (wearland, runout, force factor), seeded draws | 000 §4 ranges; unit tests |
+//! | [`wall_variation`] | part-to-part variation of the thin wall (modulus and force-coefficient factors), seeded draws | CuZn40 handbook E range; unit tests |
 //! | [`effects`], [`session`] | the seven named effects; TOML sessions, their timeline and per-point contexts → measured-groove points | seed figures |
 //!
 //! ```
@@ -41,6 +42,7 @@ pub mod stiffness;
 pub mod thinwall;
 pub mod tool;
 pub mod tool_variation;
+pub mod wall_variation;
 
 pub use error::SimError;
 pub use lti::{ContinuousLti, DiscreteLti};
