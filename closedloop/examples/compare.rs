@@ -2,7 +2,10 @@
 //! (and threshold on the thin wall) over N seeds: medians with distribution-free 95 % intervals, as a
 //! markdown table.
 //!
-//! `cargo run --release -p millcomp-closedloop --example compare -- [--seeds N] [--commissioned]`
+//! `cargo run --release -p millcomp-closedloop --example compare -- [--seeds N] [--commissioned] [--ablations]`
+//!
+//! `--ablations`: the groove scenarios only, with the controllers that say what the MPC's parts buy —
+//! `pid-tuned`, `pid-ff` (pid-tuned plus the plan fed forward), `mpc-nopreview` (no preview) and `mpc`.
 //!
 //! `--commissioned`: the hard form (`millcomp_closedloop::compare::commissioned`) — each groove scenario
 //! with instrument errors and a tool drawn from the seed and controllers built only from its own
@@ -24,6 +27,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .transpose()?
         .unwrap_or(10);
     let comm = args.iter().any(|a| a == "--commissioned");
+    let ablations = args.iter().any(|a| a == "--ablations");
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../datasets/scenarios");
     let mut names: Vec<_> = std::fs::read_dir(&dir)?
         .filter_map(|e| e.ok())
@@ -34,16 +38,28 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut scenarios = Vec::new();
     for n in &names {
         let s = Scenario::load(dir.join(n))?;
+        if ablations && !ControllerKind::PidFeedforward.runs_on(s.stage) {
+            continue;
+        }
         scenarios.push(if comm { commissioned(&s) } else { s });
     }
-    let controllers = [
-        ControllerKind::None,
-        ControllerKind::OpenLoop,
-        ControllerKind::Pid,
-        ControllerKind::PidTuned,
-        ControllerKind::Threshold,
-        ControllerKind::Mpc,
-    ];
+    let controllers: Vec<ControllerKind> = if ablations {
+        vec![
+            ControllerKind::PidTuned,
+            ControllerKind::PidFeedforward,
+            ControllerKind::MpcNoPreview,
+            ControllerKind::Mpc,
+        ]
+    } else {
+        vec![
+            ControllerKind::None,
+            ControllerKind::OpenLoop,
+            ControllerKind::Pid,
+            ControllerKind::PidTuned,
+            ControllerKind::Threshold,
+            ControllerKind::Mpc,
+        ]
+    };
     let bar = ProgressBar::new(0);
     if let Ok(style) = ProgressStyle::with_template("{bar:40} {pos} runs {elapsed}") {
         bar.set_style(style);
@@ -52,9 +68,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let rows = compare(&scenarios, &controllers, 1..1 + seeds, &|| bar.inc(1))?;
     bar.finish_and_clear();
     println!(
-        "{} seeds (1..={seeds}){}; median [95 % interval of the median]; {:.0} s",
+        "{} seeds (1..={seeds}){}{}; median [95 % interval of the median]; {:.0} s",
         seeds,
         if comm { ", commissioned" } else { "" },
+        if ablations { ", ablations" } else { "" },
         t0.elapsed().as_secs_f64()
     );
     let cols: Vec<&str> = controllers.iter().map(|c| c.name()).collect();

@@ -15,8 +15,8 @@ use millcomp_sim::sensors::{InstrumentErrors, NoiseSpec};
 
 use millcomp_models::SensorNoise;
 use millcomp_mpc::groove::{
-    DeflectionPlan, GrooveController, GrooveMpcSettings, MpcGrooveController, NoneController,
-    OpenLoopController, PidController, TunedPidController,
+    DeflectionPlan, FeedforwardPidController, GrooveController, GrooveMpcSettings,
+    MpcGrooveController, NoneController, OpenLoopController, PidController, TunedPidController,
 };
 use millcomp_mpc::identified::{
     IdentifiedForceModel, IdentifiedSpindle, IdentifiedStiffness, NominalTool,
@@ -360,14 +360,43 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Close
                 allowed: "the thin-wall stage (threshold is the 004 thin-wall baseline)".into(),
             });
         }
-        ControllerKind::Mpc => Box::new(MpcGrooveController::new(
-            plan.clone(),
-            &t.program,
-            &setup.model_spindle,
-            &setup.model_stiffness,
-            setup.nominal_tool.flutes,
-            &mpc_settings(&setup, s)?,
-        )?),
+        ControllerKind::PidFeedforward => {
+            let c = FeedforwardPidController::new(
+                plan.clone(),
+                &t.program,
+                &setup.model_spindle,
+                &setup.model_stiffness,
+                v_max,
+                dt,
+            )?;
+            let d = c.design();
+            notes.push(format!(
+                "pid-ff: pid-tuned's PI (kp {:.3} V/um, ki {:.1} V/(um s)) plus the plan fed forward {:.2} ms ahead (the spindle model's mean delay)",
+                d.kp_v_per_um,
+                d.ki_v_per_um_s,
+                1e3 * c.lead_s()
+            ));
+            Box::new(c)
+        }
+        ControllerKind::Mpc | ControllerKind::MpcNoPreview => {
+            let c = MpcGrooveController::new(
+                plan.clone(),
+                &t.program,
+                &setup.model_spindle,
+                &setup.model_stiffness,
+                setup.nominal_tool.flutes,
+                &mpc_settings(&setup, s)?,
+            )?;
+            if kind == ControllerKind::MpcNoPreview {
+                notes.push(
+                    "mpc-nopreview: the planned deflection of now held over the horizon (no preview)"
+                        .into(),
+                );
+                Box::new(c.without_preview())
+            } else {
+                Box::new(c)
+            }
+        }
     };
     let mut pending_failures = SolverFailures::new(s);
     // process changes inside the groove: depth steps / plunges, feed changes, the exit

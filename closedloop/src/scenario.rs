@@ -43,41 +43,52 @@ pub enum ControllerKind {
     /// `millcomp_mpc::tuning`), conditional-integration anti-windup.
     #[serde(rename = "pid-tuned")]
     PidTuned,
+    /// `pid-tuned` plus the planned deflection fed forward one spindle mean delay ahead (the ablation an
+    /// engineer holding the NC program would build; `millcomp_mpc::groove::FeedforwardPidController`).
+    #[serde(rename = "pid-ff")]
+    PidFeedforward,
     /// Thin-wall iterative compensation with a 0.5 µm threshold (`004_…txt` §3.2).
     #[serde(rename = "threshold")]
     Threshold,
     /// Model-predictive control solved with Clarabel every cycle.
     #[serde(rename = "mpc")]
     Mpc,
+    /// The MPC without preview: the planned deflection of *now* held over the horizon (ablation).
+    #[serde(rename = "mpc-nopreview")]
+    MpcNoPreview,
 }
 
 /// All controller names, in CLI order.
-pub const CONTROLLER_NAMES: [&str; 8] = [
+pub const CONTROLLER_NAMES: [&str; 10] = [
     "none",
     "open-loop",
     "pid",
     "pid-aw",
     "pid-design",
     "pid-tuned",
+    "pid-ff",
     "threshold",
     "mpc",
+    "mpc-nopreview",
 ];
 
 impl ControllerKind {
     /// All kinds, in [`CONTROLLER_NAMES`] order.
-    pub const ALL: [ControllerKind; 8] = [
+    pub const ALL: [ControllerKind; 10] = [
         ControllerKind::None,
         ControllerKind::OpenLoop,
         ControllerKind::Pid,
         ControllerKind::PidAntiWindup,
         ControllerKind::PidDesign,
         ControllerKind::PidTuned,
+        ControllerKind::PidFeedforward,
         ControllerKind::Threshold,
         ControllerKind::Mpc,
+        ControllerKind::MpcNoPreview,
     ];
 
     /// Whether the stage has this controller: `threshold` is the thin wall's (004) baseline only;
-    /// `pid-aw`, `pid-design` and `pid-tuned` are the PZT spindle's only.
+    /// `pid-aw`, `pid-design`, `pid-tuned`, `pid-ff` and `mpc-nopreview` are the PZT spindle's only.
     pub fn runs_on(self, stage: StageKind) -> bool {
         match stage {
             StageKind::Groove => self != ControllerKind::Threshold,
@@ -86,6 +97,8 @@ impl ControllerKind {
                 ControllerKind::PidAntiWindup
                     | ControllerKind::PidDesign
                     | ControllerKind::PidTuned
+                    | ControllerKind::PidFeedforward
+                    | ControllerKind::MpcNoPreview
             ),
         }
     }

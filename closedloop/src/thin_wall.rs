@@ -104,7 +104,11 @@ fn thin_wall_controller(
         ControllerKind::Threshold => Box::new(ThresholdController::new(plan.clone())),
         ControllerKind::Pid => Box::new(PiController::new(plan.clone())),
         ControllerKind::Mpc => Box::new(MpcThinWallController::new(plan.clone(), horizon)?),
-        ControllerKind::PidAntiWindup | ControllerKind::PidDesign | ControllerKind::PidTuned => {
+        ControllerKind::PidAntiWindup
+        | ControllerKind::PidDesign
+        | ControllerKind::PidTuned
+        | ControllerKind::PidFeedforward
+        | ControllerKind::MpcNoPreview => {
             return Err(thin_wall_refuses(kind));
         }
     })

@@ -398,6 +398,82 @@ impl GrooveController for TunedPidController {
     }
 }
 
+/// The spindle's mean delay (s): the first moment of its identified impulse response, `2ζ/ωn` of the
+/// second-order pair plus `1/p` of the extra pole plus the dead time — how far ahead a feedforward must
+/// act for the tip to arrive on time.
+pub fn spindle_mean_delay_s(model_spindle: &IdentifiedSpindle) -> f64 {
+    let p = model_spindle.plant();
+    2.0 * p.zeta / p.wn_rad_s + p.pole_rad_s.map_or(0.0, |w| 1.0 / w) + p.dead_time_s.unwrap_or(0.0)
+}
+
+/// `pid-tuned` plus the feedforward an engineer holding the NC program would add: the planned deflection
+/// (the same [`DeflectionPlan`] the open-loop and the MPC use), taken [`spindle_mean_delay_s`] ahead and
+/// turned into volts through the identified spindle gain, added to the PI's output before the saturation.
+/// The PI gains are `pid-tuned`'s (not retuned); the PI corrects what the plan gets wrong.
+#[derive(Debug, Clone)]
+pub struct FeedforwardPidController {
+    feedback: TunedPidController,
+    plan: DeflectionPlan,
+    lead_s: f64,
+    v_per_z_um: f64,
+}
+
+impl FeedforwardPidController {
+    /// As [`TunedPidController::new`], with the plan to feed forward.
+    ///
+    /// # Errors
+    /// Those of [`TunedPidController::new`].
+    pub fn new(
+        plan: DeflectionPlan,
+        program: &GrooveProgram,
+        model_spindle: &IdentifiedSpindle,
+        model_stiffness: &IdentifiedStiffness,
+        voltage_max_v: f64,
+        dt_s: f64,
+    ) -> Result<Self, MpcError> {
+        Ok(Self {
+            feedback: TunedPidController::new(
+                program,
+                model_spindle,
+                model_stiffness,
+                voltage_max_v,
+                dt_s,
+            )?,
+            plan,
+            lead_s: spindle_mean_delay_s(model_spindle),
+            v_per_z_um: 1.0
+                / (program.tilt_deg.to_radians().sin() * model_spindle.plant().gain_um_per_v),
+        })
+    }
+
+    /// The feedback part's PI design.
+    pub fn design(&self) -> crate::tuning::PiDesign {
+        self.feedback.design
+    }
+
+    /// How far ahead the plan is taken (s).
+    pub fn lead_s(&self) -> f64 {
+        self.lead_s
+    }
+}
+
+impl GrooveController for FeedforwardPidController {
+    fn command(&mut self, last: Option<&GrooveMeasurement>, t_s: f64) -> f64 {
+        let v_ff = self.plan.deflection_at(self.plan.x_at(t_s + self.lead_s)) * self.v_per_z_um;
+        let fb = &mut self.feedback;
+        let Some(o) = last else {
+            return fb.pid.step_with_feedforward(0.0, v_ff);
+        };
+        let fpk = fb.force.step(o.force_meas_n);
+        let wanted_tip = if fpk.is_finite() {
+            fpk * fb.tip_per_n
+        } else {
+            0.0
+        };
+        fb.pid.step_with_feedforward(wanted_tip - o.gauge_um, v_ff)
+    }
+}
+
 /// How the groove MPC is set up: timing, horizon and amplifier limits (the control settings), an
 /// optional full configuration, and the sensors' noise levels its Kalman filter assumes.
 #[derive(Debug, Clone, PartialEq)]
@@ -518,6 +594,7 @@ pub struct MpcGrooveController {
     v_hold: f64,
     window: PreviewWindow,
     stale: [StaleDetector; 2],
+    preview: bool,
 }
 
 impl MpcGrooveController {
@@ -558,7 +635,16 @@ impl MpcGrooveController {
                 StaleDetector::new((2e-3 / dt) as usize),
                 StaleDetector::new((1e-3 / dt) as usize),
             ],
+            preview: true,
         })
+    }
+
+    /// The same MPC without preview (the `mpc-nopreview` ablation): every step of the horizon is given the
+    /// planned deflection *now* (a persistence forecast), so the MPC learns of a change ahead only when it
+    /// arrives. Estimation, constraints and weights are unchanged.
+    pub fn without_preview(mut self) -> Self {
+        self.preview = false;
+        self
     }
 
     /// The MPC inside.
@@ -584,8 +670,12 @@ impl GrooveController for MpcGrooveController {
         let (rev, tooth) = (self.rev_s, self.tooth_s);
         self.window.offset_now[OUT_ERROR] = -self.plan.deflection_at_time(t_s, rev, tooth);
         for j in 0..n {
-            let t = t_s + (j + 1) as f64 * self.tc_s;
-            self.window.offsets[j * 2 + OUT_ERROR] = -self.plan.deflection_at_time(t, rev, tooth);
+            self.window.offsets[j * 2 + OUT_ERROR] = if self.preview {
+                let t = t_s + (j + 1) as f64 * self.tc_s;
+                -self.plan.deflection_at_time(t, rev, tooth)
+            } else {
+                self.window.offset_now[OUT_ERROR]
+            };
         }
         // a stale sensor is left out of the measurement update (prediction from the model and the plan)
         let y = [

@@ -123,7 +123,14 @@ impl Pid {
     /// One step with error `e` (µm): returns the clamped voltage. A non-finite error is treated as 0
     /// (the integrator holds) so NaN never reaches the amplifier.
     pub fn step(&mut self, e: f64) -> f64 {
+        self.step_with_feedforward(e, 0.0)
+    }
+
+    /// One step with a feedforward voltage `v_ff` added to the PID's output before the saturation, so the
+    /// anti-windup sees the sum (a non-finite `v_ff` counts as 0).
+    pub fn step_with_feedforward(&mut self, e: f64, v_ff: f64) -> f64 {
         let e = if e.is_finite() { e } else { 0.0 };
+        let v_ff = if v_ff.is_finite() { v_ff } else { 0.0 };
         if !self.started {
             self.prev_e = e;
             self.started = true;
@@ -139,7 +146,7 @@ impl Pid {
         let g = self.gains;
         let integral_try = self.integral + g.i * e * self.dt_s;
         let u_try = g.p * e + integral_try + g.d * self.d_state;
-        let v_try = self.v_per_unit * u_try;
+        let v_try = self.v_per_unit * u_try + v_ff;
         let v_sat = v_try.clamp(self.v_min, self.v_max);
         let saturated = v_sat != v_try;
         if saturated {
@@ -201,6 +208,29 @@ mod tests {
         // 800 000 units/s per µm → ≈ 0.125 s = 2 500 samples
         assert!(none > 2000, "none released after {none}");
         assert!(clamp <= 1 && back <= 1, "clamp {clamp}, back {back}");
+    }
+
+    #[test]
+    fn the_feedforward_is_inside_the_saturation_and_the_anti_windup_sees_it() {
+        let dt = 5e-5;
+        let mut pid = Pid::new(
+            PidGains::tuned(),
+            AntiWindup::Clamping,
+            0.18,
+            0.0,
+            1000.0,
+            dt,
+        );
+        // a feedforward alone, no error: passed through
+        assert_eq!(pid.step_with_feedforward(0.0, 300.0), 300.0);
+        // a feedforward beyond the range saturates the sum, and a positive error then does not wind up
+        for _ in 0..1000 {
+            assert_eq!(pid.step_with_feedforward(1.0, 1200.0), 1000.0);
+        }
+        assert_eq!(pid.integral(), 0.0);
+        // NaN feedforward counts as 0
+        let v = pid.step_with_feedforward(0.0, f64::NAN);
+        assert!(v.is_finite() && (0.0..=1000.0).contains(&v));
     }
 
     #[test]
