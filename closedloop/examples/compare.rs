@@ -83,6 +83,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .collect();
     keys.dedup();
     for (s, m) in keys {
+        // the stroke bound only where the stroke does not cover the deflection for some controller
+        if m == "stroke_bound_um"
+            && rows
+                .iter()
+                .filter(|r| r.scenario == s && r.metric == m)
+                .all(|r| r.median == 0.0 && r.ci95[1] == 0.0)
+        {
+            continue;
+        }
         let cells: Vec<String> = cols
             .iter()
             .map(|c| {

@@ -21,7 +21,8 @@ use crate::scenario::{ControllerKind, Scenario, StageKind};
 pub struct CompareRow {
     /// Scenario name.
     pub scenario: String,
-    /// Metric (`pp_error_um`, `change_peak_um`, `wall_<nominal>um_error_pct`).
+    /// Metric (`pp_error_um`, `stroke_bound_um` (grooves), `change_peak_um`,
+    /// `wall_<nominal>um_error_pct`).
     pub metric: String,
     /// Controller name.
     pub controller: String,
@@ -41,6 +42,9 @@ pub fn metrics_of(s: &Scenario, r: &RunReport) -> Vec<(String, f64)> {
     match s.stage {
         StageKind::Groove => {
             let mut m = vec![("pp_error_um".to_string(), r.metrics.pp_error_um)];
+            if let Some(b) = r.metrics.stroke_bound_um {
+                m.push(("stroke_bound_um".to_string(), b));
+            }
             if let Some(p) = r.process_change_peak_um {
                 m.push(("change_peak_um".to_string(), p));
             }

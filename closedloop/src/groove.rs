@@ -404,6 +404,8 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Close
     let exit_window = exit_window(t);
     let mut change_peak: f64 = 0.0;
     let mut exit_overcut: f64 = 0.0;
+    // the deflection range the run met, for the stroke bound
+    let (mut defl_min, mut defl_max) = (f64::INFINITY, f64::NEG_INFINITY);
     if plan.extrapolated_points > 0 {
         notes.push(format!(
             "force predictor extrapolated at {} of {} planned points (outside the response surface's fitted ranges)",
@@ -458,6 +460,8 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Close
         if o.engagement > 0.0 {
             let err = o.depth_cut_um - o.depth_cmd_um;
             errors.push(err);
+            defl_min = defl_min.min(o.deflection_um);
+            defl_max = defl_max.max(o.deflection_um);
             if windows.iter().any(|(a, b)| o.x_mm >= *a && o.x_mm <= *b) {
                 change_peak = change_peak.max(err.abs());
             }
@@ -503,6 +507,13 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Close
         controller: kind.name().into(),
         metrics: Metrics {
             exit_overcut_um: exit_window.map(|_| exit_overcut),
+            // the tip's range in z: the stack's full travel at the amplifier's maximum, times sin α
+            stroke_bound_um: (defl_max >= defl_min).then(|| {
+                let range_z = t.spindle.gain_um_per_v
+                    * t.spindle.voltage_max_v
+                    * t.program.tilt_deg.to_radians().sin();
+                (defl_max - defl_min - range_z).max(0.0)
+            }),
             ..Metrics::from_errors(&errors, travel)
         },
         solver: ctl.solver_stats(),

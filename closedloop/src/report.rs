@@ -27,6 +27,11 @@ pub struct Metrics {
     /// "undersize") from the start of the engagement drop to the edge.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub exit_overcut_um: Option<f64>,
+    /// Groove: the smallest peak-to-peak error any controller could reach against the deflection this run
+    /// met, with the PZT's tip range (µm): `max(0, δ_max − δ_min − range · sin α)` — static (no dynamics),
+    /// so a lower bound; 0 where the stroke covers the deflection.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub stroke_bound_um: Option<f64>,
 }
 
 impl Metrics {
@@ -49,6 +54,7 @@ impl Metrics {
             thickness_um: None,
             thickness_error_pct: None,
             exit_overcut_um: None,
+            stroke_bound_um: None,
         }
     }
 }

@@ -71,6 +71,32 @@ fn grooves_20_30_40_deg_uncompensated_open_loop_pid_mpc() {
             mpc.metrics.pp_error_um,
             pid.metrics.pp_error_um
         );
+        // the stroke bound (static: δ range − tip range · sin α) is a lower bound no controller beats; at
+        // 20° the stroke does not cover the compensated deflection (bound > 0), at 30° and 40° it does
+        for r in [&none, &ol, &pid, &mpc] {
+            let b = r
+                .metrics
+                .stroke_bound_um
+                .expect("grooves report the stroke bound");
+            assert!(
+                r.metrics.pp_error_um >= b - 1e-9,
+                "{file} {}: pp {} below the bound {b}",
+                r.controller,
+                r.metrics.pp_error_um
+            );
+        }
+        let b = mpc.metrics.stroke_bound_um.unwrap_or(0.0);
+        if file.contains("20deg") {
+            assert!(b > 1.0, "{file}: bound {b}");
+            // the MPC ends within 0.2 µm of the physical limit
+            assert!(
+                mpc.metrics.pp_error_um - b < 0.2,
+                "{file}: mpc {} vs {b}",
+                mpc.metrics.pp_error_um
+            );
+        } else {
+            assert_eq!(b, 0.0, "{file}");
+        }
         let st = mpc.solver.expect("mpc reports solver stats");
         assert_eq!(st.fallbacks, 0);
         // 12 s of cut at 2 kHz

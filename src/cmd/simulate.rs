@@ -203,6 +203,11 @@ fn run_scenario(args: &SimulateArgs, json: bool) -> anyhow::Result<()> {
             "process changes: peak |error| {p:.3} um (0.5 mm before to 2 mm after each change)"
         );
     }
+    if let Some(b) = m.stroke_bound_um.filter(|b| *b > 0.0) {
+        println!(
+            "stroke bound: {b:.3} um peak-to-peak (the deflection met exceeds the PZT's range in z by this much)"
+        );
+    }
     if let Some(o) = m.exit_overcut_um {
         println!("workpiece exit: largest overcut {o:.3} um (+ = deeper than programmed)");
     }
