@@ -19,6 +19,21 @@ use millcomp_closedloop::{ControllerKind, Scenario};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
+    let mut rest = args.iter().skip(1);
+    while let Some(a) = rest.next() {
+        match a.as_str() {
+            "--commissioned" | "--ablations" => {}
+            "--seeds" => {
+                rest.next();
+            }
+            other => {
+                return Err(format!(
+                    "unknown argument `{other}`: allowed --seeds N, --commissioned, --ablations"
+                )
+                .into());
+            }
+        }
+    }
     let seeds: u64 = args
         .iter()
         .position(|a| a == "--seeds")
