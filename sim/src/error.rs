@@ -124,6 +124,24 @@ pub(crate) fn check_range(
     }
 }
 
+/// Check that `value` is finite.
+pub(crate) fn check_finite(name: &'static str, value: f64) -> Result<f64, SimError> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(SimError::InvalidParameter {
+            name,
+            value,
+            allowed: "finite",
+        })
+    }
+}
+
+/// `1.0`, for `#[serde(default = "crate::error::one")]` on factors whose neutral value is 1.
+pub(crate) fn one() -> f64 {
+    1.0
+}
+
 /// Check that `value` is finite and strictly positive.
 pub(crate) fn check_positive(name: &'static str, value: f64) -> Result<f64, SimError> {
     if value.is_finite() && value > 0.0 {

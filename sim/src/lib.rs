@@ -47,3 +47,14 @@ pub mod wall_variation;
 pub use error::SimError;
 pub use lti::{ContinuousLti, DiscreteLti};
 pub use spindle::{DiscretePztSpindle, PztSpindle};
+
+#[cfg(test)]
+mod test_support {
+    /// Sample mean and standard deviation (n − 1) of `xs`.
+    pub(crate) fn mean_sd(xs: &[f64]) -> (f64, f64) {
+        let n = xs.len() as f64;
+        let m = xs.iter().sum::<f64>() / n;
+        let sd = (xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+        (m, sd)
+    }
+}

@@ -8,10 +8,10 @@
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
+use rand_distr::{Distribution, Normal, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-use crate::error::{SimError, check_nonneg, check_positive};
+use crate::error::{SimError, check_finite, check_nonneg, check_positive};
 
 /// Seeded Gaussian noise source (`None` sigma → exact).
 #[derive(Debug, Clone)]
@@ -169,13 +169,7 @@ impl CapacitanceGauge {
     ) -> Result<Self, SimError> {
         check_positive("range_um", range_um)?;
         check_positive("sensitivity_um_per_v", sensitivity_um_per_v)?;
-        if !offset_um.is_finite() {
-            return Err(SimError::InvalidParameter {
-                name: "offset_um",
-                value: offset_um,
-                allowed: "finite",
-            });
-        }
+        check_finite("offset_um", offset_um)?;
         Ok(Self {
             range_um,
             sensitivity_um_per_v,
@@ -242,7 +236,7 @@ mod tests {
 #[serde(deny_unknown_fields)]
 pub struct InstrumentErrors {
     /// Force-sensor gain: the reading is `force_gain · force` (1 = exactly calibrated).
-    #[serde(default = "one")]
+    #[serde(default = "crate::error::one")]
     pub force_gain: f64,
     /// Force-sensor drift (N/s): the charge amplifier's zero wanders by this much per second of cut.
     #[serde(default)]
@@ -254,10 +248,6 @@ pub struct InstrumentErrors {
     /// Capacitance-gauge zero offset (µm), added to every reading.
     #[serde(default)]
     pub gauge_offset_um: f64,
-}
-
-fn one() -> f64 {
-    1.0
 }
 
 impl Default for InstrumentErrors {
@@ -301,12 +291,11 @@ impl InstrumentErrors {
     pub fn draw(seed: u64) -> Self {
         use rand::Rng;
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0001_a572_u64);
-        let std = Normal::new(0.0, 1.0).expect("unit normal");
         Self {
-            force_gain: 1.0 + FORCE_GAIN_SIGMA * std.sample(&mut rng),
+            force_gain: 1.0 + FORCE_GAIN_SIGMA * rng.sample::<f64, _>(StandardNormal),
             force_drift_n_per_s: rng
                 .random_range(-FORCE_DRIFT_MAX_N_PER_S..=FORCE_DRIFT_MAX_N_PER_S),
-            touch_off_um: TOUCH_OFF_SIGMA_UM * std.sample(&mut rng),
+            touch_off_um: TOUCH_OFF_SIGMA_UM * rng.sample::<f64, _>(StandardNormal),
             gauge_offset_um: rng.random_range(-GAUGE_OFFSET_MAX_UM..=GAUGE_OFFSET_MAX_UM),
         }
     }
@@ -324,19 +313,9 @@ impl InstrumentErrors {
     /// [`SimError::InvalidParameter`] for a non-positive or non-finite gain or a non-finite offset/drift.
     pub fn validate(&self) -> Result<(), SimError> {
         check_positive("force_gain", self.force_gain)?;
-        for (name, v) in [
-            ("force_drift_n_per_s", self.force_drift_n_per_s),
-            ("touch_off_um", self.touch_off_um),
-            ("gauge_offset_um", self.gauge_offset_um),
-        ] {
-            if !v.is_finite() {
-                return Err(SimError::InvalidParameter {
-                    name,
-                    value: v,
-                    allowed: "finite",
-                });
-            }
-        }
+        check_finite("force_drift_n_per_s", self.force_drift_n_per_s)?;
+        check_finite("touch_off_um", self.touch_off_um)?;
+        check_finite("gauge_offset_um", self.gauge_offset_um)?;
         Ok(())
     }
 }

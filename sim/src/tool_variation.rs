@@ -16,10 +16,10 @@
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
+use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
-use crate::error::{SimError, check_positive};
+use crate::error::{SimError, check_finite, check_positive};
 use crate::force::BallEndForceModel;
 
 /// Half-width (µm) of the fresh-tool wearland spread, drawn uniform in ±this around the catalogue
@@ -70,12 +70,8 @@ pub struct ToolVariation {
     pub runout_offset_um: f64,
     /// Multiplies the force model's `force_scale` (1 = catalogue). Assumption: edge-radius/coating
     /// scatter ([`FORCE_FACTOR_SIGMA`]).
-    #[serde(default = "one")]
+    #[serde(default = "crate::error::one")]
     pub force_factor: f64,
-}
-
-fn one() -> f64 {
-    1.0
 }
 
 impl Default for ToolVariation {
@@ -108,11 +104,10 @@ impl ToolVariation {
     pub fn draw(seed: u64) -> Self {
         use rand::Rng;
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ TOOL_SEED_STREAM);
-        let std = Normal::new(0.0, 1.0).expect("unit normal");
         Self {
             wearland_offset_um: rng.random_range(-WEARLAND_HALF_RANGE_UM..=WEARLAND_HALF_RANGE_UM),
             runout_offset_um: rng.random_range(-RUNOUT_HALF_RANGE_UM..=RUNOUT_HALF_RANGE_UM),
-            force_factor: 1.0 + FORCE_FACTOR_SIGMA * std.sample(&mut rng),
+            force_factor: 1.0 + FORCE_FACTOR_SIGMA * rng.sample::<f64, _>(StandardNormal),
         }
     }
 
@@ -122,18 +117,8 @@ impl ToolVariation {
     /// [`SimError::InvalidParameter`] naming `wearland_offset_um` or `runout_offset_um` (not finite) or
     /// `force_factor` (not a finite positive number).
     pub fn validate(&self) -> Result<(), SimError> {
-        for (name, v) in [
-            ("wearland_offset_um", self.wearland_offset_um),
-            ("runout_offset_um", self.runout_offset_um),
-        ] {
-            if !v.is_finite() {
-                return Err(SimError::InvalidParameter {
-                    name,
-                    value: v,
-                    allowed: "finite",
-                });
-            }
-        }
+        check_finite("wearland_offset_um", self.wearland_offset_um)?;
+        check_finite("runout_offset_um", self.runout_offset_um)?;
         check_positive("force_factor", self.force_factor)?;
         Ok(())
     }
@@ -187,6 +172,7 @@ impl ToolVariation {
 mod tests {
     use super::*;
     use crate::groove::GrooveConfig;
+    use crate::test_support::mean_sd;
 
     #[test]
     fn draw_is_deterministic_per_seed_and_differs_between_seeds() {
@@ -194,13 +180,6 @@ mod tests {
             assert_eq!(ToolVariation::draw(seed), ToolVariation::draw(seed));
         }
         assert_ne!(ToolVariation::draw(1), ToolVariation::draw(2));
-    }
-
-    fn mean_sd(xs: &[f64]) -> (f64, f64) {
-        let n = xs.len() as f64;
-        let m = xs.iter().sum::<f64>() / n;
-        let sd = (xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
-        (m, sd)
     }
 
     #[test]

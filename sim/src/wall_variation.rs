@@ -17,7 +17,7 @@
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
+use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{SimError, check_positive};
@@ -59,16 +59,12 @@ const WALL_SEED_STREAM: u64 = 0x3a11_5eed_0000_0000;
 pub struct WallVariation {
     /// Multiplies the wall material's Young's modulus `e_gpa` (1 = published 100 GPa). Source: CuZn40
     /// handbook range 99–117 GPa ([`E_HALF_RANGE`]).
-    #[serde(default = "one")]
+    #[serde(default = "crate::error::one")]
     pub e_factor: f64,
     /// Multiplies the radial force coefficient `kr_n_per_mm2` (1 = calibrated K_r). Assumption: lot
     /// strength ([`KR_FACTOR_SIGMA`]).
-    #[serde(default = "one")]
+    #[serde(default = "crate::error::one")]
     pub kr_factor: f64,
-}
-
-fn one() -> f64 {
-    1.0
 }
 
 impl Default for WallVariation {
@@ -100,10 +96,9 @@ impl WallVariation {
     pub fn draw(seed: u64) -> Self {
         use rand::Rng;
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ WALL_SEED_STREAM);
-        let std = Normal::new(0.0, 1.0).expect("unit normal");
         Self {
             e_factor: 1.0 + rng.random_range(-E_HALF_RANGE..=E_HALF_RANGE),
-            kr_factor: 1.0 + KR_FACTOR_SIGMA * std.sample(&mut rng),
+            kr_factor: 1.0 + KR_FACTOR_SIGMA * rng.sample::<f64, _>(StandardNormal),
         }
     }
 
@@ -158,6 +153,7 @@ impl WallVariation {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_support::mean_sd;
     use crate::thinwall::uncompensated_thickness_for;
 
     #[test]
@@ -166,13 +162,6 @@ mod tests {
             assert_eq!(WallVariation::draw(seed), WallVariation::draw(seed));
         }
         assert_ne!(WallVariation::draw(1000), WallVariation::draw(1001));
-    }
-
-    fn mean_sd(xs: &[f64]) -> (f64, f64) {
-        let n = xs.len() as f64;
-        let m = xs.iter().sum::<f64>() / n;
-        let sd = (xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
-        (m, sd)
     }
 
     #[test]
