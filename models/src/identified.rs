@@ -171,6 +171,37 @@ impl IdentifiedModel {
                 .join(", "),
         })
     }
+
+    /// [`Self::require`], and the value must pass `valid` (`allowed` says what passes, for the message).
+    ///
+    /// # Errors
+    /// As [`Self::require`]; [`ModelError::InvalidValue`] naming `model.params.<name>` when `valid`
+    /// refuses the value.
+    pub fn require_valid(
+        &self,
+        name: &str,
+        origin: &Path,
+        kind: &str,
+        valid: fn(f64) -> bool,
+        allowed: &str,
+    ) -> Result<f64> {
+        let v = self.require(name, origin, kind)?;
+        if valid(v) {
+            Ok(v)
+        } else {
+            Err(ModelError::InvalidValue {
+                path: origin.to_path_buf(),
+                key: format!("model.params.{name}"),
+                value: v.to_string(),
+                allowed: allowed.into(),
+            })
+        }
+    }
+}
+
+/// Finite and > 0 (a gain, a frequency, a stiffness).
+fn finite_positive(v: f64) -> bool {
+    v.is_finite() && v > 0.0
 }
 
 /// The PZT-actuated spindle as identified from a step response (kind `spindle`):
@@ -228,18 +259,8 @@ impl SpindleModel {
     /// assert_eq!(s.pole_rad_s, None);
     /// ```
     pub fn from_identified(m: &IdentifiedModel, origin: &Path) -> Result<Self> {
-        let need = |name: &str| -> Result<f64> {
-            let v = m.require(name, origin, "spindle")?;
-            if v.is_finite() && v > 0.0 {
-                Ok(v)
-            } else {
-                Err(ModelError::InvalidValue {
-                    path: origin.to_path_buf(),
-                    key: format!("model.params.{name}"),
-                    value: v.to_string(),
-                    allowed: "finite and > 0".into(),
-                })
-            }
+        let need = |name: &str| {
+            m.require_valid(name, origin, "spindle", finite_positive, "finite and > 0")
         };
         Ok(Self {
             gain_um_per_v: need("gain_um_per_v")?,
@@ -349,18 +370,8 @@ impl StiffnessModel {
     /// [`ModelError::MissingKey`] naming `model.params.axial_stiffness_n_per_um` or
     /// `…radial…`; [`ModelError::InvalidValue`] for a non-positive stiffness.
     pub fn from_identified(m: &IdentifiedModel, origin: &Path) -> Result<Self> {
-        let need = |name: &str| -> Result<f64> {
-            let v = m.require(name, origin, "stiffness")?;
-            if v.is_finite() && v > 0.0 {
-                Ok(v)
-            } else {
-                Err(ModelError::InvalidValue {
-                    path: origin.to_path_buf(),
-                    key: format!("model.params.{name}"),
-                    value: v.to_string(),
-                    allowed: "finite and > 0".into(),
-                })
-            }
+        let need = |name: &str| {
+            m.require_valid(name, origin, "stiffness", finite_positive, "finite and > 0")
         };
         let names = ["axial_stiffness_n_per_um", "radial_stiffness_n_per_um"];
         Ok(Self {
@@ -409,18 +420,14 @@ impl SensorNoise {
     /// [`ModelError::MissingKey`] naming `model.params.force_noise_n` or `…gauge_noise_um`;
     /// [`ModelError::InvalidValue`] for a negative or non-finite level.
     pub fn from_identified(m: &IdentifiedModel, origin: &Path) -> Result<Self> {
-        let need = |name: &str| -> Result<f64> {
-            let v = m.require(name, origin, "sensor_noise")?;
-            if v.is_finite() && v >= 0.0 {
-                Ok(v)
-            } else {
-                Err(ModelError::InvalidValue {
-                    path: origin.to_path_buf(),
-                    key: format!("model.params.{name}"),
-                    value: v.to_string(),
-                    allowed: "finite and >= 0".into(),
-                })
-            }
+        let need = |name: &str| {
+            m.require_valid(
+                name,
+                origin,
+                "sensor_noise",
+                |v| v.is_finite() && v >= 0.0,
+                "finite and >= 0",
+            )
         };
         Ok(Self {
             force_noise_n: need(Self::PARAMS[0])?,
