@@ -338,7 +338,7 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Close
                 dt,
             )?)
         }
-        ControllerKind::PidTuned => {
+        ControllerKind::PidTuned | ControllerKind::PidFeedforward => {
             let c = TunedPidController::new(
                 &t.program,
                 &setup.model_spindle,
@@ -351,7 +351,22 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Close
                 "pid-tuned: kp {:.3} V/um, ki {:.1} V/(um s) (Ms {:.2}, crossover {:.0} rad/s) on the controllers' spindle model",
                 d.kp_v_per_um, d.ki_v_per_um_s, d.ms, d.crossover_rad_s
             ));
-            Box::new(c)
+            if kind == ControllerKind::PidFeedforward {
+                let ff = FeedforwardPidController::new(
+                    c,
+                    plan.clone(),
+                    &t.program,
+                    &setup.model_spindle,
+                    v_max,
+                );
+                notes.push(format!(
+                    "pid-ff: pid-tuned's PI plus the plan fed forward {:.2} ms ahead (the spindle model's mean delay)",
+                    1e3 * ff.lead_s()
+                ));
+                Box::new(ff)
+            } else {
+                Box::new(c)
+            }
         }
         ControllerKind::Threshold => {
             return Err(ClosedLoopError::InvalidConfig {
@@ -359,24 +374,6 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Close
                 value: "threshold".into(),
                 allowed: "the thin-wall stage (threshold is the 004 thin-wall baseline)".into(),
             });
-        }
-        ControllerKind::PidFeedforward => {
-            let c = FeedforwardPidController::new(
-                plan.clone(),
-                &t.program,
-                &setup.model_spindle,
-                &setup.model_stiffness,
-                v_max,
-                dt,
-            )?;
-            let d = c.design();
-            notes.push(format!(
-                "pid-ff: pid-tuned's PI (kp {:.3} V/um, ki {:.1} V/(um s)) plus the plan fed forward {:.2} ms ahead (the spindle model's mean delay)",
-                d.kp_v_per_um,
-                d.ki_v_per_um_s,
-                1e3 * c.lead_s()
-            ));
-            Box::new(c)
         }
         ControllerKind::Mpc | ControllerKind::MpcNoPreview => {
             let c = MpcGrooveController::new(

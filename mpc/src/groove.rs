@@ -261,10 +261,16 @@ impl OpenLoopController {
     }
 }
 
+impl OpenLoopController {
+    /// The voltage that puts the tip where the plan's deflection at `t_s` wants it (unclamped).
+    fn volts_at(&self, t_s: f64) -> f64 {
+        self.plan.deflection_at(self.plan.x_at(t_s)) * self.tip_per_z * self.v_per_um
+    }
+}
+
 impl GrooveController for OpenLoopController {
     fn command(&mut self, _: Option<&GrooveMeasurement>, t_s: f64) -> f64 {
-        let dz = self.plan.deflection_at(self.plan.x_at(t_s));
-        (dz * self.tip_per_z * self.v_per_um).clamp(0.0, self.v_max)
+        self.volts_at(t_s).clamp(0.0, self.v_max)
     }
 }
 
@@ -385,16 +391,27 @@ impl TunedPidController {
     }
 }
 
-impl GrooveController for TunedPidController {
-    fn command(&mut self, last: Option<&GrooveMeasurement>, _: f64) -> f64 {
-        let Some(o) = last else { return 0.0 };
+impl TunedPidController {
+    /// One step with `v_ff` volts fed forward (inside the saturation). Before the first measurement the
+    /// error is 0: the output is `v_ff` clamped (0 without feedforward).
+    fn step_with_feedforward(&mut self, last: Option<&GrooveMeasurement>, v_ff: f64) -> f64 {
+        let Some(o) = last else {
+            return self.pid.step_with_feedforward(0.0, v_ff);
+        };
         let fpk = self.force.step(o.force_meas_n);
         let wanted_tip = if fpk.is_finite() {
             fpk * self.tip_per_n
         } else {
             0.0
         };
-        self.pid.step(wanted_tip - o.gauge_um)
+        self.pid
+            .step_with_feedforward(wanted_tip - o.gauge_um, v_ff)
+    }
+}
+
+impl GrooveController for TunedPidController {
+    fn command(&mut self, last: Option<&GrooveMeasurement>, _: f64) -> f64 {
+        self.step_with_feedforward(last, 0.0)
     }
 }
 
@@ -413,37 +430,25 @@ pub fn spindle_mean_delay_s(model_spindle: &IdentifiedSpindle) -> f64 {
 #[derive(Debug, Clone)]
 pub struct FeedforwardPidController {
     feedback: TunedPidController,
-    plan: DeflectionPlan,
+    plan: OpenLoopController,
     lead_s: f64,
-    v_per_z_um: f64,
 }
 
 impl FeedforwardPidController {
-    /// As [`TunedPidController::new`], with the plan to feed forward.
-    ///
-    /// # Errors
-    /// Those of [`TunedPidController::new`].
+    /// `feedback` (a [`TunedPidController`], not retuned) plus `plan` turned into volts as the
+    /// open-loop controller does, [`spindle_mean_delay_s`] of `model_spindle` ahead.
     pub fn new(
+        feedback: TunedPidController,
         plan: DeflectionPlan,
         program: &GrooveProgram,
         model_spindle: &IdentifiedSpindle,
-        model_stiffness: &IdentifiedStiffness,
         voltage_max_v: f64,
-        dt_s: f64,
-    ) -> Result<Self, MpcError> {
-        Ok(Self {
-            feedback: TunedPidController::new(
-                program,
-                model_spindle,
-                model_stiffness,
-                voltage_max_v,
-                dt_s,
-            )?,
-            plan,
+    ) -> Self {
+        Self {
+            feedback,
+            plan: OpenLoopController::new(plan, program, model_spindle, voltage_max_v),
             lead_s: spindle_mean_delay_s(model_spindle),
-            v_per_z_um: 1.0
-                / (program.tilt_deg.to_radians().sin() * model_spindle.plant().gain_um_per_v),
-        })
+        }
     }
 
     /// The feedback part's PI design.
@@ -459,18 +464,8 @@ impl FeedforwardPidController {
 
 impl GrooveController for FeedforwardPidController {
     fn command(&mut self, last: Option<&GrooveMeasurement>, t_s: f64) -> f64 {
-        let v_ff = self.plan.deflection_at(self.plan.x_at(t_s + self.lead_s)) * self.v_per_z_um;
-        let fb = &mut self.feedback;
-        let Some(o) = last else {
-            return fb.pid.step_with_feedforward(0.0, v_ff);
-        };
-        let fpk = fb.force.step(o.force_meas_n);
-        let wanted_tip = if fpk.is_finite() {
-            fpk * fb.tip_per_n
-        } else {
-            0.0
-        };
-        fb.pid.step_with_feedforward(wanted_tip - o.gauge_um, v_ff)
+        let v_ff = self.plan.volts_at(t_s + self.lead_s);
+        self.feedback.step_with_feedforward(last, v_ff)
     }
 }
 
