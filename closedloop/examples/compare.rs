@@ -18,13 +18,18 @@ use millcomp_closedloop::compare::{commissioned, compare};
 use millcomp_closedloop::{ControllerKind, Scenario};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let args: Vec<String> = std::env::args().collect();
-    let mut rest = args.iter().skip(1);
-    while let Some(a) = rest.next() {
+    let (mut seeds, mut comm, mut ablations) = (10u64, false, false);
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
         match a.as_str() {
-            "--commissioned" | "--ablations" => {}
+            "--commissioned" => comm = true,
+            "--ablations" => ablations = true,
             "--seeds" => {
-                rest.next();
+                seeds = args
+                    .next()
+                    .ok_or("--seeds needs a number")?
+                    .parse()
+                    .map_err(|e| format!("--seeds: {e}"))?;
             }
             other => {
                 return Err(format!(
@@ -34,15 +39,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
     }
-    let seeds: u64 = args
-        .iter()
-        .position(|a| a == "--seeds")
-        .and_then(|i| args.get(i + 1))
-        .map(|s| s.parse())
-        .transpose()?
-        .unwrap_or(10);
-    let comm = args.iter().any(|a| a == "--commissioned");
-    let ablations = args.iter().any(|a| a == "--ablations");
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../datasets/scenarios");
     let mut names: Vec<_> = std::fs::read_dir(&dir)?
         .filter_map(|e| e.ok())

@@ -803,19 +803,15 @@ fn noise_experiment(
             [s * (dof / c_hi).sqrt(), s * (dof / c_lo).sqrt()],
         );
     }
+    // the two records are independent: a diagonal covariance
     let names: Vec<String> = SensorNoise::PARAMS.iter().map(|s| s.to_string()).collect();
-    let covariance = NamedMatrix {
-        values: names
-            .iter()
-            .enumerate()
-            .map(|(i, a)| {
-                (0..names.len())
-                    .map(|j| if i == j { std_err[a].powi(2) } else { 0.0 })
-                    .collect()
-            })
-            .collect(),
-        names,
-    };
+    let covariance = NamedMatrix::from_matrix(
+        &names,
+        &nalgebra::DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(
+            names.len(),
+            names.iter().map(|n| std_err[n].powi(2)),
+        )),
+    );
     let model = IdentifiedModel {
         status: FitStatus::Converged,
         n_obs: n,

@@ -661,14 +661,7 @@ impl Scenario {
                 finite_pos("groove.feed_accel_mm_s2", g.feed_accel_mm_s2)?;
                 if let Some(e) = g.exit {
                     // sim's own check; its parameter names (`exit.x_mm`, …) become scenario keys
-                    e.validate(g.length_mm).map_err(|err| match err {
-                        millcomp_sim::SimError::InvalidParameter {
-                            name,
-                            value,
-                            allowed,
-                        } => invalid(format!("groove.{name}"), value, allowed),
-                        other => other.into(),
-                    })?;
+                    e.validate(g.length_mm).map_err(sim_keyed("groove."))?;
                 }
                 if let Some(u) = g.calibrate_uncompensated_um {
                     finite_pos("groove.calibrate_uncompensated_um", u)?;
@@ -727,14 +720,7 @@ impl Scenario {
             }
         }
         if let Some(w) = tr.wall {
-            w.validate().map_err(|err| match err {
-                millcomp_sim::SimError::InvalidParameter {
-                    name,
-                    value,
-                    allowed,
-                } => invalid(format!("truth.wall.{name}"), value, allowed),
-                other => other.into(),
-            })?;
+            w.validate().map_err(sim_keyed("truth.wall."))?;
         }
         if !(tr.stiffness_error.is_finite()
             && tr.stiffness_error > -0.9
@@ -825,6 +811,19 @@ impl Scenario {
             }
         }
         Ok(())
+    }
+}
+
+/// Sim's own check of a scenario table, its parameter names turned into scenario keys under `prefix`
+/// (`exit.x_mm` → `groove.exit.x_mm`, `e_factor` → `truth.wall.e_factor`).
+fn sim_keyed(prefix: &'static str) -> impl Fn(millcomp_sim::SimError) -> ClosedLoopError {
+    move |err| match err {
+        millcomp_sim::SimError::InvalidParameter {
+            name,
+            value,
+            allowed,
+        } => invalid(format!("{prefix}{name}"), value, allowed),
+        other => other.into(),
     }
 }
 
