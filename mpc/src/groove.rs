@@ -184,25 +184,68 @@ impl DeflectionPlan {
     }
 
     /// Planned z-deflection (µm) at time `t_s` as the stage produces it: the deflection follows the peak
-    /// force of the last revolution (`000_…txt` §6.2), and the force peaks once per tooth: a rise appears
-    /// when the next tooth reaches its peak — on average half a tooth period after the change — and a fall
-    /// once the last tooth peak before it has left the one-revolution window — on average a revolution
-    /// less half a tooth period after it. Evaluated as the maximum of the planned per-revolution
-    /// deflection over `[t − T_rev + T_tooth/2, t − T_tooth/2]` (9 samples, ends included).
+    /// force of the last revolution (`000_…txt` §6.2), and the force peaks once per tooth, at a phase of
+    /// the spindle the controllers do not know. For each of 8 phases φ across a tooth period the
+    /// deflection is the largest planned value at the tooth peaks of the last revolution,
+    /// `t − φ − k·T_tooth`; the plan is the midpoint of the smallest and largest over the phases. Where
+    /// the process is steady the phases agree; at a change that happens at once the deflection steps at
+    /// an unknown instant within a tooth period, and the midpoint is the reference whose worst error over
+    /// that instant is smallest (half the step, where tracking either guess risks all of it).
+    ///
+    /// ```
+    /// use millcomp_models::{ForceModelParams, StiffnessModel};
+    /// use millcomp_mpc::groove::DeflectionPlan;
+    /// use millcomp_mpc::identified::{IdentifiedForceModel, IdentifiedStiffness, NominalTool};
+    /// use millcomp_mpc::predictor::ForcePredictor;
+    /// use millcomp_sim::feed::FeedChange;
+    /// use millcomp_sim::groove::{DepthProfile, GrooveProgram};
+    /// // a constant 40 µm groove whose feed doubles at once at x = 6 mm (t = 3.6 s)
+    /// let mut program = GrooveProgram::thesis(20.0);
+    /// program.depth_profile = DepthProfile::Constant { depth_um: 40.0 };
+    /// program.feed_changes = vec![FeedChange { x_mm: 6.0, upfeed_um: 20.0 }];
+    /// program.feed_accel_mm_s2 = 1e5;
+    /// let tool = NominalTool::thesis_ball_end("S7");
+    /// let p = ForceModelParams {
+    ///     fitted: Default::default(), fixed: Default::default(), covariance: Default::default(),
+    /// };
+    /// let predictor = ForcePredictor::Mechanistic(IdentifiedForceModel::new(&p, &tool).unwrap());
+    /// let k = IdentifiedStiffness::new(&StiffnessModel {
+    ///     axial_n_per_um: 1.22, radial_n_per_um: 0.114, covariance: Default::default(),
+    /// }).unwrap();
+    /// let plan = DeflectionPlan::new(&program, &predictor, &k, tool.radius_um, 0.01).unwrap();
+    /// let (rev, tooth) = (6e-3, 3e-3);
+    /// let (before, after) = (plan.deflection_at(5.9), plan.deflection_at(6.1));
+    /// assert!(after > before);
+    /// // steady before and a revolution after; in between within the tooth period after the change (the
+    /// // 10 µm table itself spreads the step over 10 µm / 3.33 mm/s = 3 ms)
+    /// assert!((plan.deflection_at_time(3.59, rev, tooth) - before).abs() < 1e-9);
+    /// assert!((plan.deflection_at_time(3.62, rev, tooth) - after).abs() < 1e-9);
+    /// let mid = plan.deflection_at_time(3.6 + 1.5e-3, rev, tooth);
+    /// assert!(before < mid && mid < after, "{before} {mid} {after}");
+    /// ```
     pub fn deflection_at_time(&self, t_s: f64, rev_s: f64, tooth_s: f64) -> f64 {
-        let t1 = t_s - 0.5 * tooth_s;
-        let t0 = (t_s - rev_s + 0.5 * tooth_s).min(t1);
-        (0..=8)
-            .map(|i| {
-                let t = t0 + (t1 - t0) * i as f64 / 8.0;
-                self.deflection_at(self.x_at(t.max(0.0)))
-            })
-            .fold(0.0, f64::max)
+        let teeth = ((rev_s / tooth_s).round() as usize).max(1);
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for j in 0..8 {
+            let phi = (j as f64 + 0.5) / 8.0 * tooth_s;
+            let d = (0..teeth)
+                .map(|k| {
+                    let t = t_s - phi - k as f64 * tooth_s;
+                    self.deflection_at(self.x_at(t.max(0.0)))
+                })
+                .fold(0.0, f64::max);
+            lo = lo.min(d);
+            hi = hi.max(d);
+        }
+        0.5 * (lo + hi)
     }
 
-    /// Planned z-deflection (µm) at `x_mm` (linear interpolation).
+    /// Planned z-deflection (µm) at `x_mm` (linear interpolation; 0 on the approach in air, x < 0).
     pub fn deflection_at(&self, x_mm: f64) -> f64 {
-        let u = (x_mm / self.dx_mm).max(0.0);
+        if x_mm < 0.0 {
+            return 0.0;
+        }
+        let u = x_mm / self.dx_mm;
         let i = u.floor() as usize;
         if i + 1 >= self.values_um.len() {
             return *self.values_um.last().unwrap_or(&0.0);

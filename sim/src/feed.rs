@@ -105,6 +105,8 @@ impl Segment {
 #[derive(Debug, Clone, PartialEq)]
 pub struct FeedProfile {
     segments: Vec<Segment>,
+    /// Position at t = 0 (mm): 0, or −approach.
+    start_mm: f64,
     length_mm: f64,
     mm_s_per_um_rev: f64,
     duration_s: f64,
@@ -132,6 +134,40 @@ impl FeedProfile {
         changes: &[FeedChange],
         accel_mm_s2: f64,
     ) -> Result<Self, SimError> {
+        Self::with_approach(length_mm, speed_rpm, upfeed_um, changes, accel_mm_s2, 0.0)
+    }
+
+    /// As [`FeedProfile::new`], with the tool starting `approach_mm` before the cut (at x = −approach, in
+    /// air) at the programmed feed: the NC program's approach, during which a controller that knows the
+    /// program can pre-position its actuator before the entry.
+    ///
+    /// ```
+    /// use millcomp_sim::feed::FeedProfile;
+    /// // 0.5 mm of approach at 1.667 mm/s: the tool reaches x = 0 at 0.3 s and the end 12 s later
+    /// let p = FeedProfile::with_approach(20.0, 10_000.0, 10.0, &[], 100.0, 0.5).unwrap();
+    /// assert!((p.x_at(0.0) + 0.5).abs() < 1e-12);
+    /// assert!((p.time_at_x(0.0) - 0.3).abs() < 1e-9);
+    /// assert!((p.duration_s() - 12.3).abs() < 1e-9);
+    /// ```
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] naming `approach_mm` for a negative or non-finite approach, and
+    /// those of [`FeedProfile::new`].
+    pub fn with_approach(
+        length_mm: f64,
+        speed_rpm: f64,
+        upfeed_um: f64,
+        changes: &[FeedChange],
+        accel_mm_s2: f64,
+        approach_mm: f64,
+    ) -> Result<Self, SimError> {
+        if !(approach_mm.is_finite() && approach_mm >= 0.0) {
+            return Err(SimError::InvalidParameter {
+                name: "approach_mm",
+                value: approach_mm,
+                allowed: "finite, >= 0",
+            });
+        }
         check_positive("length_mm", length_mm)?;
         check_positive("speed_rpm", speed_rpm)?;
         check_positive("upfeed_um", upfeed_um)?;
@@ -139,7 +175,7 @@ impl FeedProfile {
         let k = speed_rpm / 60.0 * 1e-3; // mm/s per µm/rev
         let mut segments = vec![Segment {
             t0_s: 0.0,
-            x0_mm: 0.0,
+            x0_mm: -approach_mm,
             v0_mm_s: upfeed_um * k,
             a_mm_s2: 0.0,
         }];
@@ -180,6 +216,7 @@ impl FeedProfile {
         }
         let mut p = Self {
             segments,
+            start_mm: -approach_mm,
             length_mm,
             mm_s_per_um_rev: k,
             duration_s: 0.0,
@@ -193,12 +230,14 @@ impl FeedProfile {
         &self.segments[i.saturating_sub(1)]
     }
 
-    /// Position (mm) at `t_s`, clamped to `[0, length]`.
+    /// Position (mm) at `t_s`, clamped to `[start, length]` (start: 0, or −approach).
     pub fn x_at(&self, t_s: f64) -> f64 {
         if t_s <= 0.0 {
-            return 0.0;
+            return self.start_mm;
         }
-        self.segment_at_t(t_s).x(t_s).clamp(0.0, self.length_mm)
+        self.segment_at_t(t_s)
+            .x(t_s)
+            .clamp(self.start_mm, self.length_mm)
     }
 
     /// Feed velocity (mm/s) at `t_s`.
@@ -211,9 +250,9 @@ impl FeedProfile {
         self.velocity_at(t_s) / self.mm_s_per_um_rev
     }
 
-    /// Time (s) at which the tool reaches `x_mm` (0 for x ≤ 0).
+    /// Time (s) at which the tool reaches `x_mm` (0 for x at or before the start).
     pub fn time_at_x(&self, x_mm: f64) -> f64 {
-        if x_mm <= 0.0 {
+        if x_mm <= self.start_mm {
             return 0.0;
         }
         // the last segment starting at or before x

@@ -206,6 +206,15 @@ pub struct GrooveProgram {
     /// Workpiece edge where the tool leaves the material (none: material over the whole length).
     #[serde(default)]
     pub exit: Option<WorkpieceExit>,
+    /// Approach in air before the workpiece (mm, default 0): the tool starts at x = −approach at the
+    /// programmed feed and depth and enters the material at x = 0 — the NC program's lead-in, during
+    /// which a controller that knows the program can pre-position its actuator.
+    #[serde(default)]
+    pub approach_mm: f64,
+    /// Length (mm) after the entry over which the engagement rises linearly from 0 to 1 (default 0: at
+    /// once) — the part of the tool's contact zone already in the material, as for the exit.
+    #[serde(default)]
+    pub entry_length_mm: f64,
 }
 
 /// Groove stage configuration: the truth plant (force model, stiffness, spindle, sensors) and the
@@ -267,6 +276,8 @@ impl GrooveProgram {
             feed_changes: Vec::new(),
             feed_accel_mm_s2: DEFAULT_FEED_ACCEL_MM_S2,
             exit: None,
+            approach_mm: 0.0,
+            entry_length_mm: 0.0,
         }
     }
 
@@ -278,6 +289,16 @@ impl GrooveProgram {
         check_positive("length_mm", self.length_mm)?;
         self.depth_profile.validate(max_depth_um)?;
         self.feed_profile()?;
+        if !(self.entry_length_mm.is_finite()
+            && self.entry_length_mm >= 0.0
+            && self.entry_length_mm < self.length_mm)
+        {
+            return Err(SimError::InvalidParameter {
+                name: "entry_length_mm",
+                value: self.entry_length_mm,
+                allowed: "0 <= entry_length_mm < length_mm",
+            });
+        }
         if let Some(e) = &self.exit {
             e.validate(self.length_mm)?;
         }
@@ -291,12 +312,13 @@ impl GrooveProgram {
 
     /// The feed motion (programmed feed, its changes and the axis acceleration).
     pub fn feed_profile(&self) -> Result<FeedProfile, SimError> {
-        FeedProfile::new(
+        FeedProfile::with_approach(
             self.length_mm,
             self.speed_rpm,
             self.upfeed_um,
             &self.feed_changes,
             self.feed_accel_mm_s2,
+            self.approach_mm,
         )
     }
 
@@ -307,14 +329,32 @@ impl GrooveProgram {
             .unwrap_or_else(|_| self.length_mm / self.feed_mm_s())
     }
 
-    /// Programmed depth (µm) at `x_mm`.
+    /// Programmed depth (µm) at `x_mm` (on the approach, x < 0: the depth at the entry — the z-axis is
+    /// already there).
     pub fn depth_at(&self, x_mm: f64) -> f64 {
-        self.depth_profile.depth_at(x_mm, self.length_mm)
+        self.depth_profile.depth_at(x_mm.max(0.0), self.length_mm)
     }
 
-    /// Engagement (0…1) of the tool with the material at `x_mm` (1 everywhere without an exit).
+    /// Engagement (0…1) of the tool with the material at `x_mm`: 0 on the approach (x < 0), rising over
+    /// `entry_length_mm`, then 1 up to the exit's drop (1 everywhere without an exit).
+    ///
+    /// ```
+    /// use millcomp_sim::groove::GrooveProgram;
+    /// let p = GrooveProgram { approach_mm: 0.5, ..GrooveProgram::thesis(20.0) };
+    /// assert_eq!((p.engagement(-0.1), p.engagement(0.0)), (0.0, 1.0));
+    /// let p = GrooveProgram { entry_length_mm: 0.2, ..p };
+    /// assert!((p.engagement(0.05) - 0.25).abs() < 1e-12);
+    /// ```
     pub fn engagement(&self, x_mm: f64) -> f64 {
-        self.exit.map(|e| e.engagement(x_mm)).unwrap_or(1.0)
+        if x_mm < 0.0 {
+            return 0.0;
+        }
+        let entry = if self.entry_length_mm > 0.0 {
+            (x_mm / self.entry_length_mm).min(1.0)
+        } else {
+            1.0
+        };
+        entry * self.exit.map(|e| e.engagement(x_mm)).unwrap_or(1.0)
     }
 
     /// Cut conditions at `depth_um` and the starting upfeed.
