@@ -7,6 +7,9 @@
 //! `--ablations`: the groove scenarios only, with the controllers that say what the MPC's parts buy —
 //! `pid-tuned`, `pid-ff` (pid-tuned plus the plan fed forward), `mpc-nopreview` (no preview) and `mpc`.
 //!
+//! `--changes`: the ablation controllers on the scenarios with process changes only (feed and depth
+//! steps, slowed and at once, and the exit), with the excess at each change (`millcomp_closedloop::changes`).
+//!
 //! `--commissioned`: the hard form (`millcomp_closedloop::compare::commissioned`) — each groove scenario
 //! with instrument errors and a tool drawn from the seed and controllers built only from its own
 //! commissioning; each thin wall a part drawn from the seed; no deliberate force-model errors.
@@ -18,12 +21,16 @@ use millcomp_closedloop::compare::{commissioned, compare};
 use millcomp_closedloop::{ControllerKind, Scenario};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let (mut seeds, mut comm, mut ablations) = (10u64, false, false);
+    let (mut seeds, mut comm, mut ablations, mut changes) = (10u64, false, false, false);
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
             "--commissioned" => comm = true,
             "--ablations" => ablations = true,
+            "--changes" => {
+                ablations = true;
+                changes = true;
+            }
             "--seeds" => {
                 seeds = args
                     .next()
@@ -33,7 +40,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             other => {
                 return Err(format!(
-                    "unknown argument `{other}`: allowed --seeds N, --commissioned, --ablations"
+                    "unknown argument `{other}`: allowed --seeds N, --commissioned, --ablations, --changes"
                 )
                 .into());
             }
@@ -50,6 +57,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for n in &names {
         let s = Scenario::load(dir.join(n))?;
         if ablations && !ControllerKind::PidFeedforward.runs_on(s.stage) {
+            continue;
+        }
+        let has_changes = s.groove.as_ref().is_some_and(|g| {
+            g.exit.is_some() || !g.feed_steps.is_empty() || !g.depth.change_points_mm().is_empty()
+        });
+        if changes && !has_changes {
             continue;
         }
         scenarios.push(if comm { commissioned(&s) } else { s });
@@ -82,7 +95,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "{} seeds (1..={seeds}){}{}; median [95 % interval of the median]; {:.0} s",
         seeds,
         if comm { ", commissioned" } else { "" },
-        if ablations { ", ablations" } else { "" },
+        if changes {
+            ", process changes"
+        } else if ablations {
+            ", ablations"
+        } else {
+            ""
+        },
         t0.elapsed().as_secs_f64()
     );
     let cols: Vec<&str> = controllers.iter().map(|c| c.name()).collect();

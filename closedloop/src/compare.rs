@@ -21,7 +21,8 @@ use crate::scenario::{ControllerKind, Scenario, StageKind};
 pub struct CompareRow {
     /// Scenario name.
     pub scenario: String,
-    /// Metric (`pp_error_um`, `stroke_bound_um` (grooves), `change_peak_um`,
+    /// Metric (`pp_error_um`, `stroke_bound_um` (grooves), `change_peak_um`, `excess_<kind>_um` (the
+    /// excess at the entry, a depth or feed change, the exit: [`crate::changes`]), `exit_overcut_um`,
     /// `wall_<nominal>um_error_pct`).
     pub metric: String,
     /// Controller name.
@@ -47,6 +48,19 @@ pub fn metrics_of(s: &Scenario, r: &RunReport) -> Vec<(String, f64)> {
             }
             if let Some(p) = r.process_change_peak_um {
                 m.push(("change_peak_um".to_string(), p));
+            }
+            // the excess at each kind of change (the largest where a kind occurs twice)
+            let mut kinds: Vec<(String, f64)> = Vec::new();
+            for c in &r.changes {
+                let name = format!("excess_{}_um", c.kind.name());
+                match kinds.iter_mut().find(|(n, _)| *n == name) {
+                    Some((_, v)) => *v = v.max(c.excess_um),
+                    None => kinds.push((name, c.excess_um)),
+                }
+            }
+            m.extend(kinds);
+            if let Some(p) = r.metrics.exit_overcut_um {
+                m.push(("exit_overcut_um".to_string(), p));
             }
             m
         }

@@ -24,6 +24,7 @@ use millcomp_mpc::identified::{
 use millcomp_mpc::pid::{AntiWindup, PidGains};
 use millcomp_mpc::predictor::ForcePredictor;
 
+use crate::changes::{excess, program_changes};
 use crate::commissioning::{CommissioningPlant, commission};
 use crate::error::{ClosedLoopError, invalid};
 use crate::faults::{SolverFailures, groove_measurement};
@@ -93,6 +94,8 @@ pub fn groove_truth(s: &Scenario) -> Result<GrooveConfig, ClosedLoopError> {
     truth.program.feed_changes = g.feed_steps.clone();
     truth.program.feed_accel_mm_s2 = g.feed_accel_mm_s2;
     truth.program.exit = g.exit;
+    truth.program.approach_mm = g.approach_mm;
+    truth.program.entry_length_mm = g.entry_length_mm;
     match (s.truth.tool, s.truth.draw_tool) {
         (Some(t), _) => t.apply(&mut truth.force_model)?,
         (None, true) => millcomp_sim::tool_variation::ToolVariation::draw(s.seed)
@@ -420,6 +423,7 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Close
     let mut last: Option<GrooveStepOutput> = None;
     let mut stuck = None;
     let mut errors = Vec::with_capacity((t.duration_s() / dt) as usize + 2);
+    let mut error_x = Vec::with_capacity(errors.capacity());
     let mut travel = 0.0;
     let mut prev_tip = 0.0;
     let mut finite = true;
@@ -457,6 +461,7 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Close
         if o.engagement > 0.0 {
             let err = o.depth_cut_um - o.depth_cmd_um;
             errors.push(err);
+            error_x.push(o.x_mm);
             defl_min = defl_min.min(o.deflection_um);
             defl_max = defl_max.max(o.deflection_um);
             if windows.iter().any(|(a, b)| o.x_mm >= *a && o.x_mm <= *b) {
@@ -498,6 +503,7 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Close
         .stiffness()
         .z_stiffness_n_per_um(t.program.tilt_deg)?;
     let kz_truth = t.stiffness.z_stiffness_n_per_um(t.program.tilt_deg)?;
+    let changes = excess(&program_changes(&t.program), &error_x, &errors);
     let report = RunReport {
         scenario: s.name.clone(),
         stage: "groove".into(),
@@ -511,6 +517,7 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Close
                     * t.program.tilt_deg.to_radians().sin();
                 (defl_max - defl_min - range_z).max(0.0)
             }),
+            change_excess_um: changes.iter().map(|c| c.excess_um).reduce(f64::max),
             ..Metrics::from_errors(&errors, travel)
         },
         solver: ctl.solver_stats(),
@@ -518,6 +525,7 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Close
         commands_finite: finite,
         commands_in_limits: in_limits,
         process_change_peak_um: (!windows.is_empty()).then_some(change_peak),
+        changes,
         model: ModelSummary {
             kz_model_n_per_um: kz_model,
             kz_truth_n_per_um: kz_truth,

@@ -4,7 +4,8 @@
 //! that sees both:
 //! - [`scenario`]: scenario files (TOML in `datasets/scenarios/`, schema and truth-vs-model in
 //!   `closedloop/SCENARIOS.md`), [`Scenario::load`], [`ControllerKind`] (`"none" | "open-loop" | "pid" |
-//!   "pid-aw" | "pid-design" | "threshold" | "mpc"`, `FromStr`);
+//!   "pid-aw" | "pid-design" | "pid-tuned" | "pid-ff" | "threshold" | "mpc" | "mpc-nopreview"`,
+//!   `FromStr`);
 //! - the truth-vs-model set-up: [`calibration`] (the controllers' stiffness identified from a simulated
 //!   calibration of the truth), [`model_errors`] (the controllers' force-parameter errors),
 //!   [`model_files`] (identified models and response surfaces a scenario names);
@@ -12,11 +13,13 @@
 //!   `metrics{pp_error_um, rms_error_um, max_error_um, min_error_um, actuator_travel_um[, thickness_um,
 //!   thickness_error_pct]}`, `solver` for MPC), [`run_scenario_with_trace`] adds the time trace,
 //!   [`stiffness_sweep`]: residual error vs stiffness error ([`groove`], [`thin_wall`], [`report`]);
+//! - [`changes`]: the transient a controller adds at a process change (entry, depth, feed, exit);
 //! - [`faults`]: force spikes, stuck sensors and solver failures injected into what the controllers see;
 //! - [`recording`]: the spindle MPC's QPs recorded in closed loop (`bench/mpc-vs-casadi`,
 //!   `benches/solve.rs`);
 //! - [`batch`]: controllers compared over designed conditions — plan and fingerprint, shards, resume,
-//!   the results table and the ANOVA of every metric with the controller as a factor.
+//!   the results table, the ANOVA of every metric with the controller as a factor, and the controllers
+//!   paired scenario by scenario.
 //!
 //! ```
 //! use millcomp_closedloop::{ControllerKind, Scenario, run_scenario};
@@ -37,6 +40,7 @@
 
 pub mod batch;
 pub mod calibration;
+pub mod changes;
 pub mod commissioning;
 pub mod compare;
 pub mod error;

@@ -32,6 +32,10 @@ pub struct Metrics {
     /// so a lower bound; 0 where the stroke covers the deflection.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub stroke_bound_um: Option<f64>,
+    /// Groove: the largest transient excess over the settled error at the program's changes (entry at
+    /// depth, depth and feed changes, exit; [`crate::changes`]), µm; absent without a change.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub change_excess_um: Option<f64>,
 }
 
 impl Metrics {
@@ -55,6 +59,7 @@ impl Metrics {
             thickness_error_pct: None,
             exit_overcut_um: None,
             stroke_bound_um: None,
+            change_excess_um: None,
         }
     }
 }
@@ -109,6 +114,9 @@ pub struct RunReport {
     /// Largest error in the window after the first process change (feed/depth step, exit), µm (absolute).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub process_change_peak_um: Option<f64>,
+    /// Groove: the excess at each change of the program ([`crate::changes`]).
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub changes: Vec<crate::changes::ChangeExcess>,
     /// Model vs truth.
     pub model: ModelSummary,
     /// Simulated duration (s).

@@ -193,6 +193,15 @@ pub struct GrooveScenario {
     /// Workpiece exit: `{x_mm, length_mm}` (edge position and the length over which the engagement falls).
     #[serde(default)]
     pub exit: Option<ExitSpec>,
+    /// Approach in air before the entry (mm, default 0): the tool starts at x = −approach at the
+    /// programmed feed and depth (sim's `GrooveProgram::approach_mm`).
+    #[serde(default)]
+    pub approach_mm: f64,
+    /// Length (mm) after the entry over which the engagement rises from 0 to 1 (default 0: at once;
+    /// sim's `GrooveProgram::entry_length_mm`) — for a ball end entering at depth d, the half-length of
+    /// its contact, √(2·R·d − d²).
+    #[serde(default)]
+    pub entry_length_mm: f64,
     /// If set, the truth force scale is calibrated so that the uncompensated error at the deepest
     /// programmed point equals this (µm) — used where the thesis reports the measured uncompensated error
     /// for a tool whose condition was not measured (30°, 40°).
@@ -525,6 +534,14 @@ fn finite_pos(key: &str, v: f64) -> Result<(), ClosedLoopError> {
     }
 }
 
+fn finite_nonneg(key: &str, v: f64) -> Result<(), ClosedLoopError> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(())
+    } else {
+        Err(invalid(key, v, "finite and >= 0"))
+    }
+}
+
 impl Scenario {
     /// Parse TOML text (`path` is only used in messages) and validate.
     ///
@@ -629,13 +646,7 @@ impl Scenario {
                         "0 < tilt_deg < 90 (the PZT moves the tip radially)",
                     ));
                 }
-                if !(g.wearland_um.is_finite() && g.wearland_um >= 0.0) {
-                    return Err(invalid(
-                        "groove.wearland_um",
-                        g.wearland_um,
-                        "finite and >= 0",
-                    ));
-                }
+                finite_nonneg("groove.wearland_um", g.wearland_um)?;
                 finite_pos("groove.speed_rpm", g.speed_rpm)?;
                 finite_pos("groove.upfeed_um", g.upfeed_um)?;
                 finite_pos("groove.length_mm", g.length_mm)?;
@@ -659,6 +670,17 @@ impl Scenario {
                     finite_pos(&format!("groove.feed_steps[{i}].upfeed_um"), fs.upfeed_um)?;
                 }
                 finite_pos("groove.feed_accel_mm_s2", g.feed_accel_mm_s2)?;
+                if !(g.entry_length_mm.is_finite()
+                    && g.entry_length_mm >= 0.0
+                    && g.entry_length_mm < g.length_mm)
+                {
+                    return Err(invalid(
+                        "groove.entry_length_mm",
+                        g.entry_length_mm,
+                        "0 <= entry_length_mm < length_mm",
+                    ));
+                }
+                finite_nonneg("groove.approach_mm", g.approach_mm)?;
                 if let Some(e) = g.exit {
                     // sim's own check; its parameter names (`exit.x_mm`, …) become scenario keys
                     e.validate(g.length_mm).map_err(sim_keyed("groove."))?;
@@ -733,31 +755,16 @@ impl Scenario {
             ));
         }
         let sc = &tr.stiffness_calibration;
-        if !(sc.indicator_resolution_um.is_finite() && sc.indicator_resolution_um >= 0.0) {
-            return Err(invalid(
-                "truth.stiffness_calibration.indicator_resolution_um",
-                sc.indicator_resolution_um,
-                "finite and >= 0",
-            ));
-        }
-        if !(sc.noise_um.is_finite() && sc.noise_um >= 0.0) {
-            return Err(invalid(
-                "truth.stiffness_calibration.noise_um",
-                sc.noise_um,
-                "finite and >= 0",
-            ));
-        }
+        finite_nonneg(
+            "truth.stiffness_calibration.indicator_resolution_um",
+            sc.indicator_resolution_um,
+        )?;
+        finite_nonneg("truth.stiffness_calibration.noise_um", sc.noise_um)?;
         if sc.trials == 0 {
             return Err(invalid("truth.stiffness_calibration.trials", 0, ">= 1"));
         }
-        for (key, v) in [
-            ("truth.force_noise_n", tr.force_noise_n),
-            ("truth.gauge_noise_um", tr.gauge_noise_um),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(invalid(key, v, "finite and >= 0"));
-            }
-        }
+        finite_nonneg("truth.force_noise_n", tr.force_noise_n)?;
+        finite_nonneg("truth.gauge_noise_um", tr.gauge_noise_um)?;
         let c = &self.control;
         if !(c.dt_s.is_finite() && c.dt_s > 0.0 && c.dt_s <= 1e-3) {
             return Err(invalid("control.dt_s", c.dt_s, "0 < dt_s <= 1e-3"));
@@ -888,6 +895,8 @@ depth = { kind = "ramp", from_um = 0.0, to_um = 80.0 }
         // process changes: the feed axis, the exit and the feed-change positions name their keys
         for (extra, want) in [
             ("feed_accel_mm_s2 = 0.0", "groove.feed_accel_mm_s2"),
+            ("approach_mm = -1.0", "groove.approach_mm"),
+            ("entry_length_mm = 25.0", "groove.entry_length_mm"),
             (
                 "exit = { x_mm = 30.0, length_mm = 0.2 }",
                 "groove.exit.x_mm",

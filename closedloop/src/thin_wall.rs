@@ -272,6 +272,7 @@ pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Cl
             commands_finite: finite,
             commands_in_limits: in_limits,
             process_change_peak_um: None,
+            changes: Vec::new(),
             model: ModelSummary {
                 kz_model_n_per_um: 0.0,
                 kz_truth_n_per_um: 0.0,

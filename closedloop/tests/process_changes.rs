@@ -4,6 +4,7 @@
 //! Issue 6: MPC's peak error at most half of PID's, and no undersize at the exit beyond 1 µm.
 
 use crate::common::*;
+use millcomp_closedloop::changes::ChangeKind;
 use millcomp_closedloop::{ControllerKind, RunReport, run_scenario};
 
 fn run(s: &millcomp_closedloop::Scenario, k: ControllerKind) -> RunReport {
@@ -136,9 +137,12 @@ fn response_surface_predictor_drives_the_preview() {
         "{:?}",
         surf.notes
     );
-    // same closed loop within a tenth of a µm: the surface reproduces the model it was fitted to
+    // the same closed loop within a quarter of a µm: the surface reproduces the model it was fitted to.
+    // With the approach in air the groove's peak-to-peak is set at the feed change, where the surface's
+    // few-% misfit of the jump shows (measured: 1.06 vs 0.85 µm); before it, the entry at full depth set
+    // both at ≈ 7.6 µm and hid the difference.
     assert!(
-        (surf.metrics.pp_error_um - mech.metrics.pp_error_um).abs() < 0.1,
+        (surf.metrics.pp_error_um - mech.metrics.pp_error_um).abs() < 0.25,
         "pp: surface {} mechanistic {}",
         surf.metrics.pp_error_um,
         mech.metrics.pp_error_um
@@ -153,5 +157,39 @@ fn response_surface_predictor_drives_the_preview() {
     assert!(
         ps <= 0.5 * pid && (ps - pm).abs() < 0.25,
         "change peak: surface {ps} mechanistic {pm} pid {pid}"
+    );
+}
+
+/// Issue 14's harsh form: the depth steps 20 µm at once (over 1 µm of travel), after an approach in air
+/// and an entry at depth. The excess over each controller's own settled error
+/// (`millcomp_closedloop::changes`): the MPC's preview leaves less than pid-tuned's reaction (measured
+/// over seeds 1–10: 1.81 [1.74, 1.99] vs 3.15 [3.09, 3.21] µm; `examples/compare.rs --changes`), and
+/// with the approach no controller's entry excess reaches 1 µm (without one the MPC's was 5.1 µm: the
+/// 570 V step at t = 0).
+#[test]
+fn depth_at_once_and_the_entry_after_an_approach() {
+    let s = scenario("groove_s7_20deg_depth_at_once.toml");
+    let excess = |r: &RunReport, kind: ChangeKind| {
+        r.changes
+            .iter()
+            .find(|c| c.kind == kind)
+            .unwrap_or_else(|| panic!("{kind:?} in {:?}", r.changes))
+            .excess_um
+    };
+    let pid = run(&s, ControllerKind::PidTuned);
+    let mpc = run(&s, ControllerKind::Mpc);
+    let (p, m) = (
+        excess(&pid, ChangeKind::Depth),
+        excess(&mpc, ChangeKind::Depth),
+    );
+    assert!(m < 0.75 * p, "depth at once: mpc {m} pid-tuned {p}");
+    for r in [&pid, &mpc] {
+        let e = excess(r, ChangeKind::Entry);
+        assert!(e < 1.0, "{}: entry excess {e}", r.controller);
+    }
+    // the metric is the largest excess over the changes
+    assert_eq!(
+        mpc.metrics.change_excess_um,
+        Some(excess(&mpc, ChangeKind::Depth).max(excess(&mpc, ChangeKind::Entry)))
     );
 }

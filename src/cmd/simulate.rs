@@ -203,6 +203,15 @@ fn run_scenario(args: &SimulateArgs, json: bool) -> anyhow::Result<()> {
             "process changes: peak |error| {p:.3} um (0.5 mm before to 2 mm after each change)"
         );
     }
+    for c in &out.report.changes {
+        println!(
+            "change ({} at {:.2} mm): excess {:.3} um over the settled error {:.3} um",
+            c.kind.name(),
+            c.x_mm,
+            c.excess_um,
+            c.settled_um
+        );
+    }
     if let Some(b) = m.stroke_bound_um.filter(|b| *b > 0.0) {
         println!(
             "stroke bound: {b:.3} um peak-to-peak (the deflection met exceeds the PZT's range in z by this much)"

@@ -1,0 +1,190 @@
+//! The transient at a known process change, as issue 14 defines it: the *excess* a controller leaves
+//! over its own settled error, so the stiffness floor every controller shares does not count.
+//!
+//! For a change at `c` (mm along the groove):
+//! - `e_settled` is the controller's median error from [`SETTLED_FROM_MM`] to [`SETTLED_TO_MM`] after
+//!   `c`;
+//! - the *excess* is the largest `|error − e_settled|` from [`EXCESS_BEFORE_MM`] before `c` (the preview
+//!   lead of every controller here is shorter: the MPC's horizon is ≈ 17 µm of travel) to
+//!   [`EXCESS_AFTER_MM`] after it.
+//!
+//! The changes are the program's own: the entry when the tool enters at depth (`depth_at(0) > 0`), each
+//! depth change (point-list corners closer than [`MERGE_MM`] are one change, e.g. a 50 µm plunge), each
+//! feed change, and the exit. The exit has no groove after it, so there `e_settled` is taken from 4 to
+//! 2 mm *before* the engagement starts to drop and the window runs from 1 mm before the drop to the edge
+//! (this module's extension of the definition).
+
+use millcomp_sim::groove::GrooveProgram;
+use serde::{Deserialize, Serialize};
+
+/// The excess window starts this far before the change (mm).
+pub const EXCESS_BEFORE_MM: f64 = 1.0;
+/// The excess window ends this far after the change (mm).
+pub const EXCESS_AFTER_MM: f64 = 2.0;
+/// The settled error is taken from this far after the change (mm) …
+pub const SETTLED_FROM_MM: f64 = 2.0;
+/// … to this far (mm).
+pub const SETTLED_TO_MM: f64 = 4.0;
+/// Depth-profile corners closer than this (mm) are one change.
+pub const MERGE_MM: f64 = 0.5;
+
+/// What changes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+#[non_exhaustive]
+pub enum ChangeKind {
+    /// The tool enters the workpiece at depth.
+    Entry,
+    /// The programmed depth changes.
+    Depth,
+    /// The programmed feed changes.
+    Feed,
+    /// The tool leaves the workpiece.
+    Exit,
+}
+
+impl ChangeKind {
+    /// Lower-case name (`entry`, `depth`, `feed`, `exit`), as serialised.
+    pub fn name(self) -> &'static str {
+        match self {
+            ChangeKind::Entry => "entry",
+            ChangeKind::Depth => "depth",
+            ChangeKind::Feed => "feed",
+            ChangeKind::Exit => "exit",
+        }
+    }
+}
+
+/// One change of a run and the excess the controller left there.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ChangeExcess {
+    /// What changes.
+    pub kind: ChangeKind,
+    /// Where (mm).
+    pub x_mm: f64,
+    /// The controller's settled error there (µm).
+    pub settled_um: f64,
+    /// Largest `|error − settled|` in the window (µm).
+    pub excess_um: f64,
+}
+
+/// The program's process changes, in order of position.
+///
+/// ```
+/// use millcomp_closedloop::changes::{ChangeKind, program_changes};
+/// use millcomp_sim::feed::FeedChange;
+/// use millcomp_sim::groove::{DepthProfile, GrooveProgram};
+/// let mut p = GrooveProgram::thesis(20.0);
+/// assert!(program_changes(&p).is_empty()); // a ramp from 0 µm: nothing changes at once
+/// p.depth_profile = DepthProfile::Constant { depth_um: 40.0 };
+/// p.feed_changes = vec![FeedChange { x_mm: 10.0, upfeed_um: 20.0 }];
+/// assert_eq!(program_changes(&p), vec![(ChangeKind::Entry, 0.0), (ChangeKind::Feed, 10.0)]);
+/// ```
+pub fn program_changes(p: &GrooveProgram) -> Vec<(ChangeKind, f64)> {
+    let mut out = Vec::new();
+    if p.depth_at(0.0) > 0.0 {
+        out.push((ChangeKind::Entry, 0.0));
+    }
+    let mut last = f64::NEG_INFINITY;
+    for x in p.depth_profile.change_points_mm() {
+        if x - last >= MERGE_MM {
+            out.push((ChangeKind::Depth, x));
+        }
+        last = x;
+    }
+    out.extend(p.feed_changes.iter().map(|f| (ChangeKind::Feed, f.x_mm)));
+    if let Some(e) = p.exit {
+        out.push((ChangeKind::Exit, e.x_mm - e.length_mm));
+    }
+    out.sort_by(|a, b| a.1.total_cmp(&b.1));
+    out
+}
+
+/// The excess at each change, from the engaged samples' positions `x_mm` (non-decreasing) and errors
+/// `error_um` (same length). A change whose settled window holds no sample is left out.
+///
+/// ```
+/// use millcomp_closedloop::changes::{ChangeKind, excess};
+/// // 1 µm settled error everywhere, a 3 µm spike 0.5 mm after a change at 5 mm
+/// let x: Vec<f64> = (0..1000).map(|i| i as f64 * 0.01).collect();
+/// let e: Vec<f64> = x.iter().map(|&x| if (x - 5.5).abs() < 0.005 { 4.0 } else { 1.0 }).collect();
+/// let r = excess(&[(ChangeKind::Depth, 5.0)], &x, &e);
+/// assert_eq!((r[0].settled_um, r[0].excess_um), (1.0, 3.0));
+/// ```
+pub fn excess(changes: &[(ChangeKind, f64)], x_mm: &[f64], error_um: &[f64]) -> Vec<ChangeExcess> {
+    let window = |a: f64, b: f64| {
+        let lo = x_mm.partition_point(|x| *x < a);
+        let hi = x_mm.partition_point(|x| *x <= b);
+        &error_um[lo..hi.max(lo)]
+    };
+    changes
+        .iter()
+        .filter_map(|&(kind, c)| {
+            let (settled, from, to) = if kind == ChangeKind::Exit {
+                (
+                    window(c - SETTLED_TO_MM, c - SETTLED_FROM_MM),
+                    c - EXCESS_BEFORE_MM,
+                    f64::INFINITY,
+                )
+            } else {
+                (
+                    window(c + SETTLED_FROM_MM, c + SETTLED_TO_MM),
+                    c - EXCESS_BEFORE_MM,
+                    c + EXCESS_AFTER_MM,
+                )
+            };
+            if settled.is_empty() {
+                return None;
+            }
+            let mut s = settled.to_vec();
+            let settled_um = crate::compare::median(&mut s);
+            let excess_um = window(from, to)
+                .iter()
+                .map(|e| (e - settled_um).abs())
+                .fold(0.0, f64::max);
+            Some(ChangeExcess {
+                kind,
+                x_mm: c,
+                settled_um,
+                excess_um,
+            })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use millcomp_sim::feed::WorkpieceExit;
+    use millcomp_sim::groove::DepthProfile;
+
+    #[test]
+    fn a_plunge_is_one_change_and_the_exit_settles_before() {
+        let mut p = GrooveProgram::thesis(20.0);
+        p.depth_profile = DepthProfile::Points {
+            points: vec![(0.0, 40.0), (10.0, 40.0), (10.05, 60.0), (20.0, 60.0)],
+        };
+        p.exit = Some(WorkpieceExit {
+            x_mm: 18.0,
+            length_mm: 0.2,
+        });
+        assert_eq!(
+            program_changes(&p),
+            vec![
+                (ChangeKind::Entry, 0.0),
+                (ChangeKind::Depth, 10.0),
+                (ChangeKind::Exit, 17.8)
+            ]
+        );
+        // error −1 µm before 17.8 mm, +2 µm after it: the exit's excess is 3 over the settled −1
+        let x: Vec<f64> = (0..1800).map(|i| i as f64 * 0.01).collect();
+        let e: Vec<f64> = x
+            .iter()
+            .map(|&x| if x < 17.8 { -1.0 } else { 2.0 })
+            .collect();
+        let r = excess(&[(ChangeKind::Exit, 17.8)], &x, &e);
+        assert_eq!((r[0].settled_um, r[0].excess_um), (-1.0, 3.0));
+        // a change too close to the end to settle is left out
+        assert!(excess(&[(ChangeKind::Feed, 16.5)], &x, &e).is_empty());
+    }
+}
