@@ -291,14 +291,16 @@ pub struct BatchArgs {
     pub command: Option<BatchCommand>,
     /// Scenario table (CSV or Parquet): one row per scenario, one column per factor
     /// (tilt_deg, depth_um, upfeed_um, wearland_um, material, stiffness_error_pct,
-    /// force_model_error_pct, noise_scale, stage, wall_um, feed_step, length_mm, speed_rpm, seed).
+    /// force_model_error_pct, force_w_error_pct, noise_scale, stage, wall_um, feed_step,
+    /// feed_accel_mm_s2, depth_step, entry_depth_um, commissioned, length_mm, speed_rpm, seed).
     #[arg(long, conflicts_with = "doe")]
     pub scenarios: Option<PathBuf>,
     /// Generate the scenarios with `doe design` arguments given as one string, e.g.
     /// "--design fractional --factors tilt_deg=20:40,depth_um=60:100,upfeed_um=8:12 --resolution 3 --seed 1".
     #[arg(long, allow_hyphen_values = true)]
     pub doe: Option<String>,
-    /// Controllers to compare: none, open-loop, pid, pid-aw, pid-design, threshold, mpc.
+    /// Controllers to compare: none, open-loop, pid, pid-aw, pid-design, pid-tuned, pid-ff, threshold,
+    /// mpc, mpc-nopreview.
     #[arg(long, default_value = "pid,mpc")]
     pub controllers: String,
     /// Output directory (results.csv/.parquet, summary.json, plots/, runs/ for resuming).

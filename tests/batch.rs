@@ -42,6 +42,24 @@ fn four_shards_merge_to_the_single_run_and_resume_skips_done_runs() {
     let terms = doc["anova"]["pp_error_um"]["terms"].as_array().unwrap();
     assert!(terms.iter().any(|t| t["term"] == "controller"));
     assert!(terms[0].get("p_value").is_some() && terms[0].get("sum_sq").is_some());
+    // Scenario by scenario: mpc against the reference (pid-tuned did not run: the first controller),
+    // its differences on the 4 scenarios agree with the runs' own numbers.
+    let paired = doc["paired"].as_array().unwrap();
+    let p = paired
+        .iter()
+        .find(|p| p["metric"] == "pp_error_um" && p["controller"] == "mpc")
+        .unwrap();
+    assert_eq!(
+        (p["reference"].as_str(), p["n"].as_u64()),
+        (Some("pid"), Some(4))
+    );
+    let (better, worse) = (p["better"].as_u64().unwrap(), p["worse"].as_u64().unwrap());
+    assert_eq!(better + worse, 4);
+    // solve times are reported for the MPC (wall-clock: beside the results table, not in it)
+    assert_eq!(doc["solve_times_us"]["mpc"]["runs"], 4);
+    assert!(doc["solve_times_us"].get("pid").is_none());
+    // the ramps from 0 µm have no process change: no change excess to pair
+    assert!(!paired.iter().any(|p| p["metric"] == "change_excess_um"));
 
     // Four slices as separate processes (one of them through the Slurm environment), then merge.
     let mut dirs = Vec::new();
@@ -221,7 +239,7 @@ fn doe_design_drives_the_batch() {
     let header = csv.lines().next().unwrap();
     assert_eq!(
         header,
-        "run,scenario,tilt_deg,upfeed_um,length_mm,controller,pp_error_um,rms_error_um,max_error_um,min_error_um,actuator_travel_um,solver_fallbacks"
+        "run,scenario,tilt_deg,upfeed_um,length_mm,controller,pp_error_um,change_excess_um,stroke_bound_um,rms_error_um,max_error_um,min_error_um,actuator_travel_um,solver_fallbacks"
     );
     // PID (the thesis' closed loop) removes part of the uncompensated error (000 ch. 7: 16 → 3 µm).
     let none = doc["by_controller"]["none"]["pp_error_um"]

@@ -56,6 +56,9 @@ pub fn plots(plan: &Plan, records: &[RunRecord], dir: &Path) -> anyhow::Result<V
                 }
             })
             .collect();
+        if series.iter().all(|s| s.points.is_empty()) {
+            continue; // no run has this metric (a change excess without a change)
+        }
         let path = dir.join(format!("{metric}_by_controller.svg"));
         line_plot(
             &path,
@@ -160,9 +163,18 @@ pub fn print_summary(s: &BatchSummary, what: &str) {
         }
         println!();
     }
-    if let Some(a) = s.anova.get("pp_error_um") {
+    for (c, t) in &s.solve_times_us {
         println!(
-            "\nANOVA of pp_error_um   model: {}   R² = {:.4}",
+            "{c:<12} QP solve: median {:.1} us over {} runs, largest p99 {:.1} us",
+            t.median_us, t.runs, t.p99_max_us
+        );
+    }
+    for (metric, a) in ["pp_error_um", "change_excess_um"]
+        .iter()
+        .filter_map(|m| s.anova.get(*m).map(|a| (m, a)))
+    {
+        println!(
+            "\nANOVA of {metric}   model: {}   R² = {:.4}",
             a.model, a.r_squared
         );
         println!(
@@ -185,6 +197,58 @@ pub fn print_summary(s: &BatchSummary, what: &str) {
                 t.sum_sq,
                 opt(t.f, 3),
                 opt(t.p_value, 6)
+            );
+        }
+    }
+    for p in &s.paired {
+        let opt = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.2e}"));
+        println!(
+            "\n{} − {} on {} ({} scenarios): median {:+.3} um [{:+.3}, {:+.3}], mean {:+.3} um, better in {}, worse in {}; paired t p = {}, sign test p = {}",
+            p.controller,
+            p.reference,
+            p.metric,
+            p.n,
+            p.median_diff,
+            p.ci95[0],
+            p.ci95[1],
+            p.mean_diff,
+            p.better,
+            p.worse,
+            opt(p.t_p_value),
+            opt(p.sign_p_value)
+        );
+        let no_help: Vec<String> = p
+            .by_level
+            .iter()
+            .filter(|l| l.median_diff >= 0.0)
+            .map(|l| {
+                format!(
+                    "{}={} ({:+.3}, n {})",
+                    l.factor, l.level, l.median_diff, l.n
+                )
+            })
+            .collect();
+        let split: Vec<String> = p
+            .by_level
+            .iter()
+            .filter(|l| l.factor == "stroke")
+            .map(|l| {
+                format!(
+                    "stroke {} ({} scenarios) {:+.3}",
+                    l.level, l.n, l.median_diff
+                )
+            })
+            .collect();
+        if !split.is_empty() {
+            println!(
+                "  median difference where the reference's {}",
+                split.join(", ")
+            );
+        }
+        if !no_help.is_empty() {
+            println!(
+                "  does not help (median difference >= 0) at: {}",
+                no_help.join(", ")
             );
         }
     }

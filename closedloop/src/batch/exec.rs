@@ -30,11 +30,27 @@ pub struct RunMetrics {
     pub actuator_travel_um: f64,
     /// MPC only: QP solves that fell back (did not converge); 0 for other controllers.
     pub solver_fallbacks: usize,
+    /// The largest transient excess at the program's changes (`crate::changes`); absent without one.
+    #[serde(default)]
+    pub change_excess_um: Option<f64>,
+    /// Grooves: the stroke bound (`Metrics::stroke_bound_um`): > 0 where the PZT's range cannot cover the
+    /// deflection met — no controller can get below it.
+    #[serde(default)]
+    pub stroke_bound_um: Option<f64>,
+    /// MPC only: median QP solve time of the run (µs) — wall-clock, so informative: not in the results
+    /// table ([`METRICS`]), whose rows must not depend on the machine.
+    #[serde(default)]
+    pub solve_median_us: Option<f64>,
+    /// MPC only: 99th-percentile QP solve time of the run (µs), informative as above.
+    #[serde(default)]
+    pub solve_p99_us: Option<f64>,
 }
 
 /// Metric names, in table order (the numeric result columns).
-pub const METRICS: [&str; 6] = [
+pub const METRICS: [&str; 8] = [
     "pp_error_um",
+    "change_excess_um",
+    "stroke_bound_um",
     "rms_error_um",
     "max_error_um",
     "min_error_um",
@@ -52,6 +68,8 @@ impl RunMetrics {
             "min_error_um" => self.min_error_um,
             "actuator_travel_um" => self.actuator_travel_um,
             "solver_fallbacks" => self.solver_fallbacks as f64,
+            "change_excess_um" => return self.change_excess_um,
+            "stroke_bound_um" => return self.stroke_bound_um,
             _ => return None,
         })
     }
@@ -91,6 +109,10 @@ impl ClosedLoop for MpcClosedLoop {
             min_error_um: m.min_error_um,
             actuator_travel_um: m.actuator_travel_um,
             solver_fallbacks: r.solver.map_or(0, |s| s.fallbacks),
+            change_excess_um: m.change_excess_um,
+            stroke_bound_um: m.stroke_bound_um,
+            solve_median_us: r.solver.map(|s| s.median_us),
+            solve_p99_us: r.solver.map(|s| s.p99_us),
         };
         Ok((metrics, r.simulated_s))
     }

@@ -47,7 +47,23 @@ pub const FACTORS: &[(&str, &str)] = &[
     ),
     (
         "feed_step",
-        "0/1: the upfeed doubles half-way along the groove",
+        "0/1: the upfeed doubles half-way along the groove, at once (unless feed_accel_mm_s2 is a factor)",
+    ),
+    (
+        "feed_accel_mm_s2",
+        "feed-axis acceleration of the feed changes (mm/s^2; 1e5 = at once)",
+    ),
+    (
+        "depth_step",
+        "0/1: the depth steps 20 um deeper at once half-way along the groove",
+    ),
+    (
+        "entry_depth_um",
+        "depth where the tool enters (um): the ramp runs from it; > 0 adds a 0.5 mm approach in air",
+    ),
+    (
+        "commissioned",
+        "0/1: the commissioned form (instrument errors, a drawn tool, a hysteretic stack, models from commissioning)",
     ),
     (
         "length_mm",
@@ -56,6 +72,19 @@ pub const FACTORS: &[(&str, &str)] = &[
     ("speed_rpm", "spindle speed (rpm)"),
     ("seed", "seed of the scenario's random draws (replicates)"),
 ];
+
+/// `feed_step`: the feed axis' acceleration (mm/s²) — a doubling of 1.67 mm/s in 17 µs, at once.
+pub const FEED_AT_ONCE_MM_S2: f64 = 1e5;
+/// `depth_step`: the step (µm) …
+pub const DEPTH_STEP_UM: f64 = 20.0;
+/// … made over this much travel (mm): at once.
+pub const DEPTH_STEP_TRAVEL_MM: f64 = 0.001;
+/// `entry_depth_um` > 0: the approach in air before the entry (mm).
+pub const ENTRY_APPROACH_MM: f64 = 0.5;
+/// The largest `entry_depth_um` (µm): half the ball radius, so the entry's contact half-length is defined.
+pub const ENTRY_DEPTH_MAX_UM: f64 = 200.0;
+/// Ball radius of the thesis tool (µm, `000_…txt` §6.2: Ø0.8 mm), for the entry's contact length.
+const BALL_RADIUS_UM: f64 = 400.0;
 
 /// Columns of a scenario table that are bookkeeping, not factors (ignored).
 pub const BOOKKEEPING: &[&str] = &[
@@ -239,6 +268,40 @@ pub fn build_scenario(spec: &ScenarioSpec) -> Result<Scenario, ClosedLoopError> 
             to_um: v,
         };
     }
+    if let Some(v) = num(spec, "entry_depth_um")? {
+        if !(0.0..=ENTRY_DEPTH_MAX_UM).contains(&v) {
+            return Err(bad(
+                "entry_depth_um",
+                format!("{v} is outside 0..={ENTRY_DEPTH_MAX_UM}"),
+            ));
+        }
+        let to_um = match g.depth {
+            DepthProfile::Ramp { to_um, .. } => to_um,
+            _ => g.depth.depth_at(g.length_mm, g.length_mm),
+        };
+        g.depth = DepthProfile::Ramp { from_um: v, to_um };
+        if v > 0.0 {
+            g.approach_mm = ENTRY_APPROACH_MM;
+            // the half-length of the ball's contact at the entry depth (closedloop/SCENARIOS.md)
+            g.entry_length_mm = (2.0 * BALL_RADIUS_UM * v - v * v).sqrt() / 1000.0;
+        }
+    }
+    match num(spec, "depth_step")? {
+        None | Some(0.0) => {}
+        Some(1.0) => {
+            let (l, x) = (g.length_mm, g.length_mm / 2.0);
+            let d = |x: f64| g.depth.depth_at(x, l);
+            g.depth = DepthProfile::Points {
+                points: vec![
+                    (0.0, d(0.0)),
+                    (x, d(x)),
+                    (x + DEPTH_STEP_TRAVEL_MM, d(x) + DEPTH_STEP_UM),
+                    (l, d(l) + DEPTH_STEP_UM),
+                ],
+            };
+        }
+        Some(x) => return Err(bad("depth_step", format!("{x} is not 0 or 1"))),
+    }
     if let Some(v) = num(spec, "upfeed_um")? {
         g.upfeed_um = v;
     }
@@ -276,8 +339,12 @@ pub fn build_scenario(spec: &ScenarioSpec) -> Result<Scenario, ClosedLoopError> 
                 x_mm: g.length_mm / 2.0,
                 upfeed_um: 2.0 * g.upfeed_um,
             }];
+            g.feed_accel_mm_s2 = FEED_AT_ONCE_MM_S2;
         }
         Some(x) => return Err(bad("feed_step", format!("{x} is not 0 or 1"))),
+    }
+    if let Some(v) = num(spec, "feed_accel_mm_s2")? {
+        g.feed_accel_mm_s2 = v;
     }
     if let Some(v) = num(spec, "stiffness_error_pct")? {
         s.truth.stiffness_error = v / 100.0;
@@ -318,6 +385,11 @@ pub fn build_scenario(spec: &ScenarioSpec) -> Result<Scenario, ClosedLoopError> 
             return Err(bad("seed", format!("{v} is not a non-negative integer")));
         }
         s.seed = v as u64;
+    }
+    match num(spec, "commissioned")? {
+        None | Some(0.0) => {}
+        Some(1.0) => s = crate::compare::commissioned(&s),
+        Some(x) => return Err(bad("commissioned", format!("{x} is not 0 or 1"))),
     }
     match spec.factors.get("stage") {
         None => {}
@@ -390,12 +462,42 @@ mod tests {
         assert_eq!(g.feed_steps.len(), 1);
         assert_eq!(g.feed_steps[0].x_mm, 10.0);
         assert_eq!(g.feed_steps[0].upfeed_um, 20.0);
+        assert_eq!(g.feed_accel_mm_s2, FEED_AT_ONCE_MM_S2);
         assert!((s.truth.stiffness_error + 0.1).abs() < 1e-15);
         // groove_s7_20deg.toml: force_noise_n = 0.04, doubled.
         assert!((s.truth.force_noise_n - 0.08).abs() < 1e-15);
         // Unnamed factors keep the published values (groove_s7_20deg.toml: upfeed 10, wearland 8).
         assert_eq!(g.upfeed_um, 10.0);
         assert_eq!(g.wearland_um, 8.0);
+    }
+
+    #[test]
+    fn changes_at_once_and_the_entry() {
+        let s = build_scenario(&spec(&[
+            ("depth_um", FactorValue::Num(60.0)),
+            ("entry_depth_um", FactorValue::Num(40.0)),
+            ("depth_step", FactorValue::Num(1.0)),
+            ("feed_accel_mm_s2", FactorValue::Num(1e5)),
+            ("commissioned", FactorValue::Num(1.0)),
+        ]))
+        .unwrap();
+        let g = s.groove.as_ref().unwrap();
+        // 40 → 60 µm over the base's 20 mm, +20 µm at once at 10 mm (50 µm there)
+        assert_eq!(
+            g.depth,
+            DepthProfile::Points {
+                points: vec![(0.0, 40.0), (10.0, 50.0), (10.001, 70.0), (20.0, 80.0)]
+            }
+        );
+        // an approach in air, and the contact half-length at 40 µm: √(2·400·40 − 40²) µm
+        assert_eq!(g.approach_mm, 0.5);
+        assert!(
+            (g.entry_length_mm - 0.174_355).abs() < 1e-6,
+            "{}",
+            g.entry_length_mm
+        );
+        assert_eq!(g.feed_accel_mm_s2, 1e5);
+        assert!(s.control.commission && s.truth.draw_tool);
     }
 
     #[test]
@@ -407,6 +509,12 @@ mod tests {
         for m in millcomp_sim::material::MATERIAL_NAMES {
             build_scenario(&spec(&[("material", FactorValue::Text(m.into()))])).unwrap();
         }
+        for f in ["feed_step", "depth_step", "commissioned"] {
+            let e = build_scenario(&spec(&[(f, FactorValue::Num(2.0))]));
+            assert!(error_chain(&e.unwrap_err()).contains(f));
+        }
+        let e = build_scenario(&spec(&[("entry_depth_um", FactorValue::Num(-1.0))]));
+        assert!(error_chain(&e.unwrap_err()).contains("entry_depth_um"));
         let e = build_scenario(&spec(&[("feed_step", FactorValue::Num(2.0))]));
         assert!(error_chain(&e.unwrap_err()).contains("feed_step"));
         let e = build_scenario(&spec(&[("tilt_deg", FactorValue::Num(0.0))]));

@@ -23,5 +23,6 @@
 
 pub mod exec;
 pub mod factors;
+pub mod paired;
 pub mod plan;
 pub mod results;

@@ -12,6 +12,7 @@ use serde::Serialize;
 
 use super::exec::{METRICS, RunRecord, load_record, read_plan, read_shard, write_text};
 use super::factors::FactorValue;
+use super::paired::{PairedEntry, paired};
 use super::plan::{Plan, Shard};
 use crate::compare::median;
 use crate::error::{ClosedLoopError, error_chain};
@@ -50,6 +51,11 @@ pub struct BatchSummary {
     pub by_controller: BTreeMap<String, BTreeMap<String, f64>>,
     /// Per metric, the analysis with the controller as a factor.
     pub anova: BTreeMap<String, AnovaEntry>,
+    /// Each controller against the reference, scenario by scenario ([`super::paired`]).
+    pub paired: Vec<PairedEntry>,
+    /// MPC controllers: the median over the runs of each run's median QP solve time and the largest
+    /// run's 99th percentile (µs; wall-clock, this machine).
+    pub solve_times_us: BTreeMap<String, SolveTimes>,
     /// Runs executed by this call (0 for a merge).
     pub n_ran: usize,
     /// Runs found finished and not run again.
@@ -66,6 +72,45 @@ pub struct BatchSummary {
     pub files: Vec<String>,
     /// Notes (analyses that could not be made, and why).
     pub notes: Vec<String>,
+}
+
+/// QP solve times of one controller over a batch (µs).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SolveTimes {
+    /// Runs with solver statistics.
+    pub runs: usize,
+    /// Median over the runs of each run's median solve time.
+    pub median_us: f64,
+    /// Largest 99th-percentile solve time of any run.
+    pub p99_max_us: f64,
+}
+
+/// Solve times per controller that reports them (the MPCs).
+pub fn solve_times(plan: &Plan, records: &[RunRecord]) -> BTreeMap<String, SolveTimes> {
+    let mut out = BTreeMap::new();
+    for c in &plan.controllers {
+        let rs: Vec<&RunRecord> = records.iter().filter(|r| &r.controller == c).collect();
+        let mut med: Vec<f64> = rs
+            .iter()
+            .filter_map(|r| r.metrics.solve_median_us)
+            .collect();
+        if med.is_empty() {
+            continue;
+        }
+        let p99 = rs
+            .iter()
+            .filter_map(|r| r.metrics.solve_p99_us)
+            .fold(0.0, f64::max);
+        out.insert(
+            c.clone(),
+            SolveTimes {
+                runs: med.len(),
+                median_us: median(&mut med),
+                p99_max_us: p99,
+            },
+        );
+    }
+    out
 }
 
 /// Whether factor `name` holds labels (text) rather than numbers in this plan.
@@ -190,13 +235,6 @@ pub fn anova(
     notes: &mut Vec<String>,
 ) -> BTreeMap<String, AnovaEntry> {
     let mut out = BTreeMap::new();
-    let table = match results_table(plan, records) {
-        Ok(t) => t,
-        Err(e) => {
-            notes.push(format!("analysis skipped: {}", error_chain(&e)));
-            return out;
-        }
-    };
     let mut factors = varying_factors(plan, records);
     let n_ctrl = {
         let mut c: Vec<&str> = records.iter().map(|r| r.controller.as_str()).collect();
@@ -211,7 +249,6 @@ pub fn anova(
         notes.push("analysis skipped: no factor varies".into());
         return out;
     }
-    let columns = millcomp_datasets::adapters::doe_columns(&table);
     let mut full = factors.join(" + ");
     if n_ctrl > 1 {
         for f in factors.iter().skip(1) {
@@ -220,6 +257,30 @@ pub fn anova(
     }
     let main = factors.join(" + ");
     for metric in METRICS {
+        // the runs that have this metric (a run without a process change has no change excess)
+        let with: Vec<RunRecord> = records
+            .iter()
+            .filter(|r| r.metrics.get(metric).is_some_and(f64::is_finite))
+            .cloned()
+            .collect();
+        if with.is_empty() {
+            continue; // a metric no run has (a change excess without changes): nothing to analyse
+        }
+        if with.len() < records.len() {
+            notes.push(format!(
+                "{metric}: {} of {} runs have it (the others have no such event)",
+                with.len(),
+                records.len()
+            ));
+        }
+        let table = match results_table(plan, &with) {
+            Ok(t) => t,
+            Err(e) => {
+                notes.push(format!("{metric}: no analysis ({})", error_chain(&e)));
+                continue;
+            }
+        };
+        let columns = millcomp_datasets::adapters::doe_columns(&table);
         let attempt = |formula: &str| -> Result<AnovaEntry, DoeError> {
             let input = AnalysisInput::from_table(
                 &columns,
@@ -278,6 +339,8 @@ pub fn write_tables(
     }
     summary.by_controller = by_controller(plan, records);
     summary.anova = anova(plan, records, &mut summary.notes);
+    summary.paired = paired(plan, records);
+    summary.solve_times_us = solve_times(plan, records);
     Ok(summary)
 }
 
@@ -313,6 +376,8 @@ pub fn new_summary(plan: &Plan, n_runs: usize, shard: Option<Shard>) -> BatchSum
         shard,
         by_controller: BTreeMap::new(),
         anova: BTreeMap::new(),
+        paired: Vec::new(),
+        solve_times_us: BTreeMap::new(),
         n_ran: 0,
         n_resumed: 0,
         simulated_s: 0.0,
