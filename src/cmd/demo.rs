@@ -511,6 +511,21 @@ fn batch_stage(
             );
         }
     }
+    for p in s.paired.iter().filter(|p| p.metric == "pp_error_um") {
+        let _ = writeln!(
+            md,
+            "\n{} − {} scenario by scenario ({} scenarios): median difference {:+.3} µm, better in {}, worse \
+             in {}; sign test p = {}, paired t p = {}.",
+            p.controller,
+            p.reference,
+            p.n,
+            p.median_diff,
+            p.better,
+            p.worse,
+            fmt_p(p.sign_p_value),
+            fmt_p(p.t_p_value)
+        );
+    }
     for n in &s.notes {
         let _ = writeln!(md, "\n- note: {n}");
     }
