@@ -670,16 +670,8 @@ impl Scenario {
                     finite_pos(&format!("groove.feed_steps[{i}].upfeed_um"), fs.upfeed_um)?;
                 }
                 finite_pos("groove.feed_accel_mm_s2", g.feed_accel_mm_s2)?;
-                if !(g.entry_length_mm.is_finite()
-                    && g.entry_length_mm >= 0.0
-                    && g.entry_length_mm < g.length_mm)
-                {
-                    return Err(invalid(
-                        "groove.entry_length_mm",
-                        g.entry_length_mm,
-                        "0 <= entry_length_mm < length_mm",
-                    ));
-                }
+                millcomp_sim::groove::check_entry_length(g.entry_length_mm, g.length_mm)
+                    .map_err(sim_keyed("groove."))?;
                 finite_nonneg("groove.approach_mm", g.approach_mm)?;
                 if let Some(e) = g.exit {
                     // sim's own check; its parameter names (`exit.x_mm`, …) become scenario keys

@@ -252,6 +252,22 @@ fn default_feed_accel() -> f64 {
     DEFAULT_FEED_ACCEL_MM_S2
 }
 
+/// Check an entry's engagement length against a cut of `length_mm`: `0 <= entry_length_mm < length_mm`.
+///
+/// # Errors
+/// [`SimError::InvalidParameter`] naming `entry_length_mm`.
+pub fn check_entry_length(entry_length_mm: f64, length_mm: f64) -> Result<(), SimError> {
+    if entry_length_mm.is_finite() && entry_length_mm >= 0.0 && entry_length_mm < length_mm {
+        Ok(())
+    } else {
+        Err(SimError::InvalidParameter {
+            name: "entry_length_mm",
+            value: entry_length_mm,
+            allowed: "0 <= entry_length_mm < length_mm",
+        })
+    }
+}
+
 impl GrooveProgram {
     /// The thesis' groove program: 0–80 µm over 20 mm, 10 000 rpm, 10 µm/rev, tilt `tilt_deg`, no feed
     /// changes, no exit (unchecked; [`GrooveProgram::validate`] checks).
@@ -289,16 +305,7 @@ impl GrooveProgram {
         check_positive("length_mm", self.length_mm)?;
         self.depth_profile.validate(max_depth_um)?;
         self.feed_profile()?;
-        if !(self.entry_length_mm.is_finite()
-            && self.entry_length_mm >= 0.0
-            && self.entry_length_mm < self.length_mm)
-        {
-            return Err(SimError::InvalidParameter {
-                name: "entry_length_mm",
-                value: self.entry_length_mm,
-                allowed: "0 <= entry_length_mm < length_mm",
-            });
-        }
+        check_entry_length(self.entry_length_mm, self.length_mm)?;
         if let Some(e) = &self.exit {
             e.validate(self.length_mm)?;
         }
