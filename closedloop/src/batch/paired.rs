@@ -80,6 +80,12 @@ pub fn paired(plan: &Plan, records: &[RunRecord]) -> Vec<PairedEntry> {
         }
     };
     let factors = varying_factors(plan, records);
+    // the reference run's stroke bound per scenario (grooves)
+    let stroke: BTreeMap<usize, f64> = records
+        .iter()
+        .filter(|r| r.controller == reference)
+        .filter_map(|r| r.metrics.stroke_bound_um.map(|b| (r.scenario, b)))
+        .collect();
     let mut out = Vec::new();
     for metric in PAIRED_METRICS {
         let value = |c: &str| -> BTreeMap<usize, f64> {
@@ -95,12 +101,6 @@ pub fn paired(plan: &Plan, records: &[RunRecord]) -> Vec<PairedEntry> {
                 .collect()
         };
         let base = value(&reference);
-        // the reference run's stroke bound per scenario (grooves)
-        let stroke: BTreeMap<usize, f64> = records
-            .iter()
-            .filter(|r| r.controller == reference)
-            .filter_map(|r| r.metrics.stroke_bound_um.map(|b| (r.scenario, b)))
-            .collect();
         for c in plan.controllers.iter().filter(|c| **c != reference) {
             let diffs: Vec<(usize, f64)> = value(c)
                 .into_iter()
@@ -111,7 +111,7 @@ pub fn paired(plan: &Plan, records: &[RunRecord]) -> Vec<PairedEntry> {
             }
             let d: Vec<f64> = diffs.iter().map(|x| x.1).collect();
             let mut sorted = d.clone();
-            sorted.sort_by(f64::total_cmp);
+            let median_diff = median(&mut sorted); // sorts `sorted`, as median_ci95 needs
             let by_level = factors
                 .iter()
                 .flat_map(|f| {
@@ -135,7 +135,7 @@ pub fn paired(plan: &Plan, records: &[RunRecord]) -> Vec<PairedEntry> {
                 controller: c.clone(),
                 reference: reference.clone(),
                 n: d.len(),
-                median_diff: median(&mut sorted.clone()),
+                median_diff,
                 ci95: median_ci95(&sorted),
                 mean_diff: d.iter().sum::<f64>() / d.len() as f64,
                 t_p_value: paired_t(&d),
