@@ -24,8 +24,10 @@
 
 use crate::identified::{IdentifiedSpindle, IdentifiedStiffness};
 use millcomp_sim::DiscreteLti;
+use millcomp_sim::SimError;
 use millcomp_sim::feed::FeedProfile;
 use millcomp_sim::filters::{Biquad, FirstOrderFilter, PeakHold, SlidingMax};
+use millcomp_sim::force::CutConditions;
 use millcomp_sim::groove::GrooveProgram;
 use nalgebra::DMatrix;
 
@@ -141,23 +143,68 @@ impl DeflectionPlan {
         let c = model_stiffness
             .stiffness()
             .z_compliance_um_per_n(program.tilt_deg)?;
+        let mut extrapolated = 0;
+        let mut plan = Self::tabulate(program, tool_radius_um, dx_mm, c, |cond| {
+            if force
+                .response_surface()
+                .is_some_and(|r| r.extrapolates(cond))
+            {
+                extrapolated += 1;
+            }
+            force.peak_z_force_n(cond)
+        })?;
+        plan.extrapolated_points = extrapolated;
+        Ok(plan)
+    }
+
+    /// A plan from a force the caller computes (`peak_z_force_n` of the programmed conditions, N) and a
+    /// z-compliance (µm/N), tabulated as [`Self::new`] does. For reference studies only — the plan of a
+    /// model no user holds, such as the truth's in a comparison against "an MPC given the true model";
+    /// controllers a user builds take [`Self::new`] with identified models.
+    ///
+    /// # Errors
+    /// As [`Self::new`]; the force function's errors.
+    ///
+    /// ```
+    /// use millcomp_mpc::groove::DeflectionPlan;
+    /// use millcomp_sim::groove::GrooveProgram;
+    /// // a force of 0.1 N per µm of depth and 0.5 µm/N: 0.05 µm of deflection per µm of the 0–80 µm ramp
+    /// let program = GrooveProgram::thesis(30.0);
+    /// let plan =
+    ///     DeflectionPlan::reference(&program, 400.0, 0.01, 0.5, |c| Ok(0.1 * c.depth_um)).unwrap();
+    /// assert!((plan.deflection_at(20.0) - 0.05 * 80.0).abs() < 1e-9);
+    /// assert_eq!(plan.extrapolated_points, 0);
+    /// ```
+    pub fn reference(
+        program: &GrooveProgram,
+        tool_radius_um: f64,
+        dx_mm: f64,
+        compliance_um_per_n: f64,
+        peak_z_force_n: impl FnMut(&CutConditions) -> Result<f64, SimError>,
+    ) -> Result<Self, MpcError> {
+        let mut f = peak_z_force_n;
+        Self::tabulate(program, tool_radius_um, dx_mm, compliance_um_per_n, |c| {
+            Ok(f(c)?)
+        })
+    }
+
+    fn tabulate(
+        program: &GrooveProgram,
+        tool_radius_um: f64,
+        dx_mm: f64,
+        c: f64,
+        mut force: impl FnMut(&CutConditions) -> Result<f64, MpcError>,
+    ) -> Result<Self, MpcError> {
         let feed = program.feed_profile()?;
         let n = (program.length_mm / dx_mm).ceil() as usize + 1;
         let mut values = Vec::with_capacity(n);
-        let mut extrapolated = 0;
         for i in 0..n {
             let x = (i as f64 * dx_mm).min(program.length_mm);
             let d = program.depth_at(x).clamp(0.0, tool_radius_um);
             let e = program.engagement(x);
             let cond = program.conditions_at(d, feed.upfeed_at_x(x));
             let f = if d > 0.0 && e > 0.0 {
-                if force
-                    .response_surface()
-                    .is_some_and(|r| r.extrapolates(&cond))
-                {
-                    extrapolated += 1;
-                }
-                force.peak_z_force_n(&cond)? * e
+                force(&cond)? * e
             } else {
                 0.0
             };
@@ -169,7 +216,7 @@ impl DeflectionPlan {
             dx_mm,
             values_um: values,
             feed,
-            extrapolated_points: extrapolated,
+            extrapolated_points: 0,
         })
     }
 

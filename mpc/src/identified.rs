@@ -250,6 +250,39 @@ impl IdentifiedForceModel {
         Ok(Self(m))
     }
 
+    /// This model with every force multiplied by `factor` (its force scale times `factor`): the scale a
+    /// run-to-run identification measured on cut parts.
+    ///
+    /// # Errors
+    /// [`MpcError::IdentifiedModel`] (key `force_model`) for a factor that is not finite and > 0.
+    ///
+    /// # Examples
+    /// ```
+    /// use millcomp_models::ForceModelParams;
+    /// use millcomp_mpc::identified::{IdentifiedForceModel, NominalTool};
+    /// use millcomp_sim::force::CutConditions;
+    /// let p = ForceModelParams {
+    ///     fitted: Default::default(), fixed: Default::default(), covariance: Default::default(),
+    /// };
+    /// let m = IdentifiedForceModel::new(&p, &NominalTool::thesis_ball_end("S7")).unwrap();
+    /// let c = CutConditions::new(40.0, 10.0, 10_000.0, 30.0).unwrap();
+    /// let f = m.model().peak_z_force_n(&c).unwrap();
+    /// let g = m.rescaled(1.1).unwrap().model().peak_z_force_n(&c).unwrap();
+    /// assert!((g / f - 1.1).abs() < 1e-12);
+    /// assert!(m.rescaled(0.0).is_err());
+    /// ```
+    pub fn rescaled(&self, factor: f64) -> Result<Self, MpcError> {
+        let s = self.0.params.force_scale * factor;
+        self.0
+            .with_param("force_scale", s)
+            .map(Self)
+            .map_err(|source| MpcError::IdentifiedModel {
+                key: "force_model".into(),
+                value: format!("force_scale = {s}"),
+                source,
+            })
+    }
+
     /// The model (read only).
     pub fn model(&self) -> &BallEndForceModel {
         &self.0

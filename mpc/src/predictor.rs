@@ -112,6 +112,23 @@ impl ForcePredictor {
         }
     }
 
+    /// This predictor with every force times `factor` (a force scale identified from cut parts). Only the
+    /// mechanistic model has a force scale.
+    ///
+    /// # Errors
+    /// [`MpcError::InvalidConfig`] (key `control.force_response_surface`) for a response surface;
+    /// those of [`IdentifiedForceModel::rescaled`].
+    pub fn rescaled(&self, factor: f64) -> Result<Self, MpcError> {
+        match self {
+            ForcePredictor::Mechanistic(m) => Ok(ForcePredictor::Mechanistic(m.rescaled(factor)?)),
+            ForcePredictor::ResponseSurface(r) => Err(invalid(
+                "control.force_response_surface",
+                &r.path,
+                "the mechanistic force model (a response surface has no force scale to update)",
+            )),
+        }
+    }
+
     /// Short description for run notes.
     pub fn describe(&self) -> String {
         match self {
