@@ -12,6 +12,7 @@ use millcomp_models::{Derived, IdentifiedModel};
 
 pub(crate) mod combine;
 pub mod force;
+pub mod part;
 pub mod spindle;
 pub mod stiffness;
 pub mod thermal;
