@@ -15,7 +15,7 @@ use millcomp_sim::sensors::{InstrumentErrors, NoiseSpec};
 
 use millcomp_models::SensorNoise;
 use millcomp_mpc::groove::{
-    DeflectionPlan, FeedforwardPidController, GrooveController, GrooveMpcSettings,
+    DeflectionPlan, FeedforwardPidController, ForcePeakChain, GrooveController, GrooveMpcSettings,
     MpcGrooveController, NoneController, OpenLoopController, PidController, TunedPidController,
 };
 use millcomp_mpc::identified::{
@@ -297,12 +297,35 @@ fn exit_window(t: &GrooveConfig) -> Option<(f64, f64)> {
 }
 
 /// Run a groove scenario with one controller.
+///
+/// # Errors
+/// Those of [`groove_setup`] and [`run_groove_with`].
 pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, ClosedLoopError> {
     let wall = Instant::now();
     let setup = groove_setup(s)?;
+    let plan = deflection_plan(&setup, 0.01)?;
+    let mut out = run_groove_with(s, &setup, &plan, kind)?;
+    out.report.wall_clock_s = wall.elapsed().as_secs_f64();
+    Ok(out)
+}
+
+/// Run one controller on a prepared setup (truth plant and the controllers' models) with the
+/// controllers' plan — the run-to-run loop's entry, where each part's models come from the parts before.
+/// The trace logs what the machine records (gauge, measured force and its per-revolution peak through
+/// the controllers' force chain) beside what only the simulation knows (depth cut, deflection).
+///
+/// # Errors
+/// [`ClosedLoopError::InvalidConfig`] for `threshold` (a thin-wall controller); controller construction
+/// and physics errors.
+pub fn run_groove_with(
+    s: &Scenario,
+    setup: &GrooveSetup,
+    plan: &DeflectionPlan,
+    kind: ControllerKind,
+) -> Result<RunOutput, ClosedLoopError> {
+    let wall = Instant::now();
     let t = &setup.truth;
     let dt = s.control.dt_s;
-    let plan = deflection_plan(&setup, 0.01)?;
     // the amplifier's rated maximum (a catalogue value, carried by the identified spindle's defaults)
     let v_max = setup.model_spindle.plant().voltage_max_v;
     let mut notes = vec![format!("controllers' models from {}", setup.models_from)];
@@ -385,7 +408,7 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Close
                 &setup.model_spindle,
                 &setup.model_stiffness,
                 setup.nominal_tool.flutes,
-                &mpc_settings(&setup, s)?,
+                &mpc_settings(setup, s)?,
             )?;
             if kind == ControllerKind::MpcNoPreview {
                 notes.push(
@@ -440,7 +463,9 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Close
         "force_meas_n",
         "gauge_um",
         "planned_deflection_um",
+        "force_peak_n",
     ]);
+    let mut force_log = ForcePeakChain::new(t.program.speed_rpm, dt)?;
     let decimate = 20usize;
     let mut k = 0usize;
     loop {
@@ -456,6 +481,7 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Close
         if !(0.0..=v_max).contains(&v) {
             in_limits = false;
         }
+        let force_peak = force_log.step(obs.map(|x| x.force_meas_n).unwrap_or(0.0));
         let o = stage.step(v);
         // the groove exists only where the tool is engaged (before the workpiece edge)
         if o.engagement > 0.0 {
@@ -489,6 +515,7 @@ pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Close
                 obs.map(|x| x.force_meas_n).unwrap_or(0.0),
                 obs.map(|x| x.gauge_um).unwrap_or(0.0),
                 plan.deflection_at(o.x_mm),
+                force_peak,
             ]);
         }
         k += 1;

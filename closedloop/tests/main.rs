@@ -4,6 +4,7 @@ mod commissioning;
 mod common;
 mod faults;
 mod groove;
+mod parts;
 mod process_changes;
 mod scenarios;
 mod thin_wall;
