@@ -45,6 +45,9 @@ pub enum Command {
     Simulate(SimulateArgs),
     /// Run controllers over many conditions and compare them statistically.
     Batch(BatchArgs),
+    /// Cut successive parts of a groove scenario: after each the groove is measured, the deflection model
+    /// identified from the parts so far, and the next part uses it (run-to-run learning).
+    Parts(PartsArgs),
     /// List and show the published tables shipped with millcomp.
     #[command(subcommand)]
     Datasets(DatasetsCommand),
@@ -310,6 +313,39 @@ pub struct BatchArgs {
     /// JOB_COMPLETION_INDEX/MILLCOMP_SHARD_COUNT.
     #[arg(long)]
     pub shard: Option<String>,
+    /// Worker threads (default: all cores, or RAYON_NUM_THREADS).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// `millcomp parts`.
+#[derive(Debug, Args)]
+pub struct PartsArgs {
+    /// Groove scenario (TOML). It is run commissioned (instruments and tool drawn, the controllers built
+    /// from a commissioning of the plant) with the deliberate model errors below on top.
+    pub scenario: PathBuf,
+    /// Parts cut in a row on each machine.
+    #[arg(long, default_value_t = 3)]
+    pub parts: usize,
+    /// Machines (seeds 1..=N): each its own tool, instruments, commissioning and error signs.
+    #[arg(long, default_value_t = 10)]
+    pub seeds: u64,
+    /// Controllers, each learning from its own parts (plus the reference, an MPC given the true model).
+    #[arg(long, default_value = "pid-tuned,pid-ff,mpc")]
+    pub controllers: String,
+    /// Size of the force-model errors on the commissioned model (relative; W, rake and flank friction,
+    /// wearland each off by ± this).
+    #[arg(long, default_value_t = 0.15)]
+    pub force_error: f64,
+    /// Size of the stiffness error on the commissioned model (relative, ±).
+    #[arg(long, default_value_t = 0.10)]
+    pub stiffness_error: f64,
+    /// σ of the part-to-part force factor (relative).
+    #[arg(long, default_value_t = 0.02)]
+    pub part_scatter: f64,
+    /// Output directory (parts.csv, summary.json, parts.svg).
+    #[arg(long, default_value = "millcomp-parts")]
+    pub out: PathBuf,
     /// Worker threads (default: all cores, or RAYON_NUM_THREADS).
     #[arg(long)]
     pub threads: Option<usize>,

@@ -10,4 +10,5 @@ mod demo;
 mod diagnose;
 mod doe;
 mod identify;
+mod parts;
 mod simulate;

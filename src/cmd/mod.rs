@@ -10,6 +10,7 @@ mod demo;
 mod diagnose;
 mod doe;
 mod identify;
+mod parts;
 mod simulate;
 
 /// Prints a serialisable value as one pretty JSON document on stdout.
@@ -52,5 +53,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Commission(a) => commission::run(a, json),
         Command::Simulate(a) => simulate::run(a, json),
         Command::Batch(a) => batch::run(a, json),
+        Command::Parts(a) => parts::run(a, json),
     }
 }

@@ -5,5 +5,6 @@ pub mod batch;
 pub mod commission;
 pub mod diagnose;
 pub mod doe;
+pub mod parts;
 pub mod plot;
 pub mod table;
