@@ -157,6 +157,8 @@ pub struct PartRow {
     pub deflection_scale: Option<Estimate>,
     /// c identified from the parts up to and including this one (µm/N).
     pub compliance_um_per_n: Option<Estimate>,
+    /// Profile points of this part left out of the fit because the gauge read its range limit there.
+    pub gauge_saturated_points: usize,
     /// Why the models were not updated after this part, if they were not.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub not_updated: Option<String>,
@@ -245,6 +247,8 @@ struct Measured {
     deflection_um: Vec<f64>,
     model_um: Vec<f64>,
     force_peak_n: Vec<f64>,
+    /// Profile points left out because the gauge read its range limit there.
+    saturated: usize,
 }
 
 /// The part-1 model the measurements are regressed on: its force predictor and z-compliance, with the
@@ -307,12 +311,21 @@ fn measure(
         deflection_um: vec![],
         model_um: vec![],
         force_peak_n: vec![],
+        saturated: 0,
     };
+    // a gauge at the end of its range (the RD20's 50 µm: the 20° groove's deep end needs 55 µm of tip)
+    // reads its limit, bit for bit, where a live reading never repeats (its noise): such rows measure
+    // nothing and are left out
+    let repeated = repeated_readings(&gauge);
     for xk in window {
         // the logged row nearest to xk (the feed moves forward: x is sorted)
         let i = x
             .partition_point(|v| *v < xk)
             .min(x.len().saturating_sub(1));
+        if repeated.contains(&gauge[i].to_bits()) {
+            m.saturated += 1;
+            continue;
+        }
         let depth_meas = cut[i] + noise.sample(&mut rng);
         m.deflection_um
             .push(sin_a * gauge[i] - (depth_meas - cmd[i]));
@@ -320,6 +333,19 @@ fn measure(
         m.force_peak_n.push(fpk[i]);
     }
     Ok(m)
+}
+
+/// The readings (as bits) that occur more than once in a noisy channel's log: a clamped instrument
+/// (at the end of its range) repeats its limit exactly, a live reading with noise never does.
+fn repeated_readings(log: &[f64]) -> std::collections::HashSet<u64> {
+    let mut seen = std::collections::HashSet::new();
+    let mut repeated = std::collections::HashSet::new();
+    for v in log {
+        if !seen.insert(v.to_bits()) {
+            repeated.insert(v.to_bits());
+        }
+    }
+    repeated
 }
 
 /// The profile positions (mm) the fit uses: every `profile_step_mm` where the part-1 plan is at least
@@ -386,6 +412,7 @@ fn controller_parts(
             plan,
             s.seed.wrapping_mul(7919).wrapping_add(part as u64),
         )?;
+        let gauge_saturated_points = m.saturated;
         part_col.extend(std::iter::repeat_n(part, m.deflection_um.len()));
         defl.extend(m.deflection_um);
         reg_plan.extend(m.model_um);
@@ -429,6 +456,7 @@ fn controller_parts(
             stiffness_factor: used.1,
             deflection_scale: rho.ok(),
             compliance_um_per_n: c.ok(),
+            gauge_saturated_points,
             not_updated,
             solve_median_us: stats.map(|s| s.median_us),
             solve_p99_us: stats.map(|s| s.p99_us),
@@ -470,6 +498,7 @@ fn reference_parts(
             stiffness_factor: f64::NAN,
             deflection_scale: None,
             compliance_um_per_n: None,
+            gauge_saturated_points: 0,
             not_updated: Some("the reference does not learn".into()),
             solve_median_us: stats.map(|s| s.median_us),
             solve_p99_us: stats.map(|s| s.p99_us),
@@ -672,6 +701,14 @@ pub fn rows_table(runs: &[PartsRun]) -> Result<millcomp_datasets::Table, ClosedL
             data: ColumnData::Text(rows.iter().map(|r| r.controller.clone()).collect()),
         },
         float("pp_error_um", &|r| r.pp_error_um),
+        Column {
+            name: "gauge_saturated_points".into(),
+            data: ColumnData::Int(
+                rows.iter()
+                    .map(|r| r.gauge_saturated_points as i64)
+                    .collect(),
+            ),
+        },
         float("rms_error_um", &|r| r.rms_error_um),
         float("force_factor", &|r| r.force_factor),
         float("stiffness_factor", &|r| r.stiffness_factor),
@@ -683,4 +720,21 @@ pub fn rows_table(runs: &[PartsRun]) -> Result<millcomp_datasets::Table, ClosedL
         float("compliance_hi_um_per_n", &|r| est(r.compliance_um_per_n, 2)),
     ];
     Ok(Table::from_columns("parts", cols)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_clamped_gauge_is_recognised_by_its_repeated_limit() {
+        // a noisy ramp that runs into a 50 µm range limit: the limit repeats, live readings do not
+        let log: Vec<f64> = (0..100)
+            .map(|i| (0.6 * i as f64 + 0.01 * ((i * 7919) % 13) as f64).min(50.0))
+            .collect();
+        let r = repeated_readings(&log);
+        assert_eq!(r.len(), 1);
+        assert!(r.contains(&50.0f64.to_bits()));
+        assert!(!r.contains(&log[10].to_bits()));
+    }
 }
