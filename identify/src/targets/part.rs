@@ -16,14 +16,14 @@
 //!   separate either).
 //!
 //! Neighbouring points of a groove share the model's shape error, so residuals are correlated along x.
-//! The standard errors are inflated for a lag-1 autocorrelation r of the residuals by
-//! `√((1 + r)/(1 − r))` and the interval uses the effective degrees of freedom `n·(1 − r)/(1 + r)`
-//! (the AR(1) approximation for a smooth regressor, e.g. Bayley & Hammersley 1946; r clamped to
-//! [0, 0.98]); the report says so.
+//! The covariance is Newey–West's (1987; Bartlett kernel, lags within a part only) with Andrews' (1991)
+//! AR(1) plug-in bandwidth `1.1447·(α n)^⅓`, `α = 4r²/(1 − r)⁴` for the residuals' lag-1
+//! autocorrelation r (clamped to [0, 0.98], at most n/2 lags), and the interval uses the effective
+//! degrees of freedom `n·(1 − r)/(1 + r)`; the report says so.
 
 use std::collections::BTreeMap;
 
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 use statrs::distribution::{ContinuousCDF, StudentsT};
 
 use super::Identified;
@@ -77,7 +77,8 @@ pub struct PartData<'a> {
     pub regressor: &'a [f64],
 }
 
-/// The largest lag-1 autocorrelation the inflation uses (beyond it the effective sample is < 1 %).
+/// The largest lag-1 autocorrelation the bandwidth and the effective degrees of freedom use (beyond it the
+/// effective sample is < 1 %).
 pub const MAX_LAG1: f64 = 0.98;
 
 /// Fits `deflection_um = offset_p + θ·regressor` with one offset per part, θ the parameter of `what`,
@@ -142,32 +143,53 @@ pub fn identify_part(data: &PartData<'_>, what: PartRegressor) -> Result<Identif
         "um",
     )?;
     let mut report = fit.report;
-    // AR(1) inflation for residuals correlated along the groove
+    // Newey–West covariance for residuals correlated along each groove (lags within a part only), the
+    // Bartlett kernel with Andrews' AR(1) plug-in bandwidth
     let r = report
         .diagnostics
         .lag1_autocorrelation
         .unwrap_or(0.0)
         .clamp(0.0, MAX_LAG1);
-    let inflation = ((1.0 + r) / (1.0 - r)).sqrt();
-    let dof_eff = (n as f64 * (1.0 - r) / (1.0 + r) - names.len() as f64).max(1.0);
+    let u = DVector::from_column_slice(data.deflection_um) - &design * &fit.theta;
+    let p = names.len();
+    let alpha = 4.0 * r * r / (1.0 - r).powi(4);
+    let lags = ((1.1447 * (alpha * n as f64).cbrt()).ceil() as usize).min(n / 2);
+    let mut meat = DMatrix::<f64>::zeros(p, p);
+    for t in 0..n {
+        let xt = design.row(t).transpose() * u[t];
+        meat += &xt * xt.transpose();
+        for l in 1..=lags.min(t) {
+            if data.part[t - l] != data.part[t] {
+                break;
+            }
+            let w = 1.0 - l as f64 / (lags as f64 + 1.0);
+            let xl = design.row(t - l).transpose() * u[t - l];
+            let c = &xt * xl.transpose();
+            meat += (&c + c.transpose()) * w;
+        }
+    }
+    let bread = (design.transpose() * &design)
+        .try_inverse()
+        .unwrap_or_else(|| DMatrix::from_element(p, p, f64::NAN));
+    let cov = &bread * meat * &bread * (n as f64 / (n - p).max(1) as f64);
+    let dof_eff = (n as f64 * (1.0 - r) / (1.0 + r) - p as f64).max(1.0);
     let t = StudentsT::new(0.0, 1.0, dof_eff)
         .map(|d| d.inverse_cdf(0.975))
         .unwrap_or(f64::NAN);
-    for name in &names {
+    for (j, name) in names.iter().enumerate() {
         let v = report.param(name);
-        let se = report.se(name) * inflation;
+        let se = cov[(j, j)].max(0.0).sqrt();
         report.std_err.insert(name.clone(), se);
         report.ci95.insert(name.clone(), [v - t * se, v + t * se]);
     }
-    let m = report.covariance.to_matrix() * inflation.powi(2);
-    report.covariance = crate::report::NamedMatrix::from_matrix(&names, &m);
+    report.covariance = crate::report::NamedMatrix::from_matrix(&names, &cov);
     report
         .warnings
         .retain(|w| !w.starts_with("residuals are autocorrelated"));
     let mut out = Identified::new(what.kind(), report, BTreeMap::new(), BTreeMap::new());
     out.notes.push(format!(
-        "residuals correlated along the groove (lag-1 r = {r:.2}): standard errors × {inflation:.2}, \
-         interval on {dof_eff:.0} effective degrees of freedom"
+        "residuals correlated along the groove (lag-1 r = {r:.2}): Newey–West covariance over {lags} lags \
+         within each part, interval on {dof_eff:.0} effective degrees of freedom"
     ));
     Ok(out)
 }
