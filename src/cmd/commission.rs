@@ -2,10 +2,7 @@
 //! calibration DOE, spindle step test, load–deflection test), written as one model bundle; or, with
 //! `--coverage N`, the coverage study of the intervals over N seeds.
 
-use std::io::IsTerminal;
-
 use anyhow::{Context, bail};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use millcomp_closedloop::Scenario;
 use millcomp_closedloop::commissioning::{CommissioningPlant, commission, coverage_study};
 use millcomp_closedloop::groove::groove_truth;
@@ -14,7 +11,7 @@ use millcomp_models::{InputFile, ModelBundle, ModelFile};
 use serde_json::json;
 
 use crate::cli::CommissionArgs;
-use crate::cmd::{print_json, provenance};
+use crate::cmd::{print_json, progress_bar, provenance};
 use crate::present::commission::{bundle_text, commissioning_text, coverage_text};
 
 pub fn run(args: CommissionArgs, json: bool) -> anyhow::Result<()> {
@@ -39,17 +36,7 @@ pub fn run(args: CommissionArgs, json: bool) -> anyhow::Result<()> {
         if n == 0 {
             bail!("--coverage: give at least 1 seed");
         }
-        let bar = if !json && std::io::stderr().is_terminal() {
-            let b = ProgressBar::with_draw_target(Some(n), ProgressDrawTarget::stderr());
-            if let Ok(style) = ProgressStyle::with_template(
-                "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} commissionings (eta {eta})",
-            ) {
-                b.set_style(style);
-            }
-            b
-        } else {
-            ProgressBar::hidden()
-        };
+        let bar = progress_bar(n, "commissionings", json);
         let rows = coverage_study(
             &truth,
             &material,

@@ -41,6 +41,23 @@ pub fn provenance(inputs: Vec<millcomp_models::InputFile>) -> millcomp_models::P
     p
 }
 
+/// A progress bar on stderr over `total` items called `what` (e.g. `parts`), or a hidden one for `--json`
+/// or when stderr is not a terminal.
+pub fn progress_bar(total: u64, what: &str, json: bool) -> indicatif::ProgressBar {
+    use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+    use std::io::IsTerminal;
+    if json || !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let b = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
+    if let Ok(style) = ProgressStyle::with_template(&format!(
+        "{{spinner}} [{{elapsed_precise}}] {{bar:40}} {{pos}}/{{len}} {what} (eta {{eta}})"
+    )) {
+        b.set_style(style);
+    }
+    b
+}
+
 /// Runs the verb the user asked for.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     let json = cli.json;

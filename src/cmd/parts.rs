@@ -1,10 +1,7 @@
 //! `millcomp parts SCENARIO`: successive parts on each of N machines, each part measured and the
 //! controllers' deflection model re-identified before the next (`millcomp_closedloop::parts`).
 
-use std::io::IsTerminal;
-
 use anyhow::Context;
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use millcomp_closedloop::Scenario;
 use millcomp_closedloop::batch::plan::parse_controllers;
 use millcomp_closedloop::parts::{PartsPlan, rows_table, run_parts, summarize};
@@ -14,7 +11,7 @@ use serde_json::json;
 
 use crate::cli::PartsArgs;
 use crate::cmd::batch::with_threads;
-use crate::cmd::print_json;
+use crate::cmd::{print_json, progress_bar};
 use crate::present::parts::{parts_plot, parts_text};
 
 pub fn run(args: PartsArgs, json: bool) -> anyhow::Result<()> {
@@ -35,17 +32,7 @@ pub fn run(args: PartsArgs, json: bool) -> anyhow::Result<()> {
     };
     plan.validate()?;
     let total = args.seeds * (controllers.len() as u64 + 1) * args.parts as u64;
-    let bar = if !json && std::io::stderr().is_terminal() {
-        let b = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
-        if let Ok(style) = ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} parts (eta {eta})",
-        ) {
-            b.set_style(style);
-        }
-        b
-    } else {
-        ProgressBar::hidden()
-    };
+    let bar = progress_bar(total, "parts", json);
     let runs = with_threads(args.threads, || {
         (1..=args.seeds)
             .into_par_iter()
