@@ -37,7 +37,7 @@ use millcomp_mpc::groove::DeflectionPlan;
 use millcomp_mpc::identified::IdentifiedStiffness;
 use millcomp_sim::feed::FeedProfile;
 use millcomp_sim::groove::GrooveConfig;
-use millcomp_sim::sensors::{InstrumentErrors, NoiseSpec};
+use millcomp_sim::sensors::{InstrumentErrors, NoiseSpec, PROFILOMETER_SIGMA_UM};
 use nalgebra::DMatrix;
 
 use crate::compare::{commissioned, median, median_ci95};
@@ -46,10 +46,6 @@ use crate::groove::{GrooveSetup, deflection_plan, groove_setup, run_groove_with}
 use crate::model_errors::ForceErrors;
 use crate::report::Trace;
 use crate::scenario::{ControllerKind, Scenario, StageKind};
-
-/// Profilometer noise σ (µm): `002_…txt` §7.9, < 0.15 µm standard deviation over 10 profiles (the value
-/// the synthetic sessions use).
-pub const PROFILOMETER_SIGMA_UM: f64 = 0.1;
 
 /// Name of the reference rows: the MPC given the true model.
 pub const REFERENCE: &str = "mpc-true-model";

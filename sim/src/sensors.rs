@@ -261,6 +261,9 @@ impl Default for InstrumentErrors {
     }
 }
 
+/// σ of a groove-depth profile measured by the profilometer (µm): `002_…txt` §7.2 (Talysurf) and §7.9,
+/// repeatability < 0.15 µm standard deviation over 10 profiles of one groove.
+pub const PROFILOMETER_SIGMA_UM: f64 = 0.1;
 /// σ of the force-sensor gain error after the thesis' calibration (`000_…txt` §3.4: one 1 kg mass hung
 /// three times per direction; the three channels came out 5.649, 5.333 and 4.547 N/V against a nominal
 /// 5 N/V, so the calibration corrects ±10 % and leaves "a few %" — 3 % is an assumption within that).

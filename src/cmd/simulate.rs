@@ -15,8 +15,8 @@ use crate::cli::SimulateArgs;
 use crate::cmd::print_json;
 use crate::present::plot::{Series, line_plot};
 
-/// Profilometer noise used with `--noise-seed` (002_…txt §7.2: Talysurf, ~0.1 um repeatability).
-const PROFILOMETER_SIGMA_UM: f64 = 0.1;
+// profilometer noise used with `--noise-seed` (sim's, 002_…txt §7.2/§7.9)
+use millcomp_sim::sensors::PROFILOMETER_SIGMA_UM;
 
 pub fn run(args: SimulateArgs, json: bool) -> anyhow::Result<()> {
     if args.controller.is_some() || is_scenario(&args.file)? {

@@ -99,7 +99,7 @@ pub type Result<T> = std::result::Result<T, SyntheticError>;
 pub const COMMAND: &str = "cargo run -p millcomp-synthetic --bin gen_synthetic --release";
 
 /// Profilometer noise σ (µm): 002 §7.9 reports < 0.15 µm standard deviation over 10 profiles.
-pub const DEPTH_NOISE_UM: f64 = 0.1;
+pub const DEPTH_NOISE_UM: f64 = millcomp_sim::sensors::PROFILOMETER_SIGMA_UM;
 /// Force-sensor noise σ (N) on each per-flute peak: 000 §7.2 force sensor (sim's
 /// `ForceSensor::thesis`, 0.04 N).
 pub const FORCE_NOISE_N: f64 = 0.04;
