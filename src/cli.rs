@@ -192,7 +192,8 @@ pub struct IdentifyArgs {
     /// Measured data (CSV or Parquet). Columns: spindle `t_s,u_v,y_um`; stiffness
     /// `load_n,deflection_um[,direction]`; thermal `t_s,drift_um[,speed_rpm][,temp_c]`;
     /// force `depth_um,upfeed_um,max_fx_n|max_fy_n|max_fz_n[,speed_rpm,tilt_deg]` or traces
-    /// `rot_deg,fx_n|fy_n|fz_n` with the cut conditions; wall `force_n,deflection_um`.
+    /// `rot_deg,fx_n|fy_n|fz_n` with the cut conditions; wall `force_n,deflection_um`; part
+    /// `part,deflection_um,planned_deflection_um|force_peak_n`.
     pub file: PathBuf,
     /// Write the identified model as TOML (schema: models/MODEL.md).
     #[arg(long)]
@@ -239,6 +240,9 @@ pub enum IdentifyWhat {
     Thermal,
     /// Thin-wall effective stiffness.
     Wall,
+    /// What cut parts say of the deflection model: force scale / stiffness (from the planned deflection)
+    /// or the compliance per measured newton (from the force peak).
+    Part,
 }
 
 /// `millcomp diagnose SESSION MEASURED.csv`.

@@ -114,3 +114,41 @@ fn unknown_target_is_a_usage_error() {
         .code(2)
         .stderr(predicate::str::contains("spindle"));
 }
+
+#[test]
+fn part_fit_from_measured_grooves_names_bad_part_numbers() {
+    // two measured parts of a 0–12 µm planned deflection: the tool gave way 8 % more than planned,
+    // touch-off +0.4 / −0.3 µm, ±0.05 µm of profilometer-like scatter
+    let dir = tempfile::tempdir().unwrap();
+    let mut csv = String::from("part,x_mm,deflection_um,planned_deflection_um\n");
+    for (p, a) in [(1, 0.4), (2, -0.3)] {
+        for i in 0..120 {
+            let plan = 12.0 * i as f64 / 119.0;
+            let d = a + 1.08 * plan + 0.05 * wiggle(i + 200 * p);
+            csv.push_str(&format!("{p},{},{d},{plan}\n", i as f64 * 0.1));
+        }
+    }
+    let file = write(dir.path(), "parts.csv", &csv);
+    let doc = run_json(&["identify", "part", s(&file)]);
+    let rho = doc["params"]["deflection_scale"].as_f64().unwrap();
+    let ci = doc["ci95"]["deflection_scale"].as_array().unwrap();
+    assert!((rho - 1.08).abs() < 0.01, "{rho}");
+    assert!(ci[0].as_f64().unwrap() < 1.08 && 1.08 < ci[1].as_f64().unwrap());
+    assert!((doc["params"]["offset_part2_um"].as_f64().unwrap() + 0.3).abs() < 0.05);
+    let notes = doc["notes"].to_string();
+    assert!(
+        notes.contains("Newey") && notes.contains("`x_mm`"),
+        "{notes}"
+    );
+    // a part number that is not an integer is named with its row
+    let bad = write(
+        dir.path(),
+        "bad.csv",
+        &csv.replacen("\n1,0.1,", "\n1.5,0.1,", 1),
+    );
+    millcomp()
+        .args(["identify", "part", s(&bad)])
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains("part[1]"));
+}

@@ -9,6 +9,7 @@
 //! | `thermal`   | `t_s, drift_um`                      | `speed_rpm`, `temp_c`                    |
 //! | `force`     | `depth_um, upfeed_um` and any of `max_fx_n, max_fy_n, max_fz_n` (peaks) or `rot_deg` with any of `fx_n, fy_n, fz_n` (traces) | `speed_rpm`, `tilt_deg` |
 //! | `wall`      | `force_n, deflection_um`             |                                          |
+//! | `part`      | `part, deflection_um` and one of `planned_deflection_um` (→ ρ) or `force_peak_n` (→ c) |      |
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::str::FromStr;
@@ -20,6 +21,7 @@ use crate::targets::force::{
     ForceConditions, ForceData, ForceOptions, ForceParam, ForceTraceData, PeakForceData,
     identify_force,
 };
+use crate::targets::part::{PartData, PartRegressor, identify_part};
 use crate::targets::spindle::{SpindleData, SpindleOptions, identify_spindle};
 use crate::targets::stiffness::{StiffnessData, StiffnessOptions, identify_stiffness};
 use crate::targets::thermal::{CommonOptions, ThermalData, ThermalModel, identify_thermal};
@@ -38,11 +40,27 @@ pub enum Target {
     Thermal,
     /// Thin-wall effective stiffness.
     Wall,
+    /// What measured parts say of the deflection model (`targets::part`).
+    Part,
+}
+
+impl Target {
+    /// The name `millcomp identify` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Target::Spindle => "spindle",
+            Target::Stiffness => "stiffness",
+            Target::Force => "force",
+            Target::Thermal => "thermal",
+            Target::Wall => "wall",
+            Target::Part => "part",
+        }
+    }
 }
 
 impl FromStr for Target {
     type Err = IdentifyError;
-    /// Parses `spindle`, `stiffness`, `force`, `thermal` or `wall`.
+    /// Parses `spindle`, `stiffness`, `force`, `thermal`, `wall` or `part`.
     ///
     /// # Errors
     /// [`IdentifyError::UnknownTarget`] for any other name.
@@ -53,6 +71,7 @@ impl FromStr for Target {
             "force" => Target::Force,
             "thermal" => Target::Thermal,
             "wall" => Target::Wall,
+            "part" => Target::Part,
             _ => {
                 return Err(IdentifyError::UnknownTarget { name: s.into() });
             }
@@ -184,13 +203,7 @@ pub fn identify_columns(
     opts: &IdentifyOptions,
 ) -> Result<Identified> {
     let common = CommonOptions { nls: opts.nls };
-    let name = match target {
-        Target::Spindle => "spindle",
-        Target::Stiffness => "stiffness",
-        Target::Force => "force",
-        Target::Thermal => "thermal",
-        Target::Wall => "wall",
-    };
+    let name = target.name();
     let mut p = Picker {
         cols,
         used: BTreeSet::new(),
@@ -244,6 +257,52 @@ pub fn identify_columns(
             };
             identify_wall(&d, &o)?
         }
+        Target::Part => {
+            let part = p.req("part")?;
+            let parts = part
+                .iter()
+                .enumerate()
+                .map(|(row, v)| {
+                    if v.is_finite() && *v >= 0.0 && v.fract() == 0.0 {
+                        Ok(*v as usize)
+                    } else {
+                        Err(IdentifyError::InvalidParameter {
+                            name: format!("part[{row}]"),
+                            value: *v,
+                            allowed: "a part number (an integer ≥ 0)",
+                        })
+                    }
+                })
+                .collect::<Result<Vec<usize>>>()?;
+            let deflection_um = p.req("deflection_um")?;
+            let (what, regressor) = match (p.opt("planned_deflection_um"), p.opt("force_peak_n")) {
+                (Some(r), None) => (PartRegressor::PlannedDeflection, r),
+                (None, Some(r)) => (PartRegressor::MeasuredForce, r),
+                (Some(_), Some(_)) => {
+                    return Err(IdentifyError::MissingColumn {
+                        column: "planned_deflection_um or force_peak_n".into(),
+                        reason:
+                            "`identify part` fits one of them: give a file with one (ρ from the \
+                                 planned deflection, c from the measured force peak)"
+                                .into(),
+                    });
+                }
+                (None, None) => {
+                    return Err(IdentifyError::MissingColumn {
+                        column: "planned_deflection_um or force_peak_n".into(),
+                        reason: "required by `identify part`".into(),
+                    });
+                }
+            };
+            identify_part(
+                &PartData {
+                    part: &parts,
+                    deflection_um,
+                    regressor,
+                },
+                what,
+            )?
+        }
         Target::Force => {
             let depth = p.req("depth_um")?;
             let upfeed = p.req("upfeed_um")?;
@@ -288,7 +347,7 @@ pub fn identify_columns(
             identify_force(&data, &o)?
         }
     };
-    out.notes = p.notes();
+    out.notes.extend(p.notes());
     Ok(out)
 }
 

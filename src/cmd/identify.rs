@@ -17,12 +17,13 @@ pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
         IdentifyWhat::Force => Target::Force,
         IdentifyWhat::Thermal => Target::Thermal,
         IdentifyWhat::Wall => Target::Wall,
+        IdentifyWhat::Part => Target::Part,
     };
     let options = options(&args)?;
     let table = millcomp_datasets::read_any(&args.file)?;
     let cols = millcomp_datasets::adapters::identify_columns(&table);
     let fit = identify_columns(verb, &cols, &options)
-        .with_context(|| format!("{}: identify {}", args.file.display(), verb_name(verb)))?;
+        .with_context(|| format!("{}: identify {}", args.file.display(), verb.name()))?;
     if let Some(path) = &args.save {
         let inputs = vec![millcomp_models::InputFile::from_path(&args.file)?];
         millcomp_models::ModelFile::new(
@@ -54,16 +55,6 @@ pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
         println!("model: {}", path.display());
     }
     Ok(())
-}
-
-fn verb_name(v: Target) -> &'static str {
-    match v {
-        Target::Spindle => "spindle",
-        Target::Stiffness => "stiffness",
-        Target::Force => "force",
-        Target::Thermal => "thermal",
-        Target::Wall => "wall",
-    }
 }
 
 fn options(args: &IdentifyArgs) -> anyhow::Result<IdentifyOptions> {
