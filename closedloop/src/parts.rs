@@ -35,7 +35,6 @@ use millcomp_identify::{LinearMethod, fit_linear};
 use millcomp_models::StiffnessModel;
 use millcomp_mpc::groove::DeflectionPlan;
 use millcomp_mpc::identified::IdentifiedStiffness;
-use millcomp_sim::feed::FeedProfile;
 use millcomp_sim::groove::GrooveConfig;
 use millcomp_sim::sensors::{InstrumentErrors, NoiseSpec, PROFILOMETER_SIGMA_UM};
 use nalgebra::DMatrix;
@@ -247,26 +246,27 @@ struct Measured {
     saturated: usize,
 }
 
-/// The part-1 model the measurements are regressed on: its force predictor and z-compliance, with the
-/// program and its part-1 plan (the fit window).
+/// The part-1 model the measurements are regressed on: its set-up (force predictor, stiffness, tool),
+/// its plan and z-compliance, and the profile positions the fit uses ([`fit_window`], once).
 struct Model0<'a> {
     setup: &'a GrooveSetup,
     plan: &'a DeflectionPlan,
     compliance_um_per_n: f64,
-    feed: FeedProfile,
+    window: Vec<f64>,
 }
 
 impl Model0<'_> {
     /// The model's deflection at `x_mm` for a groove of depth `depth_um` there.
     fn deflection_at_depth(&self, x_mm: f64, depth_um: f64) -> Result<f64, ClosedLoopError> {
-        let p = &self.setup.truth.program;
-        let d = depth_um.clamp(0.0, self.setup.nominal_tool.radius_um);
-        let e = p.engagement(x_mm);
-        if d <= 0.0 || e <= 0.0 {
-            return Ok(0.0);
-        }
-        let cond = p.conditions_at(d, self.feed.upfeed_at_x(x_mm));
-        Ok((self.setup.model_force.peak_z_force_n(&cond)? * e * self.compliance_um_per_n).min(d))
+        let s = self.setup;
+        Ok(self.plan.deflection_at_depth(
+            &s.truth.program,
+            &s.model_force,
+            &s.model_stiffness,
+            s.nominal_tool.radius_um,
+            x_mm,
+            depth_um,
+        )?)
     }
 }
 
@@ -294,7 +294,6 @@ fn measure(
     );
     let program = &model0.setup.truth.program;
     let sin_a = program.tilt_deg.to_radians().sin();
-    let window = fit_window(model0.plan, program.length_mm, plan);
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0bf1_1e00);
     let noise = Normal::new(0.0, plan.profilometer_sigma_um).map_err(|e| {
         invalid(
@@ -313,7 +312,7 @@ fn measure(
     // reads its limit, bit for bit, where a live reading never repeats (its noise): such rows measure
     // nothing and are left out
     let repeated = repeated_readings(&gauge);
-    for xk in window {
+    for &xk in &model0.window {
         // the logged row nearest to xk (the feed moves forward: x is sorted)
         let i = x
             .partition_point(|v| *v < xk)
@@ -539,7 +538,7 @@ pub fn run_parts(
             .model_stiffness
             .stiffness()
             .z_compliance_um_per_n(base.truth.program.tilt_deg)?,
-        feed: base.truth.program.feed_profile()?,
+        window: fit_window(&plan0, base.truth.program.length_mm, plan),
     };
     let jobs: Vec<Option<ControllerKind>> = controllers
         .iter()
@@ -558,7 +557,7 @@ pub fn run_parts(
         rows.extend(r?);
     }
     // the true ρ of each part over the fitted window
-    let window = fit_window(&plan0, base.truth.program.length_mm, plan);
+    let window = &model0.window;
     let p0: Vec<f64> = window.iter().map(|x| plan0.deflection_at(*x)).collect();
     let mut true_scale = Vec::with_capacity(plan.parts);
     for part in 1..=plan.parts {

@@ -200,17 +200,15 @@ impl DeflectionPlan {
         let mut values = Vec::with_capacity(n);
         for i in 0..n {
             let x = (i as f64 * dx_mm).min(program.length_mm);
-            let d = program.depth_at(x).clamp(0.0, tool_radius_um);
-            let e = program.engagement(x);
-            let cond = program.conditions_at(d, feed.upfeed_at_x(x));
-            let f = if d > 0.0 && e > 0.0 {
-                force(&cond)? * e
-            } else {
-                0.0
-            };
-            // a tool cannot be pushed out of the cut by more than it is engaged: at the first few µm of
-            // a ramp the flank force alone would predict more deflection than depth
-            values.push((f * c).min(d));
+            values.push(point(
+                program,
+                &feed,
+                tool_radius_um,
+                c,
+                x,
+                program.depth_at(x),
+                &mut force,
+            )?);
         }
         Ok(Self {
             dx_mm,
@@ -218,6 +216,35 @@ impl DeflectionPlan {
             feed,
             extrapolated_points: 0,
         })
+    }
+
+    /// The plan's deflection (µm) at `x_mm` for a groove of depth `depth_um` there instead of the
+    /// programmed one — e.g. the depth a profilometer measured, which the force followed — with the
+    /// same force predictor, stiffness and tool as [`Self::new`].
+    ///
+    /// # Errors
+    /// A tilt the stiffness cannot take; a predictor error.
+    pub fn deflection_at_depth(
+        &self,
+        program: &GrooveProgram,
+        force: &ForcePredictor,
+        model_stiffness: &IdentifiedStiffness,
+        tool_radius_um: f64,
+        x_mm: f64,
+        depth_um: f64,
+    ) -> Result<f64, MpcError> {
+        let c = model_stiffness
+            .stiffness()
+            .z_compliance_um_per_n(program.tilt_deg)?;
+        point(
+            program,
+            &self.feed,
+            tool_radius_um,
+            c,
+            x_mm,
+            depth_um,
+            &mut |cond| force.peak_z_force_n(cond),
+        )
     }
 
     /// Number of tabulated points.
@@ -300,6 +327,29 @@ impl DeflectionPlan {
         let f = u - i as f64;
         self.values_um[i] * (1.0 - f) + self.values_um[i + 1] * f
     }
+}
+
+/// One planned deflection (µm): the peak z-force at depth `depth_um` (clamped to the ball) and the planned
+/// upfeed at `x_mm`, times the engagement there and the compliance `c`.
+fn point(
+    program: &GrooveProgram,
+    feed: &FeedProfile,
+    tool_radius_um: f64,
+    c: f64,
+    x_mm: f64,
+    depth_um: f64,
+    force: &mut impl FnMut(&CutConditions) -> Result<f64, MpcError>,
+) -> Result<f64, MpcError> {
+    let d = depth_um.clamp(0.0, tool_radius_um);
+    let e = program.engagement(x_mm);
+    let f = if d > 0.0 && e > 0.0 {
+        force(&program.conditions_at(d, feed.upfeed_at_x(x_mm)))? * e
+    } else {
+        0.0
+    };
+    // a tool cannot be pushed out of the cut by more than it is engaged: at the first few µm of a ramp
+    // the flank force alone would predict more deflection than depth
+    Ok((f * c).min(d))
 }
 
 /// A groove controller stepped at the stage rate.
