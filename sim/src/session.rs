@@ -225,11 +225,131 @@ pub struct Session {
     /// Stiffness.
     #[serde(default)]
     pub stiffness: StiffnessSpec,
+    /// How far the nominal model may be off (1σ), and the measuring instrument: the priors of
+    /// `diagnose`'s nuisance step. Not used by the simulation; omitted from a written file when it
+    /// holds the defaults.
+    #[serde(default, skip_serializing_if = "UncertaintySpec::is_default")]
+    pub uncertainty: UncertaintySpec,
     /// Effects present in the simulated truth.
     #[serde(default)]
     pub effects: Vec<EffectSpec>,
     /// Plan of grooves and pauses, in time order.
     pub plan: Vec<PlanItem>,
+}
+
+/// `[uncertainty]` table: the stated uncertainty (one standard deviation) of the session's nominal
+/// model and of the depth measurement — what a user knows about how far the force model,
+/// stiffness, wearland and tool-length reference (touch-off) may be off (`sim/SESSION.md`). Each
+/// default reads a range of the seeds as a uniform distribution (SD = half-range/√3).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UncertaintySpec {
+    /// Force scale (%), default 3: ±5 % (000 §6.1: 17 µm deflection predicted, 16 µm measured).
+    #[serde(default = "d_force_scale_pct")]
+    pub force_scale_pct: f64,
+    /// Axial (spindle) stiffness (%), default 6: ±10 %.
+    #[serde(default = "d_stiffness_pct")]
+    pub axial_stiffness_pct: f64,
+    /// Radial (tool) stiffness (%), default 6: ±10 % (000 Tab. 5-1: 0.141 modelled, 0.114 measured).
+    #[serde(default = "d_stiffness_pct")]
+    pub radial_stiffness_pct: f64,
+    /// Wearland (µm), default 1.2: ±2 µm (a wearland read as 7 instead of 8 µm).
+    #[serde(default = "d_wearland_sd")]
+    pub wearland_um: f64,
+    /// Tool-length reference, touch-off (µm), default 1: 002 §4, positioning repeatability "in
+    /// the order of 1 µm". `inf` leaves the offset free.
+    #[serde(default = "d_touch_off_sd")]
+    pub touch_off_um: f64,
+    /// Depth measurement noise (µm), default 0.1 (002 §7.9 profilometer).
+    #[serde(default = "d_measurement_sd")]
+    pub measurement_sd_um: f64,
+    /// Groove-to-groove scatter (µm), default 0.5 (002 §7.9: 60 grooves of 50 µm measured
+    /// 52.7 ± 1 µm). Used where the data cannot estimate it (few grooves, the plan's analysis).
+    #[serde(default = "d_groove_scatter")]
+    pub groove_scatter_um: f64,
+    /// Smallest depth change the measurement resolves (µm), default 0.15 (002 §7.9: profilometer
+    /// repeatability ±2σ < 0.15 µm).
+    #[serde(default = "d_resolution")]
+    pub resolution_um: f64,
+}
+fn d_force_scale_pct() -> f64 {
+    3.0
+}
+fn d_stiffness_pct() -> f64 {
+    6.0
+}
+fn d_wearland_sd() -> f64 {
+    1.2
+}
+fn d_touch_off_sd() -> f64 {
+    1.0
+}
+fn d_measurement_sd() -> f64 {
+    0.1
+}
+fn d_groove_scatter() -> f64 {
+    0.5
+}
+fn d_resolution() -> f64 {
+    0.15
+}
+
+impl Default for UncertaintySpec {
+    fn default() -> Self {
+        Self {
+            force_scale_pct: d_force_scale_pct(),
+            axial_stiffness_pct: d_stiffness_pct(),
+            radial_stiffness_pct: d_stiffness_pct(),
+            wearland_um: d_wearland_sd(),
+            touch_off_um: d_touch_off_sd(),
+            measurement_sd_um: d_measurement_sd(),
+            groove_scatter_um: d_groove_scatter(),
+            resolution_um: d_resolution(),
+        }
+    }
+}
+
+impl UncertaintySpec {
+    /// Whether every value is the default (the table is then not written).
+    pub fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
+
+    /// Checks every value: a standard deviation ≥ 0 (`inf` allowed for the priors, a free
+    /// parameter), the measurement's noise and resolution finite and > 0.
+    ///
+    /// # Errors
+    /// [`SimError::Session`] naming the key `uncertainty.<field>`.
+    pub fn validate(&self) -> Result<(), SimError> {
+        for (k, v) in [
+            ("force_scale_pct", self.force_scale_pct),
+            ("axial_stiffness_pct", self.axial_stiffness_pct),
+            ("radial_stiffness_pct", self.radial_stiffness_pct),
+            ("wearland_um", self.wearland_um),
+            ("touch_off_um", self.touch_off_um),
+            ("groove_scatter_um", self.groove_scatter_um),
+        ] {
+            if v.is_nan() || v < 0.0 {
+                return Err(sess_err(
+                    format!("uncertainty.{k}"),
+                    format!("= {v} out of range: allowed >= 0 (inf: free)"),
+                ));
+            }
+        }
+        for (k, v) in [
+            ("measurement_sd_um", self.measurement_sd_um),
+            ("resolution_um", self.resolution_um),
+        ] {
+            in_range(format!("uncertainty.{k}"), v, 1e-9, 1e6, "0 < value <= 1e6")?;
+        }
+        if self.groove_scatter_um.is_infinite() {
+            return Err(sess_err(
+                "uncertainty.groove_scatter_um",
+                "= inf out of range: allowed a finite value >= 0",
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// Options of [`simulate_session`].
@@ -541,7 +661,8 @@ impl Session {
     /// Validate everything; errors name the key (`plan[2].tilt_deg`, …).
     ///
     /// # Errors
-    /// [`SimError::Session`]: as [`Self::force_model`], [`Self::stiffness`] and [`Self::effects`];
+    /// [`SimError::Session`]: as [`Self::force_model`], [`Self::stiffness`], [`Self::effects`] and
+    /// [`UncertaintySpec::validate`];
     /// `plan` when the plan is empty; `plan[i].<field>` for a groove or pause value out of range
     /// (`start_s`, `speed_rpm`, `tilt_deg`, `length_mm`, `measure_every_mm`, `x_offset_mm`,
     /// `upfeed_um` / `feed_mm_min` — exactly one of them —, `duration_s`, `depth.<field>` deeper
@@ -550,6 +671,7 @@ impl Session {
         let fm = self.force_model()?;
         self.stiffness()?;
         self.effects()?;
+        self.uncertainty.validate()?;
         if self.plan.is_empty() {
             return Err(sess_err("plan", "the plan has no items"));
         }
@@ -691,6 +813,39 @@ impl PeakTable {
         let w = x - i as f64;
         self.f[i] * (1.0 - w) + self.f[i + 1] * w
     }
+}
+
+/// The static deflection δ solving `δ = c·F(d_cmd − δ)` (F the peak z-force table, c the
+/// z-compliance): the fixed-point iteration, and — where it does not settle, which happens at
+/// shallow depths where F jumps from 0 at first contact and the iteration oscillates between 0 and
+/// c·F(d_cmd) — bisection on `g(δ) = δ − c·F(d_cmd − δ)`, which increases strictly in δ (F does not
+/// decrease with depth), so its root in `[0, c·F(d_cmd)]` is unique.
+fn static_deflection(table: &PeakTable, d_cmd: f64, compliance: f64) -> f64 {
+    let mut delta = 0.0;
+    for _ in 0..200 {
+        let next = table.at(d_cmd - delta) * compliance;
+        if (next - delta).abs() < 1e-10 {
+            return next;
+        }
+        delta = next;
+    }
+    let g = |d: f64| d - table.at(d_cmd - d) * compliance;
+    let (mut lo, mut hi) = (0.0, (table.at(d_cmd) * compliance).max(0.0));
+    if g(lo) >= 0.0 {
+        return lo;
+    }
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if g(mid) < 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+        if hi - lo < 1e-10 {
+            break;
+        }
+    }
+    0.5 * (lo + hi)
 }
 
 /// The session's time line, replayed once from the plan (`sim/SESSION.md` "Semantics"): when each
@@ -893,15 +1048,7 @@ impl Session {
                 x_prev = x;
                 let tp = t0 + x / v_mm_s;
                 let d_cmd = g.depth.depth_at(x, g.length_mm);
-                let mut delta = 0.0;
-                for _ in 0..200 {
-                    let next = table.at(d_cmd - delta) * compliance;
-                    if (next - delta).abs() < 1e-10 {
-                        delta = next;
-                        break;
-                    }
-                    delta = next;
-                }
+                let delta = static_deflection(&table, d_cmd, compliance);
                 let d_act = (d_cmd - delta).max(0.0);
                 let phi = model.contact_angle_rad(d_act);
                 let n_coolant_events = timeline.coolant_events.partition_point(|e| e.0 <= tp);

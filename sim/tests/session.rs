@@ -216,3 +216,92 @@ fn errors_name_the_key() {
             if path == "/nonexistent/x.toml" && source.kind() == std::io::ErrorKind::NotFound
     ));
 }
+
+/// The static deflection solves `δ = c·F(d_cmd − δ)` at every point — also at the shallow start
+/// of a 30° ramp, where the peak force jumps from 0 at first contact and the plain fixed-point
+/// iteration oscillated between 0 and c·F(d_cmd) (it returned δ = 0 at 4 µm programmed depth).
+#[test]
+fn static_deflection_solves_its_fixed_point_at_shallow_depths() {
+    let s = Session::from_toml_str(
+        r#"
+[tool]
+runout_um = 2.0
+[material]
+name = "S7"
+[force_model]
+force_scale = 3.7396
+[[plan]]
+kind = "groove"
+speed_rpm = 36000.0
+upfeed_um = 10.0
+tilt_deg = 30.0
+length_mm = 20.0
+measure_every_mm = 1.0
+depth = { kind = "ramp", from_um = 0.0, to_um = 80.0 }
+"#,
+    )
+    .unwrap();
+    let model = s.force_model().unwrap();
+    let c = s.stiffness().unwrap().z_compliance_um_per_n(30.0).unwrap();
+    let ctx = s.contexts().unwrap();
+    for p in &ctx.points {
+        let delta = p.depth_cmd_um - p.depth_nominal_um;
+        let f = model
+            .peak_z_force_n(&millcomp_sim::force::CutConditions {
+                depth_um: (p.depth_cmd_um - delta).max(0.0),
+                upfeed_um: 10.0,
+                speed_rpm: 36_000.0,
+                tilt_deg: 30.0,
+            })
+            .unwrap();
+        // 0.05 µm: sim's peak-force table interpolates linearly on a 0.25 µm grid
+        assert!(
+            (delta - c * f).abs() < 0.05,
+            "x = {} mm: δ = {delta} µm but c·F = {} µm",
+            p.x_mm,
+            c * f
+        );
+    }
+    // the 4 µm point deflects (it did not before the fix)
+    assert!(ctx.points[1].depth_cmd_um - ctx.points[1].depth_nominal_um > 1.0);
+}
+
+/// The `[uncertainty]` table: defaults when absent (not written back), checked values, `inf`
+/// for a free parameter.
+#[test]
+fn uncertainty_table_defaults_and_checks() {
+    let base = r#"
+[tool]
+[material]
+name = "S7"
+[[plan]]
+kind = "groove"
+speed_rpm = 10000.0
+upfeed_um = 10.0
+tilt_deg = 20.0
+length_mm = 2.0
+measure_every_mm = 1.0
+depth = { kind = "constant", depth_um = 40.0 }
+"#;
+    let s = Session::from_toml_str(base).unwrap();
+    assert!(s.uncertainty.is_default());
+    assert_eq!(s.uncertainty.touch_off_um, 1.0);
+    assert!(!toml::to_string(&s).unwrap().contains("uncertainty"));
+    let with = base.replace(
+        "[material]",
+        "[uncertainty]\ntouch_off_um = inf\nforce_scale_pct = 5.0\n[material]",
+    );
+    let s = Session::from_toml_str(&with).unwrap();
+    assert!(s.uncertainty.touch_off_um.is_infinite());
+    assert_eq!(s.uncertainty.force_scale_pct, 5.0);
+    assert_eq!(s.uncertainty.radial_stiffness_pct, 6.0);
+    let bad = base.replace(
+        "[material]",
+        "[uncertainty]\nwearland_um = -1.0\n[material]",
+    );
+    let e = Session::from_toml_str(&bad).unwrap_err();
+    assert!(
+        matches!(&e, SimError::Session { key, .. } if key == "uncertainty.wearland_um"),
+        "{e}"
+    );
+}

@@ -33,6 +33,7 @@
 
 use std::collections::BTreeMap;
 
+
 use millcomp_datasets::DatasetError;
 use millcomp_datasets::contracts::{force_trace_table, measured_groove_table};
 use millcomp_sim::SimError;
@@ -42,7 +43,8 @@ use millcomp_sim::groove::DepthProfile;
 use millcomp_sim::sensors::NoiseSpec;
 use millcomp_sim::session::{
     EffectSpec, FluteForcePoint, ForceModelSpec, GroovePoint, GrooveSpec, MaterialSpec, PauseSpec,
-    PlanItem, Session, SessionContexts, SimOptions, StiffnessSpec, ToolSpec, simulate_session,
+    PlanItem, Session, SessionContexts, SimOptions, StiffnessSpec, ToolSpec, UncertaintySpec,
+    simulate_session,
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -314,6 +316,7 @@ pub fn base_session(name: &str, description: &str) -> Session {
             ..ForceModelSpec::default()
         },
         stiffness: StiffnessSpec::default(),
+        uncertainty: UncertaintySpec::default(),
         effects: Vec::new(),
         plan: items,
     }
