@@ -33,6 +33,8 @@
 
 use std::collections::BTreeMap;
 
+pub mod variants;
+
 
 use millcomp_datasets::DatasetError;
 use millcomp_datasets::contracts::{force_trace_table, measured_groove_table};

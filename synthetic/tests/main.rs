@@ -41,3 +41,116 @@ fn committed_files_are_up_to_date() {
     let readme = std::fs::read_to_string(dir.join("README.md")).unwrap();
     assert_eq!(readme, millcomp_synthetic::readme(&cases));
 }
+
+mod variants {
+    //! The variant generator of the study (`synthetic/VARIANTS.md`): seeded, stratified, and each
+    //! shape scaled to its stated magnitude.
+
+    use millcomp_synthetic::variants::{
+        DEV_SEED_BASE, EFFECTS, Row, VariantSpec, draw, reference_magnitude, row_specs,
+        study_session,
+    };
+
+    #[test]
+    fn rows_are_stratified_and_seeded() {
+        let single = row_specs(Row::Single, 14, Row::Single.study_seed_base());
+        assert_eq!(single[9].effects, vec![EFFECTS[2]]);
+        assert_eq!(single[9].seed, 1_000_009);
+        let two = row_specs(Row::Two, 21, 0);
+        let mut pairs: Vec<_> = two.iter().map(|s| s.effects.clone()).collect();
+        pairs.dedup();
+        assert_eq!(pairs.len(), 21);
+        assert!(two.iter().all(|s| s.effects[0] != s.effects[1]));
+        let s = study_session();
+        let spec = VariantSpec {
+            row: Row::Two,
+            effects: vec!["tool_wear", "coolant_thermal_drift"],
+            seed: DEV_SEED_BASE + 1,
+        };
+        let a = draw(&s, &spec).unwrap();
+        assert_eq!(a.points, draw(&s, &spec).unwrap().points);
+        let b = draw(
+            &s,
+            &VariantSpec {
+                seed: DEV_SEED_BASE + 2,
+                ..spec.clone()
+            },
+        )
+        .unwrap();
+        assert_ne!(a.points, b.points);
+        assert_eq!(a.groove_offsets_um.len(), 14);
+    }
+
+    /// Every non-candidate shape, over many seeds: amplitude factor in [0.5, 2], and the stated
+    /// magnitude where VARIANTS.md states one (wear at the end of the session, straightness's
+    /// largest deviation and zero at the start of the X range, coolant at 45 min).
+    #[test]
+    fn shapes_have_their_stated_magnitudes() {
+        let s = study_session();
+        let ctx = s.contexts().unwrap();
+        let end = ctx
+            .points
+            .iter()
+            .map(|p| p.cut_length_mm)
+            .fold(0.0, f64::max);
+        let mut shapes = std::collections::BTreeSet::new();
+        for k in 0..63u64 {
+            let e = EFFECTS[(k % 7) as usize];
+            let v = draw(
+                &s,
+                &VariantSpec {
+                    row: Row::Single,
+                    effects: vec![e],
+                    seed: DEV_SEED_BASE + 1000 + k,
+                },
+            )
+            .unwrap();
+            let h = &v.hidden[0];
+            shapes.insert((h.effect, h.shape));
+            assert!((0.5..=2.0).contains(&h.amplitude_factor));
+            let m = reference_magnitude(e) * h.amplitude_factor;
+            let o = &v.hidden_offsets_um[0];
+            match e {
+                "tool_wear" => {
+                    // the last point is at the session's final engaged length
+                    let last = ctx
+                        .points
+                        .iter()
+                        .position(|p| p.cut_length_mm == end)
+                        .unwrap();
+                    assert!((o[last] + m).abs() < 1e-9 * m, "{} {}", h.shape, o[last]);
+                }
+                "slideway_straightness" => {
+                    let peak = o.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+                    assert!((peak - m).abs() < 1e-9 * m, "{}", h.shape);
+                    // zero at the start of the X range (groove 0 starts at X = 0)
+                    assert!(o[0].abs() < 1e-12, "{} {}", h.shape, o[0]);
+                }
+                "probe_tilt_offset" => {
+                    assert!(o.iter().all(|v| (v - m).abs() < 1e-9 * m));
+                }
+                _ => {}
+            }
+            // never one of diagnose's family shapes (probe tilt's constant is the documented
+            // exception)
+            if e != "probe_tilt_offset" {
+                assert!(
+                    ![
+                        "one_lag",
+                        "two_lag",
+                        "onset_one_lag",
+                        "saturating",
+                        "power_law",
+                        "bow",
+                        "runout"
+                    ]
+                    .contains(&h.shape),
+                    "{}",
+                    h.shape
+                );
+            }
+        }
+        // three shapes per effect (one for the constant)
+        assert_eq!(shapes.len(), 6 * 3 + 1, "{shapes:?}");
+    }
+}
