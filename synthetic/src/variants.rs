@@ -1256,3 +1256,66 @@ pub fn normal_draws(seed: u64, n: usize, sigma: f64) -> Result<Vec<f64>> {
     let d = Normal::new(0.0, sigma).map_err(|source| SyntheticError::Noise { sigma, source })?;
     Ok((0..n).map(|_| d.sample(&mut rng)).collect())
 }
+
+/// A committed variant of `datasets/synthetic/` (`real_*` files): a name, what it shows, and the
+/// variant it is (development seeds, never the study's).
+#[derive(Debug, Clone)]
+pub struct CommittedVariant {
+    /// File stem.
+    pub name: &'static str,
+    /// One line for the README.
+    pub description: &'static str,
+    /// What to draw.
+    pub spec: VariantSpec,
+}
+
+/// The committed variants (data as a user has them: the nominal model off, groove scatter, a
+/// shape other than the candidates').
+pub fn committed_variants() -> Vec<CommittedVariant> {
+    vec![
+        CommittedVariant {
+            name: "real_none",
+            description: "nothing hidden: only the nominal model's errors, touch-off, groove scatter and noise",
+            spec: VariantSpec {
+                row: Row::None,
+                effects: vec![],
+                seed: DEV_SEED_BASE + 16,
+            },
+        },
+        CommittedVariant {
+            name: "real_tool_wear",
+            description: "tool wear with running-in then linear wear (not a family shape)",
+            spec: VariantSpec {
+                row: Row::Single,
+                effects: vec!["tool_wear"],
+                seed: DEV_SEED_BASE + 4,
+            },
+        },
+        CommittedVariant {
+            name: "real_coolant_thermal_drift+tool_wear",
+            description: "two effects of non-candidate shapes",
+            spec: VariantSpec {
+                row: Row::Two,
+                effects: vec!["coolant_thermal_drift", "tool_wear"],
+                seed: DEV_SEED_BASE + 15,
+            },
+        },
+        CommittedVariant {
+            name: "real_machine_compliance",
+            description: "machine compliance: aliased with the stiffness nuisance by any groove plan",
+            spec: VariantSpec {
+                row: Row::Single,
+                effects: vec!["machine_compliance"],
+                seed: DEV_SEED_BASE + 5,
+            },
+        },
+    ]
+}
+
+/// A one-line description of a hidden truth for the README (shape and parameters).
+pub fn describe(h: &HiddenTruth) -> String {
+    format!(
+        "`{}` as `{}` at {:.2}× the 002 magnitude ({:?})",
+        h.effect, h.shape, h.amplitude_factor, h.truth
+    )
+}

@@ -38,8 +38,31 @@ fn committed_files_are_up_to_date() {
             );
         }
     }
+    let mut drawn = Vec::new();
+    for v in millcomp_synthetic::variants::committed_variants() {
+        let (data, variant) = millcomp_synthetic::committed_variant_data(&v).unwrap();
+        for (name, text) in data.files().unwrap() {
+            let committed = std::fs::read_to_string(dir.join(&name)).unwrap();
+            assert!(
+                committed == text,
+                "{name} differs from the generator: rerun gen_synthetic"
+            );
+        }
+        drawn.push((v, variant));
+    }
+    for (name, text) in millcomp_synthetic::cannot_separate_case()
+        .unwrap()
+        .files()
+        .unwrap()
+    {
+        let committed = std::fs::read_to_string(dir.join(&name)).unwrap();
+        assert!(
+            committed == text,
+            "{name} differs from the generator: rerun gen_synthetic"
+        );
+    }
     let readme = std::fs::read_to_string(dir.join("README.md")).unwrap();
-    assert_eq!(readme, millcomp_synthetic::readme(&cases));
+    assert_eq!(readme, millcomp_synthetic::readme(&cases, &drawn));
 }
 
 mod variants {

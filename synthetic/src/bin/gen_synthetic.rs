@@ -24,9 +24,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         println!("{:<45} {} rows", case.name, data.points.len());
     }
+    let mut drawn = Vec::new();
+    for v in millcomp_synthetic::variants::committed_variants() {
+        let (data, variant) = millcomp_synthetic::committed_variant_data(&v)?;
+        for (name, text) in data.files()? {
+            millcomp_datasets::write_text_atomic(&out.join(name), &text)?;
+        }
+        println!("{:<45} {} rows", v.name, data.points.len());
+        drawn.push((v, variant));
+    }
+    let bad = millcomp_synthetic::cannot_separate_case()?;
+    for (name, text) in bad.files()? {
+        millcomp_datasets::write_text_atomic(&out.join(name), &text)?;
+    }
+    println!("{:<45} {} rows", bad.name, bad.points.len());
     millcomp_datasets::write_text_atomic(
         &out.join("README.md"),
-        &millcomp_synthetic::readme(&cases),
+        &millcomp_synthetic::readme(&cases, &drawn),
     )?;
     println!("wrote {} cases to {}", cases.len(), out.display());
     Ok(())
