@@ -65,14 +65,6 @@ pub enum DiagnoseError {
         /// Registered names.
         allowed: String,
     },
-    /// A registered candidate frees a parameter its effect does not have.
-    #[error("candidate `{effect}`: {message}")]
-    BadCandidate {
-        /// The candidate effect.
-        effect: String,
-        /// Which parameter is unknown.
-        message: String,
-    },
     /// An option outside its allowed range.
     #[error("{name} = {value} is out of range: allowed {allowed}")]
     InvalidOption {
@@ -83,11 +75,11 @@ pub enum DiagnoseError {
         /// Human-readable allowed range.
         allowed: &'static str,
     },
-    /// The free nominal offset (`DiagnoseOptions::free_offset`) could not be fitted.
-    #[error("the free nominal offset could not be fitted to {n_points} measured points")]
-    NominalOffset {
-        /// Measured points.
-        n_points: usize,
+    /// A model could not be fitted at all (the identify engine failed from every start).
+    #[error("{what} could not be fitted")]
+    Fit {
+        /// What was being fitted.
+        what: String,
         /// The identify engine's error.
         #[source]
         source: IdentifyError,

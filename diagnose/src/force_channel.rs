@@ -25,7 +25,7 @@ use crate::error::{DiagnoseError, Result};
 use crate::measured::ForceTrace;
 use crate::nested::{Decision, nested_test};
 use crate::nominal::SessionModel;
-use crate::{fit, thresholds};
+use crate::{model, thresholds};
 
 /// Samples per revolution for the per-flute peaks (as sim's `peak_z_force_n`).
 pub const SAMPLES_PER_REV: usize = millcomp_sim::force::PEAK_SAMPLES_PER_REV;
@@ -232,7 +232,7 @@ pub fn diagnose_forces(
         match fit_nonlinear(
             am.clone(),
             &spec,
-            &fit::nls_options(),
+            &model::nls_options(),
             "diagnose_force",
             "n",
         ) {

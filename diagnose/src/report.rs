@@ -1,48 +1,92 @@
 //! What a diagnosis returns: the report data (serialisable; the CLI turns it into text and plots).
+//! The DESIGN.md `--json` contract keys come first (`initial_rms_um`, `final_rms_um`, `steps` with
+//! `effect`, `p_value`, `rms_before_um`, `rms_after_um`, `params`, and `named`); everything else is
+//! added to it.
 
 use std::collections::BTreeMap;
 
 use serde::Serialize;
 
+pub use crate::aliasing::{AliasPair, FamilyPlan, Proposal};
 use crate::force_channel::ForceChannelReport;
-use crate::nested::Decision;
+use crate::nested::StrataTest;
+pub use crate::nuisance::NuisanceEstimate;
 use crate::structure::StructureItem;
+
+/// Leave-one-groove-out scores (whitened squared prediction errors, summed over grooves) of the
+/// model without and with a candidate.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Logo {
+    /// Without the candidate.
+    pub before: f64,
+    /// With it.
+    pub after: f64,
+}
 
 /// One accepted step of the forward selection (the DESIGN.md contract keys first).
 #[derive(Debug, Clone, Serialize)]
 pub struct Step {
-    /// Effect added.
+    /// Effect added (its family).
     pub effect: String,
-    /// p-value of its nested F-test.
+    /// p-value of its GLS test beyond the nuisance model.
     pub p_value: f64,
-    /// RMS residual before the step (µm).
+    /// RMS residual before the step (µm; the first step's is after the nuisance step).
     pub rms_before_um: f64,
     /// RMS residual after the step (µm).
     pub rms_after_um: f64,
-    /// Its fitted free parameters (names as in sim's `Effect::params`).
+    /// Its fitted parameters (the shape's, names with unit).
     pub params: BTreeMap<String, f64>,
-    /// 95 % intervals of `params` (Student t, linearised; identify's `FitReport`).
+    /// The family (= `effect`).
+    pub family: String,
+    /// The shape chosen within the family.
+    pub shape: String,
+    /// What drives the family.
+    pub driver: String,
+    /// 95 % intervals of `params` (t with Satterthwaite dof per parameter).
     pub ci95: BTreeMap<String, [f64; 2]>,
     /// Standard errors of `params`.
     pub std_err: BTreeMap<String, f64>,
-    /// The effect's parameters held fixed.
-    pub fixed: BTreeMap<String, f64>,
-    /// F statistic.
-    pub f_statistic: f64,
-    /// Numerator dof.
-    pub df1: usize,
-    /// Denominator dof.
-    pub df2: usize,
-    /// α / candidates tried in this round.
+    /// The test.
+    pub test: StrataTest,
+    /// α / shapes tried in this round.
     pub threshold: f64,
-    /// Candidates tried in this round.
+    /// Shapes tried in this round.
     pub candidates_tried: usize,
-    /// BIC before.
-    pub bic_before: f64,
-    /// BIC after.
-    pub bic_after: f64,
-    /// Warnings of the joint fit (identifiability, bounds, residual diagnostics).
-    pub warnings: Vec<String>,
+    /// Leave-one-groove-out scores.
+    pub logo: Logo,
+    /// Largest depth change the effect makes at a measured point (range including 0, µm).
+    pub amplitude_um: f64,
+    /// More than half of the evidence comes from the nuisance's prior: the effect is aliased with
+    /// the nominal model's uncertainty and named because it lies beyond it.
+    pub beyond_prior: bool,
+    /// Still in the final model (false when a later step made it unnecessary and it was removed;
+    /// the notes say why).
+    pub kept: bool,
+}
+
+/// One family tried in a round.
+#[derive(Debug, Clone, Serialize)]
+pub struct Tested {
+    /// Effect (family).
+    pub effect: String,
+    /// The shape whose fit was tested (the family's best by GLS-BIC).
+    pub shape: String,
+    /// Every shape's linearised GLS-BIC, `(shape, value)`.
+    pub shapes: Vec<(String, f64)>,
+    /// The test.
+    pub test: StrataTest,
+    /// Whitened RSS of the model with it.
+    pub rss_after: f64,
+    /// RMS residual with it (µm).
+    pub rms_after_um: f64,
+    /// p < α/m.
+    pub significant: bool,
+    /// Leave-one-groove-out scores, for significant ones.
+    pub logo: Option<Logo>,
+    /// Amplitude (µm).
+    pub amplitude_um: f64,
+    /// Why it was or was not added.
+    pub decision: String,
 }
 
 /// A candidate that was not tested, and why.
@@ -54,13 +98,13 @@ pub struct Skipped {
     pub note: String,
 }
 
-/// One round of the forward selection: every candidate tried.
+/// One round of the forward selection: every family tried.
 #[derive(Debug, Clone, Serialize)]
 pub struct Round {
-    /// α / m.
+    /// α / m (m = shapes tried).
     pub threshold: f64,
-    /// Tests, in candidate order.
-    pub tested: Vec<Decision>,
+    /// Families, in candidate order.
+    pub tested: Vec<Tested>,
     /// The effect added in this round, if any.
     pub added: Option<String>,
 }
@@ -75,6 +119,54 @@ pub struct StructureReport {
     pub final_: Vec<StructureItem>,
 }
 
+/// The nuisance step: the nominal model's uncertain parameters refitted within their priors.
+#[derive(Debug, Clone, Serialize)]
+pub struct NuisanceStep {
+    /// Every nuisance parameter (held ones with SD 0).
+    pub params: Vec<NuisanceEstimate>,
+    /// RMS of measured − nominal (µm).
+    pub rms_before_um: f64,
+    /// RMS after the recalibration (µm).
+    pub rms_after_um: f64,
+}
+
+/// Groove-to-groove scatter as estimated (random per-groove offset).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ScatterReport {
+    /// σ_g (µm), pooled with the stated value.
+    pub groove_sd_um: f64,
+    /// σ_e (µm).
+    pub measurement_sd_um: f64,
+    /// Residual dof within grooves.
+    pub df_within: f64,
+    /// Residual dof between grooves.
+    pub df_between: f64,
+}
+
+/// A residual correlation the final model leaves unexplained.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Unexplained {
+    /// Session variable.
+    pub variable: String,
+    /// Partial correlation of the whitened residual with it (model columns projected out).
+    pub correlation: f64,
+    /// p-value of the GLS test of a linear term in it.
+    pub p_value: f64,
+    /// Where its information lies: `within` or `between` grooves.
+    pub stratum: String,
+}
+
+/// A candidate the plan cannot separate from the nominal model's uncertainty, not named.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WithinNominal {
+    /// Effect.
+    pub effect: String,
+    /// The nuisance parameters it is aliased with.
+    pub nuisance: Vec<String>,
+    /// What the nuisance step found there.
+    pub note: String,
+}
+
 /// Series kept for the plots of the report (not serialised).
 #[derive(Debug, Clone, Default)]
 pub struct Series {
@@ -82,12 +174,11 @@ pub struct Series {
     pub groove_id: Vec<i64>,
     /// Measured depth (µm).
     pub measured_um: Vec<f64>,
-    /// Prediction of the nominal model, then after each step (µm).
+    /// Prediction of the nominal model, after the nuisance step, then after each step (µm).
     pub predictions_um: Vec<Vec<f64>>,
 }
 
-/// What `diagnose` found. Serialises to the DESIGN.md contract (`initial_rms_um`, `final_rms_um`,
-/// `steps[{effect, p_value, rms_before_um, rms_after_um, params}]`, `named`) plus extra keys.
+/// What `diagnose` found (module documentation for the keys).
 #[derive(Debug, Clone, Serialize)]
 pub struct DiagnoseReport {
     /// RMS of measured − nominal (µm).
@@ -98,6 +189,9 @@ pub struct DiagnoseReport {
     pub steps: Vec<Step>,
     /// Effects named, in the order added (force channel after depth channel); `["none"]` if none.
     pub named: Vec<String>,
+    /// `named`, `none`, or `plan_cannot_separate` (no candidate is separable from the nominal
+    /// model's uncertainty by this plan: nothing is named, the report says why and what to change).
+    pub verdict: String,
     /// Session name.
     pub session: String,
     /// Measured points.
@@ -106,16 +200,32 @@ pub struct DiagnoseReport {
     pub alpha: f64,
     /// Multiple-testing correction used.
     pub correction: String,
-    /// Free parameters of the nominal model (empty by default).
+    /// The nuisance step.
+    pub nuisance: NuisanceStep,
+    /// RMS after the nuisance step (µm): the reference of the effects' shrink.
+    pub nuisance_rms_um: f64,
+    /// The nominal model's parameters as recalibrated (estimates by name).
     pub nominal_free_params: BTreeMap<String, f64>,
+    /// Groove-to-groove scatter.
+    pub scatter: ScatterReport,
     /// Final joint estimates per effect.
     pub final_params: BTreeMap<String, BTreeMap<String, f64>>,
     /// Final joint 95 % intervals per effect.
     pub final_ci95: BTreeMap<String, BTreeMap<String, [f64; 2]>>,
-    /// Every round, with every candidate's test.
+    /// Family and shape of each named effect.
+    pub shapes: BTreeMap<String, String>,
+    /// Every round, with every family's test.
     pub rounds: Vec<Round>,
     /// Candidates not tested, with notes.
     pub skipped: Vec<Skipped>,
+    /// Residual correlations the final model leaves unexplained.
+    pub unexplained: Vec<Unexplained>,
+    /// Candidates within the nominal model's uncertainty (aliased with the nuisance, not named).
+    pub within_nominal_uncertainty: Vec<WithinNominal>,
+    /// What the plan cannot separate, with the proposed session change.
+    pub aliasing: Vec<AliasPair>,
+    /// The plan analysis per family.
+    pub plan: Vec<FamilyPlan>,
     /// Residual structure before/after.
     pub residual_structure: StructureReport,
     /// Force channel (when a force trace was given).

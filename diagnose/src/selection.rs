@@ -1,32 +1,43 @@
-//! Forward selection of candidate effects (the algorithm of the crate documentation): the
-//! [`Diagnoser`] fits every candidate jointly with the effects already added, tests it with the
-//! nested F-test ([`crate::nested`]) and adds the most significant one while Bonferroni, BIC and
-//! identifiability agree.
+//! The diagnosis (the algorithm of the crate documentation): the nuisance step, then forward
+//! selection of candidate families, each added only when significant beyond the nuisance model,
+//! better at predicting held-out grooves and larger than the measurement resolves.
 
 use std::collections::BTreeMap;
 
-use millcomp_identify::{FitReport, IdentifyError};
+use nalgebra::{DMatrix, DVector};
+
 use millcomp_sim::session::Session;
 
-use crate::candidates::{CandidateSpec, FreeParam, Registry};
+use crate::aliasing::{self, PlanAnalysis};
 use crate::error::{DiagnoseError, Result};
-use crate::fit::{Term, TermsFit, fit_terms};
+use crate::families::{self, Family, Shape};
+use crate::logo;
 use crate::measured::Measured;
-use crate::nested::{Decision, nested_test};
+use crate::model::{
+    Fitted, NuisanceSet, Problem, Term, evaluate, fit, orthonormal_basis, project_out,
+    strata_of_columns, strata_of_residual,
+};
+use crate::nested::{StrataTest, StrataVariance, strata_test, t975};
 use crate::nominal::SessionModel;
-use crate::report::{DiagnoseReport, Round, Series, Skipped, Step, StructureReport};
+use crate::nuisance::{self, NuisanceEstimate, NuisanceModel};
+use crate::report::{
+    DiagnoseReport, Logo, NuisanceStep, Round, ScatterReport, Series, Skipped, Step,
+    StructureReport, Tested, Unexplained, WithinNominal,
+};
+use crate::scatter::{self, Components, PRIOR_SCATTER_DOF, Whitening};
 use crate::{force_channel, structure, thresholds};
 
 /// Options of [`diagnose`](crate::diagnose).
 #[derive(Debug, Clone, PartialEq)]
 pub struct DiagnoseOptions {
-    /// Family-wise significance level per round (Bonferroni over the candidates tried), default 0.01.
+    /// Family-wise significance level per round (Bonferroni over the shapes tried), default 0.01.
     pub alpha: f64,
-    /// Candidate effect names to try (`None`: all registered ones).
+    /// Candidate effect names to try (`None`: all families).
     pub candidates: Option<Vec<String>>,
-    /// Add a free constant depth offset `offset_um` to the nominal model (default false; crate
-    /// documentation).
+    /// Leave the touch-off free (an infinite prior SD) whatever the session states.
     pub free_offset: bool,
+    /// At most this many effects are added (default [`thresholds::MAX_EFFECTS`]).
+    pub max_effects: usize,
 }
 
 impl Default for DiagnoseOptions {
@@ -35,105 +46,109 @@ impl Default for DiagnoseOptions {
             alpha: 0.01,
             candidates: None,
             free_offset: false,
+            max_effects: thresholds::MAX_EFFECTS,
         }
     }
 }
 
-/// A prepared diagnosis of one session (nominal model simulated once; reuse for many measured
-/// files of the same plan, e.g. seeded sweeps).
+/// A prepared diagnosis of one session: nominal model simulated and the plan analysed once; reuse
+/// it for many measured files of the same plan (seeded studies).
 ///
 /// # Examples
 /// ```
 /// use millcomp_diagnose::{DiagnoseOptions, Diagnoser, Measured};
-/// // the committed `clean` session (nothing hidden), regenerated in memory
-/// let case = millcomp_synthetic::cases().into_iter().find(|c| c.name == "clean").unwrap();
-/// let session = millcomp_synthetic::generate(&case).unwrap().session;
+/// use millcomp_synthetic::variants::{Row, VariantSpec, draw, study_session};
+/// let session = study_session();
 /// let d = Diagnoser::new(&session, &DiagnoseOptions::default()).unwrap();
-/// let sm = d.session_model();
-/// assert_eq!(sm.len(), 294);
-/// // two seeded "measurements": the nominal prediction + a constant 4.67 µm (the probe-tilt offset
-/// // of 002 §7.4, α = 0.107°) + 0.3 µm of noise
-/// let nominal = sm.points_with(&vec![0.0; sm.len()]);
-/// for seed in [1, 2] {
-///     let points = millcomp_synthetic::resample(&nominal, &vec![4.67; sm.len()], 0.3, seed);
-///     let rep = d.run(&Measured::new("probe.csv", points)).unwrap();
-///     assert_eq!(rep.named, vec!["probe_tilt_offset".to_string()]);
-///     let alpha = rep.final_params["probe_tilt_offset"]["alpha_deg"];
-///     let ci = rep.final_ci95["probe_tilt_offset"]["alpha_deg"];
-///     assert!(ci[0] < 0.107 && 0.107 < ci[1] && (alpha - 0.107).abs() < 5e-4);
-///     // the offset explains 4.7 µm of RMS; what is left is the 0.3 µm noise
-///     assert!(rep.initial_rms_um > 4.6 && (rep.final_rms_um - 0.3).abs() < 0.02);
-/// }
+/// assert_eq!(d.session_model().len(), 294);
+/// // a measured session of the study's distribution: the nominal model off (force scale,
+/// // stiffness, wearland, touch-off), 0.5 µm groove scatter, a tool wear with a logistic,
+/// // load-driven or running-in shape hidden (dev seed, not the study's)
+/// let v = draw(&session, &VariantSpec { row: Row::Single, effects: vec!["tool_wear"], seed: 9_000_004 })
+///     .unwrap();
+/// let rep = d.run(&Measured::new("wear.csv", v.points)).unwrap();
+/// assert_eq!(rep.named, vec!["tool_wear".to_string()]);
+/// // the nominal model was recalibrated first (RMS 10.4 → 3.0 µm), then the wear named
+/// // (→ 0.8 µm: the groove scatter of 0.5 µm and what the family's shapes miss of this
+/// // running-in-then-linear wear)
+/// assert_eq!(rep.nuisance.params.len(), 5);
+/// assert!(rep.nuisance_rms_um < 0.5 * rep.initial_rms_um);
+/// assert!(rep.final_rms_um < 0.5 * rep.nuisance_rms_um);
 /// ```
 #[derive(Debug, Clone)]
 pub struct Diagnoser {
     sm: SessionModel,
-    candidates: Vec<CandidateSpec>,
+    nm: NuisanceModel,
+    families: Vec<Family>,
     skipped: Vec<Skipped>,
     opts: DiagnoseOptions,
+    nuis: NuisanceSet,
+    plan: PlanAnalysis,
 }
 
-/// The nominal offset as an effect (used with [`DiagnoseOptions::free_offset`]).
-#[derive(Debug, Clone, PartialEq)]
-struct NominalOffset {
-    offset_um: f64,
-}
-
-impl millcomp_sim::effects::Effect for NominalOffset {
-    fn name(&self) -> &'static str {
-        "nominal_offset"
-    }
-    fn params(&self) -> Vec<(&'static str, f64)> {
-        vec![("offset_um", self.offset_um)]
-    }
-    fn set_params(&mut self, v: &[f64]) -> std::result::Result<(), millcomp_sim::SimError> {
-        self.offset_um = v.first().copied().unwrap_or(0.0);
-        Ok(())
-    }
-    fn depth_offset_um(&self, _ctx: &millcomp_sim::effects::EffectContext<'_>) -> f64 {
-        self.offset_um
-    }
-    fn clone_box(&self) -> Box<dyn millcomp_sim::effects::Effect> {
-        Box::new(self.clone())
-    }
-    fn has_analytic_gradient(&self) -> bool {
-        true
-    }
-    fn param_gradient(&self, _ctx: &millcomp_sim::effects::EffectContext<'_>) -> Vec<f64> {
-        vec![1.0]
+/// The leave-one-groove-out criterion: the held-out grooves are predicted better with the
+/// candidate — or, when most of its evidence is the nuisance's prior (it is aliased with the
+/// nominal model: the nuisance absorbs the same shape, so no prediction changes), not worse by
+/// more than one whitened χ² unit per parameter, what a parameter fitted to noise costs.
+fn logo_accepts(test: &StrataTest, l: Logo, q: usize) -> bool {
+    if test.shares[2] > 0.5 {
+        l.after <= l.before + q as f64
+    } else {
+        l.after < l.before
     }
 }
 
-fn offset_spec() -> CandidateSpec {
-    CandidateSpec {
-        effect: Box::new(NominalOffset { offset_um: 0.0 }),
-        free: vec![FreeParam::new("offset_um", -1e4, 1e4, &[0.0])],
-        description: "free constant depth offset of the nominal model",
+/// Least squares `min ‖a·x − b‖` by the normal equations with a ridge of 1e-12 of the mean
+/// diagonal (a start value or the coefficients of a full-rank block; `None` if they fail).
+fn lstsq(a: &DMatrix<f64>, b: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+    let p = a.ncols();
+    let mut ata = a.transpose() * a;
+    let ridge = 1e-12 * ata.trace().max(1e-300) / p.max(1) as f64;
+    for k in 0..p {
+        ata[(k, k)] += ridge;
     }
+    let x = ata.cholesky()?.solve(&(a.transpose() * b));
+    x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
-fn rms(rss: f64, n: usize) -> f64 {
-    (rss / n.max(1) as f64).sqrt()
+fn rms(v: &[f64]) -> f64 {
+    (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt()
+}
+
+fn resid(y: &[f64], p: &[f64]) -> Vec<f64> {
+    y.iter().zip(p).map(|(a, b)| a - b).collect()
+}
+
+/// A candidate shape fitted in a round.
+struct Candidate {
+    family: usize,
+    term: Term,
+    shapes: Vec<(String, f64)>,
+    alt: Fitted,
+    test: StrataTest,
+    /// Raw RMS residual of the model with it (µm).
+    rms_after: f64,
 }
 
 impl Diagnoser {
-    /// Prepares a diagnosis with the standard candidates ([`Registry::standard`]).
+    /// Prepares a diagnosis with the standard families ([`families::standard`]).
     ///
     /// # Errors
-    /// As [`Diagnoser::with_registry`].
+    /// As [`Diagnoser::with_families`].
     pub fn new(session: &Session, opts: &DiagnoseOptions) -> Result<Self> {
-        Self::with_registry(session, &Registry::standard(), opts)
+        Self::with_families(session, &families::standard(), opts)
     }
 
-    /// Prepares a diagnosis with a custom candidate registry: simulates the nominal model once.
+    /// Prepares a diagnosis with the given candidate families: simulates the nominal model and
+    /// analyses the plan once.
     ///
     /// # Errors
-    /// [`DiagnoseError::InvalidOption`] for `alpha` outside (0, 1),
-    /// [`DiagnoseError::UnknownCandidate`] / [`DiagnoseError::BadCandidate`] for candidates,
+    /// [`DiagnoseError::InvalidOption`] for `alpha` outside (0, 1) or `max_effects` 0,
+    /// [`DiagnoseError::UnknownCandidate`] for a name in `opts.candidates` that is no family,
     /// [`DiagnoseError::Session`] when sim cannot evaluate the session.
-    pub fn with_registry(
+    pub fn with_families(
         session: &Session,
-        registry: &Registry,
+        families: &[Family],
         opts: &DiagnoseOptions,
     ) -> Result<Self> {
         if !(opts.alpha > 0.0 && opts.alpha < 1.0) {
@@ -143,52 +158,69 @@ impl Diagnoser {
                 allowed: "0 < alpha < 1",
             });
         }
+        if opts.max_effects == 0 {
+            return Err(DiagnoseError::InvalidOption {
+                name: "max_effects",
+                value: 0.0,
+                allowed: ">= 1",
+            });
+        }
         let names: Vec<String> = match &opts.candidates {
             Some(c) => c.clone(),
-            None => registry.names().iter().map(|s| s.to_string()).collect(),
+            None => families.iter().map(|f| f.name.to_string()).collect(),
         };
         let sm = SessionModel::new(session)?;
+        let nm = NuisanceModel::new(&sm.deflection);
+        let mut sd = nuisance::prior_sd(&session.uncertainty);
+        if opts.free_offset {
+            sd[nuisance::TOUCH_OFF] = f64::INFINITY;
+        }
+        let nuis = NuisanceSet::new(sd);
         let known: Vec<&str> = sm.known_effects.iter().map(|e| e.name()).collect();
-        let mut candidates = Vec::new();
+        let mut chosen: Vec<Family> = Vec::new();
         let mut skipped = Vec::new();
         for name in &names {
-            let spec = registry
-                .get(name)
-                .ok_or_else(|| DiagnoseError::UnknownCandidate {
+            let fam = families.iter().find(|f| f.name == name).ok_or_else(|| {
+                DiagnoseError::UnknownCandidate {
                     name: name.clone(),
-                    allowed: registry.names().join(", "),
-                })?;
-            if let Err(message) = spec.free_indices() {
-                return Err(DiagnoseError::BadCandidate {
-                    effect: name.clone(),
-                    message,
-                });
-            }
-            if candidates.iter().any(|c: &CandidateSpec| c.name() == name) {
+                    allowed: families
+                        .iter()
+                        .map(|f| f.name)
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                }
+            })?;
+            if chosen.iter().any(|c| c.name == fam.name) {
                 continue;
             }
-            if known.contains(&spec.name()) {
+            if known.contains(&fam.name) {
                 skipped.push(Skipped {
                     effect: name.clone(),
                     note:
                         "already in the session's nominal model ([[effects]] of the session file)"
                             .into(),
                 });
-            } else if opts.free_offset && spec.name() == "probe_tilt_offset" {
-                skipped.push(Skipped {
-                    effect: name.clone(),
-                    note: "a constant offset: not separable from the free nominal offset (free_offset)"
-                        .into(),
-                });
             } else {
-                candidates.push(spec.clone());
+                chosen.push(fam.clone());
+            }
+        }
+        let plan = aliasing::analyse(&sm, &chosen, &nuis);
+        for f in &plan.families {
+            if !f.testable {
+                skipped.push(Skipped {
+                    effect: f.effect.clone(),
+                    note: f.note.clone(),
+                });
             }
         }
         Ok(Diagnoser {
             sm,
-            candidates,
+            nm,
+            families: chosen,
             skipped,
             opts: opts.clone(),
+            nuis,
+            plan,
         })
     }
 
@@ -197,241 +229,745 @@ impl Diagnoser {
         &self.sm
     }
 
+    /// The plan analysis (what the plan cannot separate, and the proposed changes).
+    pub fn plan(&self) -> &PlanAnalysis {
+        &self.plan
+    }
+
+    fn problem<'a>(&'a self, y: &'a [f64], terms: &'a [Term], w: &'a Whitening) -> Problem<'a> {
+        Problem {
+            sm: &self.sm,
+            nm: &self.nm,
+            y,
+            terms,
+            w,
+            nuis: &self.nuis,
+        }
+    }
+
+    fn groups(&self) -> Vec<(usize, usize)> {
+        self.sm.facts.grooves.iter().map(|g| (g.1, g.2)).collect()
+    }
+
+    /// Re-estimates the variance components from `cur` and refits in the new whitening (twice).
+    ///
+    /// With `cap`, the groove scatter that weights the fits is at most the stated one: while an
+    /// effect is still missing from the model, the scatter estimated from its residual holds that
+    /// effect's groove-to-groove part, and weighting by it would hide exactly the between-groove
+    /// discrepancy the selection must explain. The tests do not depend on the weights (each
+    /// stratum's variance is re-estimated from the alternative's residual), only the efficiency
+    /// does; the final model is refitted with the estimate itself.
+    fn reweight(
+        &self,
+        y: &[f64],
+        terms: &[Term],
+        mut cur: Fitted,
+        mut w: Whitening,
+        cap: bool,
+    ) -> Result<(Fitted, Whitening, Components)> {
+        let groups = self.groups();
+        let stated = self.sm.session.uncertainty.groove_scatter_um;
+        let mut comps = None;
+        for _ in 0..2 {
+            let p = self.problem(y, terms, &w);
+            let e = resid(y, &p.predict(&cur.theta));
+            let q = orthonormal_basis(&cur.x);
+            let tr = strata_of_columns(&w, &q, y.len());
+            let c = scatter::estimate(&groups, &e, tr[0], tr[1], stated);
+            let sg = if cap {
+                c.sigma_g_um.min(stated)
+            } else {
+                c.sigma_g_um
+            };
+            w = Whitening::new(&groups, c.sigma_e_um, sg);
+            let p = self.problem(y, terms, &w);
+            cur = fit(&p, &cur.theta).map_err(|source| DiagnoseError::Fit {
+                what: "the model in the re-estimated groove scatter".into(),
+                source,
+            })?;
+            comps = Some(c);
+        }
+        let comps = comps.unwrap_or(Components {
+            sigma_e_um: w.sigma_e_um,
+            sigma_g_um: w.sigma_g_um,
+            df_within: 0.0,
+            df_between: 0.0,
+        });
+        Ok((cur, w, comps))
+    }
+
+    /// Backward elimination: after an effect is added, every effect in the model is tested for
+    /// removal (the GLS test of the model without it, at the round's threshold, its amplitude and
+    /// the held-out grooves); the least needed one that fails is removed, and the check repeats.
+    /// A removed effect is not tried again.
+    fn eliminate(
+        &self,
+        y: &[f64],
+        terms: &mut Vec<Term>,
+        mut cur: Fitted,
+        w: &Whitening,
+        threshold: f64,
+        notes: &mut Vec<String>,
+    ) -> Fitted {
+        let resolution = self.sm.session.uncertainty.resolution_um;
+        while terms.len() >= 2 {
+            let mut worst: Option<(f64, usize, Fitted, String)> = None;
+            for k in 0..terms.len() {
+                let p_all = self.problem(y, terms, w);
+                let a = p_all.term_start(k);
+                let q = terms[k].shape.n_params();
+                let mut theta_wo = cur.theta[..a].to_vec();
+                theta_wo.extend_from_slice(&cur.theta[a + q..]);
+                let others: Vec<Term> = terms
+                    .iter()
+                    .enumerate()
+                    .filter(|(j, _)| *j != k)
+                    .map(|(_, t)| t.clone())
+                    .collect();
+                let Ok(base) = fit(&self.problem(y, &others, w), &theta_wo) else {
+                    continue;
+                };
+                // the full model with term k last, as the test expects
+                let mut reordered = others.clone();
+                reordered.push(terms[k].clone());
+                let mut theta_re = theta_wo.clone();
+                theta_re.extend_from_slice(&cur.theta[a..a + q]);
+                let full = evaluate(&self.problem(y, &reordered, w), &theta_re, true);
+                let test = self.test(w, &base, &full, q);
+                let offsets = p_all.term_offsets(&cur.theta, k);
+                let amp = offsets.iter().fold(0.0f64, |m, v| m.max(*v))
+                    - offsets.iter().fold(0.0f64, |m, v| m.min(*v));
+                let logo_with = logo::score(w, &cur.x, &cur.r);
+                let logo_without = logo::score(w, &base.x, &base.r);
+                let why = if test.p_value >= threshold {
+                    Some(format!("no longer significant (p = {:.2e})", test.p_value))
+                } else if amp <= resolution {
+                    Some(format!("its amplitude fell to {amp:.3} µm"))
+                } else if !logo_accepts(
+                    &test,
+                    Logo {
+                        before: logo_without,
+                        after: logo_with,
+                    },
+                    q,
+                ) {
+                    Some("the held-out grooves are predicted as well without it".into())
+                } else {
+                    None
+                };
+                if let Some(why) = why {
+                    if worst.as_ref().is_none_or(|b| test.p_value > b.0) {
+                        worst = Some((test.p_value, k, base, why));
+                    }
+                }
+            }
+            let Some((_, k, base, why)) = worst else {
+                break;
+            };
+            notes.push(format!(
+                "{} removed once the later effects were added: {why}",
+                terms[k].family
+            ));
+            terms.remove(k);
+            cur = base;
+        }
+        cur
+    }
+
+    /// Re-chooses the shape of every effect in the model once the groove scatter has been
+    /// re-estimated (the round chose it in the previous model's whitening, where an unmodelled
+    /// effect inflates the between-groove variance and hides the shapes' differences there): each
+    /// other shape of the family is fitted in its place and kept if its GLS-BIC is lower.
+    fn refine_shapes(
+        &self,
+        y: &[f64],
+        terms: &mut Vec<Term>,
+        mut cur: Fitted,
+        w: &Whitening,
+        notes: &mut Vec<String>,
+    ) -> Fitted {
+        let n = y.len();
+        let ln_n = (n as f64).ln();
+        let names: Vec<&'static str> = terms.iter().map(|t| t.family).collect();
+        for name in names {
+            let Some(fam) = self.families.iter().find(|f| f.name == name) else {
+                continue;
+            };
+            if fam.shapes.len() < 2 {
+                continue;
+            }
+            let Some(k) = terms.iter().position(|t| t.family == name) else {
+                continue;
+            };
+            let p_all = self.problem(y, terms, w);
+            let a = p_all.term_start(k);
+            let q = terms[k].shape.n_params();
+            let mut theta_wo = cur.theta[..a].to_vec();
+            theta_wo.extend_from_slice(&cur.theta[a + q..]);
+            let others: Vec<Term> = terms
+                .iter()
+                .enumerate()
+                .filter(|(j, _)| *j != k)
+                .map(|(_, t)| t.clone())
+                .collect();
+            let Ok(base) = fit(&self.problem(y, &others, w), &theta_wo) else {
+                continue;
+            };
+            let q0 = orthonormal_basis(&base.x);
+            let crit_cur = cur.rss + cur.theta.len() as f64 * ln_n;
+            let mut best: Option<(f64, Shape, Fitted)> = None;
+            for s in &fam.shapes {
+                if s.name == terms[k].shape.name
+                    || n < base.theta.len() + s.n_params() + thresholds::MIN_RESIDUAL_DOF
+                {
+                    continue;
+                }
+                let Some((_, phi)) = self.linear_search(s, w, &base, &q0) else {
+                    continue;
+                };
+                let start = self.start_for(s, &phi, w, &base);
+                let mut t2 = others.clone();
+                t2.push(Term {
+                    family: fam.name,
+                    shape: s.clone(),
+                });
+                let Ok(f) = fit(&self.problem(y, &t2, w), &start) else {
+                    continue;
+                };
+                if s.nonnegative && f.theta[base.theta.len()] < 0.0 {
+                    continue;
+                }
+                let crit = f.rss + f.theta.len() as f64 * ln_n;
+                if crit < crit_cur && best.as_ref().is_none_or(|b| crit < b.0) {
+                    best = Some((crit, s.clone(), f));
+                }
+            }
+            if let Some((_, s, f)) = best {
+                notes.push(format!(
+                    "{}: shape `{}` replaced by `{}` once the groove scatter was re-estimated (lower GLS-BIC)",
+                    fam.name, terms[k].shape.name, s.name
+                ));
+                let mut t2 = others;
+                t2.push(Term {
+                    family: fam.name,
+                    shape: s,
+                });
+                *terms = t2;
+                cur = f;
+            }
+        }
+        cur
+    }
+
+    /// Residual variances per stratum of a fitted model and their dof.
+    fn strata_variance(&self, w: &Whitening, f: &Fitted, n: usize) -> StrataVariance {
+        let q = orthonormal_basis(&f.x);
+        let tr = strata_of_columns(w, &q, n);
+        let rs = strata_of_residual(w, &f.r, n);
+        let g = w.n_groups() as f64;
+        let df_w = (n as f64 - g - tr[0]).max(1.0);
+        let df_b = g - tr[1];
+        let (s2_b, df_b) = if df_b >= 1.0 {
+            (
+                (rs[1] + PRIOR_SCATTER_DOF) / (df_b + PRIOR_SCATTER_DOF),
+                df_b + PRIOR_SCATTER_DOF,
+            )
+        } else {
+            (1.0, PRIOR_SCATTER_DOF)
+        };
+        StrataVariance {
+            s2: [rs[0] / df_w, s2_b],
+            df: [df_w, df_b],
+        }
+    }
+
+    /// The linearised fit of `shape` added to the current model over its grid: the best
+    /// nonlinear parameters, their coefficients and the step of the current parameters.
+    fn linear_search(
+        &self,
+        shape: &Shape,
+        w: &Whitening,
+        cur: &Fitted,
+        q0: &DMatrix<f64>,
+    ) -> Option<(f64, Vec<f64>)> {
+        let n = self.sm.len();
+        let rows = cur.r.len();
+        let r_perp = project_out(q0, &DMatrix::from_column_slice(rows, 1, cur.r.as_slice()));
+        let base_rss = r_perp.norm_squared();
+        let mut best: Option<(f64, Vec<f64>)> = None;
+        for phi in shape.grid() {
+            let cols = shape.columns(&self.sm, &phi);
+            let mut b = DMatrix::zeros(rows, cols.len());
+            for (j, mut c) in cols.into_iter().enumerate() {
+                w.apply(&mut c);
+                b.column_mut(j).rows_mut(0, n).copy_from_slice(&c);
+            }
+            let rss = if shape.is_fixed() {
+                let rr = DMatrix::from_column_slice(rows, 1, cur.r.as_slice()) + &b;
+                project_out(q0, &rr).norm_squared()
+            } else {
+                let bp = project_out(q0, &b);
+                let q = orthonormal_basis(&bp);
+                if q.ncols() < bp.ncols() {
+                    continue;
+                }
+                // coefficients: least squares of −r⊥ on B⊥ (full column rank: checked above)
+                let Some(beta) = lstsq(&bp, &(-&r_perp)) else {
+                    continue;
+                };
+                if shape.nonnegative && beta[(0, 0)] < 0.0 {
+                    base_rss
+                } else {
+                    (&r_perp + &bp * &beta).norm_squared()
+                }
+            };
+            if best.as_ref().is_none_or(|b| rss < b.0) {
+                best = Some((rss, phi));
+            }
+        }
+        best
+    }
+
+    /// Starting θ for the model `terms + [shape at phi]` from the current estimate: the
+    /// coefficients and the current parameters' step of the linearised fit.
+    fn start_for(&self, shape: &Shape, phi: &[f64], w: &Whitening, cur: &Fitted) -> Vec<f64> {
+        let n = self.sm.len();
+        let rows = cur.r.len();
+        let cols = shape.columns(&self.sm, phi);
+        let mut x = DMatrix::zeros(rows, cur.x.ncols() + shape.linear.len());
+        x.columns_mut(0, cur.x.ncols()).copy_from(&cur.x);
+        let mut rhs = -cur.r.clone();
+        for (j, mut c) in cols.into_iter().enumerate() {
+            w.apply(&mut c);
+            if shape.is_fixed() {
+                for (i, v) in c.iter().enumerate() {
+                    rhs[i] -= v;
+                }
+            } else {
+                x.column_mut(cur.x.ncols() + j)
+                    .rows_mut(0, n)
+                    .copy_from_slice(&c);
+            }
+        }
+        let rhs = DMatrix::from_column_slice(rhs.len(), 1, rhs.as_slice());
+        let step = lstsq(&x, &rhs)
+            .map(|m| DVector::from_column_slice(m.as_slice()))
+            .unwrap_or_else(|| DVector::zeros(cur.x.ncols() + shape.linear.len()));
+        let mut theta: Vec<f64> = cur
+            .theta
+            .iter()
+            .zip(step.iter())
+            .map(|(t, d)| t + d)
+            .collect();
+        theta.extend(step.iter().skip(cur.x.ncols()));
+        theta.extend_from_slice(phi);
+        theta
+    }
+
+    /// Tests one candidate term fitted as `alt` against the current model `cur`.
+    fn test(&self, w: &Whitening, cur: &Fitted, alt: &Fitted, q: usize) -> StrataTest {
+        let n = self.sm.len();
+        let p0 = cur.x.ncols();
+        let x0 = alt.x.columns(0, p0).into_owned();
+        let xc = alt.x.columns(p0, q).into_owned();
+        let q0 = orthonormal_basis(&x0);
+        let qc = orthonormal_basis(&project_out(&q0, &xc));
+        let s = strata_of_columns(w, &qc, n);
+        let tot = (s[0] + s[1] + s[2]).max(1e-300);
+        let shares = [s[0] / tot, s[1] / tot, s[2] / tot];
+        let v = self.strata_variance(w, alt, n);
+        strata_test(cur.rss - alt.rss, q, shares, &v)
+    }
+
+    /// Parameter estimates, SEs and 95 % intervals of a fitted model, by parameter index.
+    fn intervals(&self, w: &Whitening, f: &Fitted) -> Vec<(f64, f64, [f64; 2])> {
+        let n = self.sm.len();
+        let p = f.x.ncols();
+        let v = self.strata_variance(w, f, n);
+        let xtx = f.x.transpose() * &f.x;
+        let inv = xtx
+            .try_inverse()
+            .unwrap_or_else(|| DMatrix::from_element(p, p, f64::NAN));
+        (0..p)
+            .map(|j| {
+                let others: Vec<usize> = (0..p).filter(|&k| k != j).collect();
+                let x0 = f.x.select_columns(&others);
+                let q0 = orthonormal_basis(&x0);
+                let xj = project_out(&q0, &f.x.columns(j, 1).into_owned());
+                let nrm = xj.norm_squared().max(1e-300);
+                let qj = xj / nrm.sqrt();
+                let s = strata_of_columns(w, &qj, n);
+                let tot = (s[0] + s[1] + s[2]).max(1e-300);
+                let (s2, df) = v.combine([s[0] / tot, s[1] / tot, s[2] / tot]);
+                let se = (inv[(j, j)] * s2).sqrt();
+                let t = t975(df);
+                let est = f.theta[j];
+                (est, se, [est - t * se, est + t * se])
+            })
+            .collect()
+    }
+
     /// Diagnoses one measured file of this session.
     ///
     /// # Errors
     /// [`DiagnoseError::InvalidPoints`] when the points are not a measurement,
     /// [`DiagnoseError::SessionMismatch`] when they (or the force-trace rows) are not this session's
-    /// plan point by point, [`DiagnoseError::NominalOffset`] when the free offset cannot be fitted;
+    /// plan point by point, [`DiagnoseError::Fit`] when the nominal model cannot be recalibrated;
     /// with a force trace also [`DiagnoseError::NonFinite`] for a NaN or infinite force value and
     /// [`DiagnoseError::Session`] when sim cannot evaluate the force model at the measured
     /// conditions ([`force_channel::diagnose_forces`]). Example at [`Diagnoser`].
     pub fn run(&self, measured: &Measured) -> Result<DiagnoseReport> {
         let sm = &self.sm;
         measured.check_against(sm)?;
-        let y = &measured.depth_meas_um();
+        let y = measured.depth_meas_um();
         let spindle_temp_c = measured.spindle_temp_c();
         let n = y.len();
         let alpha = self.opts.alpha;
+        let u = &sm.session.uncertainty;
         let mut notes = Vec::new();
         let mut skipped = self.skipped.clone();
+        let groups = self.groups();
+        let ln_n = (n as f64).ln();
 
-        // nominal model (with its free offset, if asked)
+        // nuisance step
+        let initial_rms = rms(&resid(&y, &sm.base_um));
+        let w0 = Whitening::new(&groups, u.measurement_sd_um, u.groove_scatter_um);
         let mut terms: Vec<Term> = Vec::new();
-        let mut theta: Vec<f64> = Vec::new();
-        let mut pred: Vec<f64> = sm.base_um.clone();
-        let mut report_params = BTreeMap::new();
-        let mut last_report: Option<FitReport> = None;
-        if self.opts.free_offset {
-            let spec = offset_spec();
-            let t = Term::new(spec.clone()).map_err(|message| DiagnoseError::BadCandidate {
-                effect: spec.name().into(),
-                message,
+        let start = vec![0.0; self.nuis.free.len()];
+        let first =
+            fit(&self.problem(&y, &terms, &w0), &start).map_err(|source| DiagnoseError::Fit {
+                what: "the nominal model's nuisance parameters".into(),
+                source,
             })?;
-            terms.push(t);
-            match fit_terms(sm, y, &terms, &[], 1) {
-                Ok(f) => {
-                    theta = f.theta.clone();
-                    pred = f.prediction.clone();
-                    report_params.insert("offset_um".to_string(), f.theta[0]);
-                    last_report = Some(f.report);
-                }
-                Err(fails) => {
-                    // one starting value: one failure
-                    let source = fails
-                        .into_iter()
-                        .next()
-                        .unwrap_or(IdentifyError::SolverState {
-                            what: "no starting value was tried",
-                        });
-                    return Err(DiagnoseError::NominalOffset {
-                        n_points: n,
-                        source,
-                    });
-                }
-            }
-        }
-        let rss_of = |p: &[f64]| -> f64 { p.iter().zip(y).map(|(a, b)| (b - a).powi(2)).sum() };
-        let mut rss0 = rss_of(&pred);
-        let initial_rms = rms(rss0, n);
-        let resid = |p: &[f64]| -> Vec<f64> { y.iter().zip(p).map(|(a, b)| a - b).collect() };
+        let (mut cur, mut w, _) = self.reweight(&y, &terms, first, w0, true)?;
+        let nuisance_pred = self.problem(&y, &terms, &w).predict(&cur.theta);
+        let nuisance_rms = rms(&resid(&y, &nuisance_pred));
         let structure_nominal =
-            structure::residual_structure(sm, &resid(&pred), spindle_temp_c.as_deref());
+            structure::residual_structure(sm, &resid(&y, &sm.base_um), spindle_temp_c.as_deref());
         let mut series = Series {
             groove_id: measured.points.iter().map(|p| p.groove_id).collect(),
             measured_um: y.clone(),
-            predictions_um: vec![pred.clone()],
+            predictions_um: vec![sm.base_um.clone(), nuisance_pred.clone()],
         };
 
-        let mut remaining: Vec<CandidateSpec> = self.candidates.clone();
         let mut steps: Vec<Step> = Vec::new();
         let mut rounds: Vec<Round> = Vec::new();
-        loop {
-            let p0 = theta.len();
-            let mut tried: Vec<(Decision, TermsFit, usize)> = Vec::new();
-            let mut drop: Vec<usize> = Vec::new();
-            for (ci, spec) in remaining.iter().enumerate() {
-                let q = spec.free.len();
-                if n < p0 + q + thresholds::MIN_RESIDUAL_DOF {
-                    skipped.push(Skipped {
-                        effect: spec.name().into(),
-                        note: format!(
-                            "too few points: {n} measured points, the model with this effect has {} free parameters and needs ≥ {} points ({} residual dof)",
+        let mut remaining: Vec<usize> = (0..self.families.len())
+            .filter(|&k| self.plan.families[k].testable)
+            .collect();
+        if self.plan.cannot_separate_any {
+            remaining.clear();
+            notes.push(
+                "the session plan cannot separate any candidate from the nominal model's uncertainty: \
+                 nothing is named (see `aliasing` for what to change)"
+                    .into(),
+            );
+        }
+        let mut rms_now = nuisance_rms;
+        while !remaining.is_empty() && terms.len() < self.opts.max_effects {
+            let p0 = cur.theta.len();
+            let q0 = orthonormal_basis(&cur.x);
+            let mut shapes_tried = 0usize;
+            let mut cands: Vec<Candidate> = Vec::new();
+            for &k in &remaining {
+                let fam = &self.families[k];
+                let mut best: Option<(f64, usize, Vec<f64>)> = None;
+                let mut tried: Vec<(String, f64)> = Vec::new();
+                for (si, shape) in fam.shapes.iter().enumerate() {
+                    let q = shape.n_params();
+                    if n < p0 + q + thresholds::MIN_RESIDUAL_DOF {
+                        let note = format!(
+                            "shape `{}`: too few points: {n} measured points, the model with it has {} free parameters and needs ≥ {} points ({} residual dof)",
+                            shape.name,
                             p0 + q,
                             p0 + q + thresholds::MIN_RESIDUAL_DOF,
                             thresholds::MIN_RESIDUAL_DOF
-                        ),
-                    });
-                    drop.push(ci);
-                    continue;
+                        );
+                        if !skipped
+                            .iter()
+                            .any(|k| k.effect == fam.name && k.note == note)
+                        {
+                            skipped.push(Skipped {
+                                effect: fam.name.into(),
+                                note,
+                            });
+                        }
+                        continue;
+                    }
+                    shapes_tried += 1;
+                    let Some((rss, phi)) = self.linear_search(shape, &w, &cur, &q0) else {
+                        continue;
+                    };
+                    let crit = rss + q as f64 * ln_n;
+                    tried.push((shape.name.to_string(), crit));
+                    if best.as_ref().is_none_or(|b| crit < b.0) {
+                        best = Some((crit, si, phi));
+                    }
                 }
-                let term = match Term::new(spec.clone()) {
-                    Ok(t) => t,
+                let Some((_, si, phi)) = best else { continue };
+                let shape = fam.shapes[si].clone();
+                let start = self.start_for(&shape, &phi, &w, &cur);
+                let mut all = terms.clone();
+                all.push(Term {
+                    family: fam.name,
+                    shape: shape.clone(),
+                });
+                let p = self.problem(&y, &all, &w);
+                let alt = match fit(&p, &start) {
+                    Ok(f) if f.rss <= cur.rss + 1e-9 * cur.rss.max(1.0) => f,
+                    Ok(_) => evaluate(&p, &start, false),
                     Err(e) => {
-                        skipped.push(Skipped {
-                            effect: spec.name().into(),
-                            note: e,
-                        });
-                        drop.push(ci);
+                        notes.push(format!(
+                            "{} ({}): no fit in round {} ({e})",
+                            fam.name,
+                            shape.name,
+                            rounds.len() + 1
+                        ));
                         continue;
                     }
                 };
-                if !has_sensitivity(sm, &term) {
-                    skipped.push(Skipped {
-                        effect: spec.name().into(),
-                        note: no_sensitivity_note(spec.name()),
-                    });
-                    drop.push(ci);
-                    continue;
+                let mut test = self.test(&w, &cur, &alt, shape.n_params());
+                if shape.nonnegative && alt.theta[p0] < 0.0 {
+                    test.p_value = 1.0;
+                    test.ln_p = 0.0;
                 }
-                let mut all = terms.clone();
-                all.push(term);
-                match fit_terms(sm, y, &all, &theta, 1) {
-                    Ok(f) => {
-                        let mut d = nested_test(spec.name(), n, p0, q, rss0, f.rss, alpha, 1);
-                        d.identifiable = f.report.rank == f.theta.len();
-                        tried.push((d, f, ci));
-                    }
-                    Err(fails) => notes.push(format!(
-                        "{}: no fit converged in round {} ({})",
-                        spec.name(),
-                        rounds.len() + 1,
-                        fails
-                            .iter()
-                            .map(ToString::to_string)
-                            .collect::<Vec<_>>()
-                            .join("; ")
-                    )),
-                }
+                let rms_after = rms(&resid(&y, &p.predict(&alt.theta)));
+                cands.push(Candidate {
+                    family: k,
+                    term: Term {
+                        family: fam.name,
+                        shape,
+                    },
+                    shapes: tried,
+                    alt,
+                    test,
+                    rms_after,
+                });
             }
-            let m = tried.len();
-            if m == 0 {
-                remove_indices(&mut remaining, &drop);
+            if cands.is_empty() {
                 break;
             }
-            let threshold = alpha / m as f64;
-            for t in tried.iter_mut() {
-                t.0.threshold = threshold;
-                t.0.significant =
-                    t.0.p_value < threshold && t.0.bic_after < t.0.bic_before && t.0.identifiable;
-            }
-            // the most significant identifiable candidate (ties: smaller RSS)
-            let best = (0..m)
-                .min_by(|&a, &b| {
-                    (!tried[a].0.identifiable)
-                        .cmp(&!tried[b].0.identifiable)
-                        .then(tried[a].0.p_value.total_cmp(&tried[b].0.p_value))
-                        .then(tried[a].1.rss.total_cmp(&tried[b].1.rss))
+            let threshold = alpha / shapes_tried.max(1) as f64;
+            // significant candidates by how much of the discrepancy they close (the raw RMS left:
+            // the whitened fit weighs the few groove means lightly, and a within-groove
+            // pattern of one effect can then outrank the effect that explains the grooves), the
+            // others by p
+            let sig = |c: &Candidate| c.test.p_value < threshold && cur.rss > c.alt.rss;
+            let mut order: Vec<usize> = (0..cands.len()).collect();
+            order.sort_by(|&a, &b| {
+                let (ca, cb) = (&cands[a], &cands[b]);
+                sig(cb).cmp(&sig(ca)).then(if sig(ca) && sig(cb) {
+                    ca.rms_after.total_cmp(&cb.rms_after)
+                } else {
+                    ca.test.ln_p.total_cmp(&cb.test.ln_p)
                 })
-                .unwrap_or(0);
-            let accept = tried[best].0.significant;
+            });
+            let logo_null = logo::score(&w, &cur.x, &cur.r);
+            let mut tested: Vec<Tested> = Vec::new();
+            let mut accepted: Option<usize> = None;
+            for &ci in &order {
+                let c = &cands[ci];
+                let all: Vec<Term> = terms.iter().cloned().chain([c.term.clone()]).collect();
+                let pa = self.problem(&y, &all, &w);
+                let offsets = pa.term_offsets(&c.alt.theta, all.len() - 1);
+                let amplitude = offsets.iter().fold(0.0f64, |a, v| a.max(*v))
+                    - offsets.iter().fold(0.0f64, |a, v| a.min(*v));
+                let significant = c.test.p_value < threshold && cur.rss > c.alt.rss;
+                let mut logo_s = None;
+                let decision = if !significant {
+                    format!("not significant (p ≥ {threshold:.2e})")
+                } else if accepted.is_some() {
+                    "significant; another candidate was added first".to_string()
+                } else {
+                    let l = Logo {
+                        before: logo_null,
+                        after: logo::score(&w, &c.alt.x, &c.alt.r),
+                    };
+                    logo_s = Some(l);
+                    if !logo_accepts(&c.test, l, c.term.shape.n_params()) {
+                        "significant but does not improve the prediction of held-out grooves".into()
+                    } else if amplitude <= u.resolution_um {
+                        format!(
+                            "significant but its amplitude {amplitude:.3} µm is within the measurement resolution ({} µm)",
+                            u.resolution_um
+                        )
+                    } else {
+                        accepted = Some(ci);
+                        "added".into()
+                    }
+                };
+                tested.push(Tested {
+                    effect: c.term.family.into(),
+                    shape: c.term.shape.name.into(),
+                    shapes: c.shapes.clone(),
+                    test: c.test,
+                    rss_after: c.alt.rss,
+                    rms_after_um: c.rms_after,
+                    significant,
+                    logo: logo_s,
+                    amplitude_um: amplitude,
+                    decision,
+                });
+            }
             rounds.push(Round {
                 threshold,
-                tested: tried.iter().map(|t| t.0.clone()).collect(),
-                added: accept.then(|| tried[best].0.effect.clone()),
+                tested,
+                added: accepted.map(|ci| cands[ci].term.family.to_string()),
             });
-            if !accept {
-                remove_indices(&mut remaining, &drop);
-                break;
+            let Some(ci) = accepted else { break };
+            let c = cands.swap_remove(ci);
+            let fam = &self.families[c.family];
+            if !c.alt.converged {
+                notes.push(format!(
+                    "{} ({}): the fit that added it stopped before converging; its test is provisional",
+                    fam.name, c.term.shape.name
+                ));
             }
-            let (d, f, ci) = tried.swap_remove(best);
-            let spec = remaining[ci].clone();
-            let term = Term::new(spec.clone()).map_err(|message| DiagnoseError::BadCandidate {
-                effect: spec.name().into(),
-                message,
-            })?;
-            let k0 = theta.len();
-            let q = term.n_free();
+            terms.push(c.term.clone());
+            let pa = self.problem(&y, &terms, &w);
+            let pred = pa.predict(&c.alt.theta);
+            let rms_after = rms(&resid(&y, &pred));
+            let iv = self.intervals(&w, &c.alt);
+            let k0 = pa.term_start(terms.len() - 1);
             let mut params = BTreeMap::new();
             let mut ci95 = BTreeMap::new();
             let mut se = BTreeMap::new();
-            for (j, fp) in spec.free.iter().enumerate() {
-                let key = format!("{}.{}", spec.name(), fp.name);
-                params.insert(fp.name.to_string(), f.theta[k0 + j]);
-                if let Some(c) = f.report.ci95.get(&key) {
-                    ci95.insert(fp.name.to_string(), *c);
-                }
-                se.insert(fp.name.to_string(), f.report.se(&key));
+            for (j, name) in c.term.shape.param_names().into_iter().enumerate() {
+                let (e, s, i) = iv[k0 + j];
+                params.insert(name.to_string(), e);
+                se.insert(name.to_string(), s);
+                ci95.insert(name.to_string(), i);
             }
-            debug_assert_eq!(params.len(), q);
+            let logo_s = rounds
+                .last()
+                .and_then(|r| r.tested.iter().find(|t| t.decision == "added"))
+                .and_then(|t| t.logo)
+                .unwrap_or(Logo {
+                    before: f64::NAN,
+                    after: f64::NAN,
+                });
+            let amplitude = rounds
+                .last()
+                .and_then(|r| r.tested.iter().find(|t| t.decision == "added"))
+                .map_or(f64::NAN, |t| t.amplitude_um);
             steps.push(Step {
-                effect: d.effect.clone(),
-                p_value: d.p_value,
-                rms_before_um: rms(rss0, n),
-                rms_after_um: rms(f.rss, n),
+                effect: fam.name.into(),
+                p_value: c.test.p_value,
+                rms_before_um: rms_now,
+                rms_after_um: rms_after,
                 params,
+                family: fam.name.into(),
+                shape: c.term.shape.name.into(),
+                driver: fam.driver.into(),
                 ci95,
                 std_err: se,
-                fixed: spec
-                    .fixed()
-                    .into_iter()
-                    .map(|(k, v)| (k.to_string(), v))
-                    .collect(),
-                f_statistic: d.f_statistic,
-                df1: d.df1,
-                df2: d.df2,
+                test: c.test,
                 threshold,
-                candidates_tried: m,
-                bic_before: d.bic_before,
-                bic_after: d.bic_after,
-                warnings: f.report.warnings.clone(),
+                candidates_tried: shapes_tried,
+                logo: logo_s,
+                amplitude_um: amplitude,
+                beyond_prior: c.test.shares[2] > 0.5,
+                kept: true,
             });
-            terms.push(term);
-            theta = f.theta.clone();
-            rss0 = f.rss;
-            pred = f.prediction.clone();
-            series.predictions_um.push(pred.clone());
-            last_report = Some(f.report);
-            drop.push(ci);
-            remove_indices(&mut remaining, &drop);
+            rms_now = rms_after;
+            remaining.retain(|&k| k != c.family);
+            let (f2, w2, _) = self.reweight(&y, &terms, c.alt, w, true)?;
+            w = w2;
+            cur = self.refine_shapes(&y, &mut terms, f2, &w, &mut notes);
+            cur = self.eliminate(&y, &mut terms, cur, &w, threshold, &mut notes);
+            for st in steps.iter_mut() {
+                st.kept = terms.iter().any(|t| t.family == st.effect);
+            }
+            series
+                .predictions_um
+                .push(self.problem(&y, &terms, &w).predict(&cur.theta));
         }
 
-        // final joint estimates
+        // final model, weighted by the scatter as estimated
+        let (f2, w2, comps) = self.reweight(&y, &terms, cur, w, false)?;
+        cur = f2;
+        w = w2;
+        let pf = self.problem(&y, &terms, &w);
+        let pred = pf.predict(&cur.theta);
+        let final_rms = rms(&resid(&y, &pred));
+        let iv = self.intervals(&w, &cur);
         let mut final_params = BTreeMap::new();
         let mut final_ci95 = BTreeMap::new();
-        if let Some(r) = &last_report {
-            for t in &terms {
-                let name = t.spec.name();
-                let mut p = BTreeMap::new();
-                let mut c = BTreeMap::new();
-                for fp in &t.spec.free {
-                    let key = format!("{name}.{}", fp.name);
-                    p.insert(fp.name.to_string(), r.param(&key));
-                    if let Some(ci) = r.ci95.get(&key) {
-                        c.insert(fp.name.to_string(), *ci);
-                    }
-                }
-                if name == "nominal_offset" {
-                    report_params = p;
-                    continue;
-                }
-                final_params.insert(name.to_string(), p);
-                final_ci95.insert(name.to_string(), c);
+        let mut shapes = BTreeMap::new();
+        for (k, t) in terms.iter().enumerate() {
+            let a = pf.term_start(k);
+            let mut pm = BTreeMap::new();
+            let mut cm = BTreeMap::new();
+            for (j, name) in t.shape.param_names().into_iter().enumerate() {
+                pm.insert(name.to_string(), iv[a + j].0);
+                cm.insert(name.to_string(), iv[a + j].2);
             }
+            final_params.insert(t.family.to_string(), pm);
+            final_ci95.insert(t.family.to_string(), cm);
+            shapes.insert(t.family.to_string(), t.shape.name.to_string());
+        }
+        let nu = pf.nu(&cur.theta);
+        let mut nuisance_params = Vec::new();
+        let mut nominal_free_params = BTreeMap::new();
+        for (k, name) in nuisance::NAMES.iter().enumerate() {
+            let j = self.nuis.free.iter().position(|&f| f == k);
+            let (est, sd) = match j {
+                Some(j) => (iv[j].0, iv[j].1),
+                None => (0.0, 0.0),
+            };
+            let prior = self.nuis.sd[k];
+            nominal_free_params.insert(name.to_string(), nu[k]);
+            nuisance_params.push(NuisanceEstimate {
+                name: name.to_string(),
+                estimate: est,
+                sd,
+                prior_sd: prior,
+                z_prior: if prior > 0.0 && prior.is_finite() {
+                    est / prior
+                } else {
+                    0.0
+                },
+                determined_by: if j.is_none() {
+                    "held".into()
+                } else if sd < thresholds::DATA_DETERMINED * prior {
+                    "data".into()
+                } else {
+                    "prior".into()
+                },
+            });
         }
         let structure_final =
-            structure::residual_structure(sm, &resid(&pred), spindle_temp_c.as_deref());
-        let mut named: Vec<String> = steps.iter().map(|s| s.effect.clone()).collect();
+            structure::residual_structure(sm, &resid(&y, &pred), spindle_temp_c.as_deref());
+        let unexplained = self.unexplained(&w, &cur);
+        let mut named: Vec<String> = steps
+            .iter()
+            .filter(|s| s.kept)
+            .map(|s| s.effect.clone())
+            .collect();
+        let within: Vec<WithinNominal> = self
+            .plan
+            .families
+            .iter()
+            .filter(|f| {
+                f.testable && f.aliased && !named.contains(&f.effect)
+            })
+            .map(|f| {
+                let moved: Vec<String> = f
+                    .aliased_with
+                    .iter()
+                    .filter_map(|a| nuisance_params.iter().find(|p| &p.name == a))
+                    .map(|p| format!("{} {:+.3} ({:+.1} prior SD)", p.name, p.estimate, p.z_prior))
+                    .collect();
+                WithinNominal {
+                    effect: f.effect.clone(),
+                    nuisance: f.aliased_with.clone(),
+                    note: format!(
+                        "not separable from the nominal model by this plan; not named since not beyond the prior; the nuisance step moved {}",
+                        moved.join(", ")
+                    ),
+                }
+            })
+            .collect();
         let force_channel = match &measured.forces {
             Some(tr) => {
                 let fc = force_channel::diagnose_forces(sm, &measured.points, tr, alpha)?;
@@ -444,21 +980,15 @@ impl Diagnoser {
             }
             None => None,
         };
+        let verdict = if !named.is_empty() {
+            "named"
+        } else if self.plan.cannot_separate_any {
+            "plan_cannot_separate"
+        } else {
+            "none"
+        };
         if named.is_empty() {
             named.push("none".into());
-        }
-        let worst = structure_final
-            .iter()
-            .filter_map(|it| it.bins_p.map(|p| (p, it.variable.as_str())))
-            .min_by(|a, b| a.0.total_cmp(&b.0));
-        if let Some((p, v)) = worst {
-            if p < thresholds::STRUCTURE_WARN_P {
-                notes.push(format!(
-                    "the final residual is still structured against {v} (binned-means ANOVA p = {p:.1e}): \
-                     a named effect may have another functional form than its candidate, or the missing \
-                     effect is not among the candidates"
-                ));
-            }
         }
         if spindle_temp_c.is_some() {
             notes.push(
@@ -468,18 +998,36 @@ impl Diagnoser {
         }
         Ok(DiagnoseReport {
             initial_rms_um: initial_rms,
-            final_rms_um: rms(rss0, n),
+            final_rms_um: final_rms,
             steps,
             named,
+            verdict: verdict.into(),
             session: sm.name.clone(),
             n_points: n,
             alpha,
-            correction: "bonferroni".into(),
-            nominal_free_params: report_params,
+            correction: "bonferroni over the family shapes tried in each round".into(),
+            nuisance: NuisanceStep {
+                params: nuisance_params,
+                rms_before_um: initial_rms,
+                rms_after_um: nuisance_rms,
+            },
+            nuisance_rms_um: nuisance_rms,
+            nominal_free_params,
+            scatter: ScatterReport {
+                groove_sd_um: comps.sigma_g_um,
+                measurement_sd_um: comps.sigma_e_um,
+                df_within: comps.df_within,
+                df_between: comps.df_between,
+            },
             final_params,
             final_ci95,
+            shapes,
             rounds,
             skipped,
+            unexplained,
+            within_nominal_uncertainty: within,
+            aliasing: self.plan.aliasing.clone(),
+            plan: self.plan.families.clone(),
             residual_structure: StructureReport {
                 nominal: structure_nominal,
                 final_: structure_final,
@@ -489,58 +1037,52 @@ impl Diagnoser {
             series,
         })
     }
-}
 
-fn remove_indices<T>(v: &mut Vec<T>, idx: &[usize]) {
-    let mut idx = idx.to_vec();
-    idx.sort_unstable();
-    idx.dedup();
-    for &i in idx.iter().rev() {
-        if i < v.len() {
-            v.remove(i);
+    /// Residual correlations with the session's variables beyond the final model.
+    fn unexplained(&self, w: &Whitening, f: &Fitted) -> Vec<Unexplained> {
+        let n = self.sm.len();
+        let rows = f.r.len();
+        let q = orthonormal_basis(&f.x);
+        let v = self.strata_variance(w, f, n);
+        let pts = self.sm.points();
+        let vars: [(&str, fn(&millcomp_sim::session::PointContext) -> f64); 10] = [
+            ("t_s", |p| p.t_s),
+            ("cut_length_mm", |p| p.cut_length_mm),
+            ("x_mm", |p| p.x_mm),
+            ("machine_x_mm", |p| p.machine_x_mm),
+            ("speed_rpm", |p| p.speed_rpm),
+            ("coolant_on", |p| f64::from(u8::from(p.coolant_on))),
+            ("force_z_n", |p| p.force_z_n),
+            ("tilt_deg", |p| p.tilt_deg),
+            ("upfeed_um", |p| p.upfeed_um),
+            ("depth_cmd_um", |p| p.depth_cmd_um),
+        ];
+        let r = DMatrix::from_column_slice(rows, 1, f.r.as_slice());
+        let mut out = Vec::new();
+        for (name, get) in vars {
+            let mut c: Vec<f64> = pts.iter().map(get).collect();
+            w.apply(&mut c);
+            let mut col = DMatrix::zeros(rows, 1);
+            col.rows_mut(0, n).copy_from_slice(&c);
+            let cp = project_out(&q, &col);
+            let nrm = cp.norm();
+            if nrm < 1e-9 * col.norm().max(1e-300) || nrm == 0.0 {
+                continue;
+            }
+            let cu = &cp / nrm;
+            let proj = (cu.transpose() * &r)[(0, 0)];
+            let s = strata_of_columns(w, &cu, n);
+            let tot = (s[0] + s[1] + s[2]).max(1e-300);
+            let t = strata_test(proj * proj, 1, [s[0] / tot, s[1] / tot, s[2] / tot], &v);
+            if t.p_value < thresholds::UNEXPLAINED_P {
+                out.push(Unexplained {
+                    variable: name.into(),
+                    correlation: proj / f.r.norm().max(1e-300),
+                    p_value: t.p_value,
+                    stratum: if s[1] > s[0] { "between" } else { "within" }.into(),
+                });
+            }
         }
+        out
     }
-}
-
-/// Whether the term's offset responds to its free parameters anywhere, at any of its starts.
-fn has_sensitivity(sm: &SessionModel, term: &Term) -> bool {
-    let mut starts: Vec<Vec<f64>> = vec![Vec::new()];
-    for f in &term.spec.free {
-        starts = starts
-            .into_iter()
-            .flat_map(|s| {
-                f.starts.iter().map(move |&x| {
-                    let mut v = s.clone();
-                    v.push(x);
-                    v
-                })
-            })
-            .collect();
-    }
-    starts.iter().any(|s| {
-        let Ok(e) = term.configured(s) else {
-            return false;
-        };
-        (0..sm.len()).any(|i| {
-            let g = e.param_gradient(&sm.ctx(i));
-            term.free_idx
-                .iter()
-                .any(|&k| g[k].abs() > thresholds::ZERO_SENSITIVITY)
-        })
-    })
-}
-
-fn no_sensitivity_note(name: &str) -> String {
-    let why = match name {
-        "coolant_thermal_drift" => "the coolant is never switched in this session",
-        "spindle_thermal_growth" => {
-            "no spindle speed in this session exceeds the growth onset the fit starts from (16 000 rpm, 002 Fig. 25)"
-        }
-        "slideway_straightness" => "no measured point lies inside the slideway span",
-        "tool_wear" => "the tool never engages (no cut length)",
-        "flute_runout" => "no point is engaged with an upfeed above the runout",
-        "machine_compliance" => "the predicted force is zero everywhere",
-        _ => "its offset does not depend on its free parameters at any measured point",
-    };
-    format!("not testable on this session: {why} (the effect predicts no change)")
 }

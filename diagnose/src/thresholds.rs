@@ -27,3 +27,24 @@ pub const MATCH_ABS_DEG: f64 = 1e-3;
 pub const STRUCTURE_WARN_P: f64 = 1e-4;
 /// Relative part of every match tolerance (round-off of printed values).
 pub const MATCH_REL: f64 = 1e-6;
+/// A family whose reference column the nuisance columns explain to this share (cos² ≥ 0.99,
+/// i.e. at most 10 % of its amplitude is distinguishable from a nominal-model change) is aliased
+/// with the nuisance: the data alone cannot tell them apart (`aliasing`).
+pub const ALIAS_SHARE: f64 = 0.99;
+/// Two families whose estimates would correlate by |r| ≥ 0.95 (each one's standard error
+/// inflated ≥ 3.2× by the other) are aliased by the plan (`aliasing`).
+pub const ALIAS_CORR: f64 = 0.95;
+/// At most this many effects are added: beyond it the model describes noise (the study's
+/// sessions hide at most two).
+pub const MAX_EFFECTS: usize = 4;
+/// A residual correlation with a session variable is reported as unexplained below this p-value
+/// (the GLS test with strata, Bonferroni over the ten variables at α = 0.1: p < 0.01).
+pub const UNEXPLAINED_P: f64 = 0.01;
+/// A nuisance parameter is "determined by the data" when its posterior SD is below this fraction
+/// of its prior SD (the data carry at least 3× the prior's information).
+pub const DATA_DETERMINED: f64 = 0.5;
+/// A family whose 002-size effect differs from the best nominal-model change by less than 3
+/// noise SDs (whitened norm of its part beyond the nuisance) cannot be told from the nominal
+/// model's uncertainty by this plan (`aliasing`): a 3σ difference is the least a test at
+/// α/15 ≈ 7e-4 could see with even odds.
+pub const MIN_UNIQUE_SD: f64 = 3.0;

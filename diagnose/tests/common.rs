@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use millcomp_datasets::contracts::{read_force_trace, read_measured_groove};
 use millcomp_diagnose::{DiagnoseOptions, DiagnoseReport, Measured, SessionModel};
 use millcomp_sim::session::Session;
-use millcomp_synthetic::{SyntheticCase, SyntheticData};
+use millcomp_synthetic::{Hidden, SyntheticCase, SyntheticData};
 
 /// Significance level of the tests = the CLI default `--alpha 0.01` (issue 7).
 pub const ALPHA: f64 = 0.01;
@@ -16,15 +16,6 @@ pub const RMS_SHRINK: f64 = 0.5;
 /// RMS of 294 N(0, σ²) points has a relative sd of 1/√(2·294) = 4 %, so 1.3 σ is 7 sd above σ while
 /// any leftover systematic error of 0.08 µm RMS or more would exceed it.
 pub const NOISE_RMS_MAX_UM: f64 = 0.13;
-/// Clean sessions in the quick (debug) false-alarm test. 12 keeps it at a few seconds; it can only
-/// catch a grossly broken test (P(≥ 3 false alarms in 12 | rate 0.05) = 2 %, at rate 0.5 ≈ 1).
-pub const CLEAN_QUICK: usize = 12;
-/// Clean sessions in the full (ignored, release) false-alarm study: 200 gives the rate at α = 0.05
-/// a binomial sd of 1.5 %.
-pub const CLEAN_FULL: usize = 200;
-/// Data sets per case in the full (ignored) coverage/power study.
-pub const COVERAGE_SETS: usize = 100;
-
 /// `datasets/synthetic/` of the workspace.
 pub fn synthetic_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../datasets/synthetic")
@@ -94,4 +85,34 @@ pub fn resampled(sm: &SessionModel, offsets_um: &[f64], seed: u64) -> Measured {
 /// The report as JSON text, for assertion messages.
 pub fn show(rep: &DiagnoseReport) -> String {
     serde_json::to_string_pretty(rep).unwrap_or_default()
+}
+
+/// A committed case's hidden effect in its family's reference parameters (`families`): the same
+/// names as sim's for all but the probe tilt (the offset (D1 − D2)/2·tan α, 002 eq. 1) and the
+/// machine compliance (1/k_M).
+pub fn truth_in_family(h: &Hidden) -> Vec<(&'static str, f64)> {
+    let p = h.params();
+    let get = |k: &str| p.iter().find(|(n, _)| *n == k).map(|(_, v)| *v).unwrap();
+    match h.expect {
+        "coolant_thermal_drift" => vec![
+            ("amplitude_um", get("amplitude_um")),
+            ("time_constant_s", get("time_constant_s")),
+        ],
+        "spindle_thermal_growth" => vec![
+            ("max_growth_um", get("max_growth_um")),
+            ("rpm_onset", get("rpm_onset")),
+            ("time_constant_s", get("time_constant_s")),
+        ],
+        "probe_tilt_offset" => vec![(
+            "offset_um",
+            (get("d1_mm") - get("d2_mm")) / 2.0 * get("alpha_deg").to_radians().tan() * 1e3,
+        )],
+        "tool_wear" => vec![
+            ("max_wear_um", get("max_wear_um")),
+            ("length_scale_mm", get("length_scale_mm")),
+        ],
+        "slideway_straightness" => vec![("amplitude_um", get("amplitude_um"))],
+        "machine_compliance" => vec![("compliance_um_per_n", 1.0 / get("stiffness_n_per_um"))],
+        _ => vec![("runout_um", get("runout_um"))],
+    }
 }

@@ -36,3 +36,36 @@ fn contexts_reproduce_simulate_session() {
     // 1e-10 µm on δz); with sim's own contexts the two agree to round-off of the offset sums.
     assert!(worst < 1e-9, "worst difference {worst} µm");
 }
+
+/// The nuisance model's closed-form deflection for another force scale, stiffness and wearland
+/// against sim's own fixed point on the truth session (`millcomp_diagnose::nuisance`): the
+/// largest nominal errors of the study (+5 % force, −10 % axial and +10 % radial stiffness,
+/// +2 µm wearland) and a touch-off of 1 µm.
+#[test]
+fn nuisance_reproduces_sim_for_an_off_nominal_truth() {
+    use millcomp_diagnose::nuisance::NuisanceModel;
+    let s = millcomp_synthetic::base_session("t", "test");
+    let sm = SessionModel::new(&s).unwrap();
+    let nm = NuisanceModel::new(&sm.deflection);
+    let mut truth = s.clone();
+    truth.force_model.force_scale *= 1.05;
+    truth.stiffness.axial_n_per_um *= 0.9;
+    truth.stiffness.radial_n_per_um *= 1.1;
+    truth.tool.wearland_um += 2.0;
+    let tc = truth.contexts().unwrap();
+    let nu = [5.0, -10.0, 10.0, 2.0, 1.0];
+    let mut worst = 0.0f64;
+    let mut moved = 0.0f64;
+    for (i, p) in tc.points.iter().enumerate() {
+        let ours = sm.base_um[i] + nm.shift_um(i, &nu);
+        worst = worst.max((p.depth_nominal_um + 1.0 - ours).abs());
+        moved = moved.max((p.depth_nominal_um - sm.points()[i].depth_nominal_um).abs());
+    }
+    // the deflection moves by up to ~2 µm; the linearised force leaves < 0.02 µm (a fifth of the
+    // profilometer's σ = 0.1 µm, 002 §7.9)
+    assert!(moved > 1.0, "the errors move the depth by {moved} µm only");
+    assert!(
+        worst < 0.02,
+        "worst difference {worst} µm (the depth moved {moved} µm)"
+    );
+}
