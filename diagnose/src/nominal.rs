@@ -166,20 +166,7 @@ impl SessionModel {
             .iter()
             .zip(&self.base_um)
             .zip(extra_um.iter().chain(std::iter::repeat(&0.0)))
-            .map(|((p, b), e)| GroovePoint {
-                groove_id: p.groove_id,
-                t_s: p.t_s,
-                x_mm: p.x_mm,
-                cut_length_mm: p.cut_length_mm,
-                speed_rpm: p.speed_rpm,
-                feed_mm_min: p.feed_mm_min,
-                upfeed_um: p.upfeed_um,
-                tilt_deg: p.tilt_deg,
-                coolant_on: u8::from(p.coolant_on),
-                depth_cmd_um: p.depth_cmd_um,
-                depth_meas_um: b + e,
-                spindle_temp_c: None,
-            })
+            .map(|((p, b), e)| p.measured(b + e))
             .collect()
     }
 }

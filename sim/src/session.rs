@@ -903,6 +903,27 @@ pub struct PointContext {
     pub n_spindle_events: usize,
 }
 
+impl PointContext {
+    /// The measured-groove row of this planned point with the given measured depth (no spindle
+    /// temperature).
+    pub fn measured(&self, depth_meas_um: f64) -> GroovePoint {
+        GroovePoint {
+            groove_id: self.groove_id,
+            t_s: self.t_s,
+            x_mm: self.x_mm,
+            cut_length_mm: self.cut_length_mm,
+            speed_rpm: self.speed_rpm,
+            feed_mm_min: self.feed_mm_min,
+            upfeed_um: self.upfeed_um,
+            tilt_deg: self.tilt_deg,
+            coolant_on: u8::from(self.coolant_on),
+            depth_cmd_um: self.depth_cmd_um,
+            depth_meas_um,
+            spindle_temp_c: None,
+        }
+    }
+}
+
 /// A session's plan played out once: the time line and the nominal context of every planned
 /// measured point, in plan order. [`simulate_session`] adds the effects and the noise to it; a
 /// nominal model of the session (e.g. `millcomp-diagnose`) evaluates candidate effects on it.
@@ -1153,18 +1174,8 @@ pub fn simulate_session(
             }
         }
         out.push(GroovePoint {
-            groove_id: p.groove_id,
-            t_s: p.t_s,
-            x_mm: p.x_mm,
-            cut_length_mm: p.cut_length_mm,
-            speed_rpm: p.speed_rpm,
-            feed_mm_min: p.feed_mm_min,
-            upfeed_um: p.upfeed_um,
-            tilt_deg: p.tilt_deg,
-            coolant_on: u8::from(p.coolant_on),
-            depth_cmd_um: p.depth_cmd_um,
-            depth_meas_um: p.depth_nominal_um + offset + noise.sample(),
             spindle_temp_c: temp,
+            ..p.measured(p.depth_nominal_um + offset + noise.sample())
         });
     }
     Ok(out)

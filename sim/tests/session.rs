@@ -115,10 +115,10 @@ fn noise_free_is_the_nominal_prediction_and_noise_is_seeded() {
     assert!((rms - 0.2).abs() < 0.05, "{rms}");
 }
 
-#[test]
-fn uncompensated_groove_error_in_session_matches_the_stage() {
-    // A single 0–80 µm groove with no effects: the deep-end error is the ≈ 16 µm deflection (000 §6.3)
-    let s = Session::from_toml_str(
+/// One 20 mm groove, programmed 0–80 µm, in S7 at the thesis' force scale (wearland 8 µm,
+/// 10 µm/rev), measured every mm, at `speed_rpm` and `tilt_deg`.
+fn ramp_session(speed_rpm: f64, tilt_deg: f64) -> Session {
+    Session::from_toml_str(&format!(
         r#"
 [tool]
 wearland_um = 8.0
@@ -128,15 +128,21 @@ name = "S7"
 force_scale = 3.7396
 [[plan]]
 kind = "groove"
-speed_rpm = 10000
+speed_rpm = {speed_rpm}
 upfeed_um = 10
-tilt_deg = 20
+tilt_deg = {tilt_deg}
 length_mm = 20
 measure_every_mm = 1
-depth = { kind = "ramp", from_um = 0, to_um = 80 }
-"#,
-    )
-    .unwrap();
+depth = {{ kind = "ramp", from_um = 0, to_um = 80 }}
+"#
+    ))
+    .unwrap()
+}
+
+#[test]
+fn uncompensated_groove_error_in_session_matches_the_stage() {
+    // A single 0–80 µm groove with no effects: the deep-end error is the ≈ 16 µm deflection (000 §6.3)
+    let s = ramp_session(10_000.0, 20.0);
     let p = simulate_session(&s, &SimOptions::default()).unwrap();
     let last = p.last().unwrap();
     let err = last.depth_cmd_um - last.depth_meas_um;
@@ -222,25 +228,8 @@ fn errors_name_the_key() {
 /// iteration oscillated between 0 and c·F(d_cmd) (it returned δ = 0 at 4 µm programmed depth).
 #[test]
 fn static_deflection_solves_its_fixed_point_at_shallow_depths() {
-    let s = Session::from_toml_str(
-        r#"
-[tool]
-runout_um = 2.0
-[material]
-name = "S7"
-[force_model]
-force_scale = 3.7396
-[[plan]]
-kind = "groove"
-speed_rpm = 36000.0
-upfeed_um = 10.0
-tilt_deg = 30.0
-length_mm = 20.0
-measure_every_mm = 1.0
-depth = { kind = "ramp", from_um = 0.0, to_um = 80.0 }
-"#,
-    )
-    .unwrap();
+    let mut s = ramp_session(36_000.0, 30.0);
+    s.tool.runout_um = 2.0;
     let model = s.force_model().unwrap();
     let c = s.stiffness().unwrap().z_compliance_um_per_n(30.0).unwrap();
     let ctx = s.contexts().unwrap();

@@ -29,7 +29,7 @@ use std::f64::consts::PI;
 
 use millcomp_sim::SimError;
 use millcomp_sim::effects::{
-    CoolantThermalDrift, Effect, FluteRunout, MachineCompliance, ProbeTiltOffset,
+    CoolantThermalDrift, Effect, EffectContext, FluteRunout, MachineCompliance, ProbeTiltOffset,
     SlidewayStraightness, SpindleThermalGrowth, ToolWear, first_order_response,
 };
 use millcomp_sim::session::{GroovePoint, PointContext, Session, SessionContexts};
@@ -606,21 +606,25 @@ impl Shape {
             Shape::RunoutSpeed {
                 runout_um,
                 speed_coeff,
-            } => per_point(&|p| {
-                let r = runout_um * (1.0 + speed_coeff * (p.speed_rpm / 36_000.0).powi(2));
-                runout_offset(p, r, p.depth_actual_um)
+            } => runout_offsets(c, |p| {
+                (
+                    runout_um * (1.0 + speed_coeff * (p.speed_rpm / 36_000.0).powi(2)),
+                    p.depth_actual_um,
+                )
             }),
             Shape::RunoutDepthPower {
                 runout_um,
                 ref_depth_um,
                 exponent,
-            } => per_point(&|p| {
+            } => runout_offsets(c, |p| {
                 let d = p.depth_actual_um.max(0.0);
-                runout_offset(p, *runout_um, d * (d / ref_depth_um).powf(*exponent))
+                (*runout_um, d * (d / ref_depth_um).powf(*exponent))
             }),
-            Shape::RunoutGrowing { runout_um, end_mm } => per_point(&|p| {
-                let r = runout_um * (0.5 + p.cut_length_mm.max(0.0) / end_mm);
-                runout_offset(p, r, p.depth_actual_um)
+            Shape::RunoutGrowing { runout_um, end_mm } => runout_offsets(c, |p| {
+                (
+                    runout_um * (0.5 + p.cut_length_mm.max(0.0) / end_mm),
+                    p.depth_actual_um,
+                )
             }),
         })
     }
@@ -693,13 +697,22 @@ impl Shape {
     }
 }
 
-/// sim's flute-runout depth offset `−c·k_cz·d·(f/2)·min(r/f, 1)` with the depth term given.
-fn runout_offset(p: &PointContext, runout_um: f64, depth_term_um: f64) -> f64 {
-    if p.upfeed_um <= 0.0 {
-        return 0.0;
-    }
-    let xi = (runout_um.max(0.0) / p.upfeed_um).min(1.0);
-    -p.z_compliance_um_per_n * p.chip_force_z_n_per_um2 * depth_term_um * 0.5 * p.upfeed_um * xi
+/// sim's flute-runout offset at every point with the runout and the depth term a point gives
+/// (sim's `FluteRunout` evaluated with that depth in place of the actual one).
+fn runout_offsets(c: &SessionContexts, f: impl Fn(&PointContext) -> (f64, f64)) -> Vec<f64> {
+    (0..c.len())
+        .map(|i| {
+            let (runout_um, depth_um) = f(&c.points[i]);
+            let ctx = EffectContext {
+                depth_actual_um: depth_um,
+                ..c.effect_context(i)
+            };
+            FluteRunout {
+                runout_um: runout_um.max(0.0),
+            }
+            .depth_offset_um(&ctx)
+        })
+        .collect()
 }
 
 /// Cumulative peak force × engaged length (N·mm) at every point, in plan order.
@@ -1176,24 +1189,13 @@ pub fn draw(nominal: &Session, spec: &VariantSpec) -> Result<Variant> {
         .enumerate()
         .map(|(i, p)| {
             let hidden_sum: f64 = hidden_offsets_um.iter().map(|o| o[i]).sum();
-            GroovePoint {
-                groove_id: p.groove_id,
-                t_s: p.t_s,
-                x_mm: p.x_mm,
-                cut_length_mm: p.cut_length_mm,
-                speed_rpm: p.speed_rpm,
-                feed_mm_min: p.feed_mm_min,
-                upfeed_um: p.upfeed_um,
-                tilt_deg: p.tilt_deg,
-                coolant_on: u8::from(p.coolant_on),
-                depth_cmd_um: p.depth_cmd_um,
-                depth_meas_um: p.depth_nominal_um
+            p.measured(
+                p.depth_nominal_um
                     + hidden_sum
                     + errors.touch_off_um
                     + groove_offsets_um[p.groove_id as usize]
                     + noise.sample(&mut rng),
-                spindle_temp_c: None,
-            }
+            )
         })
         .collect();
     Ok(Variant {
