@@ -60,7 +60,7 @@ pub struct FamilyPlan {
 pub struct Proposal {
     /// The change, in words.
     pub change: String,
-    /// The aliasing measure after the change (a correlation or a nuisance share).
+    /// The aliasing measure after the change (as [`AliasPair::measure`]).
     pub after: f64,
 }
 
@@ -71,7 +71,8 @@ pub struct AliasPair {
     pub a: String,
     /// Second effect, or `nominal model (…)` for a nuisance alias.
     pub b: String,
-    /// |correlation| of the two estimates, or the nuisance share.
+    /// |correlation| of the two estimates; for a nuisance alias, how many noise SDs a 002-size
+    /// effect differs from the best nominal-model change.
     pub measure: f64,
     /// The best standard change, when one lowers the aliasing below the threshold.
     pub proposal: Option<Proposal>,
@@ -323,19 +324,31 @@ fn untestable_note(name: &str) -> String {
     format!("not testable on this session: {why} (the effect predicts no change)")
 }
 
+/// What to do when no standard change of the groove plan separates `effect` from the nominal
+/// model (by the effect: what would measure it directly).
 fn outside_plan_note(effect: &str, nuisance: &[String]) -> String {
-    let how = if nuisance.iter().any(|n| n == "touch_off_um") {
-        "measure the tool length independently — a tool-length correction at the reference tool's contact point (002 §7.4), or a depth reference cut with a second tool"
-    } else if nuisance
-        .iter()
-        .any(|n| n.contains("stiffness") || n == "force_scale_pct")
-    {
-        "measure the machine's stiffness without the tool's (a load–deflection test on a rigid dummy tool), or commission the tool's stiffness and force model to a tighter prior"
-    } else {
-        "tighten the prior of the nominal model's parameters it is aliased with by an independent calibration"
+    let how = match effect {
+        "probe_tilt_offset" => {
+            "no change of the groove plan separates them: measure the tool length independently — a tool-length correction at the reference tool's contact point (002 §7.4), or a depth reference cut with a second tool"
+        }
+        "machine_compliance" => {
+            "no change of the groove plan separates them: measure the machine's stiffness without the tool's (a load–deflection test on a rigid dummy tool), or commission the tool's stiffness and force model to a tighter prior"
+        }
+        "flute_runout" => {
+            "none of the standard changes separates them: measure the per-flute peak forces (`--forces`), where runout shows as the asymmetry between the two flutes (000 §4)"
+        }
+        "slideway_straightness" => {
+            "none of the standard changes separates them: cut grooves spread over the slideway's X range (002's bow is 5 µm over 90 mm)"
+        }
+        "tool_wear" => {
+            "none of the standard changes separates them: cut more engaged length between measured grooves, or check the tool length before and after (002 §7.5)"
+        }
+        _ => {
+            "none of the standard changes separates them: pauses long enough for the thermal lags (≥ 15 min) with the spindle stopped and running, and the coolant switched"
+        }
     };
     format!(
-        "{effect} is aliased with the nominal model ({}); no change of the groove plan separates them: {how}",
+        "{effect} is aliased with the nominal model ({}); {how}",
         nuisance.join(", ")
     )
 }
@@ -427,7 +440,7 @@ pub(crate) fn analyse(sm: &SessionModel, families: &[Family], nuis: &NuisanceSet
             pairs.push(AliasPair {
                 a: families[k].name.into(),
                 b: format!("nominal model ({})", f.aliased_with.join(", ")),
-                measure: f.nuisance_share,
+                measure: f.unique_sd,
                 proposal: None,
                 note: String::new(),
             });
@@ -494,7 +507,7 @@ fn propose(
                         .as_ref()
                         .map_or(0.0, |col| project_out(&cols.qn, col).norm());
                     let ok = sh < thresholds::ALIAS_SHARE && unique >= thresholds::MIN_UNIQUE_SD;
-                    (sh, ok, -unique)
+                    (unique, ok, -unique)
                 }),
             };
             let Some((after, ok, rank)) = scored else {
@@ -518,10 +531,16 @@ fn propose(
         let best = best.and_then(|(p, ok, _)| ok.then_some(p));
         match best {
             Some(p) => {
-                pair.note = format!(
-                    "the plan cannot separate {} from {} ({:.3}); add {} ({:.3} after)",
-                    pair.a, pair.b, pair.measure, p.change, p.after
-                );
+                pair.note = match b {
+                    Some(_) => format!(
+                        "the plan cannot separate {} from {} (their estimates correlate by {:.3}); add {} ({:.3} after)",
+                        pair.a, pair.b, pair.measure, p.change, p.after
+                    ),
+                    None => format!(
+                        "the plan cannot separate {} from {}: at its 002 size it differs from a nominal-model change by {:.1} noise SDs; add {} ({:.1} SDs after)",
+                        pair.a, pair.b, pair.measure, p.change, p.after
+                    ),
+                };
                 pair.proposal = Some(p);
             }
             _ => {

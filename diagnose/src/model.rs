@@ -356,7 +356,7 @@ pub(crate) fn orthonormal_basis(x: &DMatrix<f64>) -> DMatrix<f64> {
     for j in 0..x.ncols() {
         let mut v: DVector<f64> = x.column(j).into_owned();
         let norm0 = v.norm();
-        if !(norm0 > 0.0) || !norm0.is_finite() {
+        if norm0 <= 0.0 || !norm0.is_finite() {
             continue;
         }
         for _ in 0..2 {

@@ -296,6 +296,30 @@ impl Diagnoser {
         Ok((cur, w, comps))
     }
 
+    /// The model without term `k`, refitted from the current estimate: its terms, its starting
+    /// θ and its fit (`None` when the fit fails).
+    fn without(
+        &self,
+        y: &[f64],
+        terms: &[Term],
+        cur: &Fitted,
+        w: &Whitening,
+        k: usize,
+    ) -> Option<(Vec<Term>, Vec<f64>, Fitted)> {
+        let a = self.problem(y, terms, w).term_start(k);
+        let q = terms[k].shape.n_params();
+        let mut theta_wo = cur.theta[..a].to_vec();
+        theta_wo.extend_from_slice(&cur.theta[a + q..]);
+        let others: Vec<Term> = terms
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| *j != k)
+            .map(|(_, t)| t.clone())
+            .collect();
+        let base = fit(&self.problem(y, &others, w), &theta_wo).ok()?;
+        Some((others, theta_wo, base))
+    }
+
     /// Backward elimination: after an effect is added, every effect in the model is tested for
     /// removal (the GLS test of the model without it, at the round's threshold, its amplitude and
     /// the held-out grooves); the least needed one that fails is removed, and the check repeats.
@@ -316,15 +340,7 @@ impl Diagnoser {
                 let p_all = self.problem(y, terms, w);
                 let a = p_all.term_start(k);
                 let q = terms[k].shape.n_params();
-                let mut theta_wo = cur.theta[..a].to_vec();
-                theta_wo.extend_from_slice(&cur.theta[a + q..]);
-                let others: Vec<Term> = terms
-                    .iter()
-                    .enumerate()
-                    .filter(|(j, _)| *j != k)
-                    .map(|(_, t)| t.clone())
-                    .collect();
-                let Ok(base) = fit(&self.problem(y, &others, w), &theta_wo) else {
+                let Some((others, theta_wo, base)) = self.without(y, terms, &cur, w, k) else {
                     continue;
                 };
                 // the full model with term k last, as the test expects
@@ -399,18 +415,7 @@ impl Diagnoser {
             let Some(k) = terms.iter().position(|t| t.family == name) else {
                 continue;
             };
-            let p_all = self.problem(y, terms, w);
-            let a = p_all.term_start(k);
-            let q = terms[k].shape.n_params();
-            let mut theta_wo = cur.theta[..a].to_vec();
-            theta_wo.extend_from_slice(&cur.theta[a + q..]);
-            let others: Vec<Term> = terms
-                .iter()
-                .enumerate()
-                .filter(|(j, _)| *j != k)
-                .map(|(_, t)| t.clone())
-                .collect();
-            let Ok(base) = fit(&self.problem(y, &others, w), &theta_wo) else {
+            let Some((others, _, base)) = self.without(y, terms, &cur, w, k) else {
                 continue;
             };
             let q0 = orthonormal_basis(&base.x);
@@ -639,7 +644,7 @@ impl Diagnoser {
                 what: "the nominal model's nuisance parameters".into(),
                 source,
             })?;
-        let (mut cur, mut w, _) = self.reweight(&y, &terms, first, w0, true)?;
+        let (mut cur, mut w, nuisance_comps) = self.reweight(&y, &terms, first, w0, true)?;
         let nuisance_pred = self.problem(&y, &terms, &w).predict(&cur.theta);
         let nuisance_rms = rms(&resid(&y, &nuisance_pred));
         let structure_nominal =
@@ -883,10 +888,16 @@ impl Diagnoser {
                 .push(self.problem(&y, &terms, &w).predict(&cur.theta));
         }
 
-        // final model, weighted by the scatter as estimated
-        let (f2, w2, comps) = self.reweight(&y, &terms, cur, w, false)?;
-        cur = f2;
-        w = w2;
+        // final model, weighted by the scatter as estimated (with nothing named, the nuisance
+        // step's fit is the final one)
+        let comps = if terms.is_empty() {
+            nuisance_comps
+        } else {
+            let (f2, w2, comps) = self.reweight(&y, &terms, cur, w, false)?;
+            cur = f2;
+            w = w2;
+            comps
+        };
         let pf = self.problem(&y, &terms, &w);
         let pred = pf.predict(&cur.theta);
         let final_rms = rms(&resid(&y, &pred));
@@ -1045,7 +1056,8 @@ impl Diagnoser {
         let q = orthonormal_basis(&f.x);
         let v = self.strata_variance(w, f, n);
         let pts = self.sm.points();
-        let vars: [(&str, fn(&millcomp_sim::session::PointContext) -> f64); 10] = [
+        type Get = fn(&millcomp_sim::session::PointContext) -> f64;
+        let vars: [(&str, Get); 10] = [
             ("t_s", |p| p.t_s),
             ("cut_length_mm", |p| p.cut_length_mm),
             ("x_mm", |p| p.x_mm),
