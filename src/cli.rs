@@ -265,7 +265,8 @@ pub struct DiagnoseArgs {
     /// Only these candidate effects (comma separated; default all).
     #[arg(long, value_delimiter = ',')]
     pub candidates: Vec<String>,
-    /// Let the nominal model have a free constant depth offset (probe_tilt_offset is then skipped).
+    /// Leave the touch-off free (no prior), whatever the session's `[uncertainty]` states: a
+    /// constant offset is then never blamed on an effect.
     #[arg(long)]
     pub free_offset: bool,
 }

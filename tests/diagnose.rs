@@ -32,8 +32,9 @@ fn coolant_drift_is_named_first_and_the_gap_shrinks() {
     let step = &doc["steps"][0];
     assert_eq!(step["effect"], "coolant_thermal_drift");
     assert!(step["p_value"].as_f64().unwrap() < 0.01);
+    // the shrink after the nominal model's recalibration (issue 15)
     let (before, after) = (
-        doc["initial_rms_um"].as_f64().unwrap(),
+        doc["nuisance_rms_um"].as_f64().unwrap(),
         doc["final_rms_um"].as_f64().unwrap(),
     );
     assert!(after <= 0.5 * before, "rms {before} -> {after}");
@@ -48,6 +49,8 @@ fn clean_session_names_none() {
     let doc = diagnose_json("clean");
     assert_eq!(doc["named"], serde_json::json!(["none"]));
     assert_eq!(doc["steps"].as_array().unwrap().len(), 0);
+    assert_eq!(doc["verdict"], "none");
+    assert_eq!(doc["nuisance"]["params"].as_array().unwrap().len(), 5);
 }
 
 #[test]
@@ -178,18 +181,14 @@ fn text_report_and_svg_plots_of_the_two_effect_session() {
         .collect();
     let (text, plots) = files.split_last().unwrap();
     assert!(text.ends_with("diagnose.txt"), "{files:?}");
-    // measured vs simulated + one residual plot per step
-    assert_eq!(plots.len(), 1 + steps);
+    // measured vs simulated, the nuisance step, one residual plot per step
+    assert_eq!(plots.len(), 2 + steps);
     for f in plots {
         let t = std::fs::read_to_string(f).unwrap();
         assert!(t.starts_with("<svg"), "{}", f.display());
         assert!(t.len() > 10_000, "{} is nearly empty", f.display());
     }
-    assert!(
-        plots[1]
-            .file_name()
-            .unwrap()
-            .to_string_lossy()
-            .starts_with("residual_step1_")
-    );
+    let name_of = |k: usize| plots[k].file_name().unwrap().to_string_lossy().into_owned();
+    assert_eq!(name_of(1), "residual_step0_nuisance.svg");
+    assert!(name_of(2).starts_with("residual_step1_"), "{}", name_of(2));
 }

@@ -395,8 +395,9 @@ fn diagnose_stage(out: &Path, md: &mut String) -> anyhow::Result<Stage> {
     let _ = writeln!(
         md,
         "## 3. Diagnosis of a session with a hidden effect\n\nSession `{DIAG_NAME}` (synthetic: a coolant \
-         thermal drift of 8.5 µm with τ = 900 s is hidden in it, `002_…txt` §7.1). Forward selection of \
-         candidate effects with nested F-tests.\n\n| step | effect | p-value | rms before (µm) | rms after (µm) | parameters |\n|---|---|---|---|---|---|"
+         thermal drift of 8.5 µm with τ = 900 s is hidden in it, `002_…txt` §7.1). The nominal model is \
+         recalibrated within its priors, then candidate families are added by GLS F-tests, held-out grooves \
+         and the measurement resolution.\n\n| step | effect | p-value | rms before (µm) | rms after (µm) | parameters |\n|---|---|---|---|---|---|"
     );
     for (i, st) in rep.steps.iter().enumerate() {
         let params: Vec<String> = st

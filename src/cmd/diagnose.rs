@@ -28,6 +28,7 @@ pub fn run(args: DiagnoseArgs, json: bool) -> anyhow::Result<()> {
         alpha: args.alpha,
         candidates: (!args.candidates.is_empty()).then(|| args.candidates.clone()),
         free_offset: args.free_offset,
+        ..DiagnoseOptions::default()
     };
     let report = diagnose(&session, &measured, &options).with_context(|| {
         format!(

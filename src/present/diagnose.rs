@@ -21,10 +21,6 @@ pub fn fmt_p(p: f64) -> String {
     }
 }
 
-fn rms(rss: f64, n: usize) -> f64 {
-    (rss / n.max(1) as f64).sqrt()
-}
-
 /// The human-readable report.
 pub fn text(rep: &DiagnoseReport) -> String {
     let mut s = String::new();
@@ -35,16 +31,49 @@ pub fn text(rep: &DiagnoseReport) -> String {
     w(
         &mut s,
         format!(
-            "diagnose: session `{}`, {} points, alpha {} ({} over the candidates of each round, plus BIC)",
+            "diagnose: session `{}`, {} points, alpha {} ({})",
             rep.session, rep.n_points, rep.alpha, rep.correction
         ),
     );
-    for (k, v) in &rep.nominal_free_params {
-        w(&mut s, format!("nominal free parameter {k} = {v:.4}"));
-    }
     w(
         &mut s,
         format!("RMS residual: nominal {:.3} µm", rep.initial_rms_um),
+    );
+    w(
+        &mut s,
+        format!(
+            "nuisance step (the nominal model recalibrated within its priors): RMS {:.3} → {:.3} µm; its parameters in the final model:",
+            rep.nuisance.rms_before_um, rep.nuisance.rms_after_um
+        ),
+    );
+    for p in &rep.nuisance.params {
+        if p.determined_by == "held" {
+            w(&mut s, format!("  {:<22} held at nominal", p.name));
+            continue;
+        }
+        w(
+            &mut s,
+            format!(
+                "  {:<22} {:>+9.3} ± {:<7.3} prior SD {:<6} ({:+.1} prior SD, determined by the {})",
+                p.name,
+                p.estimate,
+                p.sd,
+                if p.prior_sd.is_finite() {
+                    format!("{}", p.prior_sd)
+                } else {
+                    "free".into()
+                },
+                p.z_prior,
+                p.determined_by
+            ),
+        );
+    }
+    w(
+        &mut s,
+        format!(
+            "groove-to-groove scatter: σ_g = {:.3} µm (random offset per groove), σ_e = {:.3} µm within grooves",
+            rep.scatter.groove_sd_um, rep.scatter.measurement_sd_um
+        ),
     );
     let top: Vec<&StructureItem> = {
         let mut v: Vec<&StructureItem> = rep.residual_structure.nominal.iter().collect();
@@ -59,7 +88,7 @@ pub fn text(rep: &DiagnoseReport) -> String {
         w(
             &mut s,
             format!(
-                "  {:<15} r = {:>6}  binned means {}  (ANOVA p {})",
+                "  {:<15} r = {:>6}  binned means {}",
                 it.variable,
                 it.correlation
                     .map(|r| format!("{r:+.2}"))
@@ -69,7 +98,6 @@ pub fn text(rep: &DiagnoseReport) -> String {
                     .map(|b| format!("{:+.2}", b.mean_um))
                     .collect::<Vec<_>>()
                     .join(" "),
-                it.bins_p.map(fmt_p).unwrap_or("-".into())
             ),
         );
     }
@@ -79,25 +107,26 @@ pub fn text(rep: &DiagnoseReport) -> String {
             format!("round {} (threshold p < {:.2e}):", i + 1, r.threshold),
         );
         let mut t = r.tested.clone();
-        t.sort_by(|a, b| a.p_value.total_cmp(&b.p_value));
+        t.sort_by(|a, b| a.test.ln_p.total_cmp(&b.test.ln_p));
         for d in &t {
             w(
                 &mut s,
                 format!(
-                    "  {:<24} F({},{}) = {:>10.2}  p = {:<9}  ΔBIC = {:>9.1}  RMS {:.3} µm{}",
+                    "  {:<23} {:<19} F({},{:.1}) = {:>10.2}  p = {:<9}  RMS {:.3} µm  amplitude {:>6.2} µm  {}",
                     d.effect,
-                    d.df1,
-                    d.df2,
-                    d.f_statistic,
-                    fmt_p(d.p_value),
-                    d.bic_after - d.bic_before,
-                    rms(d.rss_after, rep.n_points),
-                    if r.added.as_deref() == Some(d.effect.as_str()) {
-                        "  <- added"
-                    } else if !d.identifiable {
-                        "  (not identifiable)"
+                    d.shape,
+                    d.test.df1,
+                    d.test.df2,
+                    d.test.f_statistic,
+                    fmt_p(d.test.p_value),
+                    d.rms_after_um,
+                    d.amplitude_um,
+                    if d.decision == "added" {
+                        "<- added".to_string()
+                    } else if d.significant {
+                        d.decision.clone()
                     } else {
-                        ""
+                        String::new()
                     }
                 ),
             );
@@ -107,11 +136,19 @@ pub fn text(rep: &DiagnoseReport) -> String {
         w(
             &mut s,
             format!(
-                "step: {} (p = {}), RMS {:.3} → {:.3} µm",
+                "step: {} [{} shape] (p = {}), RMS {:.3} → {:.3} µm; held-out grooves {:.1} → {:.1}{}",
                 st.effect,
+                st.shape,
                 fmt_p(st.p_value),
                 st.rms_before_um,
-                st.rms_after_um
+                st.rms_after_um,
+                st.logo.before,
+                st.logo.after,
+                if st.beyond_prior {
+                    "; aliased with the nominal model, named beyond its prior"
+                } else {
+                    ""
+                }
             ),
         );
     }
@@ -128,6 +165,30 @@ pub fn text(rep: &DiagnoseReport) -> String {
                 .unwrap_or("-".into());
             w(&mut s, format!("  {e}.{k} = {v:.4}  {ci}"));
         }
+    }
+    for u in &rep.unexplained {
+        w(
+            &mut s,
+            format!(
+                "unexplained: the residual still correlates with {} (r = {:+.2}, p = {}, {} grooves)",
+                u.variable,
+                u.correlation,
+                fmt_p(u.p_value),
+                u.stratum
+            ),
+        );
+    }
+    for x in &rep.within_nominal_uncertainty {
+        w(
+            &mut s,
+            format!(
+                "within the nominal model's uncertainty: {}: {}",
+                x.effect, x.note
+            ),
+        );
+    }
+    for a in &rep.aliasing {
+        w(&mut s, format!("plan: {}", a.note));
     }
     for sk in &rep.skipped {
         w(&mut s, format!("skipped {}: {}", sk.effect, sk.note));
@@ -177,9 +238,10 @@ pub fn text(rep: &DiagnoseReport) -> String {
     w(
         &mut s,
         format!(
-            "named: {}   RMS {:.3} → {:.3} µm",
+            "named: {}   RMS {:.3} (nominal) → {:.3} (nuisance) → {:.3} µm",
             rep.named.join(", "),
             rep.initial_rms_um,
+            rep.nuisance_rms_um,
             rep.final_rms_um
         ),
     );
@@ -190,9 +252,10 @@ pub fn text(rep: &DiagnoseReport) -> String {
 const BLUE: usize = 0;
 const RED: usize = 1;
 
-/// Writes the SVG plots of `rep` into `dir` (created if missing): `measured_vs_simulated.svg` and one
-/// `residual_step{k}_{effect}.svg` per step (residual before and after it; `residual_step0_nominal.svg`
-/// when no step was taken). Returns the files written.
+/// Writes the SVG plots of `rep` into `dir` (created if missing): `measured_vs_simulated.svg`,
+/// `residual_step0_nuisance.svg` (the residual before and after the nuisance step) and one
+/// `residual_step{k}_{effect}.svg` per step (residual before and after it). Returns the files
+/// written.
 pub fn write_plots(rep: &DiagnoseReport, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let s = &rep.series;
@@ -236,29 +299,37 @@ pub fn write_plots(rep: &DiagnoseReport, dir: &Path) -> anyhow::Result<Vec<PathB
     out.push(p);
     let resid =
         |pred: &[f64]| -> Vec<f64> { s.measured_um.iter().zip(pred).map(|(m, p)| m - p).collect() };
-    if rep.steps.is_empty() {
-        let r = resid(&nominal);
-        let p = dir.join("residual_step0_nominal.svg");
+    if let Some(after) = s.predictions_um.get(1) {
+        let p = dir.join("residual_step0_nuisance.svg");
         index_plot(
             &p,
             &format!(
-                "{}: residual of the nominal model (RMS {:.3} µm), nothing significant",
-                rep.session, rep.initial_rms_um
+                "{}: the nominal model recalibrated within its priors, RMS {:.3} → {:.3} µm",
+                rep.session, rep.initial_rms_um, rep.nuisance_rms_um
             ),
             x_label,
             "measured − model (µm)",
             &s.groove_id,
-            &[IndexCurve {
-                label: "residual".into(),
-                values: &r,
-                mark: Mark::Dots,
-                color: BLUE,
-            }],
+            &[
+                IndexCurve {
+                    label: "nominal".into(),
+                    values: &resid(&nominal),
+                    mark: Mark::Dots,
+                    color: GRAY,
+                },
+                IndexCurve {
+                    label: "after the nuisance step".into(),
+                    values: &resid(after),
+                    mark: Mark::Dots,
+                    color: BLUE,
+                },
+            ],
         )?;
         out.push(p);
     }
     for (k, st) in rep.steps.iter().enumerate() {
-        let (Some(before), Some(after)) = (s.predictions_um.get(k), s.predictions_um.get(k + 1))
+        let (Some(before), Some(after)) =
+            (s.predictions_um.get(k + 1), s.predictions_um.get(k + 2))
         else {
             continue;
         };
@@ -268,9 +339,10 @@ pub fn write_plots(rep: &DiagnoseReport, dir: &Path) -> anyhow::Result<Vec<PathB
         index_plot(
             &p,
             &format!(
-                "step {}: add {} (p = {}), RMS {:.3} → {:.3} µm",
+                "step {}: add {} [{}] (p = {}), RMS {:.3} → {:.3} µm",
                 k + 1,
                 st.effect,
+                st.shape,
                 fmt_p(st.p_value),
                 st.rms_before_um,
                 st.rms_after_um
