@@ -888,9 +888,9 @@ impl Diagnoser {
                 .push(self.problem(&y, &terms, &w).predict(&cur.theta));
         }
 
-        // final model, weighted by the scatter as estimated (with nothing named, the nuisance
-        // step's fit is the final one)
-        let comps = if terms.is_empty() {
+        // final model, weighted by the scatter as estimated (with nothing ever added, the
+        // nuisance step's fit is the final one)
+        let comps = if steps.is_empty() {
             nuisance_comps
         } else {
             let (f2, w2, comps) = self.reweight(&y, &terms, cur, w, false)?;
@@ -1053,7 +1053,12 @@ impl Diagnoser {
     fn unexplained(&self, w: &Whitening, f: &Fitted) -> Vec<Unexplained> {
         let n = self.sm.len();
         let rows = f.r.len();
-        let q = orthonormal_basis(&f.x);
+        // the model's columns on the data rows only: a variable is tested for what the model
+        // cannot follow in the data, not for the pull of the nuisance priors (a variable constant
+        // over the session, e.g. the speed of a one-speed plan, then drops out with the touch-off)
+        let mut xd = f.x.clone();
+        xd.rows_mut(n, rows - n).fill(0.0);
+        let q = orthonormal_basis(&xd);
         let v = self.strata_variance(w, f, n);
         let pts = self.sm.points();
         type Get = fn(&millcomp_sim::session::PointContext) -> f64;

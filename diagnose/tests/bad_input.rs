@@ -201,6 +201,16 @@ fn a_plan_that_separates_nothing_says_so_instead_of_naming() {
             .iter()
             .any(|w| w.effect == "probe_tilt_offset")
     );
+    // speed, tilt, upfeed and depth are constant here: nothing can correlate with them (the
+    // touch-off held against its prior is not a correlation with a constant)
+    let constant = ["speed_rpm", "tilt_deg", "upfeed_um", "depth_cmd_um"];
+    assert!(
+        rep.unexplained
+            .iter()
+            .all(|u| !constant.contains(&u.variable.as_str())),
+        "{:?}",
+        rep.unexplained
+    );
 }
 
 #[test]
