@@ -15,12 +15,20 @@ pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
         IdentifyWhat::Spindle => Target::Spindle,
         IdentifyWhat::Stiffness => Target::Stiffness,
         IdentifyWhat::Force => Target::Force,
+        IdentifyWhat::Thermal if crate::cmd::record::is_thermal_study(&args) => {
+            return crate::cmd::record::thermal(args, json);
+        }
         IdentifyWhat::Thermal => Target::Thermal,
         IdentifyWhat::Wall => Target::Wall,
         IdentifyWhat::Part => Target::Part,
+        IdentifyWhat::Wear => return crate::cmd::record::wear(args, json),
+        IdentifyWhat::Flutes => return crate::cmd::record::flutes(args, json),
     };
     let options = options(&args)?;
-    let table = millcomp_datasets::read_any(&args.file)?;
+    let (table, notes) = crate::cmd::record::read_mapped(&args.file, args.columns.as_deref())?;
+    for n in &notes {
+        eprintln!("note: {}: {n}", args.file.display());
+    }
     let cols = millcomp_datasets::adapters::identify_columns(&table);
     let fit = identify_columns(verb, &cols, &options)
         .with_context(|| format!("{}: identify {}", args.file.display(), verb.name()))?;
