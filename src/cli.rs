@@ -48,7 +48,7 @@ pub enum Command {
     /// Cut successive parts of a groove scenario: after each the groove is measured, the deflection model
     /// identified from the parts so far, and the next part uses it (run-to-run learning).
     Parts(PartsArgs),
-    /// List and show the published tables shipped with millcomp.
+    /// List and show the published tables, real measured records and synthetic runs shipped with millcomp.
     #[command(subcommand)]
     Datasets(DatasetsCommand),
 }
@@ -160,6 +160,10 @@ pub struct DoeDesignArgs {
 pub struct DoeAnalyzeArgs {
     /// CSV or Parquet file with one row per run.
     pub file: PathBuf,
+    /// Read your file's columns under other names: `role=column,...` (e.g. `max_fx_n=Fx_max_N`; unit
+    /// suffixes checked), then name the roles in --response and --factors.
+    #[arg(long)]
+    pub columns: Option<String>,
     /// Response column.
     #[arg(long)]
     pub response: String,
@@ -310,9 +314,11 @@ pub struct DiagnoseArgs {
     /// a nominal that holds the signal at its first value (no drift, a fresh tool).
     #[arg(long, conflicts_with_all = ["session", "measured", "forces", "free_offset"])]
     pub record: Option<PathBuf>,
-    /// With --record: the record's roles from your file's columns, e.g. `t_s=time_s,speed_rpm=spindle_rpm,
-    /// temp_c=temp_t*_C,drift_um=disp_ch1_um` or `cut=run,force_n=force_y__rms`; roles t_s, speed_rpm,
-    /// temp_c (several), coolant_on, cut_length_mm, cut, flute_n (several), and the signal.
+    /// Your file's columns under the names diagnose reads, `role=column,...` (unit suffixes checked): for a
+    /// groove session the measured-groove columns; with --record the record's roles, e.g.
+    /// `t_s=time_s,speed_rpm=spindle_rpm,temp_c=temp_t*_C,drift_um=disp_ch1_um` or
+    /// `cut=run,force_n=force_y__rms` — roles t_s, speed_rpm, temp_c (several), coolant_on,
+    /// cut_length_mm, cut, flute_n (several), and the signal.
     #[arg(long)]
     pub columns: Option<String>,
     /// With --record: the signal's role (default the first of drift_um, force_n, depth_um present); several
@@ -387,6 +393,10 @@ pub struct BatchArgs {
     /// Worker threads (default: all cores, or RAYON_NUM_THREADS).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Read the --scenarios file's columns under the factor names: `factor=column,...` (unit suffixes
+    /// checked).
+    #[arg(long, requires = "scenarios")]
+    pub columns: Option<String>,
 }
 
 /// `millcomp parts`.
@@ -443,9 +453,9 @@ pub struct BatchMergeArgs {
 /// `millcomp datasets …`.
 #[derive(Debug, Subcommand)]
 pub enum DatasetsCommand {
-    /// List the shipped tables.
+    /// List the shipped tables: published, real measured records, synthetic runs.
     List,
-    /// Print one table.
+    /// Print one table (a real record: its provenance and first rows).
     Show(DatasetsShowArgs),
     /// Validate your own CSV/Parquet file against a contract or a shipped table's schema.
     Check(DatasetsCheckArgs),
@@ -459,6 +469,9 @@ pub struct DatasetsCheckArgs {
     /// `measured-groove` (the diagnose input contract) or the name of a shipped dataset.
     #[arg(long = "as", value_name = "SCHEMA")]
     pub schema: String,
+    /// Read your file's columns under the schema's names: `role=column,...` (unit suffixes checked).
+    #[arg(long)]
+    pub columns: Option<String>,
 }
 
 /// `millcomp datasets show NAME`.

@@ -7,6 +7,7 @@
 //!   column and 1-based row; writing tables and text atomically (temporary file + rename).
 //! * [`real`]: records measured on real machines by others (`datasets/real/`), with provenance and
 //!   licences, listed apart from the published tables.
+//! * [`synthetic_runs`]: the runs made by millcomp's seeded generators, listed apart as synthetic.
 //! * [`mapping`]: `--columns role=column,…`, reading a user's own record under the names a verb reads,
 //!   with unit suffixes checked.
 //!
@@ -24,6 +25,7 @@ pub mod error;
 pub mod mapping;
 pub mod real;
 pub mod registry;
+pub mod synthetic_runs;
 pub mod table;
 
 pub use error::DatasetError;

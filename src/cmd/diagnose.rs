@@ -25,7 +25,13 @@ pub fn run(args: DiagnoseArgs, json: bool) -> anyhow::Result<()> {
     };
     let session = Session::from_path(session_path)
         .with_context(|| format!("reading session {}", session_path.display()))?;
-    let file = read_measured_groove(measured_path)?;
+    let file = match &args.columns {
+        Some(c) => millcomp_datasets::contracts::read_measured_groove_mapped(
+            measured_path,
+            &millcomp_datasets::mapping::ColumnMap::parse(c)?,
+        )?,
+        None => read_measured_groove(measured_path)?,
+    };
     let mut measured = Measured::new(measured_path.display().to_string(), file.points);
     if let Some(path) = &args.forces {
         measured = measured.with_forces(path.display().to_string(), read_force_trace(path)?);
