@@ -131,7 +131,7 @@ impl MappedTable {
             let column = if file_col == name {
                 name.to_string()
             } else {
-                format!("{file_col}` (read as `{name}")
+                format!("{file_col}` read as `{name}")
             };
             return Err(DatasetError::Invalid {
                 file: self.table.origin.clone().into(),
