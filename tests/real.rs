@@ -182,7 +182,9 @@ fn bad_input_names_the_column_or_the_range() {
         ])
         .assert()
         .code(1)
-        .stderr(predicate::str::contains("column `time_s` read as `t_s`, row 18"))
+        .stderr(predicate::str::contains(
+            "column `time_s` read as `t_s`, row 18",
+        ))
         .stderr(predicate::str::contains("backwards.csv"));
     // a training range outside the record
     millcomp()

@@ -517,12 +517,14 @@ pub fn diagnose(args: crate::cli::DiagnoseArgs, json: bool) -> anyhow::Result<()
     }
     bar.finish_and_clear();
     let plots = match &args.report {
-        Some(dir) => present::record::diagnose_plots(
-            dir,
-            context.t_s.as_deref().or(context.cut.as_deref()),
-            &reports,
-            &info,
-        )?,
+        Some(dir) => {
+            let x = match (&context.t_s, &context.cut) {
+                (Some(t), _) => Some(("time (s)", t.as_slice())),
+                (None, Some(c)) => Some(("cut", c.as_slice())),
+                _ => None,
+            };
+            present::record::diagnose_plots(dir, x, &reports, &info)?
+        }
         None => Vec::new(),
     };
     if json {

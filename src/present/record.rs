@@ -737,7 +737,7 @@ pub fn diagnose_text(
 /// Per signal: measured, the prediction after the nuisance step and after each step.
 pub fn diagnose_plots(
     dir: &Path,
-    x: Option<&[f64]>,
+    x: Option<(&str, &[f64])>,
     reports: &[millcomp_diagnose::record::RecordReport],
     info: &InputInfo,
 ) -> anyhow::Result<Vec<PathBuf>> {
@@ -746,7 +746,7 @@ pub fn diagnose_plots(
     let mut out = Vec::new();
     for r in reports {
         let xs: Vec<f64> = match x {
-            Some(v) => v.to_vec(),
+            Some((_, v)) => v.to_vec(),
             None => (0..r.measured.len()).map(|i| i as f64).collect(),
         };
         let pts =

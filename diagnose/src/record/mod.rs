@@ -552,6 +552,28 @@ pub fn diagnose_record(rec: &Record, opts: &RecordOptions) -> Result<RecordRepor
                 ci95.insert(p.name.clone(), [v - t975 * se, v + t975 * se]);
             }
         }
+        // a length scale at its upper bound: the growth is a straight line over the record, and only
+        // its slope W/L0 is determined
+        if let (families::Driver::Length { .. }, Some(lp)) = (&fam.driver, fam.params.get(1)) {
+            let (w, l0) = (fit.theta[k0], fit.theta[k0 + 1]);
+            if l0 >= 0.99 * lp.upper {
+                let shown = match unit {
+                    "n" => "N",
+                    "um" => "µm",
+                    u => u,
+                };
+                notes.push(format!(
+                    "{}: {} = {l0:.4e} is at its upper bound: the growth is linear over the record and only \
+                     its slope W/L0 = {:.5} {shown} per {} is determined",
+                    fam.effect,
+                    lp.name,
+                    w / l0,
+                    lp.name
+                        .trim_start_matches("length_scale_")
+                        .trim_end_matches('s')
+                ));
+            }
+        }
         if !aliases.is_empty() {
             notes.push(format!(
                 "{} ({}) was added, but {} fit(s) as well with a contribution correlated > {ALIAS_CORR}: \
