@@ -238,6 +238,26 @@ pub fn thermal_text(
     s
 }
 
+/// At most `max` points of a long series (every k-th, the last kept): a 46 h record at 15 s has
+/// 11 115 samples, far more than a 960-pixel plot shows.
+fn thin(points: Vec<(f64, f64)>, max: usize) -> Vec<(f64, f64)> {
+    let k = points.len().div_ceil(max.max(1)).max(1);
+    if k == 1 {
+        return points;
+    }
+    let last = points.last().copied();
+    let mut out: Vec<(f64, f64)> = points.into_iter().step_by(k).collect();
+    if let Some(l) = last {
+        if out.last() != Some(&l) {
+            out.push(l);
+        }
+    }
+    out
+}
+
+/// Points per series in the record plots.
+const PLOT_POINTS: usize = 2000;
+
 fn file_stem(info: &InputInfo) -> String {
     Path::new(&info.path)
         .file_name()
@@ -261,7 +281,10 @@ pub fn thermal_plots(
             let rows: Vec<usize> = (w.first_row..w.first_row + w.rows).collect();
             let z = |v: &[f64]| -> Vec<(f64, f64)> {
                 let v0 = v[w.first_row];
-                rows.iter().map(|&i| (h(i), v[i] - v0)).collect()
+                thin(
+                    rows.iter().map(|&i| (h(i), v[i] - v0)).collect(),
+                    PLOT_POINTS,
+                )
             };
             let mut series = vec![
                 Series {
@@ -295,7 +318,9 @@ pub fn thermal_plots(
             )?;
             out.push(p);
         }
-        let all = |v: &[f64]| -> Vec<(f64, f64)> { (0..v.len()).map(|i| (h(i), v[i])).collect() };
+        let all = |v: &[f64]| -> Vec<(f64, f64)> {
+            thin((0..v.len()).map(|i| (h(i), v[i])).collect(), PLOT_POINTS)
+        };
         let (lo, hi) = c
             .measured_um
             .iter()
@@ -749,8 +774,12 @@ pub fn diagnose_plots(
             Some((_, v)) => v.to_vec(),
             None => (0..r.measured.len()).map(|i| i as f64).collect(),
         };
-        let pts =
-            |v: &[f64]| -> Vec<(f64, f64)> { xs.iter().copied().zip(v.iter().copied()).collect() };
+        let pts = |v: &[f64]| -> Vec<(f64, f64)> {
+            thin(
+                xs.iter().copied().zip(v.iter().copied()).collect(),
+                PLOT_POINTS,
+            )
+        };
         let mut series = vec![Series {
             label: "measured".into(),
             points: pts(&r.measured),
