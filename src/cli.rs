@@ -204,11 +204,12 @@ pub struct IdentifyArgs {
     /// Write the identified model as TOML (schema: models/MODEL.md).
     #[arg(long)]
     pub save: Option<PathBuf>,
-    /// Thermal model: exponential | linear-temperature | speed-dependent; on a record study (--train):
-    /// auto (every structure, chosen by cross-validation) or a comma list of speed-1tau, speed-2tau,
-    /// temperature-stepwise, temperature-ridge, combined-{1,2}tau-{stepwise,ridge}.
-    #[arg(long, default_value = "exponential")]
-    pub model: String,
+    /// Thermal model: exponential (the default) | linear-temperature | speed-dependent; on a record
+    /// study (--train): auto (the default: every structure, chosen by cross-validation) or a comma list
+    /// of speed-1tau, speed-2tau, temperature-stepwise, temperature-ridge,
+    /// combined-{1,2}tau-{stepwise,ridge}.
+    #[arg(long)]
+    pub model: Option<String>,
     /// Spindle: also fit the extra real pole.
     #[arg(long)]
     pub extra_pole: bool,

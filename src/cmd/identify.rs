@@ -11,6 +11,15 @@ use crate::cli::{IdentifyArgs, IdentifyWhat};
 use crate::cmd::print_json;
 
 pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
+    let record_study = matches!(args.what, IdentifyWhat::Wear | IdentifyWhat::Flutes)
+        || (matches!(args.what, IdentifyWhat::Thermal)
+            && crate::cmd::record::is_thermal_study(&args));
+    if record_study && args.save.is_some() {
+        bail!(
+            "--save: the models of a record study (thermal --train, wear, flutes) have no model-file kind yet; \
+             use --json to keep them"
+        );
+    }
     let verb = match args.what {
         IdentifyWhat::Spindle => Target::Spindle,
         IdentifyWhat::Stiffness => Target::Stiffness,
@@ -66,7 +75,7 @@ pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
 }
 
 fn options(args: &IdentifyArgs) -> anyhow::Result<IdentifyOptions> {
-    let thermal_model = match args.model.as_str() {
+    let thermal_model = match args.model.as_deref().unwrap_or("exponential") {
         "exponential" => ThermalModel::Exponential,
         "linear-temperature" => ThermalModel::LinearTemperature,
         "speed-dependent" => ThermalModel::SpeedDependent,

@@ -187,7 +187,11 @@ const LEGACY_THERMAL: [&str; 3] = ["exponential", "linear-temperature", "speed-d
 
 /// Whether `identify thermal` runs the record study (a training range, or one of its models).
 pub fn is_thermal_study(args: &IdentifyArgs) -> bool {
-    args.train.is_some() || !LEGACY_THERMAL.contains(&args.model.as_str())
+    args.train.is_some()
+        || args
+            .model
+            .as_deref()
+            .is_some_and(|m| !LEGACY_THERMAL.contains(&m))
 }
 
 /// `millcomp identify thermal RECORD --train … [--test …]`.
@@ -219,18 +223,18 @@ pub fn thermal(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
         .transpose()?;
     let mut opts = StudyOptions::new(train, test);
     opts.folds = args.folds;
-    if args.model != "auto" && !LEGACY_THERMAL.contains(&args.model.as_str()) {
-        opts.structures = args
-            .model
-            .split(',')
-            .map(|s| Structure::parse(s.trim()))
-            .collect::<Result<_, _>>()?;
-    } else if args.model != "auto" {
-        bail!(
-            "--model {}: a record study (--train) fits auto or the structures speed-1tau, speed-2tau, \
-             temperature-stepwise, temperature-ridge, combined-{{1,2}}tau-{{stepwise,ridge}}",
-            args.model
-        );
+    match args.model.as_deref().unwrap_or("auto") {
+        "auto" => {}
+        m if LEGACY_THERMAL.contains(&m) => bail!(
+            "--model {m}: a record study (--train) fits auto or the structures speed-1tau, speed-2tau, \
+             temperature-stepwise, temperature-ridge, combined-{{1,2}}tau-{{stepwise,ridge}}"
+        ),
+        m => {
+            opts.structures = m
+                .split(',')
+                .map(|s| Structure::parse(s.trim()))
+                .collect::<Result<_, _>>()?;
+        }
     }
     let rec = ThermalRecord {
         t_s: &t,
