@@ -600,7 +600,18 @@ pub fn diagnose_record(rec: &Record, opts: &RecordOptions) -> Result<RecordRepor
             bic_before: d.bic_before,
             bic_after: d.bic_after,
             aliases,
-            warnings: fit.report.warnings.clone(),
+            warnings: fit
+                .report
+                .warnings
+                .iter()
+                .filter(|w| !w.starts_with("residuals are autocorrelated"))
+                .cloned()
+                .chain(std::iter::once(format!(
+                    "intervals on the effective sample size {:.0} of {n} rows (standard errors × {widen:.2}, t on {:.0} dof)",
+                    d.n_eff,
+                    (d.n_eff - p_all as f64).max(1.0)
+                )))
+                .collect(),
         });
         theta = fit.theta.clone();
         pred = fit.pred.clone();
