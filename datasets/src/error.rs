@@ -195,13 +195,11 @@ pub enum DatasetError {
         role: String,
         /// The column or pattern asked for.
         column: String,
-        /// The file's columns, comma separated.
-        present: String,
+        /// The file's columns, comma separated (boxed: keeps the error small).
+        present: Box<str>,
     },
     /// A `--columns` mapping joins a role and a column whose unit suffixes differ.
-    #[error(
-        "{file}: --columns {role}={column}: `{role}` is in {role_unit} but column `{column}` is in {column_unit}"
-    )]
+    #[error("{file}: --columns {role}={column}: `{role}` is in {units}")]
     UnitMismatch {
         /// The file.
         file: PathBuf,
@@ -209,10 +207,8 @@ pub enum DatasetError {
         role: String,
         /// The file's column.
         column: String,
-        /// The unit the role's name carries.
-        role_unit: String,
-        /// The unit the column's name carries.
-        column_unit: String,
+        /// Both units: `um but column `force_x_N` is in n` (boxed: keeps the error small).
+        units: Box<str>,
     },
     /// Writing the output failed; nothing was left at the destination.
     #[error("{file}: cannot write")]

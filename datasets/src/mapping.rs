@@ -311,7 +311,7 @@ fn plan(map: &ColumnMap, file: &Path, names: &[String]) -> Result<Plan, DatasetE
                         file: file.to_path_buf(),
                         role: e.role.clone(),
                         column: pat.clone(),
-                        present: present(),
+                        present: present().into(),
                     });
                 }
                 m
@@ -323,7 +323,7 @@ fn plan(map: &ColumnMap, file: &Path, names: &[String]) -> Result<Plan, DatasetE
                     file: file.to_path_buf(),
                     role: e.role.clone(),
                     column: s.clone(),
-                    present: present(),
+                    present: present().into(),
                 });
             }
             if let Some((other, _)) = used.iter().find(|(_, c)| c == s) {
@@ -339,8 +339,7 @@ fn plan(map: &ColumnMap, file: &Path, names: &[String]) -> Result<Plan, DatasetE
                         file: file.to_path_buf(),
                         role: e.role.clone(),
                         column: s.clone(),
-                        role_unit: want,
-                        column_unit: got,
+                        units: format!("{want} but column `{s}` is in {got}").into(),
                     });
                 }
                 (Some(want), None) => p.notes.push(format!(
@@ -627,8 +626,7 @@ mod tests {
         )
         .unwrap_err();
         assert!(
-            matches!(e, DatasetError::UnitMismatch { ref role_unit, ref column_unit, .. }
-            if role_unit == "um" && column_unit == "n"),
+            matches!(e, DatasetError::UnitMismatch { ref units, .. } if &**units == "um but column `f_N` is in n"),
             "{e}"
         );
         // one column under two roles: both read it

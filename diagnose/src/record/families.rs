@@ -193,7 +193,7 @@ pub(crate) fn families(
     let amp = |s: &str| format!("{s}_{unit}");
     // coolant
     match (&ctx.t_s, &ctx.coolant_on) {
-        (Some(t), Some(c)) if c.iter().any(|&v| v > 0.0) && c.iter().any(|&v| v == 0.0) => {
+        (Some(t), Some(c)) if c.iter().any(|&v| v > 0.0) && c.contains(&0.0) => {
             out.push(Family {
                 effect: "coolant_thermal_drift",
                 family: "coolant lag A·L_tau[coolant_on] (002 §7.1)".into(),

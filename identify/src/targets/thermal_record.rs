@@ -693,15 +693,26 @@ fn linear_columns<'b>(
     (cols, n_lag)
 }
 
-/// Fits a linear configuration on `rows` and predicts every row of the record; also returns the
-/// columns used (indices into the configuration's columns) and the standardised coefficients.
+/// A linear configuration fitted on some rows.
+struct LinearConfigFit {
+    /// Prediction at every row of the record.
+    pred: Vec<f64>,
+    /// Columns used (indices into the configuration's columns).
+    sel: Vec<usize>,
+    /// The standardised normal equations.
+    gram: Gram,
+    /// Standardised coefficients of `sel`.
+    beta: DVector<f64>,
+}
+
+/// Fits a linear configuration on `rows` and predicts every row of the record.
 fn fit_linear_config(
     bank: &LagBank,
     temps: &[Vec<f64>],
     y: &[f64],
     rows: &[usize],
     cfg: &LinearConfig,
-) -> Option<(Vec<f64>, Vec<usize>, Gram, DVector<f64>)> {
+) -> Option<LinearConfigFit> {
     let (cols, n_lag) = linear_columns(bank, temps, cfg);
     let g = Gram::new(&cols, y, rows);
     let forced: Vec<usize> = (0..n_lag).collect();
@@ -725,7 +736,12 @@ fn fit_linear_config(
     let pred = (0..y.len())
         .map(|i| g.predict(&cols, &sel, &beta, i))
         .collect();
-    Some((pred, sel, g, beta))
+    Some(LinearConfigFit {
+        pred,
+        sel,
+        gram: g,
+        beta,
+    })
 }
 
 /// The speed-driven fit on `rows`: grid start, then nonlinear least squares. Returns the prediction
@@ -743,7 +759,8 @@ fn fit_speed(
         reason: "the speed-driven models need the spindle speed per row".into(),
     })?;
     // grid start: the (τ set, e) whose linear fit has the smallest RSS
-    let mut best: Option<(f64, Vec<f64>, f64, DVector<f64>, Gram)> = None;
+    type GridPoint = (f64, Vec<f64>, f64, DVector<f64>, Gram);
+    let mut best: Option<GridPoint> = None;
     for taus in tau_sets(&opts.tau_grid_s, n_tau) {
         for &e in &opts.exponent_grid {
             let cols: Vec<&[f64]> = taus.iter().map(|&t| bank.get(t, e)).collect();
@@ -1106,8 +1123,8 @@ pub fn study_channel(
         }
         let k = chosen_s.n_tau;
         let mut coefficients = BTreeMap::new();
-        for j in 0..k {
-            coefficients.insert(format!("gain{}_um", j + 1), p[j]);
+        for (j, g) in p[..k].iter().enumerate() {
+            coefficients.insert(format!("gain{}_um", j + 1), *g);
         }
         coefficients.insert("offset_um".into(), p[2 * k + 1]);
         (
@@ -1124,7 +1141,12 @@ pub fn study_channel(
             pred,
         )
     } else {
-        let (pred, sel, g, beta) = fit_linear_config(&bank, &temps, y, &train, &chosen_cfg).ok_or(
+        let LinearConfigFit {
+            pred,
+            sel,
+            gram: g,
+            beta,
+        } = fit_linear_config(&bank, &temps, y, &train, &chosen_cfg).ok_or(
             IdentifyError::SolverState {
                 what: "the chosen structure is singular on the training rows",
             },

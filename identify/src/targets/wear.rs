@@ -397,7 +397,7 @@ fn fit_law(
             rows.iter().map(|&i| f[i]).sum::<f64>() / n as f64,
         );
         let sxx: f64 = x.iter().map(|v| (v - mx).powi(2)).sum();
-        if !(sxx > 0.0) {
+        if sxx.is_nan() || sxx <= 0.0 {
             continue;
         }
         let sxy: f64 = x
