@@ -51,6 +51,21 @@ struct Thermal {
     chans: Vec<Vec<f64>>,
 }
 
+impl Thermal {
+    /// The record as the study reads it.
+    fn record(&self) -> ThermalRecord<'_> {
+        ThermalRecord {
+            t_s: &self.t,
+            speed_rpm: Some(&self.n),
+            temps_c: self
+                .temps
+                .iter()
+                .map(|(n, v)| (n.clone(), v.as_slice()))
+                .collect(),
+        }
+    }
+}
+
 fn thermal() -> Thermal {
     let r = record("fl_thermal_drift");
     Thermal {
@@ -80,15 +95,7 @@ fn halves() -> StudyOptions {
 fn plain_lsq_baseline_and_its_newey_west_errors_match_statsmodels() {
     let g = golden("thermal_baseline");
     let th = thermal();
-    let rec = ThermalRecord {
-        t_s: &th.t,
-        speed_rpm: Some(&th.n),
-        temps_c: th
-            .temps
-            .iter()
-            .map(|(n, v)| (n.clone(), v.as_slice()))
-            .collect(),
-    };
+    let rec = th.record();
     let mut opts = halves();
     // the baseline is fitted whatever the structures; one cheap structure keeps the test short
     opts.structures = vec![Structure::parse("temperature-stepwise").unwrap()];
@@ -132,15 +139,7 @@ fn the_structure_is_chosen_on_the_training_half_only() {
     // Changing the test half changes nothing the study chose: structure, time constants, sensors and
     // coefficients are identical; only the test metrics move.
     let th = thermal();
-    let rec = ThermalRecord {
-        t_s: &th.t,
-        speed_rpm: Some(&th.n),
-        temps_c: th
-            .temps
-            .iter()
-            .map(|(n, v)| (n.clone(), v.as_slice()))
-            .collect(),
-    };
+    let rec = th.record();
     let mut opts = halves();
     opts.structures = ["combined-1tau-ridge", "temperature-stepwise", "speed-1tau"]
         .iter()
@@ -176,15 +175,7 @@ fn decimated_record_every_channel_beats_plain_lsq_on_the_second_half() {
     // the model chosen by cross-validation on the first half predicts the second half (5000 rpm,
     // never seen) better than least squares on all 16 temperatures fitted on the same half.
     let th = thermal();
-    let rec = ThermalRecord {
-        t_s: &th.t,
-        speed_rpm: Some(&th.n),
-        temps_c: th
-            .temps
-            .iter()
-            .map(|(n, v)| (n.clone(), v.as_slice()))
-            .collect(),
-    };
+    let rec = th.record();
     let opts = halves();
     let mut removed_75 = 0;
     for (i, y) in th.chans.iter().enumerate() {

@@ -168,16 +168,8 @@ pub struct RecordContext {
     pub flutes: Vec<(String, Vec<f64>)>,
 }
 
-/// The DESIGN.md effects, in the groove registry's order.
-pub(crate) const EFFECTS: [&str; 7] = [
-    "coolant_thermal_drift",
-    "spindle_thermal_growth",
-    "probe_tilt_offset",
-    "tool_wear",
-    "slideway_straightness",
-    "machine_compliance",
-    "flute_runout",
-];
+/// The DESIGN.md effects (sim's contract list).
+pub(crate) use millcomp_sim::effects::EFFECT_NAMES as EFFECTS;
 
 /// Builds the families the record can test; the others with the reason they cannot be. `residual` is
 /// the current residual (the temperature family selects its sensors on it by stepwise BIC on the

@@ -693,6 +693,20 @@ fn linear_columns<'b>(
     (cols, n_lag)
 }
 
+/// The columns a configuration uses: the `n_lag` lags always, then the sensors — chosen by stepwise
+/// BIC, or every one (ridge, and no sensors at all when there are none).
+fn select_columns(g: &Gram, n_lag: usize, n_cols: usize, sensors: Option<Sensors>) -> Vec<usize> {
+    match sensors {
+        Some(Sensors::Stepwise) => {
+            let forced: Vec<usize> = (0..n_lag).collect();
+            let cand: Vec<usize> = (n_lag..n_cols).collect();
+            let picked = stepwise_bic(g, &forced, &cand);
+            forced.into_iter().chain(picked).collect()
+        }
+        _ => (0..n_cols).collect(),
+    }
+}
+
 /// A linear configuration fitted on some rows.
 struct LinearConfigFit {
     /// Prediction at every row of the record.
@@ -715,18 +729,7 @@ fn fit_linear_config(
 ) -> Option<LinearConfigFit> {
     let (cols, n_lag) = linear_columns(bank, temps, cfg);
     let g = Gram::new(&cols, y, rows);
-    let forced: Vec<usize> = (0..n_lag).collect();
-    let sel: Vec<usize> = match cfg.sensors {
-        Some(Sensors::Stepwise) => {
-            let cand: Vec<usize> = (n_lag..cols.len()).collect();
-            forced
-                .iter()
-                .copied()
-                .chain(stepwise_bic(&g, &forced, &cand))
-                .collect()
-        }
-        _ => (0..cols.len()).collect(),
-    };
+    let sel = select_columns(&g, n_lag, cols.len(), cfg.sensors);
     let lambda = if cfg.sensors == Some(Sensors::Ridge) {
         cfg.lambda
     } else {
@@ -1028,18 +1031,7 @@ pub fn study_channel(
                         };
                         let (cols, n_lag) = linear_columns(&bank, &temps, &base);
                         let g = Gram::new(&cols, y, &fit_rows);
-                        let forced: Vec<usize> = (0..n_lag).collect();
-                        let sel: Vec<usize> = match s.sensors {
-                            Some(Sensors::Stepwise) => {
-                                let cand: Vec<usize> = (n_lag..cols.len()).collect();
-                                forced
-                                    .iter()
-                                    .copied()
-                                    .chain(stepwise_bic(&g, &forced, &cand))
-                                    .collect()
-                            }
-                            _ => (0..cols.len()).collect(),
-                        };
+                        let sel = select_columns(&g, n_lag, cols.len(), s.sensors);
                         for (li, &lam) in lambdas.iter().enumerate() {
                             ss[li][fi] = match g.solve(&sel, lam) {
                                 Some((beta, _)) => {
