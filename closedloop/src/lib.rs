@@ -48,6 +48,7 @@ pub mod faults;
 pub mod groove;
 pub mod model_errors;
 pub mod model_files;
+pub mod optimum;
 pub mod parts;
 pub mod recording;
 pub mod report;

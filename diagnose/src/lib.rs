@@ -75,6 +75,7 @@ mod model;
 pub mod nested;
 pub mod nominal;
 pub mod nuisance;
+pub mod record;
 pub mod report;
 pub mod scatter;
 mod selection;

@@ -8,10 +8,12 @@
 //!   a plan that separates nothing, bad options.
 //! * `nominal`: the nominal model reproduces `simulate_session`, the nuisance model sim's truth.
 //! * `families`: the families' reference shapes are sim's effect forms.
+//! * `record`: measured records (issue 17) — the real thermal record and PHM 2010 per-cut forces.
 
 mod bad_input;
 mod common;
 mod families;
 mod named;
 mod nominal;
+mod record;
 mod variants;

@@ -23,7 +23,8 @@
 //!   [`groove::NoneController`], [`groove::OpenLoopController`], [`groove::PidController`] and
 //!   [`groove::MpcGrooveController`], previewing a [`groove::DeflectionPlan`] computed from the program
 //!   (sim's `GrooveProgram`), the [`predictor::ForcePredictor`] and the controllers' stiffness;
-//!   [`spindle_mpc`] is the spindle MPC design, [`pid`] the published PID;
+//!   [`spindle_mpc`] is the spindle MPC design, [`pid`] the published PID, [`stroke`] the whole-cut
+//!   plan within the actuator's reach;
 //! - [`thin_wall`] (linear-motor stage, `004_…txt`): [`thin_wall::ThinWallController`] with the none,
 //!   open-loop, threshold, PI and MPC controllers on the controllers' [`thin_wall::WallPlan`].
 //!
@@ -75,6 +76,7 @@ pub mod qp;
 pub mod replay;
 pub mod spindle_mpc;
 pub mod stats;
+pub mod stroke;
 pub mod thin_wall;
 pub mod tuning;
 

@@ -7,4 +7,5 @@ pub mod diagnose;
 pub mod doe;
 pub mod parts;
 pub mod plot;
+pub mod record;
 pub mod table;

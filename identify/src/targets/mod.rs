@@ -11,12 +11,15 @@ use crate::report::FitReport;
 use millcomp_models::{Derived, IdentifiedModel};
 
 pub(crate) mod combine;
+pub mod flutes;
 pub mod force;
 pub mod part;
 pub mod spindle;
 pub mod stiffness;
 pub mod thermal;
+pub mod thermal_record;
 pub mod wall;
+pub mod wear;
 
 /// What a target returns. Serialises as the report's keys at top level (`params`, `std_err`,
 /// `ci95`, `rms_residual_<unit>`, `status`, `warnings`, ...) plus `derived` and `groups` when not
