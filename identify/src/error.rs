@@ -122,7 +122,9 @@ pub enum IdentifyError {
         reason: String,
     },
     /// Unknown identification target name.
-    #[error("unknown identify target `{name}`: allowed spindle, stiffness, force, thermal, wall")]
+    #[error(
+        "unknown identify target `{name}`: allowed spindle, stiffness, force, thermal, wall, part, kienzle, feed-axis"
+    )]
     UnknownTarget {
         /// The name given.
         name: String,
