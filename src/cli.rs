@@ -193,7 +193,9 @@ pub struct IdentifyArgs {
     /// `load_n,deflection_um[,direction]`; thermal `t_s,drift_um[,speed_rpm][,temp_c]`;
     /// force `depth_um,upfeed_um,max_fx_n|max_fy_n|max_fz_n[,speed_rpm,tilt_deg]` or traces
     /// `rot_deg,fx_n|fy_n|fz_n` with the cut conditions; wall `force_n,deflection_um`; part
-    /// `part,deflection_um,planned_deflection_um|force_peak_n`.
+    /// `part,deflection_um,planned_deflection_um|force_peak_n`; kienzle
+    /// `fz_mm,ap_mm,ae_mm,mean_fx_n|mean_fy_n[,diameter_mm,teeth,helix_deg]`; feed-axis
+    /// `t_s,reference_um,position_um`.
     pub file: PathBuf,
     /// Write the identified model as TOML (schema: models/MODEL.md).
     #[arg(long)]
@@ -243,6 +245,10 @@ pub enum IdentifyWhat {
     /// What cut parts say of the deflection model: force scale / stiffness (from the planned deflection)
     /// or the compliance per measured newton (from the force peak).
     Part,
+    /// Kienzle's coefficients of a flat end mill from the mean forces of calibration cuts (003).
+    Kienzle,
+    /// Dead time and lag of an NC feed axis from its servo trace (003).
+    FeedAxis,
 }
 
 /// `millcomp diagnose SESSION MEASURED.csv`.

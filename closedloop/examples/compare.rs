@@ -18,6 +18,7 @@ use std::path::Path;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use millcomp_closedloop::compare::{commissioned, compare};
+use millcomp_closedloop::scenario::StageKind;
 use millcomp_closedloop::{ControllerKind, Scenario};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -56,6 +57,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut scenarios = Vec::new();
     for n in &names {
         let s = Scenario::load(dir.join(n))?;
+        // the NC stage (003) has its own study: examples/nc_axis_study.rs
+        if s.stage == StageKind::NcAxis {
+            continue;
+        }
         if ablations && !ControllerKind::PidFeedforward.runs_on(s.stage) {
             continue;
         }

@@ -277,7 +277,9 @@ impl NcAxisScenario {
     pub fn validate(&self) -> Result<(), ClosedLoopError> {
         let p = &self.program;
         let m = &self.machine;
-        m.axis.validate().map_err(sim_key("nc_axis.machine.axis."))?;
+        m.axis
+            .validate()
+            .map_err(sim_key("nc_axis.machine.axis."))?;
         for (i, c) in p.feed_changes.iter().enumerate() {
             if !(c.feed_mm_min.is_finite() && c.feed_mm_min > 0.0)
                 || c.feed_mm_min > m.axis.max_feed_mm_min
@@ -361,25 +363,44 @@ impl NcAxisScenario {
             ));
         }
         if !(m.overhang_d.is_finite() && (1.0..=10.0).contains(&m.overhang_d)) {
-            return Err(invalid("nc_axis.machine.overhang_d", m.overhang_d, "1 ..= 10"));
+            return Err(invalid(
+                "nc_axis.machine.overhang_d",
+                m.overhang_d,
+                "1 ..= 10",
+            ));
         }
         nonneg("nc_axis.machine.flute_length_mm", m.flute_length_mm)?;
         if !(m.runout_um.is_finite() && (0.0..=50.0).contains(&m.runout_um)) {
-            return Err(invalid("nc_axis.machine.runout_um", m.runout_um, "0 ..= 50"));
+            return Err(invalid(
+                "nc_axis.machine.runout_um",
+                m.runout_um,
+                "0 ..= 50",
+            ));
         }
         let t = &self.truth;
         nonneg("nc_axis.truth.edge.kte_n_mm", t.edge.kte_n_mm)?;
         nonneg("nc_axis.truth.edge.kre_n_mm", t.edge.kre_n_mm)?;
         for (k, v, hi) in [
-            ("nc_axis.truth.force_factor_sigma", t.force_factor_sigma, 0.3),
-            ("nc_axis.truth.platform_gain_sigma", t.platform_gain_sigma, 0.1),
+            (
+                "nc_axis.truth.force_factor_sigma",
+                t.force_factor_sigma,
+                0.3,
+            ),
+            (
+                "nc_axis.truth.platform_gain_sigma",
+                t.platform_gain_sigma,
+                0.1,
+            ),
         ] {
             if !(v.is_finite() && (0.0..=hi).contains(&v)) {
                 return Err(invalid(k, v, format!("0 ..= {hi}")));
             }
         }
         nonneg("nc_axis.truth.platform_noise_n", t.platform_noise_n)?;
-        nonneg("nc_axis.truth.platform_resolution_n", t.platform_resolution_n)?;
+        nonneg(
+            "nc_axis.truth.platform_resolution_n",
+            t.platform_resolution_n,
+        )?;
         for (k, v) in [
             ("nc_axis.truth.stiffness_error", t.stiffness_error),
             ("nc_axis.truth.kienzle_error", t.kienzle_error),
@@ -491,7 +512,10 @@ impl NcTruthDraw {
 ///
 /// # Errors
 /// The physics crate's checks of the assembled truth, keys under `nc_axis.`.
-pub fn nc_truth(nc: &NcAxisScenario, seed: u64) -> Result<(NcAxisConfig, NcTruthDraw), ClosedLoopError> {
+pub fn nc_truth(
+    nc: &NcAxisScenario,
+    seed: u64,
+) -> Result<(NcAxisConfig, NcTruthDraw), ClosedLoopError> {
     let d = NcTruthDraw::draw(seed, &nc.truth);
     let m = &nc.machine;
     let tool = EndMill {
@@ -548,9 +572,7 @@ pub struct NcCommissioned {
     pub force_noise_n: f64,
 }
 
-fn experiment(
-    what: &'static str,
-) -> impl Fn(millcomp_identify::IdentifyError) -> ClosedLoopError {
+fn experiment(what: &'static str) -> impl Fn(millcomp_identify::IdentifyError) -> ClosedLoopError {
     move |e| ClosedLoopError::Commissioning {
         experiment: what,
         source: Box::new(e),
@@ -601,12 +623,16 @@ pub fn commission_nc(
 ) -> Result<NcCommissioned, ClosedLoopError> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xC0_3);
     let p = &truth.platform;
-    let noise = Normal::new(0.0, p.noise_n.max(1e-12)).map_err(|source| {
-        ClosedLoopError::CalibrationNoise { source }
-    })?;
+    let noise = Normal::new(0.0, p.noise_n.max(1e-12))
+        .map_err(|source| ClosedLoopError::CalibrationNoise { source })?;
     let read = |f: f64, rng: &mut ChaCha8Rng| {
         quantize(
-            p.gain * f + if p.noise_n > 0.0 { noise.sample(rng) } else { 0.0 },
+            p.gain * f
+                + if p.noise_n > 0.0 {
+                    noise.sample(rng)
+                } else {
+                    0.0
+                },
             p.resolution_n,
         )
     };
@@ -663,9 +689,8 @@ pub fn commission_nc(
     let k_true = truth
         .stiffness
         .system_at(x_mid, program.blank_start_mm, program.blank_end_mm)?;
-    let ind = Normal::new(0.0, plan.indicator_noise_um.max(1e-12)).map_err(|source| {
-        ClosedLoopError::CalibrationNoise { source }
-    })?;
+    let ind = Normal::new(0.0, plan.indicator_noise_um.max(1e-12))
+        .map_err(|source| ClosedLoopError::CalibrationNoise { source })?;
     let (mut load, mut defl) = (vec![], vec![]);
     for _ in 0..plan.trials {
         for &f in &plan.loads_n {
@@ -708,8 +733,7 @@ pub fn commission_nc(
         .map(|_| read(0.0, &mut rng))
         .collect();
     let mean = rest.iter().sum::<f64>() / rest.len() as f64;
-    let var = rest.iter().map(|v| (v - mean).powi(2)).sum::<f64>()
-        / (rest.len().max(2) - 1) as f64;
+    let var = rest.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (rest.len().max(2) - 1) as f64;
     Ok(NcCommissioned {
         kienzle,
         stiffness,
@@ -886,7 +910,9 @@ pub fn constant_windows(p: &NcProgram) -> Vec<[f64; 2]> {
     edges.insert(0, p.blank_start_mm);
     let mut out = Vec::new();
     for (i, &a) in edges.iter().enumerate() {
-        let end = edges.get(i + 1).map_or(p.blank_end_mm - r - 5.0, |b| b - 5.0);
+        let end = edges
+            .get(i + 1)
+            .map_or(p.blank_end_mm - r - 5.0, |b| b - 5.0);
         let start = a + 10.0;
         if end > start + 1.0 {
             out.push([start, end]);
@@ -955,7 +981,11 @@ fn wall_metrics(p: &NcProgram, contour: &[(f64, f64)], defl: &[(f64, f64)]) -> N
                     peak = e.abs();
                     signed = e;
                 }
-                let settled = if x < xc { settled_before } else { settled_after };
+                let settled = if x < xc {
+                    settled_before
+                } else {
+                    settled_after
+                };
                 excess = excess.max((e - settled).abs());
             }
         }
@@ -988,7 +1018,8 @@ fn step_ringing_um(rows: &[[f64; 6]], cycle_s: f64) -> Option<f64> {
     }
     let mut acc = 0.0;
     for i in from..to {
-        let avg = rows[i - half..=i + half].iter().map(|r| r[5]).sum::<f64>() / (2 * half + 1) as f64;
+        let avg =
+            rows[i - half..=i + half].iter().map(|r| r[5]).sum::<f64>() / (2 * half + 1) as f64;
         acc += (rows[i][5] - avg).powi(2);
     }
     Some((acc / (to - from) as f64).sqrt())
@@ -1090,10 +1121,13 @@ pub struct NcModelLine {
 /// not have; the commissioning's, the controllers' and the stage's errors.
 pub fn run_nc_axis(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, ClosedLoopError> {
     let wall_clock = std::time::Instant::now();
-    let nc = s
-        .nc_axis
-        .as_ref()
-        .ok_or_else(|| invalid("nc_axis", "missing", "an [nc_axis] table for stage = \"nc_axis\""))?;
+    let nc = s.nc_axis.as_ref().ok_or_else(|| {
+        invalid(
+            "nc_axis",
+            "missing",
+            "an [nc_axis] table for stage = \"nc_axis\"",
+        )
+    })?;
     nc.validate()?;
     if !kind.runs_on(crate::scenario::StageKind::NcAxis) {
         return Err(invalid(
@@ -1108,12 +1142,10 @@ pub fn run_nc_axis(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Clos
     let mut ctl = nc_controller(kind, nc, &truth, &models)?;
     let d = drive(&truth, &nc.program, ctl.as_mut(), &nc.control.limits, false)?;
     let p = &nc.program;
-    let contour = nc.contour.device.measure(
-        &d.wall,
-        p.blank_start_mm,
-        p.blank_end_mm,
-        s.seed ^ 0xC0C0,
-    )?;
+    let contour =
+        nc.contour
+            .device
+            .measure(&d.wall, p.blank_start_mm, p.blank_end_mm, s.seed ^ 0xC0C0)?;
     let deflection_wall: Vec<WallPoint> = d
         .wall
         .iter()
@@ -1153,9 +1185,17 @@ pub fn run_nc_axis(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Clos
     let kc = KienzleCoefficients::c45_handbook().scaled(draw.force_factor);
     let mut lines = Vec::new();
     for (name, (e, se), t) in [
-        ("kienzle.kc11_n_mm2", est(&commissioned.kienzle, "kc11_n_mm2"), kc.kc11_n_mm2),
+        (
+            "kienzle.kc11_n_mm2",
+            est(&commissioned.kienzle, "kc11_n_mm2"),
+            kc.kc11_n_mm2,
+        ),
         ("kienzle.mc", est(&commissioned.kienzle, "mc"), kc.mc),
-        ("kienzle.kr11_n_mm2", est(&commissioned.kienzle, "kr11_n_mm2"), kc.kr11_n_mm2),
+        (
+            "kienzle.kr11_n_mm2",
+            est(&commissioned.kienzle, "kr11_n_mm2"),
+            kc.kr11_n_mm2,
+        ),
         ("kienzle.mr", est(&commissioned.kienzle, "mr"), kc.mr),
         (
             "stiffness.stiffness_n_per_um",
@@ -1225,7 +1265,7 @@ pub fn run_nc_axis(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Clos
         walls: None,
         commands_finite: d.finite,
         commands_in_limits: d.in_limits,
-        process_change_peak_um: wm.feed_step_peak_um,
+        process_change_peak_um: None,
         changes: Vec::new(),
         model: ModelSummary {
             kz_model_n_per_um: k_model,
@@ -1343,7 +1383,10 @@ pub fn build_nc_scenario(
     }
     if let Some(v) = num(spec, "noise_scale")? {
         if v < 0.0 {
-            return Err(bad("noise_scale", format!("{v} is negative (allowed >= 0)")));
+            return Err(bad(
+                "noise_scale",
+                format!("{v} is negative (allowed >= 0)"),
+            ));
         }
         nc.truth.platform_noise_n *= v;
     }

@@ -61,7 +61,10 @@ fn bad_input_names_the_key() {
     }
     // the NC stage's controllers are its own, and it has no PID
     let s = scenario("nc_c45_exit.toml");
-    assert_eq!(key(run_scenario(&s, ControllerKind::Pid).unwrap_err()), "controller");
+    assert_eq!(
+        key(run_scenario(&s, ControllerKind::Pid).unwrap_err()),
+        "controller"
+    );
     let g = scenario("groove_s7_20deg.toml");
     assert_eq!(
         key(run_scenario(&g, ControllerKind::Reactive).unwrap_err()),
@@ -83,7 +86,11 @@ fn commissioning_identifies_the_plant_through_its_instruments() {
         .system_at(mid, p.blank_start_mm, p.blank_end_mm)
         .unwrap();
     // loads to 3000 N read to 1 µm (σ 0.5 µm), 18 readings: the slope within 1 %
-    assert!((m.stiffness.n_per_um() / k - 1.0).abs() < 0.01, "{}", m.stiffness.n_per_um());
+    assert!(
+        (m.stiffness.n_per_um() / k - 1.0).abs() < 0.01,
+        "{}",
+        m.stiffness.n_per_um()
+    );
     // dead time + lag describes the truth's dead time + 2nd-order loop: its ramp lag (16 ms, sim's
     // AxisDynamics::brecher_003) within 1 ms
     let d = m.y_axis.equivalent_delay_s();
@@ -106,7 +113,11 @@ fn commissioning_identifies_the_plant_through_its_instruments() {
         let b = truth.force.mean_forces(fz, 8.0, 16.0)[1];
         assert!((a / b - 1.0).abs() < 0.03, "fz {fz}: model {a} truth {b}");
     }
-    assert!((c.force_noise_n / 2.0 - 1.0).abs() < 0.1, "{}", c.force_noise_n);
+    assert!(
+        (c.force_noise_n / 2.0 - 1.0).abs() < 0.1,
+        "{}",
+        c.force_noise_n
+    );
 }
 
 #[test]
@@ -116,7 +127,11 @@ fn controllers_compensate_a_shortened_groove() {
     let w0 = &none.nc_axis.as_ref().unwrap().wall;
     // uncompensated: ≈ 140 µm at 500 mm/min, a deflection step ≈ 90 µm (full-length runs: 145 and
     // 93.5 µm, README); the wall never undersize at the exit (003 §3.3)
-    assert!(w0.static_uncompensated_um > 100.0, "{}", w0.static_uncompensated_um);
+    assert!(
+        w0.static_uncompensated_um > 100.0,
+        "{}",
+        w0.static_uncompensated_um
+    );
     assert!(w0.deflection_step_um.unwrap() > 60.0);
     assert!(w0.exit_min_um > -1.0, "{}", w0.exit_min_um);
     for k in [
@@ -131,7 +146,10 @@ fn controllers_compensate_a_shortened_groove() {
         assert!(w.static_removed_pct > 90.0, "{k}: {}", w.static_removed_pct);
         // compensating the static deflection leaves a negative wall at the exit for the published
         // controllers (003 §3.3), and the step's transient is below the uncompensated step
-        assert!(w.feed_step_excess_um.unwrap() < w0.deflection_step_um.unwrap(), "{k}");
+        assert!(
+            w.feed_step_excess_um.unwrap() < w0.deflection_step_um.unwrap(),
+            "{k}"
+        );
         if k != ControllerKind::Mpc {
             assert!(w.exit_undersize_um > 10.0, "{k}: {}", w.exit_undersize_um);
         } else {

@@ -20,11 +20,11 @@ use crate::error::{IdentifyError, Result};
 use crate::nonlinear::NlsOptions;
 use crate::targets::Identified;
 use crate::targets::feed_axis::{FeedAxisData, FeedAxisOptions, identify_feed_axis};
-use crate::targets::kienzle::{KienzleData, KienzleOptions, identify_kienzle};
 use crate::targets::force::{
     ForceConditions, ForceData, ForceOptions, ForceParam, ForceTraceData, PeakForceData,
     identify_force,
 };
+use crate::targets::kienzle::{KienzleData, KienzleOptions, identify_kienzle};
 use crate::targets::part::{PartData, PartRegressor, identify_part};
 use crate::targets::spindle::{SpindleData, SpindleOptions, identify_spindle};
 use crate::targets::stiffness::{StiffnessData, StiffnessOptions, identify_stiffness};

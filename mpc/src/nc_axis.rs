@@ -35,9 +35,7 @@
 use millcomp_models::IdentifiedModel;
 use millcomp_sim::DiscreteLti;
 use millcomp_sim::filters::{Biquad, NotchChain};
-use millcomp_sim::kienzle::{
-    CutState, EndMill, KienzleCoefficients, KienzleMillingModel,
-};
+use millcomp_sim::kienzle::{CutState, EndMill, KienzleCoefficients, KienzleMillingModel};
 use millcomp_sim::nc_axis::{NcInterpolator, NcProgram};
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
@@ -598,7 +596,8 @@ impl NcController for ProactiveNc {
         let mut u = -self.filtered / self.k;
         if let Some(j) = self.playing {
             let ep = &self.curve.episodes[self.episode];
-            let stop = j >= ep.len() || (self.window == OffsetWindow::Acceleration && !accelerating);
+            let stop =
+                j >= ep.len() || (self.window == OffsetWindow::Acceleration && !accelerating);
             if stop {
                 self.playing = None;
                 self.episode += 1;
@@ -648,7 +647,9 @@ impl NcPlan {
         wall_height_mm: f64,
     ) -> Result<Self, MpcError> {
         let ts = interp.cycle_s();
-        let xr: Vec<f64> = (0..interp.len()).map(|c| interp.reference(c).x_mm).collect();
+        let xr: Vec<f64> = (0..interp.len())
+            .map(|c| interp.reference(c).x_mm)
+            .collect();
         let xp = x_axis.respond(&xr, ts);
         let c = force.coefficients();
         let tool = force.0.tool;
@@ -953,5 +954,108 @@ impl NcController for MpcNc {
     }
     fn solver_stats(&self) -> Option<SolverStats> {
         Some(self.mpc.stats())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use millcomp_models::{FitStatus, NamedMatrix};
+
+    fn fit(params: &[(&str, f64)]) -> IdentifiedModel {
+        IdentifiedModel {
+            status: FitStatus::Converged,
+            n_obs: 10,
+            dof: 8,
+            rms_residual: 0.0,
+            residual_unit: "um".into(),
+            warnings: vec![],
+            params: params.iter().map(|(n, v)| (n.to_string(), *v)).collect(),
+            std_err: Default::default(),
+            fixed: Default::default(),
+            derived: Default::default(),
+            covariance: NamedMatrix::default(),
+        }
+    }
+
+    #[test]
+    fn the_discrete_axis_is_the_identified_recursion() {
+        // 5 ms dead time (2.5 cycles) + 12 ms lag at 2 ms
+        let ax =
+            IdentifiedFeedAxis::new(&fit(&[("dead_time_s", 0.005), ("lag_s", 0.012)])).unwrap();
+        let r: Vec<f64> = (0..60).map(|i| if i >= 3 { 100.0 } else { 0.0 }).collect();
+        let want = ax.respond(&r, 0.002);
+        let lti = ax.discrete(0.002).unwrap();
+        let mut x = lti.zero_state();
+        for (i, ri) in r.iter().enumerate() {
+            let y = (lti.c.clone() * &x)[0];
+            assert!((y - want[i]).abs() < 1e-9, "cycle {i}: {y} vs {}", want[i]);
+            x = &lti.a * &x + &lti.b * *ri;
+        }
+        // unit gain: a position loop follows its reference
+        assert!((want[59] - 100.0).abs() < 0.2);
+        assert!(IdentifiedFeedAxis::new(&fit(&[("dead_time_s", 0.005)])).is_err());
+    }
+
+    #[test]
+    fn the_estimator_trusts_the_measurement_only_at_constant_conditions() {
+        let mut e = ScaleEstimator::new(0.1);
+        // constant conditions: the measured force is 8 % above the plan → s follows within 100 cycles
+        for _ in 0..100 {
+            e.update(1080.0, 1000.0, 0.0);
+        }
+        assert!((e.s - 1.08).abs() < 0.005, "{}", e.s);
+        // while the plan sweeps 1000 N, a lagging measurement (−30 %) hardly moves it
+        let s0 = e.s;
+        for _ in 0..40 {
+            e.update(0.7 * 1000.0, 1000.0, 1000.0);
+        }
+        assert!((e.s - s0).abs() < 0.01, "{} → {}", s0, e.s);
+        // in air nothing is learnt
+        e.update(5.0, 1.0, 0.0);
+        assert!((e.s - s0).abs() < 0.01);
+    }
+
+    #[test]
+    fn the_offset_curve_leads_the_low_pass() {
+        // a reference run: 1000 N stepping to 2000 N 10 cycles after a 5-cycle acceleration starts
+        let spc = 20;
+        let n_cycles = 400;
+        let a: Vec<f64> = (0..n_cycles)
+            .map(|c| if (100..105).contains(&c) { 1000.0 } else { 0.0 })
+            .collect();
+        let f: Vec<f64> = (0..n_cycles * spc)
+            .map(|i| if i >= 110 * spc { 2000.0 } else { 1000.0 })
+            .collect();
+        let run = NcReferenceRun {
+            force_n: f,
+            a_cmd_mm_s2: a,
+            samples_per_cycle: spc,
+        };
+        let k = IdentifiedNcStiffness::new(&fit(&[("stiffness_n_per_um", 10.0)])).unwrap();
+        let ax =
+            IdentifiedFeedAxis::new(&fit(&[("dead_time_s", 0.004), ("lag_s", 0.012)])).unwrap();
+        let c =
+            OffsetCurve::from_reference_run(&run, &k, &ax, 1990.0, 0.002, OffsetWindow::Recorded)
+                .unwrap();
+        assert_eq!(c.episodes.len(), 1);
+        let ep = &c.episodes[0];
+        // the desired value (−F/k read 16 ms ahead) leads: the curve is negative (more compensation)
+        // and about the step's 100 µm at most (+0.5 µm: the low-pass, started at 0 under 1000 N, has
+        // not quite settled 0.2 s later)
+        let peak = ep.iter().fold(0.0f64, |m, v| m.min(*v));
+        assert!(peak < -50.0 && peak >= -100.5, "{peak}");
+        // the 6 Hz low-pass settles within ~0.3 s: the curve ends well before 0.5 s
+        assert!(ep.len() > 5 && ep.len() < 250, "{}", ep.len());
+        let lit = OffsetCurve::from_reference_run(
+            &run,
+            &k,
+            &ax,
+            1990.0,
+            0.002,
+            OffsetWindow::Acceleration,
+        )
+        .unwrap();
+        assert_eq!(lit.episodes[0].len(), 5);
     }
 }

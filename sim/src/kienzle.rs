@@ -162,7 +162,13 @@ impl EndMill {
                 allowed: "1 ..= 40",
             });
         }
-        check_range("helix_deg", self.helix_deg, 0.0, 60.0, "0 <= helix_deg <= 60")?;
+        check_range(
+            "helix_deg",
+            self.helix_deg,
+            0.0,
+            60.0,
+            "0 <= helix_deg <= 60",
+        )?;
         check_range(
             "runout_um",
             self.runout_um,
@@ -465,7 +471,8 @@ mod tests {
     use super::*;
 
     fn c45() -> KienzleMillingModel {
-        KienzleMillingModel::new(KienzleCoefficients::c45_handbook(), EndMill::brecher_003()).unwrap()
+        KienzleMillingModel::new(KienzleCoefficients::c45_handbook(), EndMill::brecher_003())
+            .unwrap()
     }
 
     #[test]

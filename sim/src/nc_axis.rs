@@ -256,7 +256,10 @@ impl SCurve {
             )
         } else if tau < t {
             let r = t - tau;
-            (self.v0 + s * (d - 0.5 * self.jerk * r * r), s * self.jerk * r)
+            (
+                self.v0 + s * (d - 0.5 * self.jerk * r * r),
+                s * self.jerk * r,
+            )
         } else {
             (self.v0 + self.dv, 0.0)
         }
@@ -340,7 +343,11 @@ impl NcInterpolator {
                 // a_cmd of this cycle: the mean acceleration of the cycle, non-zero when the S-curve ran
                 let a_cycle = if ran {
                     let a_mean = (v - v_cycle_start) / program.cycle_s;
-                    if a_mean == 0.0 { a.max(f64::MIN_POSITIVE) } else { a_mean }
+                    if a_mean == 0.0 {
+                        a.max(f64::MIN_POSITIVE)
+                    } else {
+                        a_mean
+                    }
                 } else {
                     0.0
                 };
@@ -625,7 +632,10 @@ impl NcStiffness {
     /// # Errors
     /// As [`ToolOverhang::stiffness_n_per_um`].
     pub fn system_at(&self, x_mm: f64, x0: f64, x1: f64) -> Result<f64, SimError> {
-        series_n_per_um(self.machine_at(x_mm, x0, x1), self.tool.stiffness_n_per_um()?)
+        series_n_per_um(
+            self.machine_at(x_mm, x0, x1),
+            self.tool.stiffness_n_per_um()?,
+        )
     }
 }
 
@@ -886,8 +896,7 @@ impl NcAxisStage {
         // the wall: a tooth passes φ = π at the contour's height
         let r = tool.radius_mm();
         let lag = self.cfg.contour_height_mm * tool.helix_deg.to_radians().tan() / r;
-        let pass =
-            ((self.theta - PI - lag) * tool.teeth as f64 / (2.0 * PI)).floor() as i64;
+        let pass = ((self.theta - PI - lag) * tool.teeth as f64 / (2.0 * PI)).floor() as i64;
         if pass != self.last_pass {
             if self.last_pass != i64::MIN && x >= x0 && x <= x1 {
                 self.wall.push(WallPoint {

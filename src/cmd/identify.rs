@@ -18,6 +18,8 @@ pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
         IdentifyWhat::Thermal => Target::Thermal,
         IdentifyWhat::Wall => Target::Wall,
         IdentifyWhat::Part => Target::Part,
+        IdentifyWhat::Kienzle => Target::Kienzle,
+        IdentifyWhat::FeedAxis => Target::FeedAxis,
     };
     let options = options(&args)?;
     let table = millcomp_datasets::read_any(&args.file)?;

@@ -39,7 +39,10 @@ pub const FACTORS: &[(&str, &str)] = &[
         "force_w_error_pct",
         "error of the controllers' volumetric work W against the truth (%), other force parameters exact",
     ),
-    ("noise_scale", "multiplies the force and gauge noise (nc_axis: the platform's noise)"),
+    (
+        "noise_scale",
+        "multiplies the force and gauge noise (nc_axis: the platform's noise)",
+    ),
     (
         "stage",
         "groove, thin_wall or nc_axis (003's NC stage: base datasets/scenarios/nc_c45_feed_step.toml)",

@@ -57,20 +57,20 @@ pub struct FeedAxisOptions {
 /// assert_eq!((p[0], p[1], p[2], p[3]), (0.0, 0.0, 0.0, 0.0));
 /// assert!((p[8] - 100.0 * (1.0 - (-0.010f64 / 0.012).exp())).abs() < 1e-9);
 /// ```
-pub fn response(reference: &[f64], p0: f64, cycle_s: f64, dead_time_s: f64, lag_s: f64) -> Vec<f64> {
+pub fn response(
+    reference: &[f64],
+    p0: f64,
+    cycle_s: f64,
+    dead_time_s: f64,
+    lag_s: f64,
+) -> Vec<f64> {
     let n = (dead_time_s / cycle_s).floor().max(0.0) as isize;
     let theta = dead_time_s - n as f64 * cycle_s;
     let a = (-cycle_s / lag_s).exp();
     let e = (-(cycle_s - theta) / lag_s).exp();
     let (b1, b2) = (1.0 - e, e - a);
     let r0 = reference.first().copied().unwrap_or(0.0);
-    let at = |i: isize| -> f64 {
-        if i < 0 {
-            r0
-        } else {
-            reference[i as usize]
-        }
-    };
+    let at = |i: isize| -> f64 { if i < 0 { r0 } else { reference[i as usize] } };
     let mut p = Vec::with_capacity(reference.len());
     let mut x = p0;
     p.push(x);
@@ -148,8 +148,8 @@ pub fn identify_feed_axis(data: &FeedAxisData<'_>, opts: &FeedAxisOptions) -> Re
     validate::strictly_increasing("t_s", data.t_s)?;
     validate::not_constant("reference_um", data.reference_um, "dead_time_s, lag_s")?;
     let cycle_s = (data.t_s[n - 1] - data.t_s[0]) / (n - 1) as f64;
-    if let Some(row) = (1..n)
-        .find(|&i| ((data.t_s[i] - data.t_s[i - 1]) - cycle_s).abs() > 1e-3 * cycle_s)
+    if let Some(row) =
+        (1..n).find(|&i| ((data.t_s[i] - data.t_s[i - 1]) - cycle_s).abs() > 1e-3 * cycle_s)
     {
         return Err(IdentifyError::InvalidParameter {
             name: format!("t_s (row {row}): spacing"),
@@ -176,5 +176,10 @@ pub fn identify_feed_axis(data: &FeedAxisData<'_>, opts: &FeedAxisOptions) -> Re
     ) {
         derived.insert("equivalent_delay_s".to_string(), d);
     }
-    Ok(Identified::new("feed_axis", report, derived, BTreeMap::new()))
+    Ok(Identified::new(
+        "feed_axis",
+        report,
+        derived,
+        BTreeMap::new(),
+    ))
 }

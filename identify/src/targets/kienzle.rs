@@ -193,7 +193,10 @@ pub fn identify_kienzle(data: &KienzleData<'_>, opts: &KienzleOptions) -> Result
         });
     }
     let mut obs = Vec::new();
-    for (i, name, col) in [(0, "mean_fx_n", data.mean_fx_n), (1, "mean_fy_n", data.mean_fy_n)] {
+    for (i, name, col) in [
+        (0, "mean_fx_n", data.mean_fx_n),
+        (1, "mean_fy_n", data.mean_fy_n),
+    ] {
         if let Some(c) = col {
             validate::same_len(name, c, "fz_mm", n)?;
             validate::finite(name, c)?;
@@ -236,11 +239,12 @@ pub fn identify_kienzle(data: &KienzleData<'_>, opts: &KienzleOptions) -> Result
         validate::not_constant("fz_mm", data.fz_mm, "the exponents mc, mr")?;
     }
     validate::enough_points(obs.len(), free.len(), "kienzle")?;
-    let model =
-        KienzleMillingModel::new(opts.start, opts.tool).map_err(|source| IdentifyError::Physics {
+    let model = KienzleMillingModel::new(opts.start, opts.tool).map_err(|source| {
+        IdentifyError::Physics {
             model: "kienzle".into(),
             source,
-        })?;
+        }
+    })?;
     let start = [
         opts.start.kc11_n_mm2,
         opts.start.mc,
