@@ -68,7 +68,7 @@ fn runs(
             let r = run_scenario(&sc, kinds[k])
                 .map_err(|e| format!("{} {} seed {sd}: {e}", s.name, kinds[k]))?;
             let n = done.fetch_add(1, Ordering::Relaxed) + 1;
-            if n.is_multiple_of(20) {
+            if n % 20 == 0 {
                 eprintln!("  {n} runs");
             }
             Ok(((k, sd), figures(&r)))

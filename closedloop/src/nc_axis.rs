@@ -579,6 +579,9 @@ fn experiment(what: &'static str) -> impl Fn(millcomp_identify::IdentifyError) -
     }
 }
 
+/// An NC servo trace: time (s), reference and encoder (µm) at the start of each cycle.
+type AxisTrace = (Vec<f64>, Vec<f64>, Vec<f64>);
+
 /// The axis test: a step of `a` µm, back, then a ramp to `a` and a hold, sent every cycle; the NC's
 /// trace (time, reference, encoder at the start of each cycle).
 fn axis_trace(
@@ -587,7 +590,7 @@ fn axis_trace(
     steps_per_cycle: usize,
     cycle_s: f64,
     a: f64,
-) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>), ClosedLoopError> {
+) -> Result<AxisTrace, ClosedLoopError> {
     let mut axis = FeedAxis::new(d, dt_s, 0.0)?;
     let refs: Vec<f64> = (0..230)
         .map(|i| match i {
@@ -621,7 +624,7 @@ pub fn commission_nc(
     plan: &NcCommissioningPlan,
     seed: u64,
 ) -> Result<NcCommissioned, ClosedLoopError> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xC0_3);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0C03);
     let p = &truth.platform;
     let noise = Normal::new(0.0, p.noise_n.max(1e-12))
         .map_err(|source| ClosedLoopError::CalibrationNoise { source })?;
@@ -1358,7 +1361,7 @@ pub fn build_nc_scenario(
         .as_mut()
         .ok_or_else(|| invalid("nc_axis", "missing", "the NC base scenario's [nc_axis]"))?;
     if let Some(v) = num(spec, "feed_ratio")? {
-        if !(v > 0.0) {
+        if v <= 0.0 {
             return Err(bad("feed_ratio", format!("{v} is not > 0")));
         }
         let f0 = nc.program.feed_mm_min;

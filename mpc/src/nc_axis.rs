@@ -1044,7 +1044,7 @@ mod tests {
         // and about the step's 100 µm at most (+0.5 µm: the low-pass, started at 0 under 1000 N, has
         // not quite settled 0.2 s later)
         let peak = ep.iter().fold(0.0f64, |m, v| m.min(*v));
-        assert!(peak < -50.0 && peak >= -100.5, "{peak}");
+        assert!((-100.5..-50.0).contains(&peak), "{peak}");
         // the 6 Hz low-pass settles within ~0.3 s: the curve ends well before 0.5 s
         assert!(ep.len() > 5 && ep.len() < 250, "{}", ep.len());
         let lit = OffsetCurve::from_reference_run(

@@ -978,7 +978,7 @@ impl ContourDevice {
             .filter(|p| p.x_mm.is_finite() && p.error_um.is_finite())
             .map(|p| (p.x_mm, p.error_um))
             .collect();
-        if !(to_mm > from_mm) || pts.len() < 2 {
+        if to_mm.partial_cmp(&from_mm) != Some(std::cmp::Ordering::Greater) || pts.len() < 2 {
             return Err(SimError::InvalidParameter {
                 name: "to_mm",
                 value: to_mm,
