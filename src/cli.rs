@@ -281,7 +281,8 @@ pub struct DiagnoseArgs {
 pub struct SimulateArgs {
     /// Session file (TOML) or closed-loop scenario file.
     pub file: PathBuf,
-    /// Controller for scenarios: none | open-loop | pid | pid-aw | pid-design | pid-tuned | threshold | mpc.
+    /// Controller for scenarios: none | open-loop | pid | pid-aw | pid-design | pid-tuned | pid-ff |
+    /// threshold | mpc | mpc-nopreview; on nc_axis scenarios (003): none | reactive | proactive | mpc.
     #[arg(long)]
     pub controller: Option<String>,
     /// Output CSV (default: stdout for sessions).
@@ -305,7 +306,8 @@ pub struct BatchArgs {
     /// Scenario table (CSV or Parquet): one row per scenario, one column per factor
     /// (tilt_deg, depth_um, upfeed_um, wearland_um, material, stiffness_error_pct,
     /// force_model_error_pct, force_w_error_pct, noise_scale, stage, wall_um, feed_step,
-    /// feed_accel_mm_s2, depth_step, entry_depth_um, commissioned, length_mm, speed_rpm, seed).
+    /// feed_accel_mm_s2, depth_step, entry_depth_um, commissioned, length_mm, speed_rpm, seed; with
+    /// stage = nc_axis: feed_ratio, ae_mm, machine_stiffness_n_per_um, overhang_d, kienzle_error_pct).
     #[arg(long, conflicts_with = "doe")]
     pub scenarios: Option<PathBuf>,
     /// Generate the scenarios with `doe design` arguments given as one string, e.g.
@@ -313,7 +315,7 @@ pub struct BatchArgs {
     #[arg(long, allow_hyphen_values = true)]
     pub doe: Option<String>,
     /// Controllers to compare: none, open-loop, pid, pid-aw, pid-design, pid-tuned, pid-ff, threshold,
-    /// mpc, mpc-nopreview.
+    /// mpc, mpc-nopreview; on stage = nc_axis rows: none, reactive, proactive, mpc.
     #[arg(long, default_value = "pid,mpc")]
     pub controllers: String,
     /// Output directory (results.csv/.parquet, summary.json, plots/, runs/ for resuming).
