@@ -120,6 +120,25 @@ fn ratio(
         .collect()
 }
 
+/// A markdown table: one row per figure, one column per controller of [`KINDS`].
+fn table(r: &BTreeMap<(usize, u64), Figures>, seeds: &[u64], names: &[&str]) {
+    println!(
+        "| figure | {} |",
+        KINDS
+            .iter()
+            .map(|k| k.name())
+            .collect::<Vec<_>>()
+            .join(" | ")
+    );
+    println!("|---|{}", "---|".repeat(KINDS.len()));
+    for name in names {
+        let cells: Vec<String> = (0..KINDS.len())
+            .map(|k| cell(column(r, k, seeds, name)))
+            .collect();
+        println!("| {name} | {} |", cells.join(" | "));
+    }
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut n_seeds, mut band_seeds) = (10u64, 3u64);
     let mut args = std::env::args().skip(1);
@@ -162,21 +181,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "ringing_um",
         "exit_undersize_um",
     ];
-    println!(
-        "| figure | {} |",
-        KINDS
-            .iter()
-            .map(|k| k.name())
-            .collect::<Vec<_>>()
-            .join(" | ")
-    );
-    println!("|---|{}", "---|".repeat(KINDS.len()));
-    for name in names {
-        let cells: Vec<String> = (0..KINDS.len())
-            .map(|k| cell(column(&r, k, &seeds, name)))
-            .collect();
-        println!("| {name} | {} |", cells.join(" | "));
-    }
+    table(&r, &seeds, &names);
     for name in ["feed_step_peak_um", "feed_step_excess_um"] {
         println!(
             "per seed, {name}: proactive/reactive {} (003: 43/74 = 0.58); mpc/proactive {}",
@@ -275,21 +280,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // 3. the exit alone
     let re = runs(&exit, &KINDS, &seeds, &done)?;
     println!("\n## 3. nc_c45_exit (1000 mm/min), seeds 1..={n_seeds}");
-    println!(
-        "| figure | {} |",
-        KINDS
-            .iter()
-            .map(|k| k.name())
-            .collect::<Vec<_>>()
-            .join(" | ")
+    table(
+        &re,
+        &seeds,
+        &["exit_undersize_um", "exit_min_um", "static_removed_pct"],
     );
-    println!("|---|{}", "---|".repeat(KINDS.len()));
-    for name in ["exit_undersize_um", "exit_min_um", "static_removed_pct"] {
-        let cells: Vec<String> = (0..KINDS.len())
-            .map(|k| cell(column(&re, k, &seeds, name)))
-            .collect();
-        println!("| {name} | {} |", cells.join(" | "));
-    }
 
     // 4. the literal proactive window
     let mut lit = groove.clone();

@@ -48,7 +48,9 @@ use millcomp_sim::sensors::quantize;
 
 use crate::error::{ClosedLoopError, invalid};
 use crate::report::{Metrics, ModelSummary, RunOutput, RunReport, Trace};
-use crate::scenario::{ControllerKind, Scenario};
+use crate::scenario::{
+    ControllerKind, Scenario, finite_nonneg as nonneg, finite_pos as pos, sim_keyed as sim_key,
+};
 
 /// The machine: static stiffness, the tool's overhang, the axes.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -237,33 +239,6 @@ pub struct NcAxisScenario {
     /// The commissioning.
     #[serde(default)]
     pub commissioning: NcCommissioningPlan,
-}
-
-fn pos(key: &str, v: f64) -> Result<(), ClosedLoopError> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(invalid(key, v, "finite and > 0"))
-    }
-}
-
-fn nonneg(key: &str, v: f64) -> Result<(), ClosedLoopError> {
-    if v.is_finite() && v >= 0.0 {
-        Ok(())
-    } else {
-        Err(invalid(key, v, "finite and >= 0"))
-    }
-}
-
-fn sim_key(prefix: &'static str) -> impl Fn(millcomp_sim::SimError) -> ClosedLoopError {
-    move |err| match err {
-        millcomp_sim::SimError::InvalidParameter {
-            name,
-            value,
-            allowed,
-        } => invalid(format!("{prefix}{name}"), value, allowed),
-        other => other.into(),
-    }
 }
 
 impl NcAxisScenario {
@@ -472,6 +447,25 @@ impl NcAxisScenario {
         }
         ch.lowpass_hz = self.control.lowpass_hz;
         ch
+    }
+}
+
+impl Scenario {
+    /// The validated `[nc_axis]` table.
+    ///
+    /// # Errors
+    /// [`ClosedLoopError::InvalidConfig`] (`nc_axis`) when there is none, and those of
+    /// [`NcAxisScenario::validate`].
+    pub fn nc(&self) -> Result<&NcAxisScenario, ClosedLoopError> {
+        let nc = self.nc_axis.as_ref().ok_or_else(|| {
+            invalid(
+                "nc_axis",
+                "missing",
+                "an [nc_axis] table for stage = \"nc_axis\"",
+            )
+        })?;
+        nc.validate()?;
+        Ok(nc)
     }
 }
 
@@ -1124,14 +1118,7 @@ pub struct NcModelLine {
 /// not have; the commissioning's, the controllers' and the stage's errors.
 pub fn run_nc_axis(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, ClosedLoopError> {
     let wall_clock = std::time::Instant::now();
-    let nc = s.nc_axis.as_ref().ok_or_else(|| {
-        invalid(
-            "nc_axis",
-            "missing",
-            "an [nc_axis] table for stage = \"nc_axis\"",
-        )
-    })?;
-    nc.validate()?;
+    let nc = s.nc()?;
     if !kind.runs_on(crate::scenario::StageKind::NcAxis) {
         return Err(invalid(
             "controller",

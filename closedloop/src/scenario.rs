@@ -547,7 +547,7 @@ impl Scenario {
     }
 }
 
-fn finite_pos(key: &str, v: f64) -> Result<(), ClosedLoopError> {
+pub(crate) fn finite_pos(key: &str, v: f64) -> Result<(), ClosedLoopError> {
     if v.is_finite() && v > 0.0 {
         Ok(())
     } else {
@@ -555,7 +555,7 @@ fn finite_pos(key: &str, v: f64) -> Result<(), ClosedLoopError> {
     }
 }
 
-fn finite_nonneg(key: &str, v: f64) -> Result<(), ClosedLoopError> {
+pub(crate) fn finite_nonneg(key: &str, v: f64) -> Result<(), ClosedLoopError> {
     if v.is_finite() && v >= 0.0 {
         Ok(())
     } else {
@@ -723,14 +723,7 @@ impl Scenario {
                 finite_pos("thin_wall.length_mm", t.length_mm)?;
             }
             StageKind::NcAxis => {
-                let nc = self.nc_axis.as_ref().ok_or_else(|| {
-                    invalid(
-                        "nc_axis",
-                        "missing",
-                        "an [nc_axis] table for stage = \"nc_axis\"",
-                    )
-                })?;
-                nc.validate()?;
+                self.nc()?;
             }
         }
         let tr = &self.truth;
@@ -846,7 +839,9 @@ impl Scenario {
 
 /// Sim's own check of a scenario table, its parameter names turned into scenario keys under `prefix`
 /// (`exit.x_mm` → `groove.exit.x_mm`, `e_factor` → `truth.wall.e_factor`).
-fn sim_keyed(prefix: &'static str) -> impl Fn(millcomp_sim::SimError) -> ClosedLoopError {
+pub(crate) fn sim_keyed(
+    prefix: &'static str,
+) -> impl Fn(millcomp_sim::SimError) -> ClosedLoopError {
     move |err| match err {
         millcomp_sim::SimError::InvalidParameter {
             name,

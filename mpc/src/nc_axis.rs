@@ -36,7 +36,9 @@ use millcomp_models::IdentifiedModel;
 use millcomp_sim::DiscreteLti;
 use millcomp_sim::filters::{Biquad, NotchChain};
 use millcomp_sim::kienzle::{CutState, EndMill, KienzleCoefficients, KienzleMillingModel};
-use millcomp_sim::nc_axis::{NcInterpolator, NcProgram};
+use millcomp_sim::nc_axis::{
+    NcInterpolator, NcProgram, dead_time_lag_coefficients, dead_time_lag_response,
+};
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
@@ -180,11 +182,7 @@ impl IdentifiedFeedAxis {
     /// # Errors
     /// [`MpcError::Sim`] for a non-positive cycle.
     pub fn discrete(&self, cycle_s: f64) -> Result<DiscreteLti, MpcError> {
-        let n = (self.dead_time_s / cycle_s).floor() as usize;
-        let theta = self.dead_time_s - n as f64 * cycle_s;
-        let a = (-cycle_s / self.lag_s).exp();
-        let e = (-(cycle_s - theta) / self.lag_s).exp();
-        let (b1, b2) = (1.0 - e, e - a);
+        let (n, a, b1, b2) = dead_time_lag_coefficients(cycle_s, self.dead_time_s, self.lag_s);
         // state: p, then d_1..d_{n+1} with d_i = u_{k−i}
         let nx = n + 2;
         let mut am = DMatrix::zeros(nx, nx);
@@ -208,20 +206,8 @@ impl IdentifiedFeedAxis {
 
     /// The response at the start of each cycle to references held over each cycle, from `p0` at rest.
     pub fn respond(&self, reference: &[f64], cycle_s: f64) -> Vec<f64> {
-        let n = (self.dead_time_s / cycle_s).floor() as isize;
-        let theta = self.dead_time_s - n as f64 * cycle_s;
-        let a = (-cycle_s / self.lag_s).exp();
-        let e = (-(cycle_s - theta) / self.lag_s).exp();
-        let (b1, b2) = (1.0 - e, e - a);
-        let r0 = reference.first().copied().unwrap_or(0.0);
-        let at = |i: isize| if i < 0 { r0 } else { reference[i as usize] };
-        let mut p = Vec::with_capacity(reference.len());
-        let mut x = r0;
-        for i in 0..reference.len() as isize {
-            p.push(x);
-            x = a * x + b1 * at(i - n) + b2 * at(i - n - 1);
-        }
-        p
+        let p0 = reference.first().copied().unwrap_or(0.0);
+        dead_time_lag_response(reference, p0, cycle_s, self.dead_time_s, self.lag_s)
     }
 }
 

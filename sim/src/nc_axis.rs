@@ -519,6 +519,55 @@ impl FeedAxis {
     }
 }
 
+/// A reference held over each cycle of `cycle_s` through a dead time `dead_time_s` and a first-order lag
+/// `lag_s` with unit gain, sampled at the cycle starts: `p[i+1] = a p[i] + b1 r[i−n] + b2 r[i−n−1]` with
+/// `T_d = n T + θ`, `a = e^{−T/τ}`, `b1 = 1 − e^{−(T−θ)/τ}`, `b2 = e^{−(T−θ)/τ} − a` — exact for a dead
+/// time that is not a whole number of cycles. Returns `(n, a, b1, b2)`. The structure the controllers
+/// identify for a feed axis (`identify feed-axis`), not the truth's [`AxisDynamics`].
+pub fn dead_time_lag_coefficients(
+    cycle_s: f64,
+    dead_time_s: f64,
+    lag_s: f64,
+) -> (usize, f64, f64, f64) {
+    let n = (dead_time_s / cycle_s).floor().max(0.0);
+    let theta = dead_time_s - n * cycle_s;
+    let a = (-cycle_s / lag_s).exp();
+    let e = (-(cycle_s - theta) / lag_s).exp();
+    (n as usize, a, 1.0 - e, e - a)
+}
+
+/// The response of [`dead_time_lag_coefficients`]' model to `reference` (one value per cycle, held) from
+/// `p0`, at the start of each cycle; the reference before the first cycle is its first value.
+///
+/// ```
+/// use millcomp_sim::nc_axis::dead_time_lag_response;
+/// // a 100 µm step sent at 2 ms through 4 ms dead time + 12 ms lag: nothing until 6 ms, then
+/// // 100 (1 − e^{−(t − 6 ms)/τ})
+/// let r: Vec<f64> = (0..20).map(|i| if i == 0 { 0.0 } else { 100.0 }).collect();
+/// let p = dead_time_lag_response(&r, 0.0, 0.002, 0.004, 0.012);
+/// assert_eq!((p[0], p[1], p[2], p[3]), (0.0, 0.0, 0.0, 0.0));
+/// assert!((p[8] - 100.0 * (1.0 - (-0.010f64 / 0.012).exp())).abs() < 1e-9);
+/// ```
+pub fn dead_time_lag_response(
+    reference: &[f64],
+    p0: f64,
+    cycle_s: f64,
+    dead_time_s: f64,
+    lag_s: f64,
+) -> Vec<f64> {
+    let (n, a, b1, b2) = dead_time_lag_coefficients(cycle_s, dead_time_s, lag_s);
+    let n = n as isize;
+    let r0 = reference.first().copied().unwrap_or(0.0);
+    let at = |i: isize| if i < 0 { r0 } else { reference[i as usize] };
+    let mut p = Vec::with_capacity(reference.len());
+    let mut x = p0;
+    for i in 0..reference.len() as isize {
+        p.push(x);
+        x = a * x + b1 * at(i - n) + b2 * at(i - n - 1);
+    }
+    p
+}
+
 /// The tool as a stepped cantilever from the chuck (module doc).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

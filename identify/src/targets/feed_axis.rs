@@ -46,40 +46,9 @@ pub struct FeedAxisOptions {
     pub common: CommonOptions,
 }
 
-/// The model's response to `reference` from `p0`, cycle `cycle_s`, parameters `[dead_time_s, lag_s]`.
-///
-/// ```
-/// use millcomp_identify::targets::feed_axis::response;
-/// // a 100 µm step sent at 2 ms through 4 ms dead time + 12 ms lag: nothing until 6 ms, then
-/// // 100 (1 − e^{−(t − 6 ms)/τ})
-/// let r: Vec<f64> = (0..20).map(|i| if i == 0 { 0.0 } else { 100.0 }).collect();
-/// let p = response(&r, 0.0, 0.002, 0.004, 0.012);
-/// assert_eq!((p[0], p[1], p[2], p[3]), (0.0, 0.0, 0.0, 0.0));
-/// assert!((p[8] - 100.0 * (1.0 - (-0.010f64 / 0.012).exp())).abs() < 1e-9);
-/// ```
-pub fn response(
-    reference: &[f64],
-    p0: f64,
-    cycle_s: f64,
-    dead_time_s: f64,
-    lag_s: f64,
-) -> Vec<f64> {
-    let n = (dead_time_s / cycle_s).floor().max(0.0) as isize;
-    let theta = dead_time_s - n as f64 * cycle_s;
-    let a = (-cycle_s / lag_s).exp();
-    let e = (-(cycle_s - theta) / lag_s).exp();
-    let (b1, b2) = (1.0 - e, e - a);
-    let r0 = reference.first().copied().unwrap_or(0.0);
-    let at = |i: isize| -> f64 { if i < 0 { r0 } else { reference[i as usize] } };
-    let mut p = Vec::with_capacity(reference.len());
-    let mut x = p0;
-    p.push(x);
-    for i in 0..reference.len().saturating_sub(1) as isize {
-        x = a * x + b1 * at(i - n) + b2 * at(i - n - 1);
-        p.push(x);
-    }
-    p
-}
+/// The model's response to `reference` from `p0`, cycle `cycle_s`, parameters `[dead_time_s, lag_s]`:
+/// the physics crate's [`dead_time_lag_response`].
+pub use millcomp_sim::nc_axis::dead_time_lag_response as response;
 
 /// Residual operator `[dead_time_s, lag_s] ↦ response − position`.
 #[derive(Debug, Clone)]
