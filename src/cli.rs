@@ -48,7 +48,7 @@ pub enum Command {
     /// Cut successive parts of a groove scenario: after each the groove is measured, the deflection model
     /// identified from the parts so far, and the next part uses it (run-to-run learning).
     Parts(PartsArgs),
-    /// List and show the published tables shipped with millcomp.
+    /// List and show the published tables, real measured records and synthetic runs shipped with millcomp.
     #[command(subcommand)]
     Datasets(DatasetsCommand),
 }
@@ -160,6 +160,10 @@ pub struct DoeDesignArgs {
 pub struct DoeAnalyzeArgs {
     /// CSV or Parquet file with one row per run.
     pub file: PathBuf,
+    /// Read your file's columns under other names: `role=column,...` (e.g. `max_fx_n=Fx_max_N`; unit
+    /// suffixes checked), then name the roles in --response and --factors.
+    #[arg(long)]
+    pub columns: Option<String>,
     /// Response column.
     #[arg(long)]
     pub response: String,
@@ -190,7 +194,9 @@ pub struct IdentifyArgs {
     #[arg(value_enum)]
     pub what: IdentifyWhat,
     /// Measured data (CSV or Parquet). Columns: spindle `t_s,u_v,y_um`; stiffness
-    /// `load_n,deflection_um[,direction]`; thermal `t_s,drift_um[,speed_rpm][,temp_c]`;
+    /// `load_n,deflection_um[,direction]`; thermal `t_s,drift_um[,speed_rpm][,temp_c]` (a record study
+    /// with --train: several `drift_um` channels and `temp_c` sensors); wear `cut,force_n[,vb_um]`;
+    /// flutes `force_n` (one or more channels of a raw record);
     /// force `depth_um,upfeed_um,max_fx_n|max_fy_n|max_fz_n[,speed_rpm,tilt_deg]` or traces
     /// `rot_deg,fx_n|fy_n|fz_n` with the cut conditions; wall `force_n,deflection_um`; part
     /// `part,deflection_um,planned_deflection_um|force_peak_n`; kienzle
@@ -200,9 +206,12 @@ pub struct IdentifyArgs {
     /// Write the identified model as TOML (schema: models/MODEL.md).
     #[arg(long)]
     pub save: Option<PathBuf>,
-    /// Thermal model: exponential | linear-temperature | speed-dependent.
-    #[arg(long, default_value = "exponential")]
-    pub model: String,
+    /// Thermal model: exponential (the default) | linear-temperature | speed-dependent; on a record
+    /// study (--train): auto (the default: every structure, chosen by cross-validation) or a comma list
+    /// of speed-1tau, speed-2tau, temperature-stepwise, temperature-ridge,
+    /// combined-{1,2}tau-{stepwise,ridge}.
+    #[arg(long)]
+    pub model: Option<String>,
     /// Spindle: also fit the extra real pole.
     #[arg(long)]
     pub extra_pole: bool,
@@ -227,6 +236,49 @@ pub struct IdentifyArgs {
     /// Wall: geometry `height_um,thickness_um,length_um` to derive the modulus.
     #[arg(long, value_delimiter = ',')]
     pub wall_geometry: Vec<f64>,
+    /// Read your own file's columns under the names this verb reads: `role=column,...`, e.g.
+    /// `t_s=time_s,drift_um=disp_ch*_um,temp_c=temp_t*_C,speed_rpm=spindle_rpm`. A role may take several
+    /// columns (`a+b`, or a `*` pattern) where the verb reads several (temperatures, drift channels, force
+    /// channels, flank wear per flute), or a constant (`speed_rpm=10400`). Unit suffixes must agree.
+    #[arg(long)]
+    pub columns: Option<String>,
+    /// Thermal record / wear: fit on this range only — thermal: times `START:END` (seconds, `90min`,
+    /// `23.15h`, `50%` of the record, `start`, `end`); wear: cut numbers `FIRST:LAST` (inclusive).
+    #[arg(long)]
+    pub train: Option<String>,
+    /// Thermal record / wear: predict this range (same forms as --train) and report the error.
+    #[arg(long)]
+    pub test: Option<String>,
+    /// Thermal record / wear: cross-validation blocks inside the training range.
+    #[arg(long, default_value_t = 3)]
+    pub folds: usize,
+    /// Thermal record / wear / flutes: write SVG plots of measured vs predicted here.
+    #[arg(long)]
+    pub plots: Option<PathBuf>,
+    /// Wear: a second per-cut file joined row by row on `--on` (e.g. the flank wear beside the forces).
+    #[arg(long, requires = "on")]
+    pub join: Option<PathBuf>,
+    /// Wear: the key column both files share (e.g. `run`, the cut number).
+    #[arg(long)]
+    pub on: Option<String>,
+    /// Wear: laws to try (linear, power, saturating, exponential; default all).
+    #[arg(long, value_delimiter = ',')]
+    pub laws: Vec<String>,
+    /// Flutes: number of flutes of the cutter.
+    #[arg(long)]
+    pub flutes: Option<usize>,
+    /// Flutes: spindle speed of the record (rpm).
+    #[arg(long)]
+    pub speed_rpm: Option<f64>,
+    /// Flutes: sample rate of the record (Hz).
+    #[arg(long)]
+    pub sample_rate_hz: Option<f64>,
+    /// Flutes: further records analysed the same way (e.g. the worn tool beside the fresh one).
+    #[arg(long)]
+    pub also: Vec<PathBuf>,
+    /// Flutes: significance level of the flute-to-flute F-test.
+    #[arg(long, default_value_t = 0.01)]
+    pub alpha: f64,
 }
 
 /// The identification targets.
@@ -249,15 +301,37 @@ pub enum IdentifyWhat {
     Kienzle,
     /// Dead time and lag of an NC feed axis from its servo trace (003).
     FeedAxis,
+    /// How the cutting force grows with flank wear and with cut count, from a per-cut record.
+    Wear,
+    /// Per-flute peak forces and the flute asymmetry (flute runout) of a raw force record.
+    Flutes,
 }
 
-/// `millcomp diagnose SESSION MEASURED.csv`.
+/// `millcomp diagnose SESSION MEASURED.csv`, or `millcomp diagnose --record FILE`.
 #[derive(Debug, Args)]
 pub struct DiagnoseArgs {
     /// Session file (TOML).
-    pub session: PathBuf,
+    #[arg(required_unless_present = "record")]
+    pub session: Option<PathBuf>,
     /// Measured groove CSV.
-    pub measured: PathBuf,
+    #[arg(required_unless_present = "record")]
+    pub measured: Option<PathBuf>,
+    /// Instead of a groove session: a measured record (CSV/Parquet) — a signal with its context (time,
+    /// speed, temperatures, coolant, cumulative cut length or cut count, per-flute channels) — against
+    /// a nominal that holds the signal at its first value (no drift, a fresh tool).
+    #[arg(long, conflicts_with_all = ["session", "measured", "forces", "free_offset"])]
+    pub record: Option<PathBuf>,
+    /// Your file's columns under the names diagnose reads, `role=column,...` (unit suffixes checked): for a
+    /// groove session the measured-groove columns; with --record the record's roles, e.g.
+    /// `t_s=time_s,speed_rpm=spindle_rpm,temp_c=temp_t*_C,drift_um=disp_ch1_um` or
+    /// `cut=run,force_n=force_y__rms` — roles t_s, speed_rpm, temp_c (several), coolant_on,
+    /// cut_length_mm, cut, flute_n (several), and the signal.
+    #[arg(long)]
+    pub columns: Option<String>,
+    /// With --record: the signal's role (default the first of drift_um, force_n, depth_um present); several
+    /// columns in it are diagnosed one by one.
+    #[arg(long)]
+    pub signal: Option<String>,
     /// Write plots and a report here.
     #[arg(long)]
     pub report: Option<PathBuf>,
@@ -328,6 +402,10 @@ pub struct BatchArgs {
     /// Worker threads (default: all cores, or RAYON_NUM_THREADS).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Read the --scenarios file's columns under the factor names: `factor=column,...` (unit suffixes
+    /// checked).
+    #[arg(long, requires = "scenarios")]
+    pub columns: Option<String>,
 }
 
 /// `millcomp parts`.
@@ -384,9 +462,9 @@ pub struct BatchMergeArgs {
 /// `millcomp datasets …`.
 #[derive(Debug, Subcommand)]
 pub enum DatasetsCommand {
-    /// List the shipped tables.
+    /// List the shipped tables: published, real measured records, synthetic runs.
     List,
-    /// Print one table.
+    /// Print one table (a real record: its provenance and first rows).
     Show(DatasetsShowArgs),
     /// Validate your own CSV/Parquet file against a contract or a shipped table's schema.
     Check(DatasetsCheckArgs),
@@ -400,6 +478,9 @@ pub struct DatasetsCheckArgs {
     /// `measured-groove` (the diagnose input contract) or the name of a shipped dataset.
     #[arg(long = "as", value_name = "SCHEMA")]
     pub schema: String,
+    /// Read your file's columns under the schema's names: `role=column,...` (unit suffixes checked).
+    #[arg(long)]
+    pub columns: Option<String>,
 }
 
 /// `millcomp datasets show NAME`.

@@ -239,7 +239,7 @@ fn doe_design_drives_the_batch() {
     let header = csv.lines().next().unwrap();
     assert_eq!(
         header,
-        "run,scenario,tilt_deg,upfeed_um,length_mm,controller,pp_error_um,change_excess_um,stroke_bound_um,rms_error_um,max_error_um,min_error_um,actuator_travel_um,solver_fallbacks"
+        "run,scenario,tilt_deg,upfeed_um,length_mm,controller,pp_error_um,change_excess_um,stroke_bound_um,optimum_pp_um,change_bound_um,rms_error_um,max_error_um,min_error_um,actuator_travel_um,solver_fallbacks"
     );
     // PID (the thesis' closed loop) removes part of the uncompensated error (000 ch. 7: 16 → 3 µm).
     let none = doc["by_controller"]["none"]["pp_error_um"]

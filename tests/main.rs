@@ -11,4 +11,5 @@ mod diagnose;
 mod doe;
 mod identify;
 mod parts;
+mod real;
 mod simulate;

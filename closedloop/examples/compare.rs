@@ -10,6 +10,10 @@
 //! `--changes`: the ablation controllers on the scenarios with process changes only (feed and depth
 //! steps, slowed and at once, and the exit), with the excess at each change (`millcomp_closedloop::changes`).
 //!
+//! `--features`: the groove scenarios with the MPC's planning and estimation features switched off one at
+//! a time (`control.groove_mpc`: `stroke_aware`, `adapt_plan_scale`, `spindle_phase`, `flute_phase`,
+//! `gauge_disturbance`), all off, beside `pid-ff` — what each feature buys.
+//!
 //! `--commissioned`: the hard form (`millcomp_closedloop::compare::commissioned`) — each groove scenario
 //! with instrument errors and a tool drawn from the seed and controllers built only from its own
 //! commissioning; each thin wall a part drawn from the seed; no deliberate force-model errors.
@@ -17,16 +21,75 @@
 use std::path::Path;
 
 use indicatif::{ProgressBar, ProgressStyle};
-use millcomp_closedloop::compare::{commissioned, compare};
+use millcomp_closedloop::compare::{CompareRow, commissioned, compare};
 use millcomp_closedloop::scenario::StageKind;
 use millcomp_closedloop::{ControllerKind, Scenario};
+use millcomp_mpc::groove::GrooveMpcFeatures;
+
+/// The MPC variants of `--features`: a label and the features it runs with.
+fn feature_variants() -> Vec<(&'static str, GrooveMpcFeatures)> {
+    let all = GrooveMpcFeatures::default();
+    vec![
+        ("mpc", all),
+        (
+            "-stroke",
+            GrooveMpcFeatures {
+                stroke_aware: false,
+                ..all
+            },
+        ),
+        (
+            "-scale",
+            GrooveMpcFeatures {
+                adapt_plan_scale: false,
+                ..all
+            },
+        ),
+        (
+            "-phase",
+            GrooveMpcFeatures {
+                spindle_phase: false,
+                ..all
+            },
+        ),
+        (
+            "-flute",
+            GrooveMpcFeatures {
+                flute_phase: false,
+                ..all
+            },
+        ),
+        (
+            "-gauge_dist",
+            GrooveMpcFeatures {
+                gauge_disturbance: false,
+                ..all
+            },
+        ),
+        (
+            "-all",
+            GrooveMpcFeatures {
+                stroke_aware: false,
+                adapt_plan_scale: false,
+                spindle_phase: false,
+                flute_phase: false,
+                gauge_disturbance: false,
+            },
+        ),
+    ]
+}
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let (mut seeds, mut comm, mut ablations, mut changes) = (10u64, false, false, false);
+    let (mut seeds, mut comm, mut ablations, mut changes, mut features) =
+        (10u64, false, false, false, false);
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
             "--commissioned" => comm = true,
+            "--features" => {
+                ablations = true;
+                features = true;
+            }
             "--ablations" => ablations = true,
             "--changes" => {
                 ablations = true;
@@ -41,7 +104,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             other => {
                 return Err(format!(
-                    "unknown argument `{other}`: allowed --seeds N, --commissioned, --ablations, --changes"
+                    "unknown argument `{other}`: allowed --seeds N, --commissioned, --ablations, --changes, --features"
                 )
                 .into());
             }
@@ -72,7 +135,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         scenarios.push(if comm { commissioned(&s) } else { s });
     }
-    let controllers: Vec<ControllerKind> = if ablations {
+    let controllers: Vec<ControllerKind> = if features {
+        vec![ControllerKind::PidFeedforward, ControllerKind::Mpc]
+    } else if ablations {
         vec![
             ControllerKind::PidTuned,
             ControllerKind::PidFeedforward,
@@ -94,13 +159,47 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         bar.set_style(style);
     }
     let t0 = std::time::Instant::now();
-    let rows = compare(&scenarios, &controllers, 1..1 + seeds, &|| bar.inc(1))?;
+    let (rows, cols): (Vec<CompareRow>, Vec<String>) = if features {
+        // pid-ff once, then the MPC once per variant, its rows labelled with the variant
+        let mut rows = compare(
+            &scenarios,
+            &[ControllerKind::PidFeedforward],
+            1..1 + seeds,
+            &|| bar.inc(1),
+        )?;
+        let mut cols = vec![ControllerKind::PidFeedforward.name().to_string()];
+        for (label, f) in feature_variants() {
+            let variant: Vec<Scenario> = scenarios
+                .iter()
+                .map(|s| {
+                    let mut s = s.clone();
+                    s.control.groove_mpc = f;
+                    s
+                })
+                .collect();
+            let mut r = compare(&variant, &[ControllerKind::Mpc], 1..1 + seeds, &|| {
+                bar.inc(1)
+            })?;
+            r.iter_mut()
+                .for_each(|row| row.controller = label.to_string());
+            rows.extend(r);
+            cols.push(label.to_string());
+        }
+        rows.sort_by(|a, b| (&a.scenario, &a.metric).cmp(&(&b.scenario, &b.metric)));
+        (rows, cols)
+    } else {
+        let rows = compare(&scenarios, &controllers, 1..1 + seeds, &|| bar.inc(1))?;
+        let cols = controllers.iter().map(|c| c.name().to_string()).collect();
+        (rows, cols)
+    };
     bar.finish_and_clear();
     println!(
         "{} seeds (1..={seeds}){}{}; median [95 % interval of the median]; {:.0} s",
         seeds,
         if comm { ", commissioned" } else { "" },
-        if changes {
+        if features {
+            ", MPC features"
+        } else if changes {
             ", process changes"
         } else if ablations {
             ", ablations"
@@ -109,7 +208,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         },
         t0.elapsed().as_secs_f64()
     );
-    let cols: Vec<&str> = controllers.iter().map(|c| c.name()).collect();
     println!("| scenario | metric | {} |", cols.join(" | "));
     println!("|---|---|{}", "---|".repeat(cols.len()));
     let mut keys: Vec<(String, String)> = rows
@@ -131,7 +229,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .iter()
             .map(|c| {
                 rows.iter()
-                    .find(|r| r.scenario == s && r.metric == m && r.controller == *c)
+                    .find(|r| r.scenario == s && r.metric == m && r.controller == **c)
                     .map(|r| format!("{:.2} [{:.2}, {:.2}]", r.median, r.ci95[0], r.ci95[1]))
                     .unwrap_or_else(|| "—".into())
             })

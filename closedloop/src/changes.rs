@@ -27,6 +27,26 @@ pub const SETTLED_FROM_MM: f64 = 2.0;
 pub const SETTLED_TO_MM: f64 = 4.0;
 /// Depth-profile corners closer than this (mm) are one change.
 pub const MERGE_MM: f64 = 0.5;
+/// The lower bound of the excess ([`crate::optimum::excess_lower_bound`]) is computed over this much
+/// before a change (mm) …
+pub const BOUND_BEFORE_MM: f64 = 0.1;
+/// … to this much after it (mm): the deflection's transition at the shipped changes (a feed ramp of
+/// 17 ms, a 50 µm plunge, the ball's 0.17 mm entry) lies inside, and a shorter window than the excess's
+/// can only lower the bound.
+pub const BOUND_AFTER_MM: f64 = 0.3;
+
+/// The stage-step index range `[lo, hi)` of the samples at `x_mm` (non-decreasing) in which a change at
+/// `c` (mm) is bounded: [`BOUND_BEFORE_MM`] before to [`BOUND_AFTER_MM`] after (an exit: to the edge).
+pub fn bound_window(kind: ChangeKind, c: f64, x_mm: &[f64]) -> std::ops::Range<usize> {
+    let to = if kind == ChangeKind::Exit {
+        f64::INFINITY
+    } else {
+        c + BOUND_AFTER_MM
+    };
+    let lo = x_mm.partition_point(|x| *x < c - BOUND_BEFORE_MM);
+    let hi = x_mm.partition_point(|x| *x <= to);
+    lo..hi.max(lo)
+}
 
 /// What changes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -66,6 +86,10 @@ pub struct ChangeExcess {
     pub settled_um: f64,
     /// Largest `|error − settled|` in the window (µm).
     pub excess_um: f64,
+    /// The smallest excess any controller could leave there ([`crate::optimum::excess_lower_bound`]:
+    /// the true actuator, the truth's deflection known in advance), µm; absent where it was not computed.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub bound_um: Option<f64>,
 }
 
 /// The program's process changes, in order of position.
@@ -147,6 +171,7 @@ pub fn excess(changes: &[(ChangeKind, f64)], x_mm: &[f64], error_um: &[f64]) -> 
                 x_mm: c,
                 settled_um,
                 excess_um,
+                bound_um: None,
             })
         })
         .collect()

@@ -21,9 +21,10 @@ use crate::scenario::{ControllerKind, Scenario, StageKind};
 pub struct CompareRow {
     /// Scenario name.
     pub scenario: String,
-    /// Metric (`pp_error_um`, `stroke_bound_um` (grooves), `change_peak_um`, `excess_<kind>_um` (the
-    /// excess at the entry, a depth or feed change, the exit: [`crate::changes`]), `exit_overcut_um`,
-    /// `wall_<nominal>um_error_pct`).
+    /// Metric (`pp_error_um`, `stroke_bound_um` and `optimum_pp_um` (grooves, [`crate::optimum`]),
+    /// `change_peak_um`, `excess_<kind>_um` (the excess at the entry, a depth or feed change, the exit:
+    /// [`crate::changes`]) and `excess_<kind>_bound_um` (the smallest any controller could leave there),
+    /// `exit_overcut_um`, `wall_<nominal>um_error_pct`).
     pub metric: String,
     /// Controller name.
     pub controller: String,
@@ -46,16 +47,24 @@ pub fn metrics_of(s: &Scenario, r: &RunReport) -> Vec<(String, f64)> {
             if let Some(b) = r.metrics.stroke_bound_um {
                 m.push(("stroke_bound_um".to_string(), b));
             }
+            if let Some(b) = r.metrics.optimum_pp_um {
+                m.push(("optimum_pp_um".to_string(), b));
+            }
             if let Some(p) = r.process_change_peak_um {
                 m.push(("change_peak_um".to_string(), p));
             }
             // the excess at each kind of change (the largest where a kind occurs twice)
             let mut kinds: Vec<(String, f64)> = Vec::new();
             for c in &r.changes {
-                let name = format!("excess_{}_um", c.kind.name());
-                match kinds.iter_mut().find(|(n, _)| *n == name) {
-                    Some((_, v)) => *v = v.max(c.excess_um),
-                    None => kinds.push((name, c.excess_um)),
+                let excess = (format!("excess_{}_um", c.kind.name()), c.excess_um);
+                let bound = c
+                    .bound_um
+                    .map(|b| (format!("excess_{}_bound_um", c.kind.name()), b));
+                for (name, value) in std::iter::once(excess).chain(bound) {
+                    match kinds.iter_mut().find(|(n, _)| *n == name) {
+                        Some((_, v)) => *v = v.max(value),
+                        None => kinds.push((name, value)),
+                    }
                 }
             }
             m.extend(kinds);

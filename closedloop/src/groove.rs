@@ -24,12 +24,13 @@ use millcomp_mpc::identified::{
 use millcomp_mpc::pid::{AntiWindup, PidGains};
 use millcomp_mpc::predictor::ForcePredictor;
 
-use crate::changes::{excess, program_changes};
+use crate::changes::{bound_window, excess, program_changes};
 use crate::commissioning::{CommissioningPlant, commission};
 use crate::error::{ClosedLoopError, invalid};
 use crate::faults::{SolverFailures, groove_measurement};
 use crate::model_errors::ForceErrors;
 use crate::model_files::{load_bundle, load_force_params, load_response_surface, load_spindle};
+use crate::optimum::{certainty_equivalent_pp, excess_lower_bound};
 use crate::report::{Metrics, ModelSummary, RunOutput, RunReport, Trace};
 use crate::scenario::{ControllerKind, GrooveScenario, Scenario};
 
@@ -269,6 +270,7 @@ pub fn mpc_settings(
         config: s.control.mpc.clone(),
         force_noise_n: noise.force_noise_n,
         gauge_noise_um: noise.gauge_noise_um,
+        features: s.control.groove_mpc,
     })
 }
 
@@ -294,6 +296,35 @@ fn exit_window(t: &GrooveConfig) -> Option<(f64, f64)> {
     t.program
         .exit
         .map(|e| (e.x_mm - e.length_mm - CHANGE_WINDOW_BEFORE_MM, e.x_mm))
+}
+
+/// What the truth's actuator can do, for the run's references (never for a controller): its linear
+/// model at the stage step, its z-reach and sin α.
+struct TruthLimits {
+    actuator: millcomp_sim::DiscreteLti,
+    /// The z-correction the stack reaches at the amplifier's maximum (µm): driven there over 10 ms and
+    /// held 40 ms, hysteresis and creep included when the stack has them.
+    reach_z_um: f64,
+    sin_a: f64,
+}
+
+impl TruthLimits {
+    fn of(t: &GrooveConfig, dt: f64) -> Result<Self, ClosedLoopError> {
+        let sin_a = t.program.tilt_deg.to_radians().sin();
+        let mut stack = t.spindle.discretize(dt)?;
+        let (ramp, hold) = ((0.01 / dt) as usize, (0.04 / dt) as usize);
+        let v_max = t.spindle.voltage_max_v;
+        let mut tip = 0.0;
+        for k in 0..ramp + hold {
+            let v = v_max * ((k + 1) as f64 / ramp as f64).min(1.0);
+            tip = stack.step(v).tip_um;
+        }
+        Ok(Self {
+            actuator: t.spindle.to_lti()?.discretize_zoh(dt)?,
+            reach_z_um: tip * sin_a,
+            sin_a,
+        })
+    }
 }
 
 /// Run a groove scenario with one controller.
@@ -384,6 +415,7 @@ pub fn run_groove_with(
                     &t.program,
                     &setup.model_spindle,
                     v_max,
+                    setup.nominal_tool.flutes,
                 );
                 notes.push(format!(
                     "pid-ff: pid-tuned's PI plus the plan fed forward {:.2} ms ahead (the spindle model's mean delay)",
@@ -434,8 +466,6 @@ pub fn run_groove_with(
     let exit_window = exit_window(t);
     let mut change_peak: f64 = 0.0;
     let mut exit_overcut: f64 = 0.0;
-    // the deflection range the run met, for the stroke bound
-    let (mut defl_min, mut defl_max) = (f64::INFINITY, f64::NEG_INFINITY);
     if plan.extrapolated_points > 0 {
         notes.push(format!(
             "force predictor extrapolated at {} of {} planned points (outside the response surface's fitted ranges)",
@@ -454,6 +484,7 @@ pub fn run_groove_with(
     let mut stuck = None;
     let mut errors = Vec::with_capacity((t.duration_s() / dt) as usize + 2);
     let mut error_x = Vec::with_capacity(errors.capacity());
+    let mut deflections = Vec::with_capacity(errors.capacity());
     let mut travel = 0.0;
     let mut prev_tip = 0.0;
     let mut finite = true;
@@ -495,8 +526,7 @@ pub fn run_groove_with(
             let err = o.depth_cut_um - o.depth_cmd_um;
             errors.push(err);
             error_x.push(o.x_mm);
-            defl_min = defl_min.min(o.deflection_um);
-            defl_max = defl_max.max(o.deflection_um);
+            deflections.push(o.deflection_um);
             if windows.iter().any(|(a, b)| o.x_mm >= *a && o.x_mm <= *b) {
                 change_peak = change_peak.max(err.abs());
             }
@@ -537,20 +567,34 @@ pub fn run_groove_with(
         .stiffness()
         .z_stiffness_n_per_um(t.program.tilt_deg)?;
     let kz_truth = t.stiffness.z_stiffness_n_per_um(t.program.tilt_deg)?;
-    let changes = excess(&program_changes(&t.program), &error_x, &errors);
+    let mut changes = excess(&program_changes(&t.program), &error_x, &errors);
+    let limits = TruthLimits::of(t, dt)?;
+    for c in &mut changes {
+        let w = bound_window(c.kind, c.x_mm, &error_x);
+        c.bound_um = excess_lower_bound(
+            &deflections[w],
+            &limits.actuator,
+            t.spindle.voltage_max_v,
+            limits.sin_a,
+        );
+    }
+    let (defl_min, defl_max) = deflections
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &d| {
+            (a.min(d), b.max(d))
+        });
+    // the controllers' deflection per measured newton over the truth's deflection per newton
+    let knowledge = kz_truth / kz_model * t.instruments.force_gain;
     let report = RunReport {
         scenario: s.name.clone(),
         stage: "groove".into(),
         controller: kind.name().into(),
         metrics: Metrics {
             exit_overcut_um: exit_window.map(|_| exit_overcut),
-            // the tip's range in z: the stack's full travel at the amplifier's maximum, times sin α
-            stroke_bound_um: (defl_max >= defl_min).then(|| {
-                let range_z = t.spindle.gain_um_per_v
-                    * t.spindle.voltage_max_v
-                    * t.program.tilt_deg.to_radians().sin();
-                (defl_max - defl_min - range_z).max(0.0)
-            }),
+            stroke_bound_um: (defl_max >= defl_min)
+                .then(|| (defl_max - defl_min - limits.reach_z_um).max(0.0)),
+            optimum_pp_um: (!deflections.is_empty())
+                .then(|| certainty_equivalent_pp(&deflections, limits.reach_z_um, knowledge)),
             change_excess_um: changes.iter().map(|c| c.excess_um).reduce(f64::max),
             ..Metrics::from_errors(&errors, travel)
         },

@@ -52,6 +52,7 @@ pub mod groove;
 pub mod model_errors;
 pub mod model_files;
 pub mod nc_axis;
+pub mod optimum;
 pub mod parts;
 pub mod recording;
 pub mod report;

@@ -32,6 +32,12 @@ pub struct Metrics {
     /// so a lower bound; 0 where the stroke covers the deflection.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub stroke_bound_um: Option<f64>,
+    /// Groove: the whole cut's optimum (µm) — the peak-to-peak error of the best static plan within the
+    /// true actuator's reach for a controller that sees the deflection through the commissioned
+    /// deflection model (compliance × force-channel gain against the truth's); noise-free
+    /// ([`crate::optimum::certainty_equivalent_pp`]). The stroke bound when the model is exact.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub optimum_pp_um: Option<f64>,
     /// Groove: the largest transient excess over the settled error at the program's changes (entry at
     /// depth, depth and feed changes, exit; [`crate::changes`]), µm; absent without a change.
     #[serde(skip_serializing_if = "Option::is_none", default)]
@@ -59,6 +65,7 @@ impl Metrics {
             thickness_error_pct: None,
             exit_overcut_um: None,
             stroke_bound_um: None,
+            optimum_pp_um: None,
             change_excess_um: None,
         }
     }

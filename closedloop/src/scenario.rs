@@ -425,6 +425,10 @@ pub struct ControlSpec {
     /// controllers from the resulting bundle; not together with `bundle`, `spindle_model` or `force_model`.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub commission: bool,
+    /// The groove MPC's planning and estimation features (`stroke_aware`, `adapt_plan_scale`,
+    /// `flute_phase`; all on by default — switched off one at a time for the ablations).
+    #[serde(default)]
+    pub groove_mpc: millcomp_mpc::groove::GrooveMpcFeatures,
 }
 
 fn default_dt() -> f64 {
@@ -453,6 +457,7 @@ impl Default for ControlSpec {
             force_response_surface: None,
             bundle: None,
             commission: false,
+            groove_mpc: Default::default(),
         }
     }
 }

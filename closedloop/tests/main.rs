@@ -5,6 +5,7 @@ mod common;
 mod faults;
 mod groove;
 mod nc_axis;
+mod optimum;
 mod parts;
 mod process_changes;
 mod scenarios;

@@ -206,6 +206,37 @@ pub fn read_measured_groove_table(path: &Path) -> Result<Table, DatasetError> {
     Ok(table)
 }
 
+/// [`read_measured_groove_table`] of a file whose columns are read under the contract's names by
+/// `map` (`--columns`); returns the table and the mapping's notes.
+///
+/// # Errors
+/// As [`read_measured_groove_table`], and those of [`crate::mapping::read_table_mapped`].
+pub fn read_measured_groove_table_mapped(
+    path: &Path,
+    map: &crate::mapping::ColumnMap,
+) -> Result<(Table, Vec<String>), DatasetError> {
+    let (mut table, notes) =
+        crate::mapping::read_table_mapped(path, &measured_groove_schema(), map)?;
+    upgrade_v1(path, &mut table)?;
+    groove_points(path, &table)?;
+    Ok((table, notes))
+}
+
+/// [`read_measured_groove`] of a file whose columns are read under the contract's names by `map`
+/// (`--columns`); the mapping's notes join the file's.
+///
+/// # Errors
+/// As [`read_measured_groove`], and those of [`crate::mapping::read_table_mapped`].
+pub fn read_measured_groove_mapped(
+    path: &Path,
+    map: &crate::mapping::ColumnMap,
+) -> Result<MeasuredGroove, DatasetError> {
+    let (table, notes) = crate::mapping::read_table_mapped(path, &measured_groove_schema(), map)?;
+    let mut m = measured_groove_from(path, table)?;
+    m.notes.splice(0..0, notes);
+    Ok(m)
+}
+
 /// Reads and validates a measured-groove file (CSV or Parquet) into points.
 ///
 /// # Errors

@@ -176,6 +176,40 @@ pub enum DatasetError {
         #[source]
         source: PolarsError,
     },
+    /// A `--columns` mapping that cannot be parsed or applied as given.
+    #[error("--columns `{spec}`: {message}")]
+    BadColumnMap {
+        /// The entry at fault.
+        spec: String,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// A `--columns` mapping names a column (or a pattern matching none) the file does not have.
+    #[error(
+        "{file}: --columns {role}={column}: no column `{column}` in the file (columns present: {present})"
+    )]
+    MappedColumnMissing {
+        /// The file.
+        file: PathBuf,
+        /// The role being mapped.
+        role: String,
+        /// The column or pattern asked for.
+        column: String,
+        /// The file's columns, comma separated (boxed: keeps the error small).
+        present: Box<str>,
+    },
+    /// A `--columns` mapping joins a role and a column whose unit suffixes differ.
+    #[error("{file}: --columns {role}={column}: `{role}` is in {units}")]
+    UnitMismatch {
+        /// The file.
+        file: PathBuf,
+        /// The role.
+        role: String,
+        /// The file's column.
+        column: String,
+        /// Both units: `um but column `force_x_N` is in n` (boxed: keeps the error small).
+        units: Box<str>,
+    },
     /// Writing the output failed; nothing was left at the destination.
     #[error("{file}: cannot write")]
     Write {

@@ -5,6 +5,11 @@
 //!   trace), defined once, with adapters to and from `millcomp-sim`'s row types.
 //! * [`table`]: reading a user's CSV/Parquet file against a schema with errors that name the file,
 //!   column and 1-based row; writing tables and text atomically (temporary file + rename).
+//! * [`real`]: records measured on real machines by others (`datasets/real/`), with provenance and
+//!   licences, listed apart from the published tables.
+//! * [`synthetic_runs`]: the runs made by millcomp's seeded generators, listed apart as synthetic.
+//! * [`mapping`]: `--columns role=column,…`, reading a user's own record under the names a verb reads,
+//!   with unit suffixes checked.
 //!
 //! ```
 //! let doe = millcomp_datasets::load("clayton_doe").unwrap();
@@ -17,12 +22,15 @@
 pub mod adapters;
 pub mod contracts;
 pub mod error;
+pub mod mapping;
+pub mod real;
 pub mod registry;
+pub mod synthetic_runs;
 pub mod table;
 
 pub use error::DatasetError;
 pub use registry::{DATASETS, Dataset, dataset, load};
 pub use table::{
-    Column, ColumnData, ColumnKind, ColumnSpec, Schema, Table, TableFormat, read_any, read_csv_str,
-    read_table, write_atomic, write_csv_to, write_table, write_text_atomic,
+    Column, ColumnData, ColumnKind, ColumnSpec, Schema, Table, TableFormat, read_any, read_any_str,
+    read_csv_str, read_table, write_atomic, write_csv_to, write_table, write_text_atomic,
 };

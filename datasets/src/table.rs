@@ -386,7 +386,28 @@ pub fn read_table(path: &Path, schema: &Schema) -> Result<Table, DatasetError> {
 /// [`DatasetError::Io`], [`DatasetError::Empty`], [`DatasetError::Parse`],
 /// [`DatasetError::UnreadableColumn`], [`DatasetError::DuplicateColumn`].
 pub fn read_any(path: &Path) -> Result<Table, DatasetError> {
-    let raw = read_raw(path)?;
+    typed(path, read_raw(path)?)
+}
+
+/// Reads embedded CSV text (a shipped record) as [`read_any`] reads a file; `origin` names it in
+/// errors.
+///
+/// ```
+/// let t = millcomp_datasets::read_any_str("rec.csv", "time_s,note\n0,a\n15,b\n").unwrap();
+/// assert_eq!(t.f64s("time_s").unwrap(), [0.0, 15.0]);
+/// assert_eq!(t.strings("note").unwrap(), ["a", "b"]);
+/// ```
+///
+/// # Errors
+/// As [`read_any`], without [`DatasetError::Io`].
+pub fn read_any_str(origin: &str, text: &str) -> Result<Table, DatasetError> {
+    let path = PathBuf::from(origin);
+    let raw = read_csv_raw(&path, std::io::Cursor::new(text.as_bytes().to_vec()))?;
+    typed(&path, raw)
+}
+
+/// Types every column of a raw table: all-finite-number columns as floats, the others as text.
+fn typed(path: &Path, raw: RawTable) -> Result<Table, DatasetError> {
     if raw.names.is_empty() {
         return Err(DatasetError::Empty {
             file: path.to_path_buf(),
@@ -448,6 +469,55 @@ pub fn read_csv_str(origin: &str, text: &str, schema: &Schema) -> Result<Table, 
     let path = PathBuf::from(origin);
     let raw = read_csv_raw(&path, std::io::Cursor::new(text.as_bytes().to_vec()))?;
     validate(&path, raw, schema)
+}
+
+/// Renames of a file's header before validation: `(file column, new name)` pairs, constant columns
+/// `(name, value)` added on every row, and file columns to drop.
+pub(crate) type HeaderRenames = (Vec<(String, String)>, Vec<(String, f64)>, Vec<String>);
+
+/// Reads `path`, lets `renames` rename its header (the column mapping, [`crate::mapping`]), then
+/// validates against `schema` as [`read_table`] does.
+pub(crate) fn read_table_renamed(
+    path: &Path,
+    schema: &Schema,
+    renames: impl FnOnce(&[String]) -> Result<HeaderRenames, DatasetError>,
+) -> Result<Table, DatasetError> {
+    let mut raw = read_raw(path)?;
+    let (pairs, constants, drop) = renames(&raw.names)?;
+    let n_rows = raw.cells.first().map_or(0, Vec::len);
+    let keep: Vec<bool> = raw.names.iter().map(|n| !drop.contains(n)).collect();
+    let mut names = Vec::new();
+    let mut cells = Vec::new();
+    let mut copies = Vec::new();
+    for ((name, col), k) in raw.names.into_iter().zip(raw.cells).zip(keep) {
+        if !k {
+            continue;
+        }
+        // a column read under a second role is copied
+        for (_, new) in pairs.iter().filter(|(old, _)| *old == name).skip(1) {
+            copies.push((new.clone(), col.clone()));
+        }
+        let name = pairs
+            .iter()
+            .find(|(old, _)| *old == name)
+            .map_or(name, |(_, new)| new.clone());
+        names.push(name);
+        cells.push(col);
+    }
+    for (name, col) in copies {
+        names.push(name);
+        cells.push(col);
+    }
+    for (name, x) in constants {
+        if let Some(i) = names.iter().position(|n| *n == name) {
+            names.remove(i);
+            cells.remove(i);
+        }
+        names.push(name);
+        cells.push(vec![Some(x.to_string()); n_rows]);
+    }
+    raw = RawTable { names, cells };
+    validate(path, raw, schema)
 }
 
 /// Every column of a file as text cells (`None` = empty/null), in file order.

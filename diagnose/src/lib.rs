@@ -70,6 +70,7 @@ pub mod force_channel;
 pub mod measured;
 pub mod nested;
 pub mod nominal;
+pub mod record;
 pub mod report;
 mod selection;
 pub mod structure;

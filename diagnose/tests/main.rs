@@ -7,10 +7,12 @@
 //! * `sweeps`: seeded false-alarm rate and power/coverage studies (the full ones `#[ignore]`d).
 //! * `nominal`: the nominal model reproduces `simulate_session`.
 //! * `candidates`: the standard candidate registry.
+//! * `record`: measured records (issue 17) — the real thermal record and PHM 2010 per-cut forces.
 
 mod bad_input;
 mod candidates;
 mod common;
 mod named;
 mod nominal;
+mod record;
 mod sweeps;

@@ -121,6 +121,24 @@ pub enum IdentifyError {
         /// Why it is needed.
         reason: String,
     },
+    /// A time or cut range (`--train`, `--test`) that cannot be read or does not lie in the record.
+    #[error("{flag} {range}: {message}")]
+    BadRange {
+        /// The option it was given to (`--train`, `--test`).
+        flag: String,
+        /// The range as written.
+        range: String,
+        /// What is wrong, with the record's own range.
+        message: String,
+    },
+    /// A model name that is not one of the allowed ones.
+    #[error("unknown model `{name}`: allowed {allowed}")]
+    UnknownModel {
+        /// The name given.
+        name: String,
+        /// The allowed names, comma separated.
+        allowed: String,
+    },
     /// Unknown identification target name.
     #[error(
         "unknown identify target `{name}`: allowed spindle, stiffness, force, thermal, wall, part, kienzle, feed-axis"

@@ -16,9 +16,11 @@
 
 pub mod columns;
 pub mod error;
+mod hac;
 pub mod jacobian_check;
 pub mod linear;
 pub mod nonlinear;
+pub mod regress;
 pub mod report;
 pub mod validate;
 

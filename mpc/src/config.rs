@@ -109,6 +109,10 @@ pub struct SoftOutput {
     /// Upper bound (omit for none).
     #[serde(default)]
     pub max: Option<f64>,
+    /// Bound the output's deviation from its reference (`min ≤ y − r ≤ max`) instead of the output
+    /// itself (default false).
+    #[serde(default)]
+    pub about_reference: bool,
 }
 
 /// Where the integrating disturbance enters (offset-free MPC, Pannocchia & Rawlings 2003).
@@ -618,6 +622,7 @@ mod tests {
             from_step: 1,
             min: Some(-1.0),
             max: Some(1.0),
+            about_reference: false,
         }];
         assert_eq!(key_of(c.validate(1, 1)), "soft_outputs[0].output");
         let mut c = base;

@@ -38,6 +38,7 @@ use crate::pid::{AntiWindup, Pid, PidGains};
 use crate::predictor::ForcePredictor;
 use crate::spindle_mpc::{OUT_ERROR, OUT_GAUGE, default_spindle_config};
 use crate::stats::SolverStats;
+use crate::stroke::StrokeBand;
 
 /// Cut-off of the MPC's force pre-filter (Hz): well above the 333 Hz flute frequency so the per-revolution
 /// peak is kept, low enough to take the 0.04 N sensor noise down by ~2×.
@@ -88,15 +89,23 @@ pub struct GrooveMeasurement {
 /// with the axis acceleration) and the engagement `e` (workpiece exit), tabulated along x.
 #[derive(Debug, Clone)]
 pub struct DeflectionPlan {
-    dx_mm: f64,
+    xs_mm: Vec<f64>,
     values_um: Vec<f64>,
     feed: FeedProfile,
+    /// The smaller flute's peak z-force over the larger's (1 without runout; one flute per revolution
+    /// sets the deflection where it is well below 1).
+    flute_ratio: f64,
+    /// The z-force over one revolution relative to its peak, [`WAVEFORM_SAMPLES`] angles starting at
+    /// the peak, from the force model (empty for a predictor without a waveform).
+    waveform: Vec<f64>,
     /// Tabulated points where the force predictor extrapolated beyond its fitted range.
     pub extrapolated_points: usize,
 }
 
 impl DeflectionPlan {
-    /// Tabulate the plan every `dx_mm` along the programmed groove, with the controllers' force
+    /// Tabulate the plan every `dx_mm` along the programmed groove and at its corners (depth-profile
+    /// points and steps, the ends of feed accelerations, the entry and the exit: a step made at once is
+    /// a step in the plan, not a `dx_mm` ramp), with the controllers' force
     /// predictor and stiffness, for a tool of ball radius `tool_radius_um` (programmed depths are
     /// clamped to it).
     ///
@@ -154,7 +163,17 @@ impl DeflectionPlan {
             force.peak_z_force_n(cond)
         })?;
         plan.extrapolated_points = extrapolated;
+        if let Some(m) = force.mechanistic() {
+            plan.flute_ratio = flute_ratio(m.model(), program, tool_radius_um)?;
+            plan.waveform = waveform(m.model(), program, tool_radius_um)?;
+        }
         Ok(plan)
+    }
+
+    /// The smaller flute's peak z-force over the larger's, at the program's deepest point (1 for a
+    /// predictor without flutes, a response surface): how strongly one flute dominates the deflection.
+    pub fn flute_ratio(&self) -> f64 {
+        self.flute_ratio
     }
 
     /// A plan from a force the caller computes (`peak_z_force_n` of the programmed conditions, N) and a
@@ -196,10 +215,9 @@ impl DeflectionPlan {
         mut force: impl FnMut(&CutConditions) -> Result<f64, MpcError>,
     ) -> Result<Self, MpcError> {
         let feed = program.feed_profile()?;
-        let n = (program.length_mm / dx_mm).ceil() as usize + 1;
-        let mut values = Vec::with_capacity(n);
-        for i in 0..n {
-            let x = (i as f64 * dx_mm).min(program.length_mm);
+        let xs = plan_nodes(program, &feed, dx_mm);
+        let mut values = Vec::with_capacity(xs.len());
+        for &x in &xs {
             values.push(point(
                 program,
                 &feed,
@@ -211,9 +229,11 @@ impl DeflectionPlan {
             )?);
         }
         Ok(Self {
-            dx_mm,
+            xs_mm: xs,
             values_um: values,
             feed,
+            flute_ratio: 1.0,
+            waveform: Vec::new(),
             extrapolated_points: 0,
         })
     }
@@ -259,12 +279,14 @@ impl DeflectionPlan {
 
     /// Planned z-deflection (µm) at time `t_s` as the stage produces it: the deflection follows the peak
     /// force of the last revolution (`000_…txt` §6.2), and the force peaks once per tooth, at a phase of
-    /// the spindle the controllers do not know. For each of 8 phases φ across a tooth period the
-    /// deflection is the largest planned value at the tooth peaks of the last revolution,
-    /// `t − φ − k·T_tooth`; the plan is the midpoint of the smallest and largest over the phases. Where
-    /// the process is steady the phases agree; at a change that happens at once the deflection steps at
-    /// an unknown instant within a tooth period, and the midpoint is the reference whose worst error over
-    /// that instant is smallest (half the step, where tracking either guess risks all of it).
+    /// the spindle the controllers do not know. With runout one flute cuts more than the others (the
+    /// force model's [`Self::flute_ratio`] < 1), so the deflection steps once per revolution, when that
+    /// flute passes. For each of `8 × teeth` phases φ of that flute across a revolution, the deflection is
+    /// the largest of the flutes' last passes — the larger flute's planned value at `t − φ`, each other
+    /// flute's times the flute ratio at its own pass — and the plan is the midpoint of the smallest and
+    /// largest over the phases. Where the process is steady the phases agree; at a change the deflection
+    /// steps at an unknown instant, and the midpoint is the reference whose worst error over that
+    /// instant is smallest (half the step, where tracking either guess risks all of it).
     ///
     /// ```
     /// use millcomp_models::{ForceModelParams, StiffnessModel};
@@ -287,31 +309,153 @@ impl DeflectionPlan {
     ///     axial_n_per_um: 1.22, radial_n_per_um: 0.114, covariance: Default::default(),
     /// }).unwrap();
     /// let plan = DeflectionPlan::new(&program, &predictor, &k, tool.radius_um, 0.01).unwrap();
+    /// // the catalogue tool's 10 µm of runout against 5 µm of feed per tooth: one flute cuts far more
+    /// assert!(plan.flute_ratio() < 0.8, "{}", plan.flute_ratio());
     /// let (rev, tooth) = (6e-3, 3e-3);
     /// let (before, after) = (plan.deflection_at(5.9), plan.deflection_at(6.1));
     /// assert!(after > before);
-    /// // steady before and a revolution after; in between within the tooth period after the change (the
-    /// // 10 µm table itself spreads the step over 10 µm / 3.33 mm/s = 3 ms)
+    /// // steady before and a revolution after (the 10 µm table itself spreads the step over
+    /// // 10 µm / 3.33 mm/s = 3 ms); in between the midpoint over the larger flute's unknown phase
     /// assert!((plan.deflection_at_time(3.59, rev, tooth) - before).abs() < 1e-9);
     /// assert!((plan.deflection_at_time(3.62, rev, tooth) - after).abs() < 1e-9);
-    /// let mid = plan.deflection_at_time(3.6 + 1.5e-3, rev, tooth);
+    /// let mid = plan.deflection_at_time(3.6 + 3e-3, rev, tooth);
     /// assert!(before < mid && mid < after, "{before} {mid} {after}");
     /// ```
     pub fn deflection_at_time(&self, t_s: f64, rev_s: f64, tooth_s: f64) -> f64 {
         let teeth = ((rev_s / tooth_s).round() as usize).max(1);
+        let phases = 8 * teeth;
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for j in 0..8 {
-            let phi = (j as f64 + 0.5) / 8.0 * tooth_s;
-            let d = (0..teeth)
-                .map(|k| {
-                    let t = t_s - phi - k as f64 * tooth_s;
-                    self.deflection_at(self.x_at(t.max(0.0)))
-                })
-                .fold(0.0, f64::max);
+        for j in 0..phases {
+            let phi = (j as f64 + 0.5) / phases as f64 * rev_s;
+            let d = self.at_phase(t_s, rev_s, tooth_s, phi);
             lo = lo.min(d);
             hi = hi.max(d);
         }
         0.5 * (lo + hi)
+    }
+
+    /// Planned z-deflection (µm) at time `t_s` when the spindle's angle is known: the larger flute
+    /// passed (its force peaked) at `pass_s` (any of its passes; [`SpindlePhase`] estimates one from the
+    /// measured force). The deflection is the largest of the flutes' last passes, as in
+    /// [`Self::deflection_at_time`], at that one phase — a step made at once then arrives in the plan when
+    /// the flute that cuts it passes.
+    ///
+    /// ```
+    /// use millcomp_mpc::groove::DeflectionPlan;
+    /// use millcomp_sim::groove::{DepthProfile, GrooveProgram};
+    /// // 40 µm deep, 60 µm from x = 5 mm on (a step at once; 0.1 N/µm of depth, 0.5 µm/N)
+    /// let mut program = GrooveProgram::thesis(20.0);
+    /// program.depth_profile = DepthProfile::Steps { steps: vec![(0.0, 40.0), (5.0, 60.0)] };
+    /// let plan =
+    ///     DeflectionPlan::reference(&program, 400.0, 0.01, 0.5, |c| Ok(0.1 * c.depth_um)).unwrap();
+    /// // the tool reaches 5 mm at t = 3 s (1.667 mm/s); the larger flute passes at 3.0004 s + k·6 ms
+    /// let (rev, tooth) = (6e-3, 3e-3);
+    /// let at = |t: f64| plan.deflection_at_time_phased(t, rev, tooth, 3.0004);
+    /// assert!((at(3.0003) - 2.0).abs() < 1e-9); // 40 µm × 0.05 until the pass …
+    /// assert!((at(3.0005) - 3.0).abs() < 1e-9); // … 60 µm × 0.05 from it on: a step, not a ramp
+    /// ```
+    pub fn deflection_at_time_phased(
+        &self,
+        t_s: f64,
+        rev_s: f64,
+        tooth_s: f64,
+        pass_s: f64,
+    ) -> f64 {
+        self.at_phase(t_s, rev_s, tooth_s, (t_s - pass_s).rem_euclid(rev_s))
+    }
+
+    /// The planned deflection (µm) at each of `times_s` (ascending) with the spindle's angle known (the
+    /// force peaked at `pass_s`), from the force model's waveform over a revolution: the stage's
+    /// deflection follows the largest force of the last revolution, and a step rises on the flank of
+    /// the first pulse that exceeds the old peak — before that pulse's own peak. Each planned pulse is
+    /// the waveform times the planned peak deflection where the tool was then; the deflection at `t` is
+    /// the largest over `(t − rev, t]`. Without a waveform (a response surface),
+    /// [`Self::deflection_at_time_phased`] for each time.
+    ///
+    /// ```
+    /// use millcomp_models::{ForceModelParams, StiffnessModel};
+    /// use millcomp_mpc::groove::DeflectionPlan;
+    /// use millcomp_mpc::identified::{IdentifiedForceModel, IdentifiedStiffness, NominalTool};
+    /// use millcomp_mpc::predictor::ForcePredictor;
+    /// use millcomp_sim::groove::{DepthProfile, GrooveProgram};
+    /// // 40 µm deep, 60 µm from x = 5 mm on (t = 3 s): a step made at once
+    /// let mut program = GrooveProgram::thesis(20.0);
+    /// program.depth_profile = DepthProfile::Steps { steps: vec![(0.0, 40.0), (5.0, 60.0)] };
+    /// let tool = NominalTool::thesis_ball_end("S7");
+    /// let p = ForceModelParams {
+    ///     fitted: Default::default(), fixed: Default::default(), covariance: Default::default(),
+    /// };
+    /// let predictor = ForcePredictor::Mechanistic(IdentifiedForceModel::new(&p, &tool).unwrap());
+    /// let k = IdentifiedStiffness::new(&StiffnessModel {
+    ///     axial_n_per_um: 1.22, radial_n_per_um: 0.114, covariance: Default::default(),
+    /// }).unwrap();
+    /// let plan = DeflectionPlan::new(&program, &predictor, &k, tool.radius_um, 0.01).unwrap();
+    /// let (rev, tooth, pass) = (6e-3, 3e-3, 3.0004);
+    /// let times: Vec<f64> = (0..200).map(|i| 2.999 + i as f64 * 5e-5).collect();
+    /// let d = plan.deflections_phased(&times, rev, tooth, pass);
+    /// let (old, new) = (plan.deflection_at(4.9), plan.deflection_at(5.1));
+    /// assert!((d[0] - old).abs() < 1e-6 * old && (d[199] - new).abs() < 1e-6 * new);
+    /// // the rise is over by the pulse's peak, and has begun before it
+    /// let at = |t: f64| d[((t - 2.999) / 5e-5).round() as usize];
+    /// assert!((at(pass) - new).abs() < 1e-6 * new);
+    /// assert!(at(pass - 1e-4) > old + 1e-3);
+    /// // nothing rises before the tool reaches the step
+    /// assert!((at(2.9995) - old).abs() < 1e-9);
+    /// ```
+    pub fn deflections_phased(
+        &self,
+        times_s: &[f64],
+        rev_s: f64,
+        tooth_s: f64,
+        pass_s: f64,
+    ) -> Vec<f64> {
+        let (Some(&first), Some(&last)) = (times_s.first(), times_s.last()) else {
+            return Vec::new();
+        };
+        let n = self.waveform.len();
+        if n == 0 {
+            return times_s
+                .iter()
+                .map(|&t| self.deflection_at_time_phased(t, rev_s, tooth_s, pass_s))
+                .collect();
+        }
+        let dt = rev_s / n as f64;
+        // pulse samples τ_i = pass + i·dt, waveform index i mod n (index 0 = the peak)
+        let i0 = ((first - rev_s - pass_s) / dt).floor() as i64;
+        let i1 = ((last - pass_s) / dt).floor() as i64;
+        let pulses: Vec<(f64, f64)> = (i0..=i1)
+            .map(|i| {
+                let tau = pass_s + i as f64 * dt;
+                let w = self.waveform[i.rem_euclid(n as i64) as usize];
+                let d = if tau < 0.0 {
+                    0.0
+                } else {
+                    self.deflection_at(self.x_at(tau))
+                };
+                (tau, w * d)
+            })
+            .collect();
+        times_s
+            .iter()
+            .map(|&t| {
+                let lo = pulses.partition_point(|p| p.0 <= t - rev_s);
+                let hi = pulses.partition_point(|p| p.0 <= t);
+                pulses[lo..hi].iter().map(|p| p.1).fold(0.0, f64::max)
+            })
+            .collect()
+    }
+
+    /// The deflection at `t_s` when the larger flute last passed `phi_s` ago.
+    fn at_phase(&self, t_s: f64, rev_s: f64, tooth_s: f64, phi_s: f64) -> f64 {
+        let teeth = ((rev_s / tooth_s).round() as usize).max(1);
+        (0..teeth)
+            .map(|m| {
+                // flute m passes m tooth periods after the larger one
+                let ago = (phi_s - m as f64 * tooth_s).rem_euclid(rev_s);
+                let r = if m == 0 { 1.0 } else { self.flute_ratio };
+                r * self.deflection_at(self.x_at((t_s - ago).max(0.0)))
+            })
+            .fold(0.0, f64::max)
     }
 
     /// Planned z-deflection (µm) at `x_mm` (linear interpolation; 0 on the approach in air, x < 0).
@@ -319,14 +463,62 @@ impl DeflectionPlan {
         if x_mm < 0.0 {
             return 0.0;
         }
-        let u = x_mm / self.dx_mm;
-        let i = u.floor() as usize;
-        if i + 1 >= self.values_um.len() {
+        let i = self.xs_mm.partition_point(|x| *x <= x_mm);
+        if i >= self.xs_mm.len() {
             return *self.values_um.last().unwrap_or(&0.0);
         }
-        let f = u - i as f64;
-        self.values_um[i] * (1.0 - f) + self.values_um[i + 1] * f
+        if i == 0 {
+            return self.values_um[0];
+        }
+        let (x0, x1) = (self.xs_mm[i - 1], self.xs_mm[i]);
+        let f = if x1 > x0 {
+            (x_mm - x0) / (x1 - x0)
+        } else {
+            1.0
+        };
+        self.values_um[i - 1] * (1.0 - f) + self.values_um[i] * f
     }
+
+    /// The smallest and largest planned deflection over the cut (µm).
+    pub fn range_um(&self) -> (f64, f64) {
+        self.values_um
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                (a.min(v), b.max(v))
+            })
+    }
+}
+
+/// The positions (mm) the plan is tabulated at: every `dx_mm` from 0 to the end, and the program's
+/// corners — depth-profile points (a step: just before it and at it), the start and end of every feed
+/// acceleration, the end of the entry and the exit's drop — sorted, without duplicates.
+fn plan_nodes(program: &GrooveProgram, feed: &FeedProfile, dx_mm: f64) -> Vec<f64> {
+    let len = program.length_mm;
+    let n = (len / dx_mm).ceil() as usize + 1;
+    let mut xs: Vec<f64> = (0..n).map(|i| (i as f64 * dx_mm).min(len)).collect();
+    const JUST_BEFORE_MM: f64 = 1e-6;
+    match &program.depth_profile {
+        millcomp_sim::groove::DepthProfile::Points { points } => {
+            xs.extend(points.iter().map(|p| p.0));
+        }
+        millcomp_sim::groove::DepthProfile::Steps { steps } => {
+            xs.extend(steps.iter().flat_map(|p| [p.0 - JUST_BEFORE_MM, p.0]));
+        }
+        _ => {}
+    }
+    for (t0, t1) in feed.accelerations() {
+        xs.push(feed.x_at(t0));
+        xs.push(feed.x_at(t1));
+    }
+    xs.push(program.entry_length_mm);
+    if let Some(e) = program.exit {
+        xs.push(e.x_mm - e.length_mm);
+        xs.push(e.x_mm);
+    }
+    xs.retain(|x| x.is_finite() && (0.0..=len).contains(x));
+    xs.sort_by(f64::total_cmp);
+    xs.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+    xs
 }
 
 /// One planned deflection (µm): the peak z-force at depth `depth_um` (clamped to the ball) and the planned
@@ -350,6 +542,65 @@ fn point(
     // a tool cannot be pushed out of the cut by more than it is engaged: at the first few µm of a ramp
     // the flank force alone would predict more deflection than depth
     Ok((f * c).min(d))
+}
+
+/// The smaller flute's peak z-force over the larger's at the program's deepest point (clamped to the
+/// ball) and base upfeed, from the controllers' force model.
+fn flute_ratio(
+    model: &millcomp_sim::force::BallEndForceModel,
+    program: &GrooveProgram,
+    tool_radius_um: f64,
+) -> Result<f64, MpcError> {
+    let deepest = deepest_um(program, tool_radius_um);
+    if deepest <= 0.0 {
+        return Ok(1.0);
+    }
+    let p = model.per_flute_peaks(&program.conditions_at(deepest, program.upfeed_um), 720)?;
+    let (a, b) = (p[0][2].max(0.0), p[1][2].max(0.0));
+    let big = a.max(b);
+    Ok(if big > 0.0 { a.min(b) / big } else { 1.0 })
+}
+
+/// Angles per revolution of the plan's force waveform: 120, the samples of a revolution at 10 000 rpm
+/// and the 20 kHz stage rate.
+pub const WAVEFORM_SAMPLES: usize = 120;
+
+/// The z-force over a revolution relative to its peak, starting at the peak, from the controllers'
+/// force model at the program's deepest point (clamped to the ball) and base upfeed; negative forces
+/// are 0 (they never set a peak).
+fn waveform(
+    model: &millcomp_sim::force::BallEndForceModel,
+    program: &GrooveProgram,
+    tool_radius_um: f64,
+) -> Result<Vec<f64>, MpcError> {
+    let deepest = deepest_um(program, tool_radius_um);
+    if deepest <= 0.0 {
+        return Ok(Vec::new());
+    }
+    let rev = model.revolution(
+        &program.conditions_at(deepest, program.upfeed_um),
+        WAVEFORM_SAMPLES,
+    )?;
+    let z: Vec<f64> = rev.iter().map(|f| f[2].max(0.0)).collect();
+    let (peak_i, peak) = z
+        .iter()
+        .enumerate()
+        .fold((0, 0.0), |a, (i, &v)| if v > a.1 { (i, v) } else { a });
+    if peak <= 0.0 {
+        return Ok(Vec::new());
+    }
+    Ok((0..WAVEFORM_SAMPLES)
+        .map(|k| z[(peak_i + k) % WAVEFORM_SAMPLES] / peak)
+        .collect())
+}
+
+/// The program's deepest programmed depth (µm), clamped to the ball.
+fn deepest_um(program: &GrooveProgram, tool_radius_um: f64) -> f64 {
+    let n = 400;
+    (0..=n)
+        .map(|i| program.depth_at(program.length_mm * i as f64 / n as f64))
+        .fold(0.0, f64::max)
+        .clamp(0.0, tool_radius_um)
 }
 
 /// A groove controller stepped at the stage rate.
@@ -404,7 +655,12 @@ impl OpenLoopController {
 impl OpenLoopController {
     /// The voltage that puts the tip where the plan's deflection at `t_s` wants it (unclamped).
     fn volts_at(&self, t_s: f64) -> f64 {
-        self.plan.deflection_at(self.plan.x_at(t_s)) * self.tip_per_z * self.v_per_um
+        self.volts_for(self.plan.deflection_at(self.plan.x_at(t_s)))
+    }
+
+    /// The voltage that corrects a z-deflection of `deflection_um` (unclamped).
+    fn volts_for(&self, deflection_um: f64) -> f64 {
+        deflection_um * self.tip_per_z * self.v_per_um
     }
 }
 
@@ -487,6 +743,7 @@ pub struct TunedPidController {
     pid: Pid,
     tip_per_n: f64,
     design: crate::tuning::PiDesign,
+    dt_s: f64,
 }
 
 impl TunedPidController {
@@ -522,6 +779,7 @@ impl TunedPidController {
                 .stiffness()
                 .pzt_compliance_um_per_n(program.tilt_deg)?,
             design,
+            dt_s,
         })
     }
 
@@ -533,10 +791,11 @@ impl TunedPidController {
 
 impl TunedPidController {
     /// One step with `v_ff` volts fed forward (inside the saturation). Before the first measurement the
-    /// error is 0: the output is `v_ff` clamped (0 without feedforward).
-    fn step_with_feedforward(&mut self, last: Option<&GrooveMeasurement>, v_ff: f64) -> f64 {
+    /// error is 0: the output is `v_ff` clamped (0 without feedforward). Returns the command and the
+    /// wanted tip (µm) the measured force asked for (NaN before the first measurement).
+    fn step_with_feedforward(&mut self, last: Option<&GrooveMeasurement>, v_ff: f64) -> (f64, f64) {
         let Some(o) = last else {
-            return self.pid.step_with_feedforward(0.0, v_ff);
+            return (self.pid.step_with_feedforward(0.0, v_ff), f64::NAN);
         };
         let fpk = self.force.step(o.force_meas_n);
         let wanted_tip = if fpk.is_finite() {
@@ -544,14 +803,16 @@ impl TunedPidController {
         } else {
             0.0
         };
-        self.pid
-            .step_with_feedforward(wanted_tip - o.gauge_um, v_ff)
+        let v = self
+            .pid
+            .step_with_feedforward(wanted_tip - o.gauge_um, v_ff);
+        (v, wanted_tip)
     }
 }
 
 impl GrooveController for TunedPidController {
     fn command(&mut self, last: Option<&GrooveMeasurement>, _: f64) -> f64 {
-        self.step_with_feedforward(last, 0.0)
+        self.step_with_feedforward(last, 0.0).0
     }
 }
 
@@ -566,12 +827,19 @@ pub fn spindle_mean_delay_s(model_spindle: &IdentifiedSpindle) -> f64 {
 /// `pid-tuned` plus the feedforward an engineer holding the NC program would add: the planned deflection
 /// (the same [`DeflectionPlan`] the open-loop and the MPC use), taken [`spindle_mean_delay_s`] ahead and
 /// turned into volts through the identified spindle gain, added to the PI's output before the saturation.
-/// The PI gains are `pid-tuned`'s (not retuned); the PI corrects what the plan gets wrong.
+/// The plan is scaled online by the ratio of measured to planned deflection ([`PlanScale`], as the MPC's
+/// preview is), so the feedforward carries what the measurements have taught. The PI gains are
+/// `pid-tuned`'s (not retuned); the PI corrects what the plan gets wrong.
 #[derive(Debug, Clone)]
 pub struct FeedforwardPidController {
     feedback: TunedPidController,
     plan: OpenLoopController,
     lead_s: f64,
+    scale: Option<PlanScale>,
+    phase: SpindlePhase,
+    sin_a: f64,
+    rev_s: f64,
+    tooth_s: f64,
 }
 
 impl FeedforwardPidController {
@@ -583,12 +851,25 @@ impl FeedforwardPidController {
         program: &GrooveProgram,
         model_spindle: &IdentifiedSpindle,
         voltage_max_v: f64,
+        flutes: u32,
     ) -> Self {
+        let dt_s = feedback.dt_s;
         Self {
             feedback,
             plan: OpenLoopController::new(plan, program, model_spindle, voltage_max_v),
             lead_s: spindle_mean_delay_s(model_spindle),
+            scale: Some(PlanScale::new(dt_s, PLAN_SCALE_TIME_CONSTANT_S)),
+            phase: SpindlePhase::new(program.speed_rpm),
+            sin_a: program.tilt_deg.to_radians().sin(),
+            rev_s: 60.0 / program.speed_rpm,
+            tooth_s: 60.0 / program.speed_rpm / flutes.max(1) as f64,
         }
+    }
+
+    /// The same controller with the plan as commissioned (no online scale): the ablation.
+    pub fn without_plan_scale(mut self) -> Self {
+        self.scale = None;
+        self
     }
 
     /// The feedback part's PI design.
@@ -604,8 +885,30 @@ impl FeedforwardPidController {
 
 impl GrooveController for FeedforwardPidController {
     fn command(&mut self, last: Option<&GrooveMeasurement>, t_s: f64) -> f64 {
-        let v_ff = self.plan.volts_at(t_s + self.lead_s);
-        self.feedback.step_with_feedforward(last, v_ff)
+        if let Some(o) = last {
+            self.phase.update(t_s, o.force_meas_n);
+        }
+        let rho = self.scale.map_or(1.0, |s| s.ratio());
+        let t_ff = t_s + self.lead_s;
+        // the plan timed by the spindle's angle once the force shows it, as the MPC's is
+        let v_ff = rho
+            * match self.phase.pass_s() {
+                Some(p) => self.plan.volts_for(
+                    self.plan
+                        .plan
+                        .deflections_phased(&[t_ff], self.rev_s, self.tooth_s, p)
+                        .first()
+                        .copied()
+                        .unwrap_or(0.0),
+                ),
+                None => self.plan.volts_at(t_ff),
+            };
+        let (v, wanted_tip) = self.feedback.step_with_feedforward(last, v_ff);
+        if let Some(s) = &mut self.scale {
+            let planned = self.plan.plan.deflection_at(self.plan.plan.x_at(t_s));
+            s.update(planned, wanted_tip * self.sin_a);
+        }
+        v
     }
 }
 
@@ -630,6 +933,130 @@ pub struct GrooveMpcSettings {
     pub force_noise_n: f64,
     /// Gauge noise σ (µm).
     pub gauge_noise_um: f64,
+    /// Which of the planning and estimation features are on (all by default; the ablations switch them
+    /// off one at a time).
+    pub features: GrooveMpcFeatures,
+}
+
+/// The groove MPC's planning and estimation features (scenario keys `control.groove_mpc.*`). Each one
+/// answers something the commissioning could not pin down or the horizon cannot see; all are on by
+/// default, and switching one off is an ablation that measures what it buys.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct GrooveMpcFeatures {
+    /// Plan the whole cut within the actuator's reach ([`crate::stroke::StrokeBand`]): where the
+    /// deflection the program will cause exceeds the stroke, the error targets are the band's instead of
+    /// 0, and the soft error bound follows them.
+    pub stroke_aware: bool,
+    /// Scale the preview's changes by the ratio of the measured to the planned deflection, estimated
+    /// online ([`PlanScale`]): a change the plan previews then arrives at the size the measurements say,
+    /// not the commissioned model's — its force-model, stiffness and force-gain errors no longer
+    /// leave a transient for the disturbance estimate to catch up with. The deflection the plan misses
+    /// *now* stays the disturbance estimate's.
+    pub adapt_plan_scale: bool,
+    /// Time the plan's steps by the force model's flutes: with runout the larger flute sets the
+    /// deflection once per revolution ([`DeflectionPlan::deflection_at_time`]); off: every tooth is
+    /// taken as equal.
+    pub flute_phase: bool,
+    /// Estimate the spindle's angle from the measured force ([`SpindlePhase`]) and time the plan by it
+    /// ([`DeflectionPlan::deflection_at_time_phased`]); off: the midpoint over the unknown phase.
+    pub spindle_phase: bool,
+    /// An output disturbance on the gauge channel ([`crate::spindle_mpc`]): what the linear stack model
+    /// misses — hysteresis, creep, the gauge zero — goes there instead of into the spindle states. Off:
+    /// the error channel's disturbance alone. Only with the default configuration (`control.mpc` unset).
+    pub gauge_disturbance: bool,
+}
+
+impl Default for GrooveMpcFeatures {
+    fn default() -> Self {
+        Self {
+            stroke_aware: true,
+            adapt_plan_scale: true,
+            flute_phase: true,
+            spindle_phase: true,
+            gauge_disturbance: true,
+        }
+    }
+}
+
+/// The ratio of the measured to the planned deflection, estimated online by exponentially weighted least
+/// squares through the origin: `ρ̂ = (Σ λ^i δ̂_i δ_i + p) / (Σ λ^i δ̂_i² + p)` over the cycles where the
+/// plan expects a cut (`δ̂ ≥` [`PlanScale::MIN_PLANNED_UM`]: below, the measured per-revolution peak
+/// is mostly the noise's own peak), `λ = exp(−cycle / τ)`, a prior ρ = 1 of weight `p` = 25 µm² (one
+/// cycle at 5 µm: it yields to data within milliseconds of cutting), clamped to 0.5–2 (a model that is
+/// further off is a commissioning to redo, not a scale to learn). Once the estimate has [`PlanScale::
+/// WARM_UM2`] of data behind it, a cycle whose own ratio is more than [`PlanScale::GATE_REL`] off is
+/// an outlier (a force spike, a frozen channel) and is left out — unless
+/// [`PlanScale::GATE_MAX_SKIPS`] cycles in a row are, which is a real change and is learnt.
+///
+/// # Examples
+/// ```
+/// use millcomp_mpc::groove::PlanScale;
+/// let mut s = PlanScale::new(5e-4, 0.5);
+/// assert_eq!(s.ratio(), 1.0); // nothing measured: the commissioned model as it is
+/// for k in 0..2000 {
+///     let planned = 5.0 + 0.005 * k as f64; // a ramp 5 → 15 µm the model over-predicts by 10 %
+///     s.update(planned, planned / 1.1);
+/// }
+/// assert!((s.ratio() - 1.0 / 1.1).abs() < 1e-3);
+/// s.update(1.0, 100.0); // too little planned there (in air, the start of a ramp): ignored
+/// s.update(15.0, 60.0); // a force spike: ignored
+/// assert!((s.ratio() - 1.0 / 1.1).abs() < 1e-3);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlanScale {
+    sxy: f64,
+    sxx: f64,
+    lambda: f64,
+    skips: usize,
+}
+
+impl PlanScale {
+    /// Planned deflections below this (µm) do not update the estimate (the tool in air, the first µm of a
+    /// ramp, where the measured peak is mostly noise).
+    pub const MIN_PLANNED_UM: f64 = 2.0;
+    /// Weight of data (Σ λ^i δ̂², µm²) after which outliers are gated: 200 cycles at 5 µm.
+    pub const WARM_UM2: f64 = 5000.0;
+    /// A cycle whose ratio is further than this (relative) from the estimate is an outlier.
+    pub const GATE_REL: f64 = 0.25;
+    /// Consecutive outliers after which they are taken as real: 20 ms at 2 kHz (three revolutions at
+    /// 10 000 rpm, past the one a force spike is held for by the per-revolution peak).
+    pub const GATE_MAX_SKIPS: usize = 40;
+    const PRIOR_UM2: f64 = 25.0;
+
+    /// An estimator updated every `cycle_s` with a memory of `time_constant_s`.
+    pub fn new(cycle_s: f64, time_constant_s: f64) -> Self {
+        Self {
+            sxy: 0.0,
+            sxx: 0.0,
+            lambda: (-cycle_s / time_constant_s.max(cycle_s)).exp(),
+            skips: 0,
+        }
+    }
+
+    /// One cycle's planned and measured deflection (µm); non-finite values are ignored.
+    pub fn update(&mut self, planned_um: f64, measured_um: f64) {
+        if planned_um < Self::MIN_PLANNED_UM || !planned_um.is_finite() || !measured_um.is_finite()
+        {
+            return;
+        }
+        let rho = self.ratio();
+        if self.sxx >= Self::WARM_UM2
+            && (measured_um / planned_um / rho - 1.0).abs() > Self::GATE_REL
+            && self.skips < Self::GATE_MAX_SKIPS
+        {
+            self.skips += 1;
+            return;
+        }
+        self.skips = 0;
+        self.sxy = self.lambda * self.sxy + planned_um * measured_um;
+        self.sxx = self.lambda * self.sxx + planned_um * planned_um;
+    }
+
+    /// The estimated ratio, measured over planned.
+    pub fn ratio(&self) -> f64 {
+        ((self.sxy + Self::PRIOR_UM2) / (self.sxx + Self::PRIOR_UM2)).clamp(0.5, 2.0)
+    }
 }
 
 /// Build the groove MPC: the controllers' spindle model sampled at `dt_s · mpc_every` with two outputs
@@ -677,11 +1104,127 @@ pub fn groove_mpc(
             // ≈ 5 ms (≈ one revolution) disturbance time constant against ≈ 0.035 µm measurement noise,
             // smoothing the per-revolution steps of the measured peak
             c.kalman.disturbance_noise = 1e-5;
+            if !settings.features.gauge_disturbance {
+                c.disturbance.channels = Some(vec![OUT_ERROR]);
+            }
             c
         }
     };
     MpcController::new(&model, &cfg)
 }
+
+/// The spindle's angle from the measured force, as a time at which the larger flute passed.
+///
+/// The force of a milling tool peaks once per tooth; with runout one flute cuts more and its peak is the
+/// revolution's. Every revolution (the programmed speed) the time of the largest force sample is taken
+/// as that flute's pass; the passes are averaged on the circle with a memory of
+/// [`SpindlePhase::MEMORY_REVOLUTIONS`] revolutions. The phase is *known* once at least
+/// [`SpindlePhase::MIN_REVOLUTIONS`] revolutions with a cut in them agree (mean resultant length ≥
+/// [`SpindlePhase::MIN_AGREEMENT`]): in air, or with flutes cutting alike, it is not, and the plan
+/// stays the midpoint over the unknown phase. The one sensor is the force channel every controller
+/// reads.
+///
+/// # Examples
+/// ```
+/// use millcomp_mpc::groove::SpindlePhase;
+/// // 10 000 rpm sampled every 50 µs; a force peaking at 1.2 ms into every revolution
+/// let (rev, dt) = (6e-3, 5e-5);
+/// let mut p = SpindlePhase::new(10_000.0);
+/// assert_eq!(p.pass_s(), None);
+/// for k in 0..1200 {
+///     let t = k as f64 * dt;
+///     let phase = (t / rev).fract() * rev;
+///     let f = 5.0 * (-((phase - 1.2e-3) / 2e-4).powi(2)).exp(); // one flute's pulse
+///     p.update(t, f);
+/// }
+/// let pass = p.pass_s().unwrap();
+/// assert!(((pass / rev).fract() * rev - 1.2e-3).abs() < 1e-9, "{pass}");
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SpindlePhase {
+    rev_s: f64,
+    rev_index: i64,
+    best_force: f64,
+    best_t: f64,
+    sum_cos: f64,
+    sum_sin: f64,
+    weight: f64,
+    revolutions: usize,
+    lambda: f64,
+}
+
+impl SpindlePhase {
+    /// Revolutions the circular mean remembers (1/e).
+    pub const MEMORY_REVOLUTIONS: f64 = 20.0;
+    /// Revolutions with a cut before the phase is taken as known.
+    pub const MIN_REVOLUTIONS: usize = 3;
+    /// Mean resultant length of the passes (1 = identical) needed.
+    pub const MIN_AGREEMENT: f64 = 0.9;
+    /// A revolution whose largest force is below this (N) had no cut in it.
+    pub const MIN_PEAK_N: f64 = 0.5;
+
+    /// The estimator for a spindle at `speed_rpm`.
+    pub fn new(speed_rpm: f64) -> Self {
+        Self {
+            rev_s: 60.0 / speed_rpm,
+            rev_index: i64::MIN,
+            best_force: f64::NEG_INFINITY,
+            best_t: 0.0,
+            sum_cos: 0.0,
+            sum_sin: 0.0,
+            weight: 0.0,
+            revolutions: 0,
+            lambda: (-1.0 / Self::MEMORY_REVOLUTIONS).exp(),
+        }
+    }
+
+    /// One force sample `force_n` (N) taken at `t_s`.
+    pub fn update(&mut self, t_s: f64, force_n: f64) {
+        if !force_n.is_finite() || !t_s.is_finite() {
+            return;
+        }
+        let rev = (t_s / self.rev_s).floor() as i64;
+        if rev != self.rev_index {
+            self.close_revolution();
+            self.rev_index = rev;
+        }
+        if force_n > self.best_force {
+            self.best_force = force_n;
+            self.best_t = t_s;
+        }
+    }
+
+    fn close_revolution(&mut self) {
+        if self.rev_index != i64::MIN && self.best_force >= Self::MIN_PEAK_N {
+            let theta = std::f64::consts::TAU * (self.best_t / self.rev_s).fract();
+            self.sum_cos = self.lambda * self.sum_cos + theta.cos();
+            self.sum_sin = self.lambda * self.sum_sin + theta.sin();
+            self.weight = self.lambda * self.weight + 1.0;
+            self.revolutions += 1;
+        }
+        self.best_force = f64::NEG_INFINITY;
+    }
+
+    /// A time (s) at which the larger flute passed, when the phase is known.
+    pub fn pass_s(&self) -> Option<f64> {
+        if self.revolutions < Self::MIN_REVOLUTIONS || self.weight <= 0.0 {
+            return None;
+        }
+        let r = self.sum_cos.hypot(self.sum_sin) / self.weight;
+        if r < Self::MIN_AGREEMENT {
+            return None;
+        }
+        let theta = self
+            .sum_sin
+            .atan2(self.sum_cos)
+            .rem_euclid(std::f64::consts::TAU);
+        Some(theta / std::f64::consts::TAU * self.rev_s)
+    }
+}
+
+/// Memory of the groove MPC's [`PlanScale`] (s): long against a revolution (6 ms at 10 000 rpm), whose
+/// per-revolution peaks it averages, short against a 12 s groove along which the force sensor drifts.
+pub const PLAN_SCALE_TIME_CONSTANT_S: f64 = 0.5;
 
 /// Flags a sensor whose reading has not changed (bit-identical) for `limit` consecutive samples: with the
 /// published sensor noise this cannot happen to a live channel (a dropout / frozen ADC).
@@ -730,6 +1273,14 @@ pub struct MpcGrooveController {
     window: PreviewWindow,
     stale: [StaleDetector; 2],
     preview: bool,
+    features: GrooveMpcFeatures,
+    scale: PlanScale,
+    phase: SpindlePhase,
+    times_buf: Vec<f64>,
+    /// The plan's deflection range over the cut (µm) and the actuator's z-reach on the controllers'
+    /// spindle model (µm), for the stroke band.
+    plan_range_um: (f64, f64),
+    reach_z_um: f64,
 }
 
 impl MpcGrooveController {
@@ -747,9 +1298,16 @@ impl MpcGrooveController {
         flutes: u32,
         settings: &GrooveMpcSettings,
     ) -> Result<Self, MpcError> {
+        let mut plan = plan;
+        if !settings.features.flute_phase {
+            plan.flute_ratio = 1.0;
+        }
         let mpc = groove_mpc(model_spindle, model_stiffness, program.tilt_deg, settings)?;
         let dt = settings.dt_s;
         let n = mpc.config().horizon;
+        let sp = model_spindle.plant();
+        let sin_a = program.tilt_deg.to_radians().sin();
+        let plan_range_um = plan.range_um();
         Ok(Self {
             mpc,
             plan,
@@ -757,7 +1315,7 @@ impl MpcGrooveController {
             compliance: model_stiffness
                 .stiffness()
                 .z_compliance_um_per_n(program.tilt_deg)?,
-            sin_a: program.tilt_deg.to_radians().sin(),
+            sin_a,
             every: settings.mpc_every,
             tc_s: dt * settings.mpc_every as f64,
             rev_s: 60.0 / program.speed_rpm,
@@ -771,7 +1329,22 @@ impl MpcGrooveController {
                 StaleDetector::new((1e-3 / dt) as usize),
             ],
             preview: true,
+            features: settings.features,
+            scale: PlanScale::new(dt * settings.mpc_every as f64, PLAN_SCALE_TIME_CONSTANT_S),
+            phase: SpindlePhase::new(program.speed_rpm),
+            times_buf: Vec::with_capacity(n + 1),
+            plan_range_um,
+            reach_z_um: sp.gain_um_per_v * sp.voltage_max_v * sin_a,
         })
+    }
+
+    /// The current estimate of the measured over the planned deflection (1 with the feature off).
+    pub fn plan_scale(&self) -> f64 {
+        if self.features.adapt_plan_scale {
+            self.scale.ratio()
+        } else {
+            1.0
+        }
     }
 
     /// The same MPC without preview (the `mpc-nopreview` ablation): every step of the horizon is given the
@@ -796,6 +1369,10 @@ impl GrooveController for MpcGrooveController {
         let force_stale = self.stale[0].stale(force);
         let gauge_stale = self.stale[1].stale(gauge);
         let fpk = self.force.step(force);
+        // the sample of the last step: the stage's deflection holds its force peak from now on
+        if last.is_some() && !force_stale {
+            self.phase.update(t_s, force);
+        }
         let run_now = self.k % self.every == 0;
         self.k += 1;
         if !run_now {
@@ -803,14 +1380,48 @@ impl GrooveController for MpcGrooveController {
         }
         let n = self.mpc.config().horizon;
         let (rev, tooth) = (self.rev_s, self.tooth_s);
-        self.window.offset_now[OUT_ERROR] = -self.plan.deflection_at_time(t_s, rev, tooth);
+        let pass = self
+            .features
+            .spindle_phase
+            .then(|| self.phase.pass_s())
+            .flatten();
+        // the plan now and over the horizon (with the spindle's angle: from the force waveform)
+        let times = &mut self.times_buf;
+        times.clear();
+        times.push(t_s);
+        times.extend((1..=n).map(|j| t_s + j as f64 * self.tc_s));
+        let planned: Vec<f64> = match pass {
+            Some(p) => self.plan.deflections_phased(times, rev, tooth, p),
+            None => times
+                .iter()
+                .map(|&t| self.plan.deflection_at_time(t, rev, tooth))
+                .collect(),
+        };
+        let planned_now = planned[0];
+        if !force_stale && fpk.is_finite() {
+            self.scale.update(planned_now, self.compliance * fpk);
+        }
+        let rho = self.plan_scale();
+        let band = if self.features.stroke_aware {
+            StrokeBand::from_range(
+                rho * self.plan_range_um.0,
+                rho * self.plan_range_um.1,
+                self.reach_z_um,
+            )
+        } else {
+            StrokeBand::from_range(0.0, 0.0, f64::INFINITY)
+        };
+        // the error channel's disturbance carries the deflection the plan misses now; the scale applies
+        // to what the plan says will change over the horizon
+        self.window.offset_now[OUT_ERROR] = -planned_now;
         for j in 0..n {
-            self.window.offsets[j * 2 + OUT_ERROR] = if self.preview {
-                let t = t_s + (j + 1) as f64 * self.tc_s;
-                -self.plan.deflection_at_time(t, rev, tooth)
+            let ahead = if self.preview {
+                planned[j + 1]
             } else {
-                self.window.offset_now[OUT_ERROR]
+                planned_now
             };
+            self.window.offsets[j * 2 + OUT_ERROR] = -(planned_now + rho * (ahead - planned_now));
+            self.window.reference[j * 2 + OUT_ERROR] = band.target_error_um(rho * ahead);
         }
         // a stale sensor is left out of the measurement update (prediction from the model and the plan)
         let y = [

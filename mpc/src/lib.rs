@@ -23,7 +23,8 @@
 //!   [`groove::NoneController`], [`groove::OpenLoopController`], [`groove::PidController`] and
 //!   [`groove::MpcGrooveController`], previewing a [`groove::DeflectionPlan`] computed from the program
 //!   (sim's `GrooveProgram`), the [`predictor::ForcePredictor`] and the controllers' stiffness;
-//!   [`spindle_mpc`] is the spindle MPC design, [`pid`] the published PID;
+//!   [`spindle_mpc`] is the spindle MPC design, [`pid`] the published PID, [`stroke`] the whole-cut
+//!   plan within the actuator's reach;
 //! - [`nc_axis`] (NC feed axes, `003_…txt`): [`nc_axis::NcController`] with the none, reactive (notch
 //!   chain), proactive (6 Hz low-pass + offset curve) and MPC controllers, built from the identified
 //!   Kienzle model, feed axes and stiffness of a commissioning, previewing [`nc_axis::NcPlan`];
@@ -79,6 +80,7 @@ pub mod qp;
 pub mod replay;
 pub mod spindle_mpc;
 pub mod stats;
+pub mod stroke;
 pub mod thin_wall;
 pub mod tuning;
 

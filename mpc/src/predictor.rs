@@ -140,6 +140,14 @@ impl ForcePredictor {
         }
     }
 
+    /// The identified mechanistic model, if that is the kind.
+    pub fn mechanistic(&self) -> Option<&IdentifiedForceModel> {
+        match self {
+            ForcePredictor::Mechanistic(m) => Some(m),
+            _ => None,
+        }
+    }
+
     /// The response surface, if that is the kind.
     pub fn response_surface(&self) -> Option<&ResponseSurface> {
         match self {

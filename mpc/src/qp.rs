@@ -10,7 +10,8 @@
 //!   q = [2 GbᵀQ̄ (F ξ̂ + W − Rref) − 2 EᵀR̄ e₀ u_prev − 2 MᵀS̄ 1 u_target;  ρ₁ 1]
 //! s.t.  u_min ≤ v ≤ u_max                               (hard)
 //!       |v₀ − u_prev| ≤ Δu_max, |v_j − v_{j−1}| ≤ Δu_max  (hard slew; a block boundary is one step)
-//!       y_min − s ≤ (F ξ̂ + Gb v + W)_k ≤ y_max + s       (soft, every k, exact L∞ penalty)
+//!       y_min − s ≤ (F ξ̂ + Gb v + W)_k ≤ y_max + s       (soft, every k, exact L∞ penalty;
+//!                                                       + Rref_k where the bound is about the reference)
 //!       s ≥ 0
 //! ```
 //!
@@ -40,10 +41,12 @@ struct SoftRow {
     sign: f64,
     /// The bound.
     bound: f64,
+    /// The bound is on the deviation from the reference.
+    about_reference: bool,
 }
 
-/// (output, min, max, checked 0-based steps) of one soft-bounded output.
-type SoftSpec = (usize, Option<f64>, Option<f64>, Vec<usize>);
+/// (output, min, max, checked 0-based steps, about the reference) of one soft-bounded output.
+type SoftSpec = (usize, Option<f64>, Option<f64>, Vec<usize>, bool);
 
 /// Outcome of one QP solve (status only; the solution is read with [`CondensedQp::solution`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -268,7 +271,7 @@ impl CondensedQp {
                 if steps.last() != Some(&(horizon - 1)) {
                     steps.push(horizon - 1);
                 }
-                soft_outputs.push((so.output, so.min, so.max, steps));
+                soft_outputs.push((so.output, so.min, so.max, steps, so.about_reference));
             }
         }
         let ns = soft_outputs.len();
@@ -285,7 +288,9 @@ impl CondensedQp {
         // constraints
         let n_soft_rows: usize = soft_outputs
             .iter()
-            .map(|(_, lo, hi, steps)| steps.len() * (lo.is_some() as usize + hi.is_some() as usize))
+            .map(|(_, lo, hi, steps, _)| {
+                steps.len() * (lo.is_some() as usize + hi.is_some() as usize)
+            })
             .sum();
         let m = 2 * nv + 2 * nv + n_soft_rows + ns;
         let mut ad = DMatrix::zeros(m, nz);
@@ -320,7 +325,7 @@ impl CondensedQp {
             }
         }
         let mut soft_rows = Vec::new();
-        for (sj, (o, lo, hi, steps)) in soft_outputs.iter().enumerate() {
+        for (sj, (o, lo, hi, steps, about_reference)) in soft_outputs.iter().enumerate() {
             let o = *o;
             for (bound, sign) in [(*hi, 1.0), (*lo, -1.0)] {
                 let Some(bound) = bound else { continue };
@@ -335,6 +340,7 @@ impl CondensedQp {
                         y_row,
                         sign,
                         bound,
+                        about_reference: *about_reference,
                     });
                     row += 1;
                 }
@@ -460,7 +466,12 @@ impl CondensedQp {
             self.b[rm] = du - u_prev[i];
         }
         for sr in &self.soft_rows {
-            self.b[sr.row] = sr.sign * (sr.bound - self.c_buf[sr.y_row]);
+            let r = if sr.about_reference {
+                reference[sr.y_row]
+            } else {
+                0.0
+            };
+            self.b[sr.row] = sr.sign * (sr.bound + r - self.c_buf[sr.y_row]);
         }
         let finite = self.q.iter().chain(self.b.iter()).all(|v| v.is_finite());
         if finite {

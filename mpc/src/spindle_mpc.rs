@@ -59,7 +59,8 @@ pub fn spindle_prediction_model(
 
 /// Default spindle MPC configuration for `horizon` cycles (documented in `mpc/CONFIG.md`):
 /// geometric move blocking (1, 1, 2, 4, 8, … steps), weights `[0, 1]` on (gauge, error) per µm², move
-/// weight 1e-4 per V², command 0–`voltage_max_v` V, slew `slew_v_per_cycle`, soft `|e| ≤ 1 µm` checked at
+/// weight 1e-4 per V², command 0–`voltage_max_v` V, slew `slew_v_per_cycle`, soft `|e − r| ≤ 1 µm` (about
+/// the error's reference: the stroke-aware targets of [`crate::stroke`], 0 where the stroke covers) checked at
 /// steps 3, N/2 + 3 and N (step 3 = 1.5 ms, after the spindle's 0.39 ms dead time and lag), output
 /// disturbances on both channels (gauge: what the linear model misses on the stack; error: the deflection
 /// the plan misses — see the module docs), Kalman noise: gauge 0.01 µm²
@@ -95,6 +96,7 @@ pub fn default_spindle_config(
             from_step: 3.min(horizon),
             min: Some(-1.0),
             max: Some(1.0),
+            about_reference: true,
         }],
         disturbance: DisturbanceConfig {
             kind: DisturbanceKind::Output,

@@ -116,6 +116,7 @@ pub fn thin_wall_mpc(horizon: usize) -> Result<MpcController, MpcError> {
             from_step: 1,
             min: Some(-1.0),
             max: Some(1.0),
+            about_reference: false,
         }],
         disturbance: DisturbanceConfig {
             kind: DisturbanceKind::Output,

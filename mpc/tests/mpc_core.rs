@@ -149,6 +149,7 @@ fn unreachable_soft_bound_is_handled_by_the_slack() {
         from_step: 1,
         min: None,
         max: Some(10.0),
+        about_reference: false,
     }];
     let mut mpc = MpcController::new(&m, &c).unwrap();
     // start at 1000 V equilibrium (50 µm), bound y ≤ 10 µm: infeasible as a hard constraint
@@ -170,6 +171,38 @@ fn unreachable_soft_bound_is_handled_by_the_slack() {
     assert_eq!(mpc.stats().fallbacks, 0);
     // after the slew-limited descent the bound holds
     assert!(ys[500..].iter().all(|&v| v <= 10.0 + SOFT_BOUND_ABS));
+}
+
+/// A soft bound about the reference follows it; the same bound on the output itself holds the output
+/// near the bound against the reference's pull (the exact penalty outweighs the tracking cost).
+#[test]
+fn a_soft_bound_about_the_reference_moves_with_it() {
+    let m = spindle();
+    let run = |about_reference: bool| {
+        let mut c = cfg(20);
+        c.soft_outputs = vec![SoftOutput {
+            output: 0,
+            stride: 1,
+            from_step: 3,
+            min: Some(-0.5),
+            max: Some(0.5),
+            about_reference,
+        }];
+        let mut mpc = MpcController::new(&m, &c).unwrap();
+        let mut win = PreviewWindow::zeros(20, 1);
+        win.reference.iter_mut().for_each(|r| *r = 20.0);
+        let (mut x, mut y) = (m.zero_state(), 0.0);
+        for _ in 0..400 {
+            let s = mpc.step(&[y], &win).unwrap();
+            assert!(s.status.is_ok(), "status {:?}", s.status);
+            y = advance(&m, &mut x, s.u[0]);
+        }
+        y
+    };
+    // about the reference: the output reaches the 20 µm reference
+    assert!((run(true) - 20.0).abs() < 0.05, "{}", run(true));
+    // about 0: the output stays near the 0.5 µm bound, far from the reference
+    assert!(run(false) < 2.0, "{}", run(false));
 }
 
 #[test]

@@ -42,6 +42,7 @@ pub fn run(args: BatchArgs, json: bool) -> anyhow::Result<()> {
         args.scenarios.as_deref(),
         args.doe.as_deref(),
         &args.controllers,
+        args.columns.as_deref(),
     )?;
     let progress = !json && std::io::stderr().is_terminal();
     let outcome = with_threads(args.threads, || {
@@ -128,16 +129,21 @@ pub fn design_table(doe_args: &str) -> anyhow::Result<Table> {
     Ok(table)
 }
 
-/// The plan of a batch from a scenario file or `doe design` arguments, and a controller list.
+/// The plan of a batch from a scenario file (its columns read through `--columns`) or `doe design`
+/// arguments, and a controller list.
 pub fn make_plan(
     scenarios: Option<&Path>,
     doe: Option<&str>,
     controllers: &str,
+    columns: Option<&str>,
 ) -> anyhow::Result<Plan> {
     let controllers = parse_controllers(controllers)?;
     let table = match (scenarios, doe) {
-        (Some(p), None) => millcomp_datasets::read_any(p)
-            .with_context(|| format!("reading the scenarios {}", p.display()))?,
+        (Some(p), None) => {
+            crate::cmd::record::read_mapped(p, columns)
+                .with_context(|| format!("reading the scenarios {}", p.display()))?
+                .0
+        }
         (None, Some(d)) => design_table(d)?,
         _ => anyhow::bail!("give either --scenarios FILE or --doe \"DESIGN ARGS\" (one of them)"),
     };

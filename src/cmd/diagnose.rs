@@ -17,10 +17,22 @@ pub fn run(args: DiagnoseArgs, json: bool) -> anyhow::Result<()> {
     if !(args.alpha > 0.0 && args.alpha < 1.0) {
         bail!("--alpha must be in (0, 1), got {}", args.alpha);
     }
-    let session = Session::from_path(&args.session)
-        .with_context(|| format!("reading session {}", args.session.display()))?;
-    let file = read_measured_groove(&args.measured)?;
-    let mut measured = Measured::new(args.measured.display().to_string(), file.points);
+    if args.record.is_some() {
+        return crate::cmd::record::diagnose(args, json);
+    }
+    let (Some(session_path), Some(measured_path)) = (&args.session, &args.measured) else {
+        bail!("diagnose needs SESSION and MEASURED (or --record FILE)");
+    };
+    let session = Session::from_path(session_path)
+        .with_context(|| format!("reading session {}", session_path.display()))?;
+    let file = match &args.columns {
+        Some(c) => millcomp_datasets::contracts::read_measured_groove_mapped(
+            measured_path,
+            &millcomp_datasets::mapping::ColumnMap::parse(c)?,
+        )?,
+        None => read_measured_groove(measured_path)?,
+    };
+    let mut measured = Measured::new(measured_path.display().to_string(), file.points);
     if let Some(path) = &args.forces {
         measured = measured.with_forces(path.display().to_string(), read_force_trace(path)?);
     }
@@ -32,8 +44,8 @@ pub fn run(args: DiagnoseArgs, json: bool) -> anyhow::Result<()> {
     let report = diagnose(&session, &measured, &options).with_context(|| {
         format!(
             "diagnosing {} against {}",
-            args.measured.display(),
-            args.session.display()
+            measured_path.display(),
+            session_path.display()
         )
     })?;
     let plots = match &args.report {
@@ -59,11 +71,11 @@ pub fn run(args: DiagnoseArgs, json: bool) -> anyhow::Result<()> {
     for c in &file.ignored_columns {
         println!(
             "note: unknown column `{c}` in {} ignored",
-            args.measured.display()
+            measured_path.display()
         );
     }
     for n in &file.notes {
-        println!("note: {}: {n}", args.measured.display());
+        println!("note: {}: {n}", measured_path.display());
     }
     Ok(())
 }

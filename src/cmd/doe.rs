@@ -73,7 +73,10 @@ fn analyze(args: &DoeAnalyzeArgs, json: bool) -> anyhow::Result<()> {
     if !(args.alpha > 0.0 && args.alpha < 1.0) {
         bail!("--alpha must be in (0, 1), got {}", args.alpha);
     }
-    let table = millcomp_datasets::read_any(&args.file)?;
+    let (table, notes) = crate::cmd::record::read_mapped(&args.file, args.columns.as_deref())?;
+    for n in &notes {
+        eprintln!("note: {}: {n}", args.file.display());
+    }
     let columns = millcomp_datasets::adapters::doe_columns(&table);
     let model = ModelSpec::parse(&args.model).context("--model")?;
     let factors = (!args.factors.is_empty()).then_some(args.factors.as_slice());

@@ -11,18 +11,35 @@ use crate::cli::{IdentifyArgs, IdentifyWhat};
 use crate::cmd::print_json;
 
 pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
+    let record_study = matches!(args.what, IdentifyWhat::Wear | IdentifyWhat::Flutes)
+        || (matches!(args.what, IdentifyWhat::Thermal)
+            && crate::cmd::record::is_thermal_study(&args));
+    if record_study && args.save.is_some() {
+        bail!(
+            "--save: the models of a record study (thermal --train, wear, flutes) have no model-file kind yet; \
+             use --json to keep them"
+        );
+    }
     let verb = match args.what {
         IdentifyWhat::Spindle => Target::Spindle,
         IdentifyWhat::Stiffness => Target::Stiffness,
         IdentifyWhat::Force => Target::Force,
+        IdentifyWhat::Thermal if crate::cmd::record::is_thermal_study(&args) => {
+            return crate::cmd::record::thermal(args, json);
+        }
         IdentifyWhat::Thermal => Target::Thermal,
         IdentifyWhat::Wall => Target::Wall,
         IdentifyWhat::Part => Target::Part,
         IdentifyWhat::Kienzle => Target::Kienzle,
         IdentifyWhat::FeedAxis => Target::FeedAxis,
+        IdentifyWhat::Wear => return crate::cmd::record::wear(args, json),
+        IdentifyWhat::Flutes => return crate::cmd::record::flutes(args, json),
     };
     let options = options(&args)?;
-    let table = millcomp_datasets::read_any(&args.file)?;
+    let (table, notes) = crate::cmd::record::read_mapped(&args.file, args.columns.as_deref())?;
+    for n in &notes {
+        eprintln!("note: {}: {n}", args.file.display());
+    }
     let cols = millcomp_datasets::adapters::identify_columns(&table);
     let fit = identify_columns(verb, &cols, &options)
         .with_context(|| format!("{}: identify {}", args.file.display(), verb.name()))?;
@@ -60,7 +77,7 @@ pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
 }
 
 fn options(args: &IdentifyArgs) -> anyhow::Result<IdentifyOptions> {
-    let thermal_model = match args.model.as_str() {
+    let thermal_model = match args.model.as_deref().unwrap_or("exponential") {
         "exponential" => ThermalModel::Exponential,
         "linear-temperature" => ThermalModel::LinearTemperature,
         "speed-dependent" => ThermalModel::SpeedDependent,

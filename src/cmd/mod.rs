@@ -11,6 +11,7 @@ mod diagnose;
 mod doe;
 mod identify;
 mod parts;
+pub(crate) mod record;
 mod simulate;
 
 /// Prints a serialisable value as one pretty JSON document on stdout.

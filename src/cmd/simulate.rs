@@ -209,8 +209,12 @@ fn run_scenario(args: &SimulateArgs, json: bool) -> anyhow::Result<()> {
         );
     }
     for c in &out.report.changes {
+        let bound = c
+            .bound_um
+            .map(|b| format!(" (no controller below {b:.3} um)"))
+            .unwrap_or_default();
         println!(
-            "change ({} at {:.2} mm): excess {:.3} um over the settled error {:.3} um",
+            "change ({} at {:.2} mm): excess {:.3} um over the settled error {:.3} um{bound}",
             c.kind.name(),
             c.x_mm,
             c.excess_um,
@@ -220,6 +224,11 @@ fn run_scenario(args: &SimulateArgs, json: bool) -> anyhow::Result<()> {
     if let Some(b) = m.stroke_bound_um.filter(|b| *b > 0.0) {
         println!(
             "stroke bound: {b:.3} um peak-to-peak (the deflection met exceeds the PZT's range in z by this much)"
+        );
+    }
+    if let Some(o) = m.optimum_pp_um {
+        println!(
+            "optimum: {o:.3} um peak-to-peak (the best static plan within the stroke, deflection seen through the commissioned model; noise-free)"
         );
     }
     if let Some(o) = m.exit_overcut_um {

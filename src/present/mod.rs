@@ -8,4 +8,5 @@ pub mod doe;
 pub mod nc_axis;
 pub mod parts;
 pub mod plot;
+pub mod record;
 pub mod table;

@@ -5,14 +5,75 @@ use std::fmt::Write as _;
 
 use millcomp_datasets::{ColumnData, Dataset, Table};
 
-/// One line per shipped dataset: name (padded to the longest), row count, title.
-pub fn dataset_list_text(rows: &[(&Dataset, usize)]) -> String {
-    let width = rows.iter().map(|(d, _)| d.name.len()).max().unwrap_or(0);
-    let mut s = String::new();
-    for (d, n) in rows {
-        let _ = writeln!(s, "{:<width$}  {:>3} rows  {}", d.name, n, d.title);
+/// `datasets list`: the published tables, the real measured records and the synthetic runs, each under
+/// its own heading so that none is mistaken for another.
+pub fn dataset_sections_text(
+    published: &[(&Dataset, usize)],
+    real: &[(&millcomp_datasets::real::RealRecord, usize)],
+    synthetic: &[millcomp_datasets::synthetic_runs::SyntheticRun],
+) -> String {
+    let width = published
+        .iter()
+        .map(|(d, _)| d.name.len())
+        .chain(real.iter().map(|(r, _)| r.name.len()))
+        .chain(synthetic.iter().map(|s| s.name.len()))
+        .max()
+        .unwrap_or(0);
+    let mut s = String::from("published tables (the seed documents' figures, datasets/data/)\n");
+    for (d, n) in published {
+        let _ = writeln!(s, "{:<width$}  {:>5} rows  {}", d.name, n, d.title);
+    }
+    s.push_str("\nREAL measured records (measured on real machines by others, datasets/real/)\n");
+    for (r, n) in real {
+        let _ = writeln!(s, "{:<width$}  {:>5} rows  {}", r.name, n, r.title);
+    }
+    s.push_str(
+        "\nsynthetic runs (made by millcomp's seeded generators, datasets/synthetic/ and datasets/runs/)\n",
+    );
+    for r in synthetic {
+        let _ = writeln!(s, "{:<width$}  {:>5} rows  {}", r.name, r.n_rows(), r.title);
     }
     s
+}
+
+/// A real record: its provenance, then its first `head` rows.
+pub fn real_record_text(
+    r: &millcomp_datasets::real::RealRecord,
+    table: &Table,
+    head: usize,
+) -> String {
+    let shown = Table::from_columns(
+        &table.origin,
+        table
+            .columns
+            .iter()
+            .map(|c| millcomp_datasets::Column {
+                name: c.name.clone(),
+                data: match &c.data {
+                    ColumnData::Float(v) => {
+                        ColumnData::Float(v.iter().take(head).copied().collect())
+                    }
+                    ColumnData::Int(v) => ColumnData::Int(v.iter().take(head).copied().collect()),
+                    ColumnData::Text(v) => ColumnData::Text(v.iter().take(head).cloned().collect()),
+                },
+            })
+            .collect(),
+    )
+    .unwrap_or_else(|_| table.clone());
+    format!(
+        "{} — {} (REAL measured record)\nfile: {}\nsource: {}\nlicence: {}\nunits: {}\nsha256: {}\n{} rows, {} columns; the first {}:\n\n{}",
+        r.name,
+        r.title,
+        r.path(),
+        r.source,
+        r.licence,
+        r.units,
+        r.sha256,
+        table.n_rows(),
+        table.columns.len(),
+        head.min(table.n_rows()),
+        table_text(&shown)
+    )
 }
 
 /// A shipped dataset: its name and title, the seed document it comes from, then the whole table.
@@ -135,13 +196,16 @@ mod tests {
             "{t}"
         );
         let materials = millcomp_datasets::dataset("clayton_material_properties").unwrap();
-        let list = dataset_list_text(&[(d, 8), (materials, 3)]);
-        assert_eq!(
-            list,
-            "clayton_doe                    8 rows  2^3 DOE in 6061: depth, speed, upfeed and the max X/Y/Z \
-             force per trial\n\
-             clayton_material_properties    3 rows  Hardness, modulus, strength and elongation of S7, 1018 \
-             and 6061\n"
+        let list = dataset_sections_text(&[(d, 8), (materials, 3)], &[], &[]);
+        assert!(
+            list.starts_with(
+                "published tables (the seed documents' figures, datasets/data/)\n\
+                 clayton_doe                      8 rows  2^3 DOE in 6061: depth, speed, upfeed and the max \
+                 X/Y/Z force per trial\n\
+                 clayton_material_properties      3 rows  Hardness, modulus, strength and elongation of S7, \
+                 1018 and 6061\n\nREAL measured records"
+            ),
+            "{list}"
         );
     }
 }

@@ -37,6 +37,13 @@ pub struct RunMetrics {
     /// deflection met — no controller can get below it.
     #[serde(default)]
     pub stroke_bound_um: Option<f64>,
+    /// Grooves: the whole cut's optimum (`Metrics::optimum_pp_um`, `crate::optimum`).
+    #[serde(default)]
+    pub optimum_pp_um: Option<f64>,
+    /// The smallest excess any controller could leave at the change where this run's excess is largest
+    /// (`crate::optimum::excess_lower_bound`); absent without a change.
+    #[serde(default)]
+    pub change_bound_um: Option<f64>,
     /// MPC only: median QP solve time of the run (µs) — wall-clock, so informative: not in the results
     /// table ([`METRICS`]), whose rows must not depend on the machine.
     #[serde(default)]
@@ -47,10 +54,12 @@ pub struct RunMetrics {
 }
 
 /// Metric names, in table order (the numeric result columns).
-pub const METRICS: [&str; 8] = [
+pub const METRICS: [&str; 10] = [
     "pp_error_um",
     "change_excess_um",
     "stroke_bound_um",
+    "optimum_pp_um",
+    "change_bound_um",
     "rms_error_um",
     "max_error_um",
     "min_error_um",
@@ -70,6 +79,8 @@ impl RunMetrics {
             "solver_fallbacks" => self.solver_fallbacks as f64,
             "change_excess_um" => return self.change_excess_um,
             "stroke_bound_um" => return self.stroke_bound_um,
+            "optimum_pp_um" => return self.optimum_pp_um,
+            "change_bound_um" => return self.change_bound_um,
             _ => return None,
         })
     }
@@ -111,6 +122,12 @@ impl ClosedLoop for MpcClosedLoop {
             solver_fallbacks: r.solver.map_or(0, |s| s.fallbacks),
             change_excess_um: m.change_excess_um,
             stroke_bound_um: m.stroke_bound_um,
+            optimum_pp_um: m.optimum_pp_um,
+            change_bound_um: r
+                .changes
+                .iter()
+                .max_by(|a, b| a.excess_um.total_cmp(&b.excess_um))
+                .and_then(|c| c.bound_um),
             solve_median_us: r.solver.map(|s| s.median_us),
             solve_p99_us: r.solver.map(|s| s.p99_us),
         };

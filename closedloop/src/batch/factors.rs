@@ -91,6 +91,22 @@ pub const FACTORS: &[(&str, &str)] = &[
     ),
     ("speed_rpm", "spindle speed (rpm)"),
     ("seed", "seed of the scenario's random draws (replicates)"),
+    (
+        "mpc_stroke_aware",
+        "0/1: the groove MPC plans the whole cut within its stroke (control.groove_mpc.stroke_aware)",
+    ),
+    (
+        "mpc_plan_scale",
+        "0/1: the groove MPC scales its preview by the measured/planned deflection (adapt_plan_scale)",
+    ),
+    (
+        "mpc_spindle_phase",
+        "0/1: the groove MPC times its plan by the spindle angle seen in the force (spindle_phase)",
+    ),
+    (
+        "mpc_flute_phase",
+        "0/1: the groove MPC's plan steps once per revolution where one flute dominates (flute_phase)",
+    ),
 ];
 
 /// `feed_step`: the feed axis' acceleration (mm/s²) — a doubling of 1.67 mm/s in 17 µs, at once.
@@ -373,6 +389,20 @@ pub fn build_scenario(spec: &ScenarioSpec) -> Result<Scenario, ClosedLoopError> 
     }
     if let Some(v) = num(spec, "feed_accel_mm_s2")? {
         g.feed_accel_mm_s2 = v;
+    }
+    let features = &mut s.control.groove_mpc;
+    for (name, flag) in [
+        ("mpc_stroke_aware", &mut features.stroke_aware),
+        ("mpc_plan_scale", &mut features.adapt_plan_scale),
+        ("mpc_spindle_phase", &mut features.spindle_phase),
+        ("mpc_flute_phase", &mut features.flute_phase),
+    ] {
+        match num(spec, name)? {
+            None => {}
+            Some(0.0) => *flag = false,
+            Some(1.0) => *flag = true,
+            Some(x) => return Err(bad(name, format!("{x} is not 0 or 1"))),
+        }
     }
     if let Some(v) = num(spec, "stiffness_error_pct")? {
         s.truth.stiffness_error = v / 100.0;

@@ -242,6 +242,8 @@ mod tests {
                 solver_fallbacks: 0,
                 change_excess_um: None,
                 stroke_bound_um: Some(stroke),
+                optimum_pp_um: None,
+                change_bound_um: None,
                 solve_median_us: None,
                 solve_p99_us: None,
             },

@@ -12,13 +12,16 @@ use millcomp_models::{Derived, IdentifiedModel};
 
 pub(crate) mod combine;
 pub mod feed_axis;
+pub mod flutes;
 pub mod force;
 pub mod kienzle;
 pub mod part;
 pub mod spindle;
 pub mod stiffness;
 pub mod thermal;
+pub mod thermal_record;
 pub mod wall;
+pub mod wear;
 
 /// What a target returns. Serialises as the report's keys at top level (`params`, `std_err`,
 /// `ci95`, `rms_residual_<unit>`, `status`, `warnings`, ...) plus `derived` and `groups` when not

@@ -23,8 +23,7 @@
 
 use std::collections::BTreeMap;
 
-use nalgebra::{DMatrix, DVector};
-use statrs::distribution::{ContinuousCDF, StudentsT};
+use nalgebra::DMatrix;
 
 use super::Identified;
 use crate::error::Result;
@@ -79,7 +78,7 @@ pub struct PartData<'a> {
 
 /// The largest lag-1 autocorrelation the bandwidth and the effective degrees of freedom use (beyond it the
 /// effective sample is < 1 %).
-pub const MAX_LAG1: f64 = 0.98;
+pub const MAX_LAG1: f64 = crate::hac::MAX_LAG1;
 
 /// Fits `deflection_um = offset_p + θ·regressor` with one offset per part, θ the parameter of `what`,
 /// with standard errors and intervals honest for residuals correlated along the groove.
@@ -144,48 +143,16 @@ pub fn identify_part(data: &PartData<'_>, what: PartRegressor) -> Result<Identif
     )?;
     let mut report = fit.report;
     // Newey–West covariance for residuals correlated along each groove (lags within a part only), the
-    // Bartlett kernel with Andrews' AR(1) plug-in bandwidth
-    let r = report
-        .diagnostics
-        .lag1_autocorrelation
-        .unwrap_or(0.0)
-        .clamp(0.0, MAX_LAG1);
-    let u = DVector::from_column_slice(data.deflection_um) - &design * &fit.theta;
-    let p = names.len();
-    let alpha = 4.0 * r * r / (1.0 - r).powi(4);
-    let lags = ((1.1447 * (alpha * n as f64).cbrt()).ceil() as usize).min(n / 2);
-    let mut meat = DMatrix::<f64>::zeros(p, p);
-    for t in 0..n {
-        let xt = design.row(t).transpose() * u[t];
-        meat += &xt * xt.transpose();
-        for l in 1..=lags.min(t) {
-            if data.part[t - l] != data.part[t] {
-                break;
-            }
-            let w = 1.0 - l as f64 / (lags as f64 + 1.0);
-            let xl = design.row(t - l).transpose() * u[t - l];
-            let c = &xt * xl.transpose();
-            meat += (&c + c.transpose()) * w;
-        }
-    }
-    let bread = (design.transpose() * &design)
-        .try_inverse()
-        .unwrap_or_else(|| DMatrix::from_element(p, p, f64::NAN));
-    let cov = &bread * meat * &bread * (n as f64 / (n - p).max(1) as f64);
-    let dof_eff = (n as f64 * (1.0 - r) / (1.0 + r) - p as f64).max(1.0);
-    let t = StudentsT::new(0.0, 1.0, dof_eff)
-        .map(|d| d.inverse_cdf(0.975))
-        .unwrap_or(f64::NAN);
-    for (j, name) in names.iter().enumerate() {
-        let v = report.param(name);
-        let se = cov[(j, j)].max(0.0).sqrt();
-        report.std_err.insert(name.clone(), se);
-        report.ci95.insert(name.clone(), [v - t * se, v + t * se]);
-    }
-    report.covariance = crate::report::NamedMatrix::from_matrix(&names, &cov);
-    report
-        .warnings
-        .retain(|w| !w.starts_with("residuals are autocorrelated"));
+    // Bartlett kernel with Andrews' AR(1) plug-in bandwidth (crate::hac)
+    let nw = crate::hac::apply(
+        &mut report,
+        &names,
+        &design,
+        data.deflection_um,
+        &fit.theta,
+        Some(data.part),
+    );
+    let (r, lags, dof_eff) = (nw.r, nw.lags, nw.dof_eff);
     let mut out = Identified::new(what.kind(), report, BTreeMap::new(), BTreeMap::new());
     out.notes.push(format!(
         "residuals correlated along the groove (lag-1 r = {r:.2}): Newey–West covariance over {lags} lags \

@@ -413,17 +413,14 @@ pub fn speed_drift_um(
     time_constant_s: f64,
     offset_um: f64,
 ) -> Vec<f64> {
-    let mut g = 0.0;
-    let mut out = Vec::with_capacity(t_s.len());
-    for k in 0..t_s.len() {
-        out.push(offset_um + g);
-        if k + 1 < t_s.len() {
-            let a = steady_growth_um(speed_rpm[k], max_growth_um, rpm_onset);
-            let phi = (-(t_s[k + 1] - t_s[k]) / time_constant_s).exp();
-            g = a + (g - a) * phi;
-        }
-    }
-    out
+    let a: Vec<f64> = speed_rpm
+        .iter()
+        .map(|&n| steady_growth_um(n, max_growth_um, rpm_onset))
+        .collect();
+    super::thermal_record::first_order_lag(t_s, &a, time_constant_s)
+        .into_iter()
+        .map(|g| offset_um + g)
+        .collect()
 }
 
 /// Residual operator of the speed-dependent model, parameters
