@@ -199,7 +199,9 @@ pub struct IdentifyArgs {
     /// flutes `force_n` (one or more channels of a raw record);
     /// force `depth_um,upfeed_um,max_fx_n|max_fy_n|max_fz_n[,speed_rpm,tilt_deg]` or traces
     /// `rot_deg,fx_n|fy_n|fz_n` with the cut conditions; wall `force_n,deflection_um`; part
-    /// `part,deflection_um,planned_deflection_um|force_peak_n`.
+    /// `part,deflection_um,planned_deflection_um|force_peak_n`; kienzle
+    /// `fz_mm,ap_mm,ae_mm,mean_fx_n|mean_fy_n[,diameter_mm,teeth,helix_deg]`; feed-axis
+    /// `t_s,reference_um,position_um`.
     pub file: PathBuf,
     /// Write the identified model as TOML (schema: models/MODEL.md).
     #[arg(long)]
@@ -295,6 +297,10 @@ pub enum IdentifyWhat {
     /// What cut parts say of the deflection model: force scale / stiffness (from the planned deflection)
     /// or the compliance per measured newton (from the force peak).
     Part,
+    /// Kienzle's coefficients of a flat end mill from the mean forces of calibration cuts (003).
+    Kienzle,
+    /// Dead time and lag of an NC feed axis from its servo trace (003).
+    FeedAxis,
     /// How the cutting force grows with flank wear and with cut count, from a per-cut record.
     Wear,
     /// Per-flute peak forces and the flute asymmetry (flute runout) of a raw force record.
@@ -350,7 +356,8 @@ pub struct DiagnoseArgs {
 pub struct SimulateArgs {
     /// Session file (TOML) or closed-loop scenario file.
     pub file: PathBuf,
-    /// Controller for scenarios: none | open-loop | pid | pid-aw | pid-design | pid-tuned | threshold | mpc.
+    /// Controller for scenarios: none | open-loop | pid | pid-aw | pid-design | pid-tuned | pid-ff |
+    /// threshold | mpc | mpc-nopreview; on nc_axis scenarios (003): none | reactive | proactive | mpc.
     #[arg(long)]
     pub controller: Option<String>,
     /// Output CSV (default: stdout for sessions).
@@ -374,7 +381,8 @@ pub struct BatchArgs {
     /// Scenario table (CSV or Parquet): one row per scenario, one column per factor
     /// (tilt_deg, depth_um, upfeed_um, wearland_um, material, stiffness_error_pct,
     /// force_model_error_pct, force_w_error_pct, noise_scale, stage, wall_um, feed_step,
-    /// feed_accel_mm_s2, depth_step, entry_depth_um, commissioned, length_mm, speed_rpm, seed).
+    /// feed_accel_mm_s2, depth_step, entry_depth_um, commissioned, length_mm, speed_rpm, seed; with
+    /// stage = nc_axis: feed_ratio, ae_mm, machine_stiffness_n_per_um, overhang_d, kienzle_error_pct).
     #[arg(long, conflicts_with = "doe")]
     pub scenarios: Option<PathBuf>,
     /// Generate the scenarios with `doe design` arguments given as one string, e.g.
@@ -382,7 +390,7 @@ pub struct BatchArgs {
     #[arg(long, allow_hyphen_values = true)]
     pub doe: Option<String>,
     /// Controllers to compare: none, open-loop, pid, pid-aw, pid-design, pid-tuned, pid-ff, threshold,
-    /// mpc, mpc-nopreview.
+    /// mpc, mpc-nopreview; on stage = nc_axis rows: none, reactive, proactive, mpc.
     #[arg(long, default_value = "pid,mpc")]
     pub controllers: String,
     /// Output directory (results.csv/.parquet, summary.json, plots/, runs/ for resuming).

@@ -22,6 +22,7 @@ use std::path::Path;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use millcomp_closedloop::compare::{CompareRow, commissioned, compare};
+use millcomp_closedloop::scenario::StageKind;
 use millcomp_closedloop::{ControllerKind, Scenario};
 use millcomp_mpc::groove::GrooveMpcFeatures;
 
@@ -119,6 +120,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut scenarios = Vec::new();
     for n in &names {
         let s = Scenario::load(dir.join(n))?;
+        // the NC stage (003) has its own study: examples/nc_axis_study.rs
+        if s.stage == StageKind::NcAxis {
+            continue;
+        }
         if ablations && !ControllerKind::PidFeedforward.runs_on(s.stage) {
             continue;
         }

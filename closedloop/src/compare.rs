@@ -73,6 +73,27 @@ pub fn metrics_of(s: &Scenario, r: &RunReport) -> Vec<(String, f64)> {
             }
             m
         }
+        StageKind::NcAxis => {
+            let Some(w) = r.nc_axis.as_ref().map(|n| &n.wall) else {
+                return Vec::new();
+            };
+            let mut m = vec![
+                ("static_error_um".to_string(), w.static_error_um),
+                ("static_removed_pct".to_string(), w.static_removed_pct),
+                ("exit_undersize_um".to_string(), w.exit_undersize_um),
+            ];
+            for (name, v) in [
+                ("feed_step_peak_um", w.feed_step_peak_um),
+                ("feed_step_excess_um", w.feed_step_excess_um),
+                ("feed_step_oscillation_um", w.feed_step_oscillation_um),
+                ("deflection_step_um", w.deflection_step_um),
+            ] {
+                if let Some(v) = v {
+                    m.push((name.to_string(), v));
+                }
+            }
+            m
+        }
         StageKind::ThinWall => {
             let nominal = s
                 .thin_wall
@@ -224,6 +245,8 @@ pub fn commissioned(s: &Scenario) -> Scenario {
         StageKind::ThinWall => {
             s.truth.draw_wall = true;
         }
+        // always commissioned; its truth draws per seed
+        StageKind::NcAxis => {}
     }
     s.truth.force_error_max = 0.0;
     s.truth.force_errors = None;

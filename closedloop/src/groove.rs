@@ -433,6 +433,13 @@ pub fn run_groove_with(
                 allowed: "the thin-wall stage (threshold is the 004 thin-wall baseline)".into(),
             });
         }
+        ControllerKind::Reactive | ControllerKind::Proactive => {
+            return Err(ClosedLoopError::InvalidConfig {
+                key: "controller".into(),
+                value: kind.name().into(),
+                allowed: "the nc_axis stage (003's NC compensations)".into(),
+            });
+        }
         ControllerKind::Mpc | ControllerKind::MpcNoPreview => {
             let c = MpcGrooveController::new(
                 plan.clone(),
@@ -604,6 +611,7 @@ pub fn run_groove_with(
             force_error_max_rel: setup.force_errors.max_abs(),
             truth_force_scale: setup.truth_force_scale,
         },
+        nc_axis: None,
         simulated_s: k as f64 * dt,
         wall_clock_s: wall.elapsed().as_secs_f64(),
         notes,

@@ -4,7 +4,8 @@
 //! that sees both:
 //! - [`scenario`]: scenario files (TOML in `datasets/scenarios/`, schema and truth-vs-model in
 //!   `closedloop/SCENARIOS.md`), [`Scenario::load`], [`ControllerKind`] (`"none" | "open-loop" | "pid" |
-//!   "pid-aw" | "pid-design" | "pid-tuned" | "pid-ff" | "threshold" | "mpc" | "mpc-nopreview"`,
+//!   "pid-aw" | "pid-design" | "pid-tuned" | "pid-ff" | "threshold" | "mpc" | "mpc-nopreview" |
+//!   "reactive" | "proactive"`,
 //!   `FromStr`);
 //! - the truth-vs-model set-up: [`calibration`] (the controllers' stiffness identified from a simulated
 //!   calibration of the truth), [`model_errors`] (the controllers' force-parameter errors),
@@ -13,6 +14,8 @@
 //!   `metrics{pp_error_um, rms_error_um, max_error_um, min_error_um, actuator_travel_um[, thickness_um,
 //!   thickness_error_pct]}`, `solver` for MPC), [`run_scenario_with_trace`] adds the time trace,
 //!   [`stiffness_sweep`]: residual error vs stiffness error ([`groove`], [`thin_wall`], [`report`]);
+//! - [`nc_axis`]: the NC feed-axis stage of `003_…txt` — its `[nc_axis]` scenario table, truth, the
+//!   commissioning of the NC plant, the `none | reactive | proactive | mpc` runs and the wall's metrics;
 //! - [`changes`]: the transient a controller adds at a process change (entry, depth, feed, exit);
 //! - [`faults`]: force spikes, stuck sensors and solver failures injected into what the controllers see;
 //! - [`recording`]: the spindle MPC's QPs recorded in closed loop (`bench/mpc-vs-casadi`,
@@ -48,6 +51,7 @@ pub mod faults;
 pub mod groove;
 pub mod model_errors;
 pub mod model_files;
+pub mod nc_axis;
 pub mod optimum;
 pub mod parts;
 pub mod recording;

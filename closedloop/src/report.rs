@@ -126,6 +126,9 @@ pub struct RunReport {
     pub changes: Vec<crate::changes::ChangeExcess>,
     /// Model vs truth.
     pub model: ModelSummary,
+    /// NC stage: the wall's metrics, the commissioned models against the truth, the seed's draw.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub nc_axis: Option<crate::nc_axis::NcAxisReport>,
     /// Simulated duration (s).
     pub simulated_s: f64,
     /// Wall-clock time of the run (s).

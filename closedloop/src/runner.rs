@@ -53,6 +53,7 @@ pub fn run_scenario_with_trace(
     match s.stage {
         StageKind::Groove => run_groove(s, kind),
         StageKind::ThinWall => run_thin_wall(s, kind),
+        StageKind::NcAxis => crate::nc_axis::run_nc_axis(s, kind),
     }
 }
 

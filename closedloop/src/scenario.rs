@@ -56,10 +56,16 @@ pub enum ControllerKind {
     /// The MPC without preview: the planned deflection of *now* held over the horizon (ablation).
     #[serde(rename = "mpc-nopreview")]
     MpcNoPreview,
+    /// NC stage: 003's reactive compensation (notch chain + 120 Hz low-pass on the measured force).
+    #[serde(rename = "reactive")]
+    Reactive,
+    /// NC stage: 003's proactive compensation (6 Hz, D = 1 low-pass + the recorded offset curve).
+    #[serde(rename = "proactive")]
+    Proactive,
 }
 
 /// All controller names, in CLI order.
-pub const CONTROLLER_NAMES: [&str; 10] = [
+pub const CONTROLLER_NAMES: [&str; 12] = [
     "none",
     "open-loop",
     "pid",
@@ -70,11 +76,13 @@ pub const CONTROLLER_NAMES: [&str; 10] = [
     "threshold",
     "mpc",
     "mpc-nopreview",
+    "reactive",
+    "proactive",
 ];
 
 impl ControllerKind {
     /// All kinds, in [`CONTROLLER_NAMES`] order.
-    pub const ALL: [ControllerKind; 10] = [
+    pub const ALL: [ControllerKind; 12] = [
         ControllerKind::None,
         ControllerKind::OpenLoop,
         ControllerKind::Pid,
@@ -85,12 +93,19 @@ impl ControllerKind {
         ControllerKind::Threshold,
         ControllerKind::Mpc,
         ControllerKind::MpcNoPreview,
+        ControllerKind::Reactive,
+        ControllerKind::Proactive,
     ];
 
     /// Whether the stage has this controller: `threshold` is the thin wall's (004) baseline only;
-    /// `pid-aw`, `pid-design`, `pid-tuned`, `pid-ff` and `mpc-nopreview` are the PZT spindle's only.
+    /// `pid-aw`, `pid-design`, `pid-tuned`, `pid-ff` and `mpc-nopreview` are the PZT spindle's only;
+    /// the NC stage (003) has `none`, `reactive`, `proactive` and `mpc`, and only it has the first two.
     pub fn runs_on(self, stage: StageKind) -> bool {
+        if matches!(self, ControllerKind::Reactive | ControllerKind::Proactive) {
+            return stage == StageKind::NcAxis;
+        }
         match stage {
+            StageKind::NcAxis => matches!(self, ControllerKind::None | ControllerKind::Mpc),
             StageKind::Groove => self != ControllerKind::Threshold,
             StageKind::ThinWall => !matches!(
                 self,
@@ -142,6 +157,8 @@ pub enum StageKind {
     Groove,
     /// Thin-wall linear-motor compensation stage (`004_…txt`).
     ThinWall,
+    /// NC feed-axis compensation of a full slot (`003_…txt`; `crate::nc_axis`).
+    NcAxis,
 }
 
 impl StageKind {
@@ -150,6 +167,7 @@ impl StageKind {
         match self {
             StageKind::Groove => "groove",
             StageKind::ThinWall => "thin_wall",
+            StageKind::NcAxis => "nc_axis",
         }
     }
 }
@@ -493,6 +511,9 @@ pub struct Scenario {
     /// Thin-wall settings (stage = "thin_wall").
     #[serde(default)]
     pub thin_wall: Option<ThinWallScenario>,
+    /// NC feed-axis settings (stage = "nc_axis", `crate::nc_axis`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nc_axis: Option<crate::nc_axis::NcAxisScenario>,
     /// Truth vs model.
     #[serde(default)]
     pub truth: TruthSpec,
@@ -531,7 +552,7 @@ impl Scenario {
     }
 }
 
-fn finite_pos(key: &str, v: f64) -> Result<(), ClosedLoopError> {
+pub(crate) fn finite_pos(key: &str, v: f64) -> Result<(), ClosedLoopError> {
     if v.is_finite() && v > 0.0 {
         Ok(())
     } else {
@@ -539,7 +560,7 @@ fn finite_pos(key: &str, v: f64) -> Result<(), ClosedLoopError> {
     }
 }
 
-fn finite_nonneg(key: &str, v: f64) -> Result<(), ClosedLoopError> {
+pub(crate) fn finite_nonneg(key: &str, v: f64) -> Result<(), ClosedLoopError> {
     if v.is_finite() && v >= 0.0 {
         Ok(())
     } else {
@@ -706,6 +727,9 @@ impl Scenario {
                 finite_pos("thin_wall.fz_um", t.fz_um)?;
                 finite_pos("thin_wall.length_mm", t.length_mm)?;
             }
+            StageKind::NcAxis => {
+                self.nc()?;
+            }
         }
         let tr = &self.truth;
         if !(tr.force_error_max.is_finite() && (0.0..=0.5).contains(&tr.force_error_max)) {
@@ -820,7 +844,9 @@ impl Scenario {
 
 /// Sim's own check of a scenario table, its parameter names turned into scenario keys under `prefix`
 /// (`exit.x_mm` → `groove.exit.x_mm`, `e_factor` → `truth.wall.e_factor`).
-fn sim_keyed(prefix: &'static str) -> impl Fn(millcomp_sim::SimError) -> ClosedLoopError {
+pub(crate) fn sim_keyed(
+    prefix: &'static str,
+) -> impl Fn(millcomp_sim::SimError) -> ClosedLoopError {
     move |err| match err {
         millcomp_sim::SimError::InvalidParameter {
             name,

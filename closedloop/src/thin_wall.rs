@@ -108,7 +108,9 @@ fn thin_wall_controller(
         | ControllerKind::PidDesign
         | ControllerKind::PidTuned
         | ControllerKind::PidFeedforward
-        | ControllerKind::MpcNoPreview => {
+        | ControllerKind::MpcNoPreview
+        | ControllerKind::Reactive
+        | ControllerKind::Proactive => {
             return Err(thin_wall_refuses(kind));
         }
     })
@@ -280,6 +282,7 @@ pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Cl
                 force_error_max_rel: force_errors.w_mpa.abs(),
                 truth_force_scale: 1.0,
             },
+            nc_axis: None,
             simulated_s: simulated,
             wall_clock_s: wall_clock.elapsed().as_secs_f64(),
             notes,

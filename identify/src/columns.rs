@@ -10,6 +10,8 @@
 //! | `force`     | `depth_um, upfeed_um` and any of `max_fx_n, max_fy_n, max_fz_n` (peaks) or `rot_deg` with any of `fx_n, fy_n, fz_n` (traces) | `speed_rpm`, `tilt_deg` |
 //! | `wall`      | `force_n, deflection_um`             |                                          |
 //! | `part`      | `part, deflection_um` and one of `planned_deflection_um` (→ ρ) or `force_peak_n` (→ c) |      |
+//! | `kienzle`   | `fz_mm, ap_mm, ae_mm` and any of `mean_fx_n, mean_fy_n` | `diameter_mm, teeth, helix_deg` (constant; 003's tool otherwise) |
+//! | `feed-axis` | `t_s, reference_um, position_um`     |                                          |
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::str::FromStr;
@@ -17,10 +19,12 @@ use std::str::FromStr;
 use crate::error::{IdentifyError, Result};
 use crate::nonlinear::NlsOptions;
 use crate::targets::Identified;
+use crate::targets::feed_axis::{FeedAxisData, FeedAxisOptions, identify_feed_axis};
 use crate::targets::force::{
     ForceConditions, ForceData, ForceOptions, ForceParam, ForceTraceData, PeakForceData,
     identify_force,
 };
+use crate::targets::kienzle::{KienzleData, KienzleOptions, identify_kienzle};
 use crate::targets::part::{PartData, PartRegressor, identify_part};
 use crate::targets::spindle::{SpindleData, SpindleOptions, identify_spindle};
 use crate::targets::stiffness::{StiffnessData, StiffnessOptions, identify_stiffness};
@@ -42,6 +46,10 @@ pub enum Target {
     Wall,
     /// What measured parts say of the deflection model (`targets::part`).
     Part,
+    /// Kienzle's coefficients of a flat end mill from mean forces (`targets::kienzle`).
+    Kienzle,
+    /// Dead time and lag of an NC feed axis from a servo trace (`targets::feed_axis`).
+    FeedAxis,
 }
 
 impl Target {
@@ -54,13 +62,15 @@ impl Target {
             Target::Thermal => "thermal",
             Target::Wall => "wall",
             Target::Part => "part",
+            Target::Kienzle => "kienzle",
+            Target::FeedAxis => "feed-axis",
         }
     }
 }
 
 impl FromStr for Target {
     type Err = IdentifyError;
-    /// Parses `spindle`, `stiffness`, `force`, `thermal`, `wall` or `part`.
+    /// Parses `spindle`, `stiffness`, `force`, `thermal`, `wall`, `part`, `kienzle` or `feed-axis`.
     ///
     /// # Errors
     /// [`IdentifyError::UnknownTarget`] for any other name.
@@ -72,6 +82,8 @@ impl FromStr for Target {
             "thermal" => Target::Thermal,
             "wall" => Target::Wall,
             "part" => Target::Part,
+            "kienzle" => Target::Kienzle,
+            "feed-axis" => Target::FeedAxis,
             _ => {
                 return Err(IdentifyError::UnknownTarget { name: s.into() });
             }
@@ -302,6 +314,55 @@ pub fn identify_columns(
                 },
                 what,
             )?
+        }
+        Target::Kienzle => {
+            let d = KienzleData {
+                fz_mm: p.req("fz_mm")?,
+                ap_mm: p.req("ap_mm")?,
+                ae_mm: p.req("ae_mm")?,
+                mean_fx_n: p.opt("mean_fx_n"),
+                mean_fy_n: p.opt("mean_fy_n"),
+            };
+            let mut o = KienzleOptions {
+                common,
+                ..Default::default()
+            };
+            let constant = |name: &str, col: Option<&[f64]>| -> Result<Option<f64>> {
+                let Some(c) = col else { return Ok(None) };
+                match c.iter().position(|v| *v != c[0] || !v.is_finite()) {
+                    Some(row) => Err(IdentifyError::InvalidParameter {
+                        name: format!("{name} (row {row})"),
+                        value: c[row],
+                        allowed: "one tool per file: the same finite value in every row",
+                    }),
+                    None => Ok(c.first().copied()),
+                }
+            };
+            if let Some(v) = constant("diameter_mm", p.opt("diameter_mm"))? {
+                o.tool.diameter_mm = v;
+            }
+            if let Some(v) = constant("teeth", p.opt("teeth"))? {
+                if !(v >= 1.0 && v.fract() == 0.0 && v <= 40.0) {
+                    return Err(IdentifyError::InvalidParameter {
+                        name: "teeth".into(),
+                        value: v,
+                        allowed: "a whole number 1 ..= 40",
+                    });
+                }
+                o.tool.teeth = v as u32;
+            }
+            if let Some(v) = constant("helix_deg", p.opt("helix_deg"))? {
+                o.tool.helix_deg = v;
+            }
+            identify_kienzle(&d, &o)?
+        }
+        Target::FeedAxis => {
+            let d = FeedAxisData {
+                t_s: p.req("t_s")?,
+                reference_um: p.req("reference_um")?,
+                position_um: p.req("position_um")?,
+            };
+            identify_feed_axis(&d, &FeedAxisOptions { common })?
         }
         Target::Force => {
             let depth = p.req("depth_um")?;

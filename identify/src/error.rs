@@ -140,7 +140,9 @@ pub enum IdentifyError {
         allowed: String,
     },
     /// Unknown identification target name.
-    #[error("unknown identify target `{name}`: allowed spindle, stiffness, force, thermal, wall")]
+    #[error(
+        "unknown identify target `{name}`: allowed spindle, stiffness, force, thermal, wall, part, kienzle, feed-axis"
+    )]
     UnknownTarget {
         /// The name given.
         name: String,

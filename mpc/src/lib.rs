@@ -25,6 +25,9 @@
 //!   (sim's `GrooveProgram`), the [`predictor::ForcePredictor`] and the controllers' stiffness;
 //!   [`spindle_mpc`] is the spindle MPC design, [`pid`] the published PID, [`stroke`] the whole-cut
 //!   plan within the actuator's reach;
+//! - [`nc_axis`] (NC feed axes, `003_…txt`): [`nc_axis::NcController`] with the none, reactive (notch
+//!   chain), proactive (6 Hz low-pass + offset curve) and MPC controllers, built from the identified
+//!   Kienzle model, feed axes and stiffness of a commissioning, previewing [`nc_axis::NcPlan`];
 //! - [`thin_wall`] (linear-motor stage, `004_…txt`): [`thin_wall::ThinWallController`] with the none,
 //!   open-loop, threshold, PI and MPC controllers on the controllers' [`thin_wall::WallPlan`].
 //!
@@ -70,6 +73,7 @@ pub mod error;
 pub mod groove;
 pub mod identified;
 pub mod kalman;
+pub mod nc_axis;
 pub mod pid;
 pub mod predictor;
 pub mod qp;

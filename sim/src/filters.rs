@@ -314,6 +314,61 @@ impl NotchChain {
         Self::new(1990.0, 5, 120.0, 1.0 / 500.0)
     }
 
+    /// Notches at the given centre frequencies (bandwidth f0/4 each, eq. 7) and the first-order low-pass,
+    /// at sample time `dt_s`. Unlike [`NotchChain::new`], a frequency at or above Nyquist is an error,
+    /// not skipped.
+    ///
+    /// ```
+    /// use millcomp_sim::filters::NotchChain;
+    /// let c = NotchChain::at_frequencies(&[33.2, 165.8], 120.0, 1e-4).unwrap();
+    /// assert_eq!(c.notches.len(), 2);
+    /// // 6 kHz is above the 5 kHz Nyquist frequency of a 10 kHz channel
+    /// assert!(NotchChain::at_frequencies(&[6000.0], 120.0, 1e-4).is_err());
+    /// ```
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] naming `f0_hz` for a frequency that is not finite, not positive or
+    /// not below Nyquist (`0.5/dt_s`), and those of the low-pass (`cutoff_hz`, `dt_s`).
+    pub fn at_frequencies(f0_hz: &[f64], lowpass_hz: f64, dt_s: f64) -> Result<Self, SimError> {
+        let notches = f0_hz
+            .iter()
+            .map(|&f0| Biquad::notch(f0, f0 / 4.0, dt_s))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Self {
+            notches,
+            lowpass: FirstOrderFilter::low_pass(lowpass_hz, dt_s)?,
+        })
+    }
+
+    /// The frequencies the reactive chain notches on a force channel sampled every `dt_s`: the spindle
+    /// harmonics `n/60·i`, i = 1..=teeth (`003_…txt` eq. 6; a runout puts force at them), and the
+    /// tooth-passing frequency's harmonics above them, all below 0.98 × Nyquist (the upper band edge of a
+    /// notch closer to Nyquist would fold back).
+    ///
+    /// ```
+    /// use millcomp_sim::filters::NotchChain;
+    /// // 003: 1990 rpm, 5 teeth; a 10 kHz force channel (Nyquist 5 kHz): 33.2 … 165.8 Hz, then
+    /// // 331.7 Hz … up to 29 × 165.8 = 4809 Hz
+    /// let f = NotchChain::harmonics_003(1990.0, 5, 1e-4);
+    /// assert_eq!(f.len(), 5 + 28);
+    /// assert!((f[4] - 165.833).abs() < 1e-3 && (f[32] - 4809.17).abs() < 1e-2);
+    /// ```
+    pub fn harmonics_003(speed_rpm: f64, teeth: u32, dt_s: f64) -> Vec<f64> {
+        let limit = 0.98 * 0.5 / dt_s;
+        let fs = speed_rpm / 60.0;
+        let mut out: Vec<f64> = (1..=teeth)
+            .map(|i| fs * i as f64)
+            .filter(|f| *f < limit)
+            .collect();
+        let ft = fs * teeth as f64;
+        let mut k = 2.0;
+        while ft * k < limit && teeth > 0 {
+            out.push(ft * k);
+            k += 1.0;
+        }
+        out
+    }
+
     /// Filter one sample.
     pub fn step(&mut self, x: f64) -> f64 {
         let mut y = x;

@@ -12,6 +12,7 @@
 //! | [`spindle`], [`spindle_figures`], [`lti`] | PZT spindle plant, ZOH discretisation, figure evaluation | 20 %/1.38 ms open loop (< 1 %) |
 //! | [`filters`], [`sensors`] | 500 Hz low-pass, peak-and-hold, 0.0005/0.9995, notch chain; force/gauge | unit tests |
 //! | [`groove`], [`feed`] | steppable groove plant; feed changes with axis acceleration, workpiece exit | 16.0 µm deflection at 80 µm (published 17) |
+//! | [`kienzle`], [`nc_axis`] | flat end-mill Kienzle force (C45), the NC feed-axis stage of 003: interpolator, axes, machine + tool stiffness, force platform, wall contour | Z·ap·fz·kc/4 full-slot mean; 16 ms ramp lag |
 //! | [`thinwall`] | steppable thin-wall plant (004), the 004 threshold rule, joint K_r/tool calibration | 87.6/106.7/126.1 vs 85.9/106.7/127.8 µm; threshold 2.19 % (published 2.19 %) |
 //! | [`tool_variation`] | tool-to-tool variation of fresh tools (wearland, runout, force factor), seeded draws | 000 §4 ranges; unit tests |
 //! | [`wall_variation`] | part-to-part variation of the thin wall (modulus and force-coefficient factors), seeded draws | CuZn40 handbook E range; unit tests |
@@ -32,8 +33,10 @@ pub mod feed;
 pub mod filters;
 pub mod force;
 pub mod groove;
+pub mod kienzle;
 pub mod lti;
 pub mod material;
+pub mod nc_axis;
 pub mod sensors;
 pub mod session;
 pub mod spindle;

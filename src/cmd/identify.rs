@@ -30,6 +30,8 @@ pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
         IdentifyWhat::Thermal => Target::Thermal,
         IdentifyWhat::Wall => Target::Wall,
         IdentifyWhat::Part => Target::Part,
+        IdentifyWhat::Kienzle => Target::Kienzle,
+        IdentifyWhat::FeedAxis => Target::FeedAxis,
         IdentifyWhat::Wear => return crate::cmd::record::wear(args, json),
         IdentifyWhat::Flutes => return crate::cmd::record::flutes(args, json),
     };

@@ -178,11 +178,16 @@ fn run_scenario(args: &SimulateArgs, json: bool) -> anyhow::Result<()> {
                 out.trace.columns.join(", ")
             );
         }
+        let y_label = if out.report.nc_axis.is_some() {
+            "wall displacement (um, + = material left, - = undersize)"
+        } else {
+            "error (um, + = too deep)"
+        };
         line_plot(
             plot,
             &format!("{} — {}", scenario.name, name),
             "x (mm)",
-            "error (um, + = too deep)",
+            y_label,
             &series,
         )?;
     }
@@ -228,6 +233,9 @@ fn run_scenario(args: &SimulateArgs, json: bool) -> anyhow::Result<()> {
     }
     if let Some(o) = m.exit_overcut_um {
         println!("workpiece exit: largest overcut {o:.3} um (+ = deeper than programmed)");
+    }
+    if let Some(nc) = &out.report.nc_axis {
+        crate::present::nc_axis::print_wall(nc);
     }
     if let Some(s) = &out.report.solver {
         println!(

@@ -39,8 +39,28 @@ pub const FACTORS: &[(&str, &str)] = &[
         "force_w_error_pct",
         "error of the controllers' volumetric work W against the truth (%), other force parameters exact",
     ),
-    ("noise_scale", "multiplies the force and gauge noise"),
-    ("stage", "groove or thin_wall"),
+    (
+        "noise_scale",
+        "multiplies the force and gauge noise (nc_axis: the platform's noise)",
+    ),
+    (
+        "stage",
+        "groove, thin_wall or nc_axis (003's NC stage: base datasets/scenarios/nc_c45_feed_step.toml)",
+    ),
+    (
+        "feed_ratio",
+        "nc_axis: the feed after the feed step over the feed before it (003: 2)",
+    ),
+    ("ae_mm", "nc_axis: radial depth of cut (mm; 16 = full slot)"),
+    (
+        "machine_stiffness_n_per_um",
+        "nc_axis: the truth machine's static stiffness at the tool (N/um)",
+    ),
+    ("overhang_d", "nc_axis: the tool's overhang in diameters"),
+    (
+        "kienzle_error_pct",
+        "nc_axis: error of the controllers' Kienzle kc1.1 and kr1.1 against the commissioned ones (%)",
+    ),
     (
         "wall_um",
         "nominal wall thickness of the thin-wall stage (um)",
@@ -233,14 +253,14 @@ pub fn scenarios_from_table(
 }
 
 /// The error of a factor value the scenario cannot take.
-fn bad(factor: &str, message: String) -> ClosedLoopError {
+pub(crate) fn bad(factor: &str, message: String) -> ClosedLoopError {
     ClosedLoopError::InvalidFactor {
         factor: factor.to_string(),
         message,
     }
 }
 
-fn num(spec: &ScenarioSpec, name: &str) -> Result<Option<f64>, ClosedLoopError> {
+pub(crate) fn num(spec: &ScenarioSpec, name: &str) -> Result<Option<f64>, ClosedLoopError> {
     match spec.factors.get(name) {
         None => Ok(None),
         Some(FactorValue::Num(x)) if x.is_finite() => Ok(Some(*x)),
@@ -267,6 +287,14 @@ fn num(spec: &ScenarioSpec, name: &str) -> Result<Option<f64>, ClosedLoopError> 
 /// assert_eq!((g.tilt_deg, g.length_mm, g.upfeed_um), (30.0, 20.0, 10.0));
 /// ```
 pub fn build_scenario(spec: &ScenarioSpec) -> Result<Scenario, ClosedLoopError> {
+    if matches!(spec.factors.get("stage"), Some(FactorValue::Text(t)) if t == "nc_axis") {
+        return crate::nc_axis::build_nc_scenario(spec);
+    }
+    for f in crate::nc_axis::NC_ONLY_FACTORS {
+        if spec.factors.contains_key(*f) {
+            return Err(bad(f, "applies to stage = nc_axis only".into()));
+        }
+    }
     let mut s = Scenario::from_toml_str(BASE_SCENARIO_TOML, BASE_SCENARIO_FILE)?;
     s.name = format!("batch_{:04}", spec.index);
     s.controllers.clear();
@@ -431,7 +459,7 @@ pub fn build_scenario(spec: &ScenarioSpec) -> Result<Scenario, ClosedLoopError> 
         Some(v) => {
             return Err(bad(
                 "stage",
-                format!("`{}` is not groove or thin_wall", v.text()),
+                format!("`{}` is not groove, thin_wall or nc_axis", v.text()),
             ));
         }
     }

@@ -11,8 +11,10 @@ use crate::report::FitReport;
 use millcomp_models::{Derived, IdentifiedModel};
 
 pub(crate) mod combine;
+pub mod feed_axis;
 pub mod flutes;
 pub mod force;
+pub mod kienzle;
 pub mod part;
 pub mod spindle;
 pub mod stiffness;

@@ -1,0 +1,1391 @@
+//! The NC feed-axis stage (`003_…txt`) in the harness: its scenario table (`[nc_axis]`), the truth it
+//! builds, the commissioning of the NC plant from simulated calibration measurements, the closed-loop
+//! run of `none | reactive | proactive | mpc`, and the metrics of the measured wall contour.
+//!
+//! **The truth** (sim's `nc_axis` stage): Kienzle's C45 law (handbook kc1.1, mc) with edge forces and a
+//! per-seed force factor (the material lot and the tool, σ `force_factor_sigma`), a 3 µm runout at a
+//! drawn angle, the Ø16 mm tool at `overhang_d` diameters in series with the machine's static stiffness
+//! `machine_stiffness_n_per_um` (rising by `machine_span_rel` along the blank), the feed axes' 16 ms
+//! structure, the force platform with a drawn gain error (σ `platform_gain_sigma`), noise and
+//! quantisation.
+//!
+//! **The commissioning** ([`commission_nc`]), through the instruments only:
+//! 1. *Force calibration*: full slots and part-width cuts at the plan's feeds per tooth and depths, each
+//!    cut for `revolutions` revolutions on the platform (zeroed before the cut), the revolution means of
+//!    Fx and Fy averaged; `identify kienzle` fits kc1.1, mc, kr1.1, mr starting from the handbook.
+//! 2. *Load–deflection* at the tool tip in y at the middle of the blank: loads read by a dial indicator
+//!    (resolution and noise of the plan); `identify stiffness`.
+//! 3. *Axis tests*: a step and a ramp sent to each axis, the NC's trace (reference and encoder at each
+//!    cycle); `identify feed-axis` (dead time + first-order lag — not the truth's structure).
+//! 4. *The platform at rest*: its noise level (σ of `noise_samples` samples).
+//!
+//! **The controllers** see those models, the NC program and the measured signals only
+//! (`millcomp_mpc::nc_axis`); the proactive controller's offset curve is recorded in one reference run
+//! on the same machine (another blank: its own noise), uncompensated.
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde::{Deserialize, Serialize};
+
+use millcomp_identify::targets::Identified;
+use millcomp_identify::targets::feed_axis::{FeedAxisData, FeedAxisOptions, identify_feed_axis};
+use millcomp_identify::targets::kienzle::{KienzleData, KienzleOptions, identify_kienzle};
+use millcomp_identify::targets::stiffness::{StiffnessData, StiffnessOptions, identify_stiffness};
+use millcomp_mpc::nc_axis::{
+    CorrectionLimits, IdentifiedFeedAxis, IdentifiedKienzle, IdentifiedNcStiffness, MpcNc,
+    NcChannel, NcController, NcCycle, NcMpcSettings, NcPlan, NcReferenceRun, NominalEndMill,
+    NoneNc, OffsetCurve, OffsetWindow, ProactiveNc, ReactiveNc,
+};
+use millcomp_sim::kienzle::{
+    CutState, EdgeForces, EndMill, KienzleCoefficients, KienzleMillingModel,
+};
+use millcomp_sim::nc_axis::{
+    AxisDynamics, ContourDevice, FeedAxis, ForcePlatform, NcAxisConfig, NcAxisStage, NcProgram,
+    NcStiffness, STAGE_DT_S, ToolOverhang, WallPoint,
+};
+use millcomp_sim::sensors::quantize;
+
+use crate::error::{ClosedLoopError, invalid};
+use crate::report::{Metrics, ModelSummary, RunOutput, RunReport, Trace};
+use crate::scenario::{
+    ControllerKind, Scenario, finite_nonneg as nonneg, finite_pos as pos, sim_keyed as sim_key,
+};
+
+/// The machine: static stiffness, the tool's overhang, the axes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NcMachineSpec {
+    /// Mean static stiffness of the machine at the tool, k_M (N/µm).
+    pub machine_stiffness_n_per_um: f64,
+    /// ΔkM/kM over the blank (003 eqs. 1–5's span).
+    pub machine_span_rel: f64,
+    /// Tool overhang in diameters.
+    pub overhang_d: f64,
+    /// Fluted length (mm).
+    pub flute_length_mm: f64,
+    /// Radial runout of the tool (µm).
+    pub runout_um: f64,
+    /// The feed axes (x and y alike).
+    pub axis: AxisDynamics,
+}
+
+impl Default for NcMachineSpec {
+    /// k_M = 30 N/µm (the middle of the 20–50 N/µm assumed; module doc of the scenario file), 10 %
+    /// span, 3.5 D overhang, 32 mm flutes, 3 µm runout (a shrink chuck), 003's 16 ms axes.
+    fn default() -> Self {
+        Self {
+            machine_stiffness_n_per_um: 30.0,
+            machine_span_rel: 0.10,
+            overhang_d: 3.5,
+            flute_length_mm: 32.0,
+            runout_um: 3.0,
+            axis: AxisDynamics::brecher_003(),
+        }
+    }
+}
+
+/// How the truth differs from the controllers' models (and the platform's errors).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NcTruthSpec {
+    /// Edge forces of the truth (N/mm).
+    pub edge: EdgeForces,
+    /// σ of the per-seed force factor (material lot, tool).
+    pub force_factor_sigma: f64,
+    /// Platform noise σ (N).
+    pub platform_noise_n: f64,
+    /// Platform quantisation (N).
+    pub platform_resolution_n: f64,
+    /// σ of the platform's gain error.
+    pub platform_gain_sigma: f64,
+    /// Extra relative error on the controllers' identified stiffness (`k·(1 + e)`).
+    pub stiffness_error: f64,
+    /// Extra relative error on the controllers' identified kc1.1 and kr1.1.
+    pub kienzle_error: f64,
+}
+
+impl Default for NcTruthSpec {
+    /// Edge forces 25/40 N/mm, force factor σ 3 %, platform σ 2 N, 0.5 N steps, gain σ 1 % (assumed),
+    /// no extra model errors.
+    fn default() -> Self {
+        let p = ForcePlatform::assumed();
+        Self {
+            edge: EdgeForces::c45_assumed(),
+            force_factor_sigma: 0.03,
+            platform_noise_n: p.noise_n,
+            platform_resolution_n: p.resolution_n,
+            platform_gain_sigma: 0.01,
+            stiffness_error: 0.0,
+            kienzle_error: 0.0,
+        }
+    }
+}
+
+/// The controllers' settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NcControlSpec {
+    /// Stage step = the force platform's sampling interval (s).
+    pub dt_s: f64,
+    /// Explicit notch frequencies (Hz) of the reactive chain (default: 003's harmonics up to Nyquist).
+    pub notch_hz: Option<Vec<f64>>,
+    /// The chain's first-order low-pass (Hz).
+    pub lowpass_hz: f64,
+    /// When the proactive offset curve is superimposed.
+    pub proactive_window: OffsetWindow,
+    /// The correction's limits (every controller).
+    pub limits: CorrectionLimits,
+}
+
+impl Default for NcControlSpec {
+    fn default() -> Self {
+        Self {
+            dt_s: STAGE_DT_S,
+            notch_hz: None,
+            lowpass_hz: 120.0,
+            proactive_window: OffsetWindow::default(),
+            limits: CorrectionLimits::default(),
+        }
+    }
+}
+
+/// The wall's measurement.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NcContourSpec {
+    /// Height above the groove floor at which the wall is traced (mm).
+    pub height_mm: f64,
+    /// The contour device.
+    pub device: ContourDevice,
+}
+
+impl Default for NcContourSpec {
+    fn default() -> Self {
+        Self {
+            height_mm: 1.0,
+            device: ContourDevice::default(),
+        }
+    }
+}
+
+/// The commissioning's experiments.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NcCommissioningPlan {
+    /// Feeds per tooth of the force calibration (mm).
+    pub fz_mm: Vec<f64>,
+    /// Axial depths (mm).
+    pub ap_mm: Vec<f64>,
+    /// Radial depths (mm).
+    pub ae_mm: Vec<f64>,
+    /// Replicates of every cut.
+    pub replicates: usize,
+    /// Revolutions per cut.
+    pub revolutions: usize,
+    /// Loads of the load–deflection test (N).
+    pub loads_n: Vec<f64>,
+    /// Trials per load.
+    pub trials: usize,
+    /// Dial indicator resolution (µm).
+    pub indicator_resolution_um: f64,
+    /// Dial indicator noise σ (µm).
+    pub indicator_noise_um: f64,
+    /// Height of the axis test's step (µm).
+    pub axis_step_um: f64,
+    /// Samples of the platform at rest.
+    pub noise_samples: usize,
+}
+
+impl Default for NcCommissioningPlan {
+    /// fz 0.03/0.06/0.09/0.12 mm (around 003's 0.05 and 0.10), full slots and half-width cuts at 4 and
+    /// 8 mm, 2 replicates, 20 revolutions; loads 500 … 3000 N three times on a 1 µm indicator (σ
+    /// 0.5 µm); a 100 µm step and ramp per axis; 2000 platform samples at rest.
+    fn default() -> Self {
+        Self {
+            fz_mm: vec![0.03, 0.06, 0.09, 0.12],
+            ap_mm: vec![4.0, 8.0],
+            ae_mm: vec![8.0, 16.0],
+            replicates: 2,
+            revolutions: 20,
+            loads_n: vec![500.0, 1000.0, 1500.0, 2000.0, 2500.0, 3000.0],
+            trials: 3,
+            indicator_resolution_um: 1.0,
+            indicator_noise_um: 0.5,
+            axis_step_um: 100.0,
+            noise_samples: 2000,
+        }
+    }
+}
+
+/// The `[nc_axis]` table of a scenario.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NcAxisScenario {
+    /// The NC program (003's: `NcProgram::brecher_003`).
+    pub program: NcProgram,
+    /// The machine.
+    #[serde(default)]
+    pub machine: NcMachineSpec,
+    /// Truth vs model.
+    #[serde(default)]
+    pub truth: NcTruthSpec,
+    /// The controllers.
+    #[serde(default)]
+    pub control: NcControlSpec,
+    /// The wall's measurement.
+    #[serde(default)]
+    pub contour: NcContourSpec,
+    /// The commissioning.
+    #[serde(default)]
+    pub commissioning: NcCommissioningPlan,
+}
+
+impl NcAxisScenario {
+    /// Validate every value; errors name the key (`nc_axis.program.feed_changes[0].feed_mm_min`, …).
+    ///
+    /// # Errors
+    /// [`ClosedLoopError::InvalidConfig`] naming the key and what is allowed: a feed above the axis'
+    /// `max_feed_mm_min`, an NC cycle that is not a whole number of stage steps
+    /// (`nc_axis.program.cycle_s`), a notch at or above the force channel's Nyquist frequency
+    /// (`nc_axis.control.notch_hz[i]`), and every out-of-range number.
+    pub fn validate(&self) -> Result<(), ClosedLoopError> {
+        let p = &self.program;
+        let m = &self.machine;
+        m.axis
+            .validate()
+            .map_err(sim_key("nc_axis.machine.axis."))?;
+        for (i, c) in p.feed_changes.iter().enumerate() {
+            if !(c.feed_mm_min.is_finite() && c.feed_mm_min > 0.0)
+                || c.feed_mm_min > m.axis.max_feed_mm_min
+            {
+                return Err(invalid(
+                    format!("nc_axis.program.feed_changes[{i}].feed_mm_min"),
+                    c.feed_mm_min,
+                    format!(
+                        "0 < feed <= the axis' maximum feed nc_axis.machine.axis.max_feed_mm_min = {}",
+                        m.axis.max_feed_mm_min
+                    ),
+                ));
+            }
+            if !(c.x_mm.is_finite() && c.x_mm >= p.start_mm && c.x_mm < p.end_mm) {
+                return Err(invalid(
+                    format!("nc_axis.program.feed_changes[{i}].x_mm"),
+                    c.x_mm,
+                    "start_mm <= x_mm < end_mm, sorted",
+                ));
+            }
+        }
+        p.validate(m.axis.max_feed_mm_min)
+            .map_err(sim_key("nc_axis.program."))?;
+        let c = &self.control;
+        if !(c.dt_s.is_finite() && c.dt_s >= 1e-6 && c.dt_s <= 1e-3) {
+            return Err(invalid("nc_axis.control.dt_s", c.dt_s, "1e-6 ..= 1e-3 s"));
+        }
+        let ratio = p.cycle_s / c.dt_s;
+        if (ratio - ratio.round()).abs() > 1e-6 || ratio.round() < 1.0 {
+            return Err(invalid(
+                "nc_axis.program.cycle_s",
+                p.cycle_s,
+                format!(
+                    "a whole multiple of the stage step nc_axis.control.dt_s = {} s",
+                    c.dt_s
+                ),
+            ));
+        }
+        if p.ae_mm > 16.0 + 1e-9 {
+            return Err(invalid(
+                "nc_axis.program.ae_mm",
+                p.ae_mm,
+                "<= the tool diameter (16 mm)",
+            ));
+        }
+        let nyq = 0.5 / c.dt_s;
+        if let Some(n) = &c.notch_hz {
+            for (i, f) in n.iter().enumerate() {
+                if !(f.is_finite() && *f > 0.0 && *f < nyq) {
+                    return Err(invalid(
+                        format!("nc_axis.control.notch_hz[{i}]"),
+                        f,
+                        format!(
+                            "0 < f < the force channel's Nyquist frequency {nyq} Hz (0.5/nc_axis.control.dt_s)"
+                        ),
+                    ));
+                }
+            }
+        }
+        if !(c.lowpass_hz.is_finite() && c.lowpass_hz > 0.0 && c.lowpass_hz < nyq) {
+            return Err(invalid(
+                "nc_axis.control.lowpass_hz",
+                c.lowpass_hz,
+                "0 < f < Nyquist",
+            ));
+        }
+        pos("nc_axis.control.limits.range_um", c.limits.range_um)?;
+        pos(
+            "nc_axis.control.limits.slew_um_per_cycle",
+            c.limits.slew_um_per_cycle,
+        )?;
+        pos(
+            "nc_axis.machine.machine_stiffness_n_per_um",
+            m.machine_stiffness_n_per_um,
+        )?;
+        if !(m.machine_span_rel.is_finite() && (0.0..=1.0).contains(&m.machine_span_rel)) {
+            return Err(invalid(
+                "nc_axis.machine.machine_span_rel",
+                m.machine_span_rel,
+                "0 ..= 1",
+            ));
+        }
+        if !(m.overhang_d.is_finite() && (1.0..=10.0).contains(&m.overhang_d)) {
+            return Err(invalid(
+                "nc_axis.machine.overhang_d",
+                m.overhang_d,
+                "1 ..= 10",
+            ));
+        }
+        nonneg("nc_axis.machine.flute_length_mm", m.flute_length_mm)?;
+        if !(m.runout_um.is_finite() && (0.0..=50.0).contains(&m.runout_um)) {
+            return Err(invalid(
+                "nc_axis.machine.runout_um",
+                m.runout_um,
+                "0 ..= 50",
+            ));
+        }
+        let t = &self.truth;
+        nonneg("nc_axis.truth.edge.kte_n_mm", t.edge.kte_n_mm)?;
+        nonneg("nc_axis.truth.edge.kre_n_mm", t.edge.kre_n_mm)?;
+        for (k, v, hi) in [
+            (
+                "nc_axis.truth.force_factor_sigma",
+                t.force_factor_sigma,
+                0.3,
+            ),
+            (
+                "nc_axis.truth.platform_gain_sigma",
+                t.platform_gain_sigma,
+                0.1,
+            ),
+        ] {
+            if !(v.is_finite() && (0.0..=hi).contains(&v)) {
+                return Err(invalid(k, v, format!("0 ..= {hi}")));
+            }
+        }
+        nonneg("nc_axis.truth.platform_noise_n", t.platform_noise_n)?;
+        nonneg(
+            "nc_axis.truth.platform_resolution_n",
+            t.platform_resolution_n,
+        )?;
+        for (k, v) in [
+            ("nc_axis.truth.stiffness_error", t.stiffness_error),
+            ("nc_axis.truth.kienzle_error", t.kienzle_error),
+        ] {
+            if !(v.is_finite() && v > -0.9 && v < 9.0) {
+                return Err(invalid(k, v, "-0.9 < error < 9"));
+            }
+        }
+        let ct = &self.contour;
+        nonneg("nc_axis.contour.height_mm", ct.height_mm)?;
+        pos("nc_axis.contour.device.spacing_mm", ct.device.spacing_mm)?;
+        pos("nc_axis.contour.device.cutoff_mm", ct.device.cutoff_mm)?;
+        nonneg("nc_axis.contour.device.noise_um", ct.device.noise_um)?;
+        let cp = &self.commissioning;
+        for (k, v) in [
+            ("nc_axis.commissioning.fz_mm", &cp.fz_mm),
+            ("nc_axis.commissioning.ap_mm", &cp.ap_mm),
+            ("nc_axis.commissioning.ae_mm", &cp.ae_mm),
+            ("nc_axis.commissioning.loads_n", &cp.loads_n),
+        ] {
+            if v.is_empty() {
+                return Err(invalid(k, "[]", "at least one value"));
+            }
+            for (i, x) in v.iter().enumerate() {
+                pos(&format!("{k}[{i}]"), *x)?;
+            }
+        }
+        if cp.fz_mm.len() < 2 {
+            return Err(invalid(
+                "nc_axis.commissioning.fz_mm",
+                cp.fz_mm.len(),
+                "at least two feeds (the exponents need the feed to vary)",
+            ));
+        }
+        if let Some((i, a)) = cp.ae_mm.iter().enumerate().find(|(_, a)| **a > 16.0) {
+            return Err(invalid(
+                format!("nc_axis.commissioning.ae_mm[{i}]"),
+                a,
+                "<= the tool diameter (16 mm)",
+            ));
+        }
+        for (k, v) in [
+            ("nc_axis.commissioning.replicates", cp.replicates),
+            ("nc_axis.commissioning.revolutions", cp.revolutions),
+            ("nc_axis.commissioning.trials", cp.trials),
+            ("nc_axis.commissioning.noise_samples", cp.noise_samples),
+        ] {
+            if v == 0 {
+                return Err(invalid(k, 0, ">= 1"));
+            }
+        }
+        nonneg(
+            "nc_axis.commissioning.indicator_resolution_um",
+            cp.indicator_resolution_um,
+        )?;
+        nonneg(
+            "nc_axis.commissioning.indicator_noise_um",
+            cp.indicator_noise_um,
+        )?;
+        pos("nc_axis.commissioning.axis_step_um", cp.axis_step_um)?;
+        Ok(())
+    }
+
+    /// The notch frequencies the reactive chain uses.
+    pub fn channel(&self) -> NcChannel {
+        let mut ch = NcChannel::brecher_003(self.program.speed_rpm, 5, self.control.dt_s);
+        if let Some(n) = &self.control.notch_hz {
+            ch.notch_hz = n.clone();
+        }
+        ch.lowpass_hz = self.control.lowpass_hz;
+        ch
+    }
+}
+
+impl Scenario {
+    /// The validated `[nc_axis]` table.
+    ///
+    /// # Errors
+    /// [`ClosedLoopError::InvalidConfig`] (`nc_axis`) when there is none, and those of
+    /// [`NcAxisScenario::validate`].
+    pub fn nc(&self) -> Result<&NcAxisScenario, ClosedLoopError> {
+        let nc = self.nc_axis.as_ref().ok_or_else(|| {
+            invalid(
+                "nc_axis",
+                "missing",
+                "an [nc_axis] table for stage = \"nc_axis\"",
+            )
+        })?;
+        nc.validate()?;
+        Ok(nc)
+    }
+}
+
+/// What a seed draws for the truth.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct NcTruthDraw {
+    /// Force factor (material lot, tool).
+    pub force_factor: f64,
+    /// Platform gain.
+    pub platform_gain: f64,
+    /// Runout angle (deg).
+    pub runout_phase_deg: f64,
+    /// Spindle angle at the start (rad).
+    pub spindle_phase_rad: f64,
+}
+
+impl NcTruthDraw {
+    /// The draw of `seed` for `truth`.
+    pub fn draw(seed: u64, truth: &NcTruthSpec) -> Self {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0003_0003);
+        let n = |rng: &mut ChaCha8Rng, s: f64| {
+            if s > 0.0 {
+                Normal::new(0.0, s).map_or(0.0, |d| d.sample(rng))
+            } else {
+                0.0
+            }
+        };
+        Self {
+            force_factor: 1.0 + n(&mut rng, truth.force_factor_sigma),
+            platform_gain: 1.0 + n(&mut rng, truth.platform_gain_sigma),
+            runout_phase_deg: rng.random_range(0.0..360.0),
+            spindle_phase_rad: rng.random_range(0.0..std::f64::consts::TAU),
+        }
+    }
+}
+
+/// The truth of an `[nc_axis]` scenario for `seed`.
+///
+/// # Errors
+/// The physics crate's checks of the assembled truth, keys under `nc_axis.`.
+pub fn nc_truth(
+    nc: &NcAxisScenario,
+    seed: u64,
+) -> Result<(NcAxisConfig, NcTruthDraw), ClosedLoopError> {
+    let d = NcTruthDraw::draw(seed, &nc.truth);
+    let m = &nc.machine;
+    let tool = EndMill {
+        runout_um: m.runout_um,
+        runout_phase_deg: d.runout_phase_deg - 360.0 * (d.runout_phase_deg / 360.0).floor(),
+        ..EndMill::brecher_003()
+    };
+    let cfg = NcAxisConfig {
+        force: KienzleMillingModel {
+            coefficients: KienzleCoefficients::c45_handbook().scaled(d.force_factor),
+            edge: EdgeForces {
+                kte_n_mm: nc.truth.edge.kte_n_mm * d.force_factor,
+                kre_n_mm: nc.truth.edge.kre_n_mm * d.force_factor,
+            },
+            tool,
+            axial_slices: 8,
+        },
+        stiffness: NcStiffness {
+            machine_n_per_um: m.machine_stiffness_n_per_um,
+            machine_span_rel: m.machine_span_rel,
+            tool: ToolOverhang {
+                flute_length_mm: m.flute_length_mm,
+                ..ToolOverhang::brecher_003(m.overhang_d)
+            },
+        },
+        x_axis: m.axis,
+        y_axis: m.axis,
+        platform: ForcePlatform {
+            gain: d.platform_gain,
+            noise_n: nc.truth.platform_noise_n,
+            resolution_n: nc.truth.platform_resolution_n,
+        },
+        dt_s: nc.control.dt_s,
+        contour_height_mm: nc.contour.height_mm,
+        spindle_phase_rad: d.spindle_phase_rad,
+        seed: seed ^ 0x5A5A,
+    };
+    cfg.validate().map_err(sim_key("nc_axis.truth."))?;
+    Ok((cfg, d))
+}
+
+/// The commissioning's four identifications and the platform's noise level.
+#[derive(Debug, Clone)]
+pub struct NcCommissioned {
+    /// `identify kienzle` of the force calibration.
+    pub kienzle: Identified,
+    /// `identify stiffness` of the load–deflection test.
+    pub stiffness: Identified,
+    /// `identify feed-axis` of the x axis' trace.
+    pub x_axis: Identified,
+    /// `identify feed-axis` of the y axis' trace.
+    pub y_axis: Identified,
+    /// σ of the platform at rest (N).
+    pub force_noise_n: f64,
+}
+
+fn experiment(what: &'static str) -> impl Fn(millcomp_identify::IdentifyError) -> ClosedLoopError {
+    move |e| ClosedLoopError::Commissioning {
+        experiment: what,
+        source: Box::new(e),
+    }
+}
+
+/// An NC servo trace: time (s), reference and encoder (µm) at the start of each cycle.
+type AxisTrace = (Vec<f64>, Vec<f64>, Vec<f64>);
+
+/// The axis test: a step of `a` µm, back, then a ramp to `a` and a hold, sent every cycle; the NC's
+/// trace (time, reference, encoder at the start of each cycle).
+fn axis_trace(
+    d: &AxisDynamics,
+    dt_s: f64,
+    steps_per_cycle: usize,
+    cycle_s: f64,
+    a: f64,
+) -> Result<AxisTrace, ClosedLoopError> {
+    let mut axis = FeedAxis::new(d, dt_s, 0.0)?;
+    let refs: Vec<f64> = (0..230)
+        .map(|i| match i {
+            0..10 => 0.0,
+            10..70 => a,
+            70..130 => 0.0,
+            130..180 => a * (i - 130) as f64 / 50.0,
+            _ => a,
+        })
+        .collect();
+    let mut t = Vec::with_capacity(refs.len());
+    let mut p = Vec::with_capacity(refs.len());
+    for (i, r) in refs.iter().enumerate() {
+        t.push(i as f64 * cycle_s);
+        p.push(axis.position());
+        for _ in 0..steps_per_cycle {
+            axis.step(*r);
+        }
+    }
+    Ok((t, refs, p))
+}
+
+/// Commission the NC plant `truth` running `program` (module doc), seeded.
+///
+/// # Errors
+/// [`ClosedLoopError::Commissioning`] naming the experiment whose identification failed; the physics
+/// crate's errors.
+pub fn commission_nc(
+    truth: &NcAxisConfig,
+    program: &NcProgram,
+    plan: &NcCommissioningPlan,
+    seed: u64,
+) -> Result<NcCommissioned, ClosedLoopError> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0C03);
+    let p = &truth.platform;
+    let noise = Normal::new(0.0, p.noise_n.max(1e-12))
+        .map_err(|source| ClosedLoopError::CalibrationNoise { source })?;
+    let read = |f: f64, rng: &mut ChaCha8Rng| {
+        quantize(
+            p.gain * f
+                + if p.noise_n > 0.0 {
+                    noise.sample(rng)
+                } else {
+                    0.0
+                },
+            p.resolution_n,
+        )
+    };
+    // 1. force calibration
+    let dt = truth.dt_s;
+    let per_rev = ((60.0 / program.speed_rpm) / dt).round().max(8.0) as usize;
+    let (mut fz, mut ap, mut ae, mut mfx, mut mfy) = (vec![], vec![], vec![], vec![], vec![]);
+    for _ in 0..plan.replicates {
+        for &f in &plan.fz_mm {
+            for &a in &plan.ap_mm {
+                for &e in &plan.ae_mm {
+                    let cut = CutState::steady(f, a, e);
+                    let n = per_rev * plan.revolutions;
+                    let phase: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+                    let (mut sx, mut sy) = (0.0, 0.0);
+                    for k in 0..n {
+                        let rot = phase + std::f64::consts::TAU * k as f64 / per_rev as f64;
+                        let fk = truth.force.forces(rot, &cut);
+                        sx += read(fk[0], &mut rng);
+                        sy += read(fk[1], &mut rng);
+                    }
+                    fz.push(f);
+                    ap.push(a);
+                    ae.push(e);
+                    mfx.push(sx / n as f64);
+                    mfy.push(sy / n as f64);
+                }
+            }
+        }
+    }
+    let tool = NominalEndMill::brecher_003();
+    let kienzle = identify_kienzle(
+        &KienzleData {
+            fz_mm: &fz,
+            ap_mm: &ap,
+            ae_mm: &ae,
+            mean_fx_n: Some(&mfx),
+            mean_fy_n: Some(&mfy),
+        },
+        &KienzleOptions {
+            tool: EndMill {
+                diameter_mm: tool.diameter_mm,
+                teeth: tool.teeth,
+                helix_deg: tool.helix_deg,
+                runout_um: 0.0,
+                runout_phase_deg: 0.0,
+            },
+            ..KienzleOptions::default()
+        },
+    )
+    .map_err(experiment("force calibration"))?;
+    // 2. load–deflection at the middle of the blank
+    let x_mid = 0.5 * (program.blank_start_mm + program.blank_end_mm);
+    let k_true = truth
+        .stiffness
+        .system_at(x_mid, program.blank_start_mm, program.blank_end_mm)?;
+    let ind = Normal::new(0.0, plan.indicator_noise_um.max(1e-12))
+        .map_err(|source| ClosedLoopError::CalibrationNoise { source })?;
+    let (mut load, mut defl) = (vec![], vec![]);
+    for _ in 0..plan.trials {
+        for &f in &plan.loads_n {
+            let e = if plan.indicator_noise_um > 0.0 {
+                ind.sample(&mut rng)
+            } else {
+                0.0
+            };
+            load.push(f);
+            defl.push(quantize(f / k_true + e, plan.indicator_resolution_um));
+        }
+    }
+    let stiffness = identify_stiffness(
+        &StiffnessData {
+            load_n: &load,
+            deflection_um: &defl,
+            direction: None,
+        },
+        &StiffnessOptions::default(),
+    )
+    .map_err(experiment("load-deflection test"))?;
+    // 3. axis traces
+    let spc = (program.cycle_s / dt).round() as usize;
+    let axis_fit = |d: &AxisDynamics, what: &'static str| {
+        let (t, r, pos) = axis_trace(d, dt, spc, program.cycle_s, plan.axis_step_um)?;
+        identify_feed_axis(
+            &FeedAxisData {
+                t_s: &t,
+                reference_um: &r,
+                position_um: &pos,
+            },
+            &FeedAxisOptions::default(),
+        )
+        .map_err(experiment(what))
+    };
+    let x_axis = axis_fit(&truth.x_axis, "x axis trace")?;
+    let y_axis = axis_fit(&truth.y_axis, "y axis trace")?;
+    // 4. the platform at rest
+    let rest: Vec<f64> = (0..plan.noise_samples)
+        .map(|_| read(0.0, &mut rng))
+        .collect();
+    let mean = rest.iter().sum::<f64>() / rest.len() as f64;
+    let var = rest.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (rest.len().max(2) - 1) as f64;
+    Ok(NcCommissioned {
+        kienzle,
+        stiffness,
+        x_axis,
+        y_axis,
+        force_noise_n: var.sqrt(),
+    })
+}
+
+/// The controllers' models of a commissioning, with the scenario's deliberate errors on top.
+#[derive(Debug, Clone)]
+pub struct NcModels {
+    /// Force model.
+    pub force: IdentifiedKienzle,
+    /// x axis.
+    pub x_axis: IdentifiedFeedAxis,
+    /// y axis.
+    pub y_axis: IdentifiedFeedAxis,
+    /// Stiffness.
+    pub stiffness: IdentifiedNcStiffness,
+    /// Platform noise (N).
+    pub force_noise_n: f64,
+}
+
+impl NcModels {
+    /// From a commissioning and the scenario's `truth.stiffness_error`, `truth.kienzle_error`.
+    ///
+    /// # Errors
+    /// The identified types' errors.
+    pub fn of(c: &NcCommissioned, truth: &NcTruthSpec) -> Result<Self, ClosedLoopError> {
+        Ok(Self {
+            force: IdentifiedKienzle::new(&c.kienzle.model, &NominalEndMill::brecher_003())?
+                .rescaled(1.0 + truth.kienzle_error)?,
+            x_axis: IdentifiedFeedAxis::new(&c.x_axis.model)?,
+            y_axis: IdentifiedFeedAxis::new(&c.y_axis.model)?,
+            stiffness: IdentifiedNcStiffness::new(&c.stiffness.model)?
+                .scaled(1.0 + truth.stiffness_error)?,
+            force_noise_n: c.force_noise_n,
+        })
+    }
+}
+
+/// One run of the stage with a controller.
+struct Drive {
+    wall: Vec<WallPoint>,
+    rows: Vec<[f64; 6]>,
+    finite: bool,
+    in_limits: bool,
+    travel_um: f64,
+    reference: NcReferenceRun,
+    simulated_s: f64,
+}
+
+fn drive(
+    truth: &NcAxisConfig,
+    program: &NcProgram,
+    ctl: &mut dyn NcController,
+    limits: &CorrectionLimits,
+    record: bool,
+) -> Result<Drive, ClosedLoopError> {
+    let mut stage = NcAxisStage::new(truth.clone(), program.clone())?;
+    let spc = stage.steps_per_cycle();
+    let mut prev = 0.0;
+    let mut setpoint = 0.0;
+    let mut finite = true;
+    let mut in_limits = true;
+    let mut travel = 0.0;
+    let mut rows = Vec::with_capacity(stage.interpolator().len());
+    let mut reference = NcReferenceRun {
+        samples_per_cycle: spc,
+        ..Default::default()
+    };
+    let mut last_t = 0.0;
+    let mut last_f = 0.0;
+    while !stage.finished() {
+        if stage.at_cycle_start() {
+            let k = stage.cycle();
+            let a = stage.interpolator().reference(k).a_mm_s2;
+            let (x, y) = stage.axes();
+            let u = ctl.cycle(&NcCycle {
+                index: k,
+                a_cmd_mm_s2: a,
+                y_axis_um: y,
+            })?;
+            if !u.is_finite() {
+                finite = false;
+            }
+            let safe = limits.apply(u, prev);
+            if u.is_finite() && (safe - u).abs() > 1e-9 {
+                in_limits = false;
+            }
+            travel += (safe - prev).abs();
+            prev = safe;
+            setpoint = safe;
+            rows.push([last_t, x, a, last_f, safe, y]);
+            if record {
+                reference.a_cmd_mm_s2.push(a);
+            }
+        }
+        let s = stage.step(setpoint);
+        ctl.force_sample(s.fy_measured_n);
+        if record {
+            reference.force_n.push(s.fy_measured_n);
+        }
+        last_t = s.t_s;
+        last_f = s.fy_measured_n;
+    }
+    Ok(Drive {
+        wall: stage.wall().to_vec(),
+        rows,
+        finite,
+        in_limits,
+        travel_um: travel,
+        reference,
+        simulated_s: last_t,
+    })
+}
+
+/// The metrics of the measured wall (µm; + = material left, − = undersize).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct NcWallMetrics {
+    /// Mean |wall error| over the constant-condition windows (measured contour).
+    pub static_error_um: f64,
+    /// Mean of the deflection part over the same windows: what the same run's wall would show
+    /// uncompensated (a model output of the truth, for the record).
+    pub static_uncompensated_um: f64,
+    /// `100·(1 − static_error/static_uncompensated)`.
+    pub static_removed_pct: f64,
+    /// The deflection step at the first feed change (model output): mean deflection part after it minus
+    /// before it (its constant windows).
+    pub deflection_step_um: Option<f64>,
+    /// Largest |error| from 2 mm before to 15 mm after the first feed change (003 Fig. 6's peak).
+    pub feed_step_peak_um: Option<f64>,
+    /// Its sign: the error at that point.
+    pub feed_step_peak_signed_um: Option<f64>,
+    /// Largest |error − settled error| over the same span, the settled error being the wall's mean
+    /// over 7–2 mm before the change (before it) and 10–20 mm after it (after it): the transient a
+    /// controller adds over its own static error (issue 14's excess).
+    pub feed_step_excess_um: Option<f64>,
+    /// RMS of the executed correction (the y axis' encoder) about its 60 ms centred moving average from
+    /// 40 to 340 ms after the feed change starts (after the rise): the oscillation a controller cuts
+    /// into the wall (003 §3.2: the notch chain's "decaying oscillation … also found in the actuating
+    /// values"); 0 without compensation.
+    pub feed_step_oscillation_um: Option<f64>,
+    /// Largest undersize (−error, ≥ 0) over the exit: from one radius plus 1 mm before the edge to it.
+    pub exit_undersize_um: f64,
+    /// Smallest and largest error over the exit.
+    pub exit_min_um: f64,
+    /// Largest error over the exit.
+    pub exit_max_um: f64,
+    /// The windows of constant conditions used (mm).
+    pub windows_mm: Vec<[f64; 2]>,
+}
+
+fn contour_at(contour: &[(f64, f64)], x: f64) -> f64 {
+    if contour.is_empty() || x < contour[0].0 || x > contour[contour.len() - 1].0 {
+        return f64::NAN;
+    }
+    let dx = contour[1].0 - contour[0].0;
+    let i = (((x - contour[0].0) / dx).round() as usize).min(contour.len() - 1);
+    contour[i].1
+}
+
+/// The constant-condition windows of a program: 10 mm after the blank's start (or a feed change) to
+/// 5 mm before the next change (or one radius + 5 mm before the end).
+pub fn constant_windows(p: &NcProgram) -> Vec<[f64; 2]> {
+    let r = 8.0;
+    let mut edges: Vec<f64> = p
+        .feed_changes
+        .iter()
+        .map(|c| c.x_mm)
+        .filter(|x| *x > p.blank_start_mm && *x < p.blank_end_mm)
+        .collect();
+    edges.insert(0, p.blank_start_mm);
+    let mut out = Vec::new();
+    for (i, &a) in edges.iter().enumerate() {
+        let end = edges
+            .get(i + 1)
+            .map_or(p.blank_end_mm - r - 5.0, |b| b - 5.0);
+        let start = a + 10.0;
+        if end > start + 1.0 {
+            out.push([start, end]);
+        }
+    }
+    out
+}
+
+/// The metrics of a measured contour `contour` and of the deflection's part of the wall `defl` (the same
+/// grid, noise-free: the uncompensated wall of the same run, a model output).
+fn wall_metrics(p: &NcProgram, contour: &[(f64, f64)], defl: &[(f64, f64)]) -> NcWallMetrics {
+    let windows = constant_windows(p);
+    let in_w = |x: f64, w: &[f64; 2]| x >= w[0] && x <= w[1];
+    let mean = |v: &[f64]| {
+        if v.is_empty() {
+            f64::NAN
+        } else {
+            v.iter().sum::<f64>() / v.len() as f64
+        }
+    };
+    let e_abs: Vec<f64> = contour
+        .iter()
+        .filter(|(x, _)| windows.iter().any(|w| in_w(*x, w)))
+        .map(|(_, e)| e.abs())
+        .collect();
+    let d_all: Vec<f64> = defl
+        .iter()
+        .filter(|(x, _)| windows.iter().any(|w| in_w(*x, w)))
+        .map(|(_, d)| *d)
+        .collect();
+    let static_error_um = mean(&e_abs);
+    let static_uncompensated_um = mean(&d_all);
+    let change = p
+        .feed_changes
+        .first()
+        .map(|c| c.x_mm)
+        .filter(|x| *x > p.blank_start_mm && *x < p.blank_end_mm);
+    let mut m = NcWallMetrics {
+        static_error_um,
+        static_uncompensated_um,
+        static_removed_pct: 100.0 * (1.0 - static_error_um / static_uncompensated_um),
+        windows_mm: windows.clone(),
+        ..Default::default()
+    };
+    if let Some(xc) = change {
+        let level = |c: &[(f64, f64)], w: &[f64; 2]| {
+            mean(
+                &c.iter()
+                    .filter(|(x, _)| in_w(*x, w))
+                    .map(|(_, v)| *v)
+                    .collect::<Vec<_>>(),
+            )
+        };
+        let before = windows.iter().rev().find(|w| w[1] <= xc);
+        let after = windows.iter().find(|w| w[0] >= xc);
+        if let (Some(b), Some(a)) = (before, after) {
+            m.deflection_step_um = Some(level(defl, a) - level(defl, b));
+        }
+        // the settled levels of this run's wall just before and just after the change
+        let settled_before = level(contour, &[xc - 7.0, xc - 2.0]);
+        let settled_after = level(contour, &[xc + 10.0, xc + 20.0]);
+        let (mut peak, mut signed, mut excess) = (0.0f64, 0.0, 0.0f64);
+        for &(x, e) in contour {
+            if x >= xc - 2.0 && x <= xc + 15.0 {
+                if e.abs() > peak {
+                    peak = e.abs();
+                    signed = e;
+                }
+                let settled = if x < xc {
+                    settled_before
+                } else {
+                    settled_after
+                };
+                excess = excess.max((e - settled).abs());
+            }
+        }
+        m.feed_step_peak_um = Some(peak);
+        m.feed_step_peak_signed_um = Some(signed);
+        m.feed_step_excess_um = Some(excess);
+    }
+    let (lo_x, hi_x) = (p.blank_end_mm - 9.0, p.blank_end_mm);
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for &(x, e) in contour {
+        if x >= lo_x && x <= hi_x {
+            lo = lo.min(e);
+            hi = hi.max(e);
+        }
+    }
+    m.exit_min_um = lo;
+    m.exit_max_um = hi;
+    m.exit_undersize_um = (-lo).max(0.0);
+    m
+}
+
+/// The ringing of the executed correction after the first feed change ([`NcWallMetrics`]); rows are
+/// `[t, x, a_cmd, F, correction, y]` per cycle.
+fn step_ringing_um(rows: &[[f64; 6]], cycle_s: f64) -> Option<f64> {
+    let start = rows.iter().position(|r| r[2] != 0.0)?;
+    let c = |t: f64| (t / cycle_s).round() as usize;
+    let (from, to, half) = (start + c(0.04), start + c(0.34), c(0.03));
+    if to + half >= rows.len() {
+        return None;
+    }
+    let mut acc = 0.0;
+    for i in from..to {
+        let avg =
+            rows[i - half..=i + half].iter().map(|r| r[5]).sum::<f64>() / (2 * half + 1) as f64;
+        acc += (rows[i][5] - avg).powi(2);
+    }
+    Some((acc / (to - from) as f64).sqrt())
+}
+
+/// A controller of the stage for `kind`, built from `models` (the proactive one records its reference
+/// run on `truth` with its own noise).
+///
+/// # Errors
+/// [`ClosedLoopError::InvalidConfig`] (`controller`) for a kind the stage does not have; the
+/// controllers' construction errors.
+pub fn nc_controller(
+    kind: ControllerKind,
+    nc: &NcAxisScenario,
+    truth: &NcAxisConfig,
+    models: &NcModels,
+) -> Result<Box<dyn NcController>, ClosedLoopError> {
+    let p = &nc.program;
+    let channel = nc.channel();
+    Ok(match kind {
+        ControllerKind::None => Box::new(NoneNc),
+        ControllerKind::Reactive => Box::new(ReactiveNc::new(&channel, &models.stiffness)?),
+        ControllerKind::Proactive => {
+            let mut ref_truth = truth.clone();
+            ref_truth.seed ^= 0x0FF5E7;
+            let reference = drive(&ref_truth, p, &mut NoneNc, &nc.control.limits, true)?.reference;
+            let curve = OffsetCurve::from_reference_run(
+                &reference,
+                &models.stiffness,
+                &models.y_axis,
+                p.speed_rpm,
+                p.cycle_s,
+                nc.control.proactive_window,
+            )?;
+            Box::new(ProactiveNc::new(
+                nc.control.dt_s,
+                &models.stiffness,
+                curve,
+                nc.control.proactive_window,
+            )?)
+        }
+        ControllerKind::Mpc => {
+            let stage = NcAxisStage::new(truth.clone(), p.clone())?;
+            let plan = NcPlan::new(
+                p,
+                stage.interpolator(),
+                &models.force,
+                &models.x_axis,
+                &models.stiffness,
+                nc.contour.height_mm,
+            )?;
+            Box::new(MpcNc::new(
+                &models.y_axis,
+                p.cycle_s,
+                plan,
+                &channel,
+                models.force_noise_n,
+                &NcMpcSettings::default_nc(),
+            )?)
+        }
+        other => {
+            return Err(invalid(
+                "controller",
+                other.name(),
+                "one of none, reactive, proactive, mpc on stage = \"nc_axis\"",
+            ));
+        }
+    })
+}
+
+/// The NC stage's part of a run report.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NcAxisReport {
+    /// The wall's metrics.
+    pub wall: NcWallMetrics,
+    /// What the commissioning identified (estimate ± SE) and the truth's values, for the record.
+    pub models: Vec<NcModelLine>,
+    /// The truth's draw of this seed.
+    pub draw: NcTruthDraw,
+}
+
+/// One identified quantity against the truth.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NcModelLine {
+    /// Name.
+    pub name: String,
+    /// Estimate.
+    pub estimate: f64,
+    /// Standard error.
+    pub std_err: f64,
+    /// The truth's value where it has one of the same structure (NaN otherwise).
+    pub truth: f64,
+}
+
+/// Run an `nc_axis` scenario with one controller.
+///
+/// # Errors
+/// [`ClosedLoopError::InvalidConfig`] for a missing `[nc_axis]` table or a controller the stage does
+/// not have; the commissioning's, the controllers' and the stage's errors.
+pub fn run_nc_axis(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, ClosedLoopError> {
+    let wall_clock = std::time::Instant::now();
+    let nc = s.nc()?;
+    if !kind.runs_on(crate::scenario::StageKind::NcAxis) {
+        return Err(invalid(
+            "controller",
+            kind.name(),
+            "one of none, reactive, proactive, mpc on stage = \"nc_axis\"",
+        ));
+    }
+    let (truth, draw) = nc_truth(nc, s.seed)?;
+    let commissioned = commission_nc(&truth, &nc.program, &nc.commissioning, s.seed)?;
+    let models = NcModels::of(&commissioned, &nc.truth)?;
+    let mut ctl = nc_controller(kind, nc, &truth, &models)?;
+    let d = drive(&truth, &nc.program, ctl.as_mut(), &nc.control.limits, false)?;
+    let p = &nc.program;
+    let contour =
+        nc.contour
+            .device
+            .measure(&d.wall, p.blank_start_mm, p.blank_end_mm, s.seed ^ 0xC0C0)?;
+    let deflection_wall: Vec<WallPoint> = d
+        .wall
+        .iter()
+        .map(|w| WallPoint {
+            error_um: w.deflection_um,
+            ..*w
+        })
+        .collect();
+    let defl_contour = ContourDevice {
+        noise_um: 0.0,
+        ..nc.contour.device
+    }
+    .measure(&deflection_wall, p.blank_start_mm, p.blank_end_mm, 0)?;
+    let mut wm = wall_metrics(p, &contour, &defl_contour);
+    wm.feed_step_oscillation_um = step_ringing_um(&d.rows, p.cycle_s);
+    let mut trace = Trace::new(&[
+        "t_s",
+        "x_mm",
+        "a_cmd_mm_s2",
+        "fy_measured_n",
+        "correction_um",
+        "y_axis_um",
+        "error_um",
+    ]);
+    for r in &d.rows {
+        let mut row = r.to_vec();
+        row.push(contour_at(&contour, r[1]));
+        trace.rows.push(row);
+    }
+    let errors: Vec<f64> = contour.iter().map(|c| c.1).collect();
+    let x_mid = 0.5 * (p.blank_start_mm + p.blank_end_mm);
+    let k_true = truth
+        .stiffness
+        .system_at(x_mid, p.blank_start_mm, p.blank_end_mm)?;
+    let k_model = models.stiffness.n_per_um();
+    let est = |i: &Identified, n: &str| (i.report.param(n), i.report.se(n));
+    let kc = KienzleCoefficients::c45_handbook().scaled(draw.force_factor);
+    let mut lines = Vec::new();
+    for (name, (e, se), t) in [
+        (
+            "kienzle.kc11_n_mm2",
+            est(&commissioned.kienzle, "kc11_n_mm2"),
+            kc.kc11_n_mm2,
+        ),
+        ("kienzle.mc", est(&commissioned.kienzle, "mc"), kc.mc),
+        (
+            "kienzle.kr11_n_mm2",
+            est(&commissioned.kienzle, "kr11_n_mm2"),
+            kc.kr11_n_mm2,
+        ),
+        ("kienzle.mr", est(&commissioned.kienzle, "mr"), kc.mr),
+        (
+            "stiffness.stiffness_n_per_um",
+            est(&commissioned.stiffness, "stiffness_n_per_um"),
+            k_true,
+        ),
+        (
+            "x_axis.dead_time_s",
+            est(&commissioned.x_axis, "dead_time_s"),
+            f64::NAN,
+        ),
+        ("x_axis.lag_s", est(&commissioned.x_axis, "lag_s"), f64::NAN),
+        (
+            "y_axis.dead_time_s",
+            est(&commissioned.y_axis, "dead_time_s"),
+            f64::NAN,
+        ),
+        ("y_axis.lag_s", est(&commissioned.y_axis, "lag_s"), f64::NAN),
+    ] {
+        lines.push(NcModelLine {
+            name: name.into(),
+            estimate: e,
+            std_err: se,
+            truth: t,
+        });
+    }
+    let notes = vec![
+        format!(
+            "truth: C45 Kienzle × {:.4} with edge forces {}/{} N/mm, k_M {} N/µm (±{} % over the blank), tool {} D overhang: k = {:.2} N/µm at the blank's middle; axes {} ms equivalent delay",
+            draw.force_factor,
+            nc.truth.edge.kte_n_mm,
+            nc.truth.edge.kre_n_mm,
+            nc.machine.machine_stiffness_n_per_um,
+            50.0 * nc.machine.machine_span_rel,
+            nc.machine.overhang_d,
+            k_true,
+            1e3 * nc.machine.axis.equivalent_delay_s()
+        ),
+        format!(
+            "controllers' models (commissioned): k {:.2} N/µm, kc1.1 {:.0} N/mm², mc {:.3}, y axis {:.2} + {:.2} ms, platform σ {:.2} N",
+            k_model,
+            models.force.coefficients().kc11_n_mm2,
+            models.force.coefficients().mc,
+            1e3 * models.y_axis.dead_time_s(),
+            1e3 * models.y_axis.lag_s(),
+            models.force_noise_n
+        ),
+        format!(
+            "force channel sampled every {} s (Nyquist {} Hz), {} notches + {} Hz; NC cycle {} s",
+            nc.control.dt_s,
+            0.5 / nc.control.dt_s,
+            nc.channel().notch_hz.len(),
+            nc.control.lowpass_hz,
+            p.cycle_s
+        ),
+    ];
+    let report = RunReport {
+        scenario: s.name.clone(),
+        stage: "nc_axis".into(),
+        controller: kind.name().into(),
+        metrics: Metrics {
+            exit_overcut_um: None,
+            change_excess_um: wm.feed_step_peak_um.map(|p| p.max(wm.exit_undersize_um)),
+            ..Metrics::from_errors(&errors, d.travel_um)
+        },
+        solver: ctl.solver_stats(),
+        walls: None,
+        commands_finite: d.finite,
+        commands_in_limits: d.in_limits,
+        process_change_peak_um: None,
+        changes: Vec::new(),
+        model: ModelSummary {
+            kz_model_n_per_um: k_model,
+            kz_truth_n_per_um: k_true,
+            stiffness_error_rel: k_model / k_true - 1.0,
+            force_error_max_rel: nc.truth.kienzle_error.abs(),
+            truth_force_scale: draw.force_factor,
+        },
+        nc_axis: Some(NcAxisReport {
+            wall: wm,
+            models: lines,
+            draw,
+        }),
+        simulated_s: d.simulated_s,
+        wall_clock_s: wall_clock.elapsed().as_secs_f64(),
+        notes,
+    };
+    Ok(RunOutput { report, trace })
+}
+
+/// The published NC scenario batch rows with `stage = nc_axis` start from (`003_…txt` Fig. 5).
+pub const NC_BASE_SCENARIO_TOML: &str =
+    include_str!("../../datasets/scenarios/nc_c45_feed_step.toml");
+/// File name of [`NC_BASE_SCENARIO_TOML`].
+pub const NC_BASE_SCENARIO_FILE: &str = "datasets/scenarios/nc_c45_feed_step.toml";
+/// Batch factors only the NC stage has.
+pub const NC_ONLY_FACTORS: &[&str] = &[
+    "feed_ratio",
+    "ae_mm",
+    "machine_stiffness_n_per_um",
+    "overhang_d",
+    "kienzle_error_pct",
+];
+/// Batch factors the NC stage takes (besides `stage`).
+const NC_FACTORS: &[&str] = &[
+    "feed_ratio",
+    "ae_mm",
+    "machine_stiffness_n_per_um",
+    "overhang_d",
+    "kienzle_error_pct",
+    "stiffness_error_pct",
+    "noise_scale",
+    "seed",
+];
+
+/// A batch row with `stage = nc_axis`: the published NC scenario with the row's factors
+/// (`feed_ratio`, `ae_mm`, `machine_stiffness_n_per_um`, `overhang_d`, `kienzle_error_pct`,
+/// `stiffness_error_pct`, `noise_scale`, `seed`).
+///
+/// ```
+/// use millcomp_closedloop::batch::factors::{FactorValue, ScenarioSpec, build_scenario};
+/// let spec = ScenarioSpec {
+///     index: 2,
+///     factors: [
+///         ("stage".to_string(), FactorValue::Text("nc_axis".into())),
+///         ("feed_ratio".to_string(), FactorValue::Num(1.5)),
+///         ("stiffness_error_pct".to_string(), FactorValue::Num(-10.0)),
+///     ].into_iter().collect(),
+/// };
+/// let s = build_scenario(&spec).unwrap();
+/// let nc = s.nc_axis.unwrap();
+/// // 003's 500 mm/min stepped to 1.5 × 500 at 90 mm
+/// assert_eq!(nc.program.feed_changes[0].feed_mm_min, 750.0);
+/// assert!((nc.truth.stiffness_error + 0.1).abs() < 1e-15);
+/// ```
+///
+/// # Errors
+/// [`ClosedLoopError::InvalidFactor`] naming a factor the NC stage does not take or a value it cannot
+/// take; the scenario's validation errors naming the key (a feed above the axis' maximum, …).
+pub fn build_nc_scenario(
+    spec: &crate::batch::factors::ScenarioSpec,
+) -> Result<Scenario, ClosedLoopError> {
+    use crate::batch::factors::{bad, num};
+    for name in spec.factors.keys() {
+        if name != "stage" && !NC_FACTORS.contains(&name.as_str()) {
+            return Err(bad(
+                name,
+                format!(
+                    "does not apply to stage = nc_axis (its factors: {})",
+                    NC_FACTORS.join(", ")
+                ),
+            ));
+        }
+    }
+    let mut s = Scenario::from_toml_str(NC_BASE_SCENARIO_TOML, NC_BASE_SCENARIO_FILE)?;
+    s.name = format!("batch_{:04}", spec.index);
+    s.controllers.clear();
+    let nc = s
+        .nc_axis
+        .as_mut()
+        .ok_or_else(|| invalid("nc_axis", "missing", "the NC base scenario's [nc_axis]"))?;
+    if let Some(v) = num(spec, "feed_ratio")? {
+        if v <= 0.0 {
+            return Err(bad("feed_ratio", format!("{v} is not > 0")));
+        }
+        let f0 = nc.program.feed_mm_min;
+        for c in &mut nc.program.feed_changes {
+            c.feed_mm_min = f0 * v;
+        }
+    }
+    if let Some(v) = num(spec, "ae_mm")? {
+        nc.program.ae_mm = v;
+    }
+    if let Some(v) = num(spec, "machine_stiffness_n_per_um")? {
+        nc.machine.machine_stiffness_n_per_um = v;
+    }
+    if let Some(v) = num(spec, "overhang_d")? {
+        nc.machine.overhang_d = v;
+    }
+    if let Some(v) = num(spec, "kienzle_error_pct")? {
+        nc.truth.kienzle_error = v / 100.0;
+    }
+    if let Some(v) = num(spec, "stiffness_error_pct")? {
+        nc.truth.stiffness_error = v / 100.0;
+    }
+    if let Some(v) = num(spec, "noise_scale")? {
+        if v < 0.0 {
+            return Err(bad(
+                "noise_scale",
+                format!("{v} is negative (allowed >= 0)"),
+            ));
+        }
+        nc.truth.platform_noise_n *= v;
+    }
+    if let Some(v) = num(spec, "seed")? {
+        if v < 0.0 || v.fract() != 0.0 {
+            return Err(bad("seed", format!("{v} is not a non-negative integer")));
+        }
+        s.seed = v as u64;
+    }
+    s.validate()?;
+    Ok(s)
+}
