@@ -367,12 +367,10 @@ pub fn run_groove_with(
                 "open-loop pre-shift applied through the PZT (sim's stage has no path table yet)"
                     .into(),
             );
-            Box::new(OpenLoopController::new(
-                plan.clone(),
-                &t.program,
-                &setup.model_spindle,
-                v_max,
-            ))
+            Box::new(
+                OpenLoopController::new(plan.clone(), &t.program, &setup.model_spindle, v_max)
+                    .with_spindle(t.program.speed_rpm, setup.nominal_tool.flutes),
+            )
         }
         ControllerKind::Pid | ControllerKind::PidAntiWindup | ControllerKind::PidDesign => {
             let gains = if kind == ControllerKind::PidDesign {

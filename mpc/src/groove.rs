@@ -626,12 +626,19 @@ impl GrooveController for NoneController {
 }
 
 /// Open-loop compensation (ch. 6): the planned deflection, driven through the spindle's static gain.
+///
+/// With [`Self::with_spindle`] the plan is followed in time as the deflection arrives — once per tooth
+/// pass, at the midpoint over the spindle's angle, which an open-loop compensation cannot measure
+/// ([`DeflectionPlan::deflection_at_time`]); without it, along the path (`deflection_at`), which steps
+/// the command at the program's corner one revolution before a step made at once reaches the tool.
 #[derive(Debug, Clone)]
 pub struct OpenLoopController {
     plan: DeflectionPlan,
     tip_per_z: f64,
     v_per_um: f64,
     v_max: f64,
+    /// (revolution, tooth period) in s, when the plan is followed in time.
+    timing: Option<(f64, f64)>,
 }
 
 impl OpenLoopController {
@@ -648,14 +655,27 @@ impl OpenLoopController {
             tip_per_z: 1.0 / program.tilt_deg.to_radians().sin(),
             v_per_um: 1.0 / model_spindle.plant().gain_um_per_v,
             v_max: voltage_max_v,
+            timing: None,
         }
+    }
+
+    /// The same compensation following the plan in time for a spindle at `speed_rpm` with `flutes`
+    /// (the catalogue tool's): the deflection of the flutes' last passes, midpoint over the angle.
+    pub fn with_spindle(mut self, speed_rpm: f64, flutes: u32) -> Self {
+        let rev_s = 60.0 / speed_rpm;
+        self.timing = Some((rev_s, rev_s / flutes.max(1) as f64));
+        self
     }
 }
 
 impl OpenLoopController {
     /// The voltage that puts the tip where the plan's deflection at `t_s` wants it (unclamped).
     fn volts_at(&self, t_s: f64) -> f64 {
-        self.volts_for(self.plan.deflection_at(self.plan.x_at(t_s)))
+        let d = match self.timing {
+            Some((rev_s, tooth_s)) => self.plan.deflection_at_time(t_s, rev_s, tooth_s),
+            None => self.plan.deflection_at(self.plan.x_at(t_s)),
+        };
+        self.volts_for(d)
     }
 
     /// The voltage that corrects a z-deflection of `deflection_um` (unclamped).
