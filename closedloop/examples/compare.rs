@@ -27,10 +27,15 @@ use millcomp_closedloop::{ControllerKind, Scenario};
 use millcomp_mpc::groove::GrooveMpcFeatures;
 
 /// The MPC variants of `--features`: a label and the features it runs with.
+/// Each variant is "every feature on" with one switched off, so `-stroke` is the shipped default
+/// (`stroke_aware` is off by default).
 fn feature_variants() -> Vec<(&'static str, GrooveMpcFeatures)> {
-    let all = GrooveMpcFeatures::default();
+    let all = GrooveMpcFeatures {
+        stroke_aware: true,
+        ..GrooveMpcFeatures::default()
+    };
     vec![
-        ("mpc", all),
+        ("all on", all),
         (
             "-stroke",
             GrooveMpcFeatures {
