@@ -29,8 +29,7 @@ use std::f64::consts::PI;
 
 use millcomp_sim::SimError;
 use millcomp_sim::effects::{
-    CoolantThermalDrift, Effect, EffectContext, FluteRunout, MachineCompliance, ProbeTiltOffset,
-    SlidewayStraightness, SpindleThermalGrowth, ToolWear, first_order_response,
+    Effect, EffectContext, FluteRunout, default_effect, first_order_response,
 };
 use millcomp_sim::session::{GroovePoint, PointContext, Session, SessionContexts};
 use rand::{Rng, SeedableRng};
@@ -481,15 +480,7 @@ impl Shape {
         let per_point = |f: &dyn Fn(&PointContext) -> f64| pts.iter().map(f).collect::<Vec<f64>>();
         Ok(match self {
             Shape::Sim(s) => {
-                let mut e: Box<dyn Effect> = match s.name {
-                    "coolant_thermal_drift" => Box::new(CoolantThermalDrift::default()),
-                    "spindle_thermal_growth" => Box::new(SpindleThermalGrowth::default()),
-                    "probe_tilt_offset" => Box::new(ProbeTiltOffset::default()),
-                    "tool_wear" => Box::new(ToolWear::default()),
-                    "slideway_straightness" => Box::new(SlidewayStraightness::default()),
-                    "machine_compliance" => Box::new(MachineCompliance::default()),
-                    _ => Box::new(FluteRunout::default()),
-                };
+                let mut e = default_effect(s.name).map_err(sim_err("hidden sim effect"))?;
                 let values: Vec<f64> = s.params.iter().map(|(_, v)| *v).collect();
                 e.set_params(&values)
                     .map_err(sim_err("hidden sim effect"))?;
