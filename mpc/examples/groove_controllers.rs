@@ -105,6 +105,7 @@ fn run() -> Result<(), MpcError> {
         force_noise_n: 0.0,
         gauge_noise_um: 0.0,
         features: Default::default(),
+        budget: Default::default(),
     };
     let mut controllers: Vec<(&str, Box<dyn GrooveController>)> = vec![
         ("none", Box::new(NoneController)),

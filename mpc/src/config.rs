@@ -85,6 +85,24 @@ pub struct Limits {
     pub u_max: Vec<f64>,
     /// Maximum change per control cycle per input (slew, finite and > 0).
     pub du_max: Vec<f64>,
+    /// Which move-block boundaries of the plan carry slew rows in the QP. The first block's slew is
+    /// always enforced (merged into its bounds, an exact reformulation); the emitted command is always
+    /// clamped to `u_prev ± du_max`.
+    #[serde(default)]
+    pub slew_rows: SlewRows,
+}
+
+/// Slew rows of the planned moves beyond the first (`limits.slew_rows`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SlewRows {
+    /// A slew row pair at every block boundary (the plan is slew-feasible throughout).
+    #[default]
+    EveryBlock,
+    /// Only the first move is slew-limited (two rows fewer per block; the later boundaries of a
+    /// geometric move blocking rarely bind — check the first moves against `every_block` before
+    /// choosing it, as `bench/mpc-vs-casadi` does).
+    FirstBlock,
 }
 
 /// A soft bound on one output over the horizon: `min − s ≤ y_k ≤ max + s`, `s ≥ 0`, checked at the steps
@@ -213,6 +231,53 @@ pub struct SolverConfig {
     /// Iterative refinement of the KKT solves (Clarabel default on; off is ~40 % faster per iteration).
     #[serde(default = "default_true")]
     pub iterative_refinement: bool,
+    /// Ruiz equilibration of the problem data (Clarabel default on).
+    #[serde(default = "default_true")]
+    pub equilibrate: bool,
+    /// Time budget of one control cycle as a fraction of the control period (0 < f ≤ 1; default 0.5).
+    /// The cycle starts at the measurement and ends with the emitted command; Clarabel is stopped (its
+    /// termination callback) when the remaining budget would not hold one more iteration, and a cycle
+    /// whose fresh plan is not ready within the budget emits the fallback instead (counted in
+    /// [`crate::SolverStats::deadline_misses`]).
+    #[serde(default = "default_budget_fraction")]
+    pub budget_fraction: f64,
+    /// Enforce the budget: the solver is stopped at the cycle's deadline and a plan not ready in time is
+    /// replaced by the fallback, as on a real controller. Off (default), cycles are timed and misses
+    /// counted, but the fresh plan is always used, so a simulation's result does not depend on how busy
+    /// the machine running it is.
+    #[serde(default)]
+    pub enforce_budget: bool,
+}
+
+/// How the harness applies a controller's cycle budget: a fraction of the period other than the
+/// configuration's, and whether it is enforced (the run is a real-time one).
+///
+/// ```
+/// use millcomp_mpc::config::{CycleBudget, SolverConfig};
+/// let mut s = SolverConfig::default();
+/// CycleBudget { fraction: Some(0.2), enforced: true }.apply(&mut s);
+/// assert_eq!((s.budget_fraction, s.enforce_budget), (0.2, true));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CycleBudget {
+    /// Overrides `solver.budget_fraction` when given.
+    pub fraction: Option<f64>,
+    /// Sets `solver.enforce_budget` (a configuration that enforces it keeps it).
+    pub enforced: bool,
+}
+
+impl CycleBudget {
+    /// Apply to a solver configuration.
+    pub fn apply(&self, s: &mut SolverConfig) {
+        if let Some(f) = self.fraction {
+            s.budget_fraction = f;
+        }
+        s.enforce_budget |= self.enforced;
+    }
+}
+
+fn default_budget_fraction() -> f64 {
+    0.5
 }
 
 fn default_true() -> bool {
@@ -233,6 +298,9 @@ impl Default for SolverConfig {
             tol_gap: default_tol(),
             tol_feas: default_tol(),
             iterative_refinement: true,
+            equilibrate: true,
+            budget_fraction: default_budget_fraction(),
+            enforce_budget: false,
         }
     }
 }
@@ -293,6 +361,7 @@ impl MpcConfig {
                 u_min: vec![u_min],
                 u_max: vec![u_max],
                 du_max: vec![du_max],
+                slew_rows: SlewRows::EveryBlock,
             },
             soft_outputs: Vec::new(),
             disturbance: DisturbanceConfig::default(),
@@ -478,6 +547,13 @@ impl MpcConfig {
         let s = &self.solver;
         if s.max_iter == 0 || s.max_iter > 500 {
             return Err(invalid("solver.max_iter", s.max_iter, "1 ..= 500"));
+        }
+        if !(s.budget_fraction.is_finite() && s.budget_fraction > 0.0 && s.budget_fraction <= 1.0) {
+            return Err(invalid(
+                "solver.budget_fraction",
+                s.budget_fraction,
+                "0 < fraction <= 1 (of the control period)",
+            ));
         }
         for (key, v) in [
             ("solver.tol_gap", s.tol_gap),

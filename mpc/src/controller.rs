@@ -5,14 +5,18 @@
 //! 1. measurement update of the augmented state with `y_k` and the known offset `w_k`
 //!    (non-finite measurements are skipped);
 //! 2. `update_q`/`update_b` from the estimate, the previous command and the preview window;
-//! 3. Clarabel solve; accepted only if the status is `Solved`/`AlmostSolved` and the solution is finite;
+//! 3. Clarabel solve — with `solver.enforce_budget`, stopped at the cycle's deadline
+//!    (`solver.budget_fraction` of the period after the cycle started, less a guard of one iteration);
+//!    accepted only if the status is `Solved`/`AlmostSolved`, the solution is finite and (enforced) the
+//!    cycle is still within its budget; a cycle over its budget is counted as a deadline miss either way;
 //! 4. otherwise **fallback**: the last accepted plan shifted by the number of cycles since it was computed,
-//!    and once it runs out, hold the previous command (counted in [`SolverStats::fallbacks`]);
+//!    and once it runs out, hold the previous command (counted in [`SolverStats::fallbacks`]; a plan not
+//!    ready within the budget also in [`SolverStats::deadline_misses`]);
 //! 5. last line of defence: a non-finite command holds the previous one; clamp to `[u_min, u_max]` and to
 //!    the slew limit around the previous command;
 //! 6. time update of the filter with the command actually emitted.
 
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use nalgebra::DVector;
 use serde::{Deserialize, Serialize};
@@ -23,6 +27,11 @@ use crate::kalman::{AugmentedModel, KalmanFilter};
 use crate::qp::{CondensedQp, QpStatus};
 use crate::stats::SolverStats;
 use millcomp_sim::DiscreteLti;
+
+/// Time kept after the solver for the rest of a cycle (plan expansion, clamp, filter time update), s.
+const TAIL_GUARD_S: f64 = 5e-6;
+/// Per-cycle decay of the remembered longest time per solver iteration.
+const ITERATION_MEMORY: f64 = 0.98;
 
 /// The known future over the horizon, supplied every cycle by the caller (the planned process).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -57,6 +66,11 @@ pub struct MpcStep {
     pub fallback: bool,
     /// Time for update + solve, µs (0 if the solver was not called).
     pub solve_us: f64,
+    /// Wall time of the whole cycle, from its start (the measurement) to the emitted command, µs.
+    pub cycle_us: f64,
+    /// The fresh plan was not ready within the cycle's budget (with the budget enforced, the fallback
+    /// was emitted instead).
+    pub deadline_miss: bool,
     /// Interior-point iterations.
     pub iterations: u32,
 }
@@ -75,6 +89,10 @@ pub struct MpcController {
     plan_age: usize,
     times_us: Vec<f64>,
     fallbacks: usize,
+    deadline_misses: usize,
+    budget_s: f64,
+    /// Running maximum of the time per interior-point iteration (s): the guard kept before the deadline.
+    iteration_s: f64,
     status_counts: Vec<(QpStatus, usize)>,
     inject_failures: usize,
     injecting: bool,
@@ -140,6 +158,9 @@ impl MpcController {
             plan_age: 0,
             times_us: Vec::new(),
             fallbacks: 0,
+            deadline_misses: 0,
+            budget_s: cfg.solver.budget_fraction * model.dt_s,
+            iteration_s: 0.0,
             status_counts: Vec::new(),
             inject_failures: 0,
             injecting: false,
@@ -200,6 +221,20 @@ impl MpcController {
     /// assert!(matches!(mpc.step(&[0.0, 1.0], &win), Err(MpcError::DimensionMismatch { .. })));
     /// ```
     pub fn step(&mut self, y: &[f64], window: &PreviewWindow) -> Result<MpcStep, MpcError> {
+        self.step_from(Instant::now(), y, window)
+    }
+
+    /// One control cycle that started at `cycle_start` (when the caller began it: reading the sensors,
+    /// building the preview); the budget is counted from there. Otherwise as [`Self::step`].
+    ///
+    /// # Errors
+    /// As [`Self::step`].
+    pub fn step_from(
+        &mut self,
+        cycle_start: Instant,
+        y: &[f64],
+        window: &PreviewWindow,
+    ) -> Result<MpcStep, MpcError> {
         let ny = self.model.n_outputs();
         if y.len() != ny || window.offset_now.len() != ny {
             return Err(MpcError::DimensionMismatch {
@@ -220,15 +255,30 @@ impl MpcController {
                 .set_max_iter_override(if want_inject { Some(1) } else { None })?;
             self.injecting = want_inject;
         }
+        let budget = Duration::from_secs_f64(self.budget_s);
+        // stop the solver while one more iteration and the rest of the cycle still fit in the budget
+        let guard =
+            Duration::from_secs_f64((self.iteration_s + TAIL_GUARD_S).min(0.25 * self.budget_s));
+        let enforced = self.cfg.solver.enforce_budget;
+        let deadline = if enforced {
+            (cycle_start + budget).checked_sub(guard)
+        } else {
+            None
+        };
         let t0 = Instant::now();
         let finite = self
             .qp
             .update(&xa, &self.u_prev, &window.offsets, &window.reference)?;
         let (status, solve_us, iterations) = if finite {
-            let st = self.qp.solve();
+            let st = self.qp.solve_by(deadline);
             let us = t0.elapsed().as_secs_f64() * 1e6;
-            self.times_us.push(us);
-            (st, us, self.qp.iterations())
+            let it = self.qp.iterations();
+            if it > 0 {
+                // a decaying maximum: one preempted solve does not shrink the budget for good
+                let per = us * 1e-6 / f64::from(it);
+                self.iteration_s = per.max(ITERATION_MEMORY * self.iteration_s);
+            }
+            (st, us, it)
         } else {
             (QpStatus::NonFiniteData, 0.0, 0)
         };
@@ -237,7 +287,14 @@ impl MpcController {
         }
         self.count_status(status);
         let mut u = vec![0.0; self.nu];
-        let fallback = !status.is_ok();
+        // a plan that is not ready within the budget is not used: the fallback is what went out
+        // (not enforced: the miss is counted, the plan used all the same)
+        let late = cycle_start.elapsed() > budget;
+        let deadline_miss = status == QpStatus::MaxTime || (status.is_ok() && late);
+        if deadline_miss {
+            self.deadline_misses += 1;
+        }
+        let fallback = !status.is_ok() || (late && enforced);
         if !fallback {
             let mut buf = std::mem::take(&mut self.plan_buf);
             self.qp.expand(self.qp.solution(), &mut buf);
@@ -270,11 +327,17 @@ impl MpcController {
         }
         self.kf.predict(&u);
         self.u_prev.copy_from_slice(&u);
+        let cycle_us = cycle_start.elapsed().as_secs_f64() * 1e6;
+        if finite {
+            self.times_us.push(cycle_us);
+        }
         Ok(MpcStep {
             u,
             status,
             fallback,
             solve_us,
+            cycle_us,
+            deadline_miss,
             iterations,
         })
     }
@@ -289,10 +352,20 @@ impl MpcController {
 
     /// Solver statistics so far.
     pub fn stats(&self) -> SolverStats {
-        SolverStats::from_times(&self.times_us, self.fallbacks)
+        SolverStats::from_times(&self.times_us, self.fallbacks).with_budget(
+            self.budget_s * 1e6,
+            self.deadline_misses,
+            self.cfg.solver.enforce_budget,
+        )
     }
 
-    /// Raw per-cycle QP times (µs).
+    /// The cycle's time budget (µs): `solver.budget_fraction` × the control period.
+    pub fn budget_us(&self) -> f64 {
+        self.budget_s * 1e6
+    }
+
+    /// Raw per-cycle times (µs) of the cycles that called the solver, from the cycle's start to the
+    /// emitted command.
     pub fn solve_times_us(&self) -> &[f64] {
         &self.times_us
     }

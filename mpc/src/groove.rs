@@ -31,6 +31,7 @@ use millcomp_sim::force::CutConditions;
 use millcomp_sim::groove::GrooveProgram;
 use nalgebra::DMatrix;
 
+use crate::config::CycleBudget;
 use crate::config::MpcConfig;
 use crate::controller::{MpcController, PreviewWindow};
 use crate::error::MpcError;
@@ -956,6 +957,8 @@ pub struct GrooveMpcSettings {
     /// Which of the planning and estimation features are on (all by default; the ablations switch them
     /// off one at a time).
     pub features: GrooveMpcFeatures,
+    /// The harness's cycle budget (fraction of the MPC period, enforced or only timed).
+    pub budget: CycleBudget,
 }
 
 /// The groove MPC's planning and estimation features (scenario keys `control.groove_mpc.*`). Each one
@@ -1135,6 +1138,8 @@ pub fn groove_mpc(
             c
         }
     };
+    let mut cfg = cfg;
+    settings.budget.apply(&mut cfg.solver);
     MpcController::new(&model, &cfg)
 }
 
@@ -1388,6 +1393,8 @@ impl MpcGrooveController {
 
 impl GrooveController for MpcGrooveController {
     fn command(&mut self, last: Option<&GrooveMeasurement>, t_s: f64) -> f64 {
+        // the cycle's budget counts from here: sensor chain, preview and solve
+        let cycle_start = std::time::Instant::now();
         let (force, gauge) = last
             .map(|o| (o.force_meas_n, o.gauge_um))
             .unwrap_or((0.0, 0.0));
@@ -1458,7 +1465,7 @@ impl GrooveController for MpcGrooveController {
             },
         ];
         // dimension errors cannot happen here (window built for this controller); on one, hold
-        if let Ok(s) = self.mpc.step(&y, &self.window) {
+        if let Ok(s) = self.mpc.step_from(cycle_start, &y, &self.window) {
             self.v_hold = s.u[0];
         }
         self.v_hold

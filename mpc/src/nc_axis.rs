@@ -819,6 +819,12 @@ pub struct NcMpcSettings {
 }
 
 impl NcMpcSettings {
+    /// The same settings with the harness's cycle `budget` applied.
+    pub fn with_budget(mut self, budget: crate::config::CycleBudget) -> Self {
+        budget.apply(&mut self.mpc.solver);
+        self
+    }
+
     /// Horizon 25 cycles (50 ms: three axis delays), moves blocked 1,1,1,2,2,3,3,4,4,4; tracking weight
     /// 1/µm², 10⁻⁴ per µm² of move; the correction limits of [`CorrectionLimits::default`]; an output
     /// disturbance on the axis position (what the axis model misses); the encoder's noise 10⁻⁴ µm²;
@@ -917,6 +923,7 @@ impl NcController for MpcNc {
         self.planned = self.plan_chain.step(self.plan.force_n(self.cycle));
     }
     fn cycle(&mut self, c: &NcCycle) -> Result<f64, MpcError> {
+        let cycle_start = std::time::Instant::now();
         self.cycle = c.index;
         let k = c.index;
         let range = self
@@ -935,7 +942,7 @@ impl NcController for MpcNc {
         } else {
             f64::NAN
         };
-        let step = self.mpc.step(&[y], &self.preview)?;
+        let step = self.mpc.step_from(cycle_start, &[y], &self.preview)?;
         Ok(step.u[0])
     }
     fn solver_stats(&self) -> Option<SolverStats> {

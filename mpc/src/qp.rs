@@ -8,8 +8,10 @@
 //! min ½ zᵀ P z + qᵀ z
 //!   P = 2·blkdiag(GbᵀQ̄Gb + EᵀR̄E + MᵀS̄M, ρ₂ I),   Gb = G M
 //!   q = [2 GbᵀQ̄ (F ξ̂ + W − Rref) − 2 EᵀR̄ e₀ u_prev − 2 MᵀS̄ 1 u_target;  ρ₁ 1]
-//! s.t.  u_min ≤ v ≤ u_max                               (hard)
-//!       |v₀ − u_prev| ≤ Δu_max, |v_j − v_{j−1}| ≤ Δu_max  (hard slew; a block boundary is one step)
+//! s.t.  max(u_min, u_prev − Δu_max) ≤ v₀ ≤ min(u_max, u_prev + Δu_max)   (hard: bounds and first slew)
+//!       u_min ≤ v_j ≤ u_max                             (hard, j ≥ 1)
+//!       |v_j − v_{j−1}| ≤ Δu_max                        (hard slew, j ≥ 1, `limits.slew_rows =
+//!                                                       "every_block"`; a block boundary is one step)
 //!       y_min − s ≤ (F ξ̂ + Gb v + W)_k ≤ y_max + s       (soft, every k, exact L∞ penalty;
 //!                                                       + Rref_k where the bound is about the reference)
 //!       s ≥ 0
@@ -17,16 +19,25 @@
 //!
 //! P and A never change; per cycle only `q` and `b` are rewritten with Clarabel's `update_q`/`update_b`
 //! (presolve is off — it would drop rows and forbid data updates — and zero dropping is off).
+//!
+//! A cycle's deadline ([`CondensedQp::solve_by`]) is enforced through Clarabel's termination callback,
+//! checked once per interior-point iteration. Clarabel's own `time_limit` cannot serve as a per-cycle
+//! budget: in 0.11 the time it checks includes the solver's one-time setup ("solve time so far (includes
+//! setup)", `info.rs`), so it is left unlimited.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
-    DataUpdateError, DefaultSettings, DefaultSettingsBuilder, DefaultSolver, IPSolver,
+    DataUpdateError, DefaultInfo, DefaultSettings, DefaultSettingsBuilder, DefaultSolver, IPSolver,
     NonnegativeConeT, SolverStatus, SupportedConeT,
 };
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
-use crate::config::{MpcConfig, SolverConfig};
+use crate::config::{MpcConfig, SlewRows, SolverConfig};
 use crate::error::MpcError;
 use crate::kalman::AugmentedModel;
 
@@ -58,7 +69,7 @@ pub enum QpStatus {
     AlmostSolved,
     /// Iteration limit.
     MaxIterations,
-    /// Time limit.
+    /// Stopped at the cycle's deadline (the time budget), or Clarabel's time limit.
     MaxTime,
     /// Numerical error / insufficient progress.
     NumericalError,
@@ -83,7 +94,7 @@ impl QpStatus {
             SolverStatus::Solved => QpStatus::Solved,
             SolverStatus::AlmostSolved => QpStatus::AlmostSolved,
             SolverStatus::MaxIterations => QpStatus::MaxIterations,
-            SolverStatus::MaxTime => QpStatus::MaxTime,
+            SolverStatus::MaxTime | SolverStatus::CallbackTerminated => QpStatus::MaxTime,
             SolverStatus::NumericalError | SolverStatus::InsufficientProgress => {
                 QpStatus::NumericalError
             }
@@ -118,14 +129,19 @@ pub struct CondensedQp {
     p: CscMatrix<f64>,
     a: CscMatrix<f64>,
     b_const: Vec<f64>,
-    /// Rows of the first-block slew constraints: (row of +, row of −, input, du_max).
-    slew0_rows: Vec<(usize, usize, usize, f64)>,
+    /// Bound rows of the first block, which also carry its slew limit: (row of +, row of −, input,
+    /// u_min, u_max, du_max).
+    first_rows: Vec<(usize, usize, usize, f64, f64, f64)>,
     soft_rows: Vec<SoftRow>,
     q: Vec<f64>,
     b: Vec<f64>,
     c_buf: DVector<f64>,
     solver: DefaultSolver<f64>,
     settings: DefaultSettings<f64>,
+    /// Origin of [`Self::deadline_ns`].
+    epoch: Instant,
+    /// The current solve's deadline, ns after `epoch` (`u64::MAX`: none); read by the termination callback.
+    deadline_ns: Arc<AtomicU64>,
 }
 
 impl std::fmt::Debug for CondensedQp {
@@ -183,7 +199,7 @@ pub fn prediction_matrices(model: &AugmentedModel, horizon: usize) -> (DMatrix<f
 }
 
 /// The Clarabel settings for a solver configuration (presolve and zero dropping off so q/b can be
-/// updated; single-threaded QDLDL; quiet).
+/// updated; single-threaded QDLDL; quiet; no time limit — see the module docs).
 pub fn clarabel_settings(cfg: &SolverConfig) -> DefaultSettings<f64> {
     DefaultSettingsBuilder::default()
         .verbose(false)
@@ -195,6 +211,7 @@ pub fn clarabel_settings(cfg: &SolverConfig) -> DefaultSettings<f64> {
         .tol_feas(cfg.tol_feas)
         .direct_solve_method("qdldl".to_string())
         .iterative_refinement_enable(cfg.iterative_refinement)
+        .equilibrate_enable(cfg.equilibrate)
         .max_threads(1)
         .build()
         .expect("static Clarabel settings are valid")
@@ -292,10 +309,15 @@ impl CondensedQp {
                 steps.len() * (lo.is_some() as usize + hi.is_some() as usize)
             })
             .sum();
-        let m = 2 * nv + 2 * nv + n_soft_rows + ns;
+        let slew_blocks = match cfg.limits.slew_rows {
+            SlewRows::EveryBlock => nb - 1,
+            SlewRows::FirstBlock => 0,
+        };
+        let m = 2 * nv + 2 * slew_blocks * nu + n_soft_rows + ns;
         let mut ad = DMatrix::zeros(m, nz);
         let mut b_const = vec![0.0; m];
         let mut row = 0;
+        let mut first_rows = Vec::new();
         for j in 0..nb {
             for i in 0..nu {
                 let c = j * nu + i;
@@ -303,24 +325,23 @@ impl CondensedQp {
                 b_const[row] = cfg.limits.u_max[i];
                 ad[(row + 1, c)] = -1.0;
                 b_const[row + 1] = -cfg.limits.u_min[i];
+                if j == 0 {
+                    let l = &cfg.limits;
+                    first_rows.push((row, row + 1, i, l.u_min[i], l.u_max[i], l.du_max[i]));
+                }
                 row += 2;
             }
         }
-        let mut slew0_rows = Vec::new();
-        for j in 0..nb {
+        for j in 1..=slew_blocks {
             for i in 0..nu {
                 let c = j * nu + i;
                 let du = cfg.limits.du_max[i];
                 ad[(row, c)] = 1.0;
                 ad[(row + 1, c)] = -1.0;
-                if j > 0 {
-                    ad[(row, c - nu)] = -1.0;
-                    ad[(row + 1, c - nu)] = 1.0;
-                    b_const[row] = du;
-                    b_const[row + 1] = du;
-                } else {
-                    slew0_rows.push((row, row + 1, i, du));
-                }
+                ad[(row, c - nu)] = -1.0;
+                ad[(row + 1, c - nu)] = 1.0;
+                b_const[row] = du;
+                b_const[row + 1] = du;
                 row += 2;
             }
         }
@@ -360,12 +381,20 @@ impl CondensedQp {
         let b = b_const.clone();
         let cones: Vec<SupportedConeT<f64>> = vec![NonnegativeConeT(m)];
         let settings = clarabel_settings(&cfg.solver);
-        let solver = DefaultSolver::new(&p, &q, &a, &b, &cones, settings.clone()).map_err(|e| {
-            MpcError::SolverSetup {
-                what: "DefaultSolver::new",
-                source: Box::new(e),
-            }
-        })?;
+        let mut solver =
+            DefaultSolver::new(&p, &q, &a, &b, &cones, settings.clone()).map_err(|e| {
+                MpcError::SolverSetup {
+                    what: "DefaultSolver::new",
+                    source: Box::new(e),
+                }
+            })?;
+        let epoch = Instant::now();
+        let deadline_ns = Arc::new(AtomicU64::new(u64::MAX));
+        let shared = Arc::clone(&deadline_ns);
+        solver.set_termination_callback(move |_info: &DefaultInfo<f64>| {
+            let now = epoch.elapsed().as_nanos().min(u64::MAX as u128) as u64;
+            now >= shared.load(Ordering::Relaxed)
+        });
         if !solver.is_data_update_allowed() {
             return Err(MpcError::SolverSetup {
                 what: "data updating",
@@ -388,13 +417,15 @@ impl CondensedQp {
             p,
             a,
             b_const,
-            slew0_rows,
+            first_rows,
             soft_rows,
             q,
             b,
             c_buf: DVector::zeros(horizon * ny),
             solver,
             settings,
+            epoch,
+            deadline_ns,
         })
     }
 
@@ -461,9 +492,9 @@ impl CondensedQp {
             self.q[self.nv + j] = self.slack_linear;
         }
         self.b.copy_from_slice(&self.b_const);
-        for &(rp, rm, i, du) in &self.slew0_rows {
-            self.b[rp] = du + u_prev[i];
-            self.b[rm] = du - u_prev[i];
+        for &(rp, rm, i, lo, hi, du) in &self.first_rows {
+            self.b[rp] = hi.min(u_prev[i] + du);
+            self.b[rm] = -lo.max(u_prev[i] - du);
         }
         for sr in &self.soft_rows {
             let r = if sr.about_reference {
@@ -493,6 +524,18 @@ impl CondensedQp {
 
     /// Solve with the current data; checks the status and the finiteness of the solution.
     pub fn solve(&mut self) -> QpStatus {
+        self.solve_by(None)
+    }
+
+    /// Solve, stopping at `deadline` if given (Clarabel's termination callback, checked once per
+    /// iteration: the solve ends at most one iteration after it, with [`QpStatus::MaxTime`]).
+    pub fn solve_by(&mut self, deadline: Option<Instant>) -> QpStatus {
+        let ns = deadline.map_or(u64::MAX, |d| {
+            d.saturating_duration_since(self.epoch)
+                .as_nanos()
+                .min(u64::MAX as u128) as u64
+        });
+        self.deadline_ns.store(ns, Ordering::Relaxed);
         self.solver.solve();
         let st = QpStatus::from_clarabel(self.solver.solution.status);
         if st.is_ok() && !self.solver.solution.x.iter().all(|v| v.is_finite()) {

@@ -60,6 +60,11 @@ pub struct ReplayResult {
     pub median_us: f64,
     /// 99th percentile, µs.
     pub p99_us: f64,
+    /// Median time of Clarabel's `solve()` call alone, µs (the counterpart of a peer's own solver
+    /// timer; Clarabel's `solution.solve_time` cannot serve, it includes the one-time setup).
+    pub solve_median_us: f64,
+    /// 99th percentile of the `solve()` time, µs.
+    pub solve_p99_us: f64,
     /// First move of each cycle.
     pub first_moves: Vec<f64>,
     /// Cycles whose status was not Solved/AlmostSolved.
@@ -159,8 +164,9 @@ impl<'a> ReplaySolver<'a> {
         self.seq.q.len()
     }
 
-    /// Solve cycle `k` (mod the number of cycles); returns (accepted?, first move, iterations).
-    pub fn solve_cycle(&mut self, k: usize) -> Result<(bool, f64, u32), MpcError> {
+    /// Solve cycle `k` (mod the number of cycles); returns (accepted?, first move, iterations, seconds
+    /// in `solve()`).
+    pub fn solve_cycle(&mut self, k: usize) -> Result<(bool, f64, u32, f64), MpcError> {
         let k = k % self.seq.q.len();
         self.solver
             .update_q(&self.seq.q[k])
@@ -174,7 +180,9 @@ impl<'a> ReplaySolver<'a> {
                 what: "update_b",
                 source: Box::new(e),
             })?;
+        let t0 = Instant::now();
         self.solver.solve();
+        let solve_s = t0.elapsed().as_secs_f64();
         let ok = matches!(
             self.solver.solution.status,
             SolverStatus::Solved | SolverStatus::AlmostSolved
@@ -183,6 +191,7 @@ impl<'a> ReplaySolver<'a> {
             ok,
             self.solver.solution.x[self.seq.first_move_index],
             self.solver.solution.iterations,
+            solve_s,
         ))
     }
 }
@@ -193,13 +202,15 @@ pub fn replay_clarabel(seq: &QpSequence) -> Result<ReplayResult, MpcError> {
     let mut rs = ReplaySolver::new(seq)?;
     let n = rs.cycles();
     let mut times = Vec::with_capacity(n);
+    let mut solve_times = Vec::with_capacity(n);
     let mut iters = Vec::with_capacity(n);
     let mut first = Vec::with_capacity(n);
     let mut failures = 0;
     for k in 0..n {
         let t0 = Instant::now();
-        let (ok, u0, it) = rs.solve_cycle(k)?;
+        let (ok, u0, it, solve_s) = rs.solve_cycle(k)?;
         times.push(t0.elapsed().as_secs_f64() * 1e6);
+        solve_times.push(solve_s * 1e6);
         iters.push(it as f64);
         if !ok {
             failures += 1;
@@ -209,6 +220,8 @@ pub fn replay_clarabel(seq: &QpSequence) -> Result<ReplayResult, MpcError> {
     Ok(ReplayResult {
         median_us: percentile(&times, 50.0),
         p99_us: percentile(&times, 99.0),
+        solve_median_us: percentile(&solve_times, 50.0),
+        solve_p99_us: percentile(&solve_times, 99.0),
         first_moves: first,
         failures,
         median_iterations: percentile(&iters, 50.0),

@@ -2,17 +2,32 @@
 
 use serde::{Deserialize, Serialize};
 
-/// Solver statistics of one controller run: `{"solves", "median_us", "p99_us", "fallbacks"}`.
+/// Solver statistics of one controller run: `{"solves", "median_us", "p99_us", "max_us", "fallbacks",
+/// "budget_us", "deadline_misses", "budget_enforced"}`. Times are wall time per control cycle, from the cycle's start (the
+/// measurement) to the emitted command, over the cycles that called the solver.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
 pub struct SolverStats {
     /// Number of QP solves attempted (cycles where Clarabel was called).
     pub solves: usize,
-    /// Median per-cycle QP time (update_q/update_b + solve), µs.
+    /// Median per-cycle time, µs.
     pub median_us: f64,
-    /// 99th percentile of the per-cycle QP time, µs.
+    /// 99th percentile of the per-cycle time, µs.
     pub p99_us: f64,
+    /// Longest cycle, µs.
+    #[serde(default)]
+    pub max_us: f64,
     /// Cycles that used the fallback (previous plan shifted, then hold) instead of a fresh solution.
     pub fallbacks: usize,
+    /// The per-cycle time budget, µs (0: none recorded).
+    #[serde(default)]
+    pub budget_us: f64,
+    /// Cycles whose fresh plan was not ready within the budget (the solver stopped at the deadline, or
+    /// the cycle ended late); each also counts as a fallback.
+    #[serde(default)]
+    pub deadline_misses: usize,
+    /// The budget was enforced (a late plan replaced by the fallback), not only timed.
+    #[serde(default)]
+    pub budget_enforced: bool,
 }
 
 /// Percentile by the nearest-rank method on a copy of `samples` (`p` in 0..=100); 0 for an empty slice.
@@ -40,7 +55,22 @@ impl SolverStats {
             solves: times_us.len(),
             median_us: percentile(times_us, 50.0),
             p99_us: percentile(times_us, 99.0),
+            max_us: percentile(times_us, 100.0),
             fallbacks,
+            budget_us: 0.0,
+            deadline_misses: 0,
+            budget_enforced: false,
+        }
+    }
+
+    /// The same statistics with the cycle budget (µs), the deadline misses against it and whether it
+    /// was enforced.
+    pub fn with_budget(self, budget_us: f64, deadline_misses: usize, enforced: bool) -> Self {
+        Self {
+            budget_us,
+            deadline_misses,
+            budget_enforced: enforced,
+            ..self
         }
     }
 }

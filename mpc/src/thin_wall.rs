@@ -28,8 +28,8 @@ use millcomp_sim::thinwall::{THRESHOLD_004_UM, ThresholdCompensator, plan_compen
 use nalgebra::DMatrix;
 
 use crate::config::{
-    DisturbanceConfig, DisturbanceKind, KalmanConfig, Limits, MpcConfig, SoftOutput, SolverConfig,
-    Weights,
+    CycleBudget, DisturbanceConfig, DisturbanceKind, KalmanConfig, Limits, MpcConfig, SlewRows,
+    SoftOutput, SolverConfig, Weights,
 };
 use crate::controller::{MpcController, PreviewWindow};
 use crate::error::MpcError;
@@ -84,15 +84,20 @@ pub fn estimated_deflection_um(
     last.map(|m| m.force_meas_n * c_full).unwrap_or(0.0)
 }
 
-/// The MPC of the thin-wall stage (model `x⁺ = u`, outputs [stage, excess]).
+/// The MPC of the thin-wall stage (model `x⁺ = u`, outputs [stage, excess]) with control period `dt_s`
+/// (it sets the cycle's time budget) and the harness's `budget`.
 ///
 /// # Errors
-/// Configuration errors of [`MpcController::new`] (e.g. a horizon of 0).
-pub fn thin_wall_mpc(horizon: usize) -> Result<MpcController, MpcError> {
+/// Configuration errors of [`MpcController::new`] (e.g. a horizon of 0, a period ≤ 0).
+pub fn thin_wall_mpc(
+    horizon: usize,
+    dt_s: f64,
+    budget: CycleBudget,
+) -> Result<MpcController, MpcError> {
     let a = DMatrix::from_element(1, 1, 0.0);
     let b = DMatrix::from_element(1, 1, 1.0);
     let c = DMatrix::from_column_slice(2, 1, &[1.0, -1.0]);
-    let model = DiscreteLti::new(a, b, c, DMatrix::zeros(2, 1), 1.0)?;
+    let model = DiscreteLti::new(a, b, c, DMatrix::zeros(2, 1), dt_s)?;
     let cfg = MpcConfig {
         horizon,
         control_horizon: None,
@@ -109,6 +114,7 @@ pub fn thin_wall_mpc(horizon: usize) -> Result<MpcController, MpcError> {
             u_min: vec![STAGE_MIN_UM],
             u_max: vec![STAGE_MAX_UM],
             du_max: vec![20.0],
+            slew_rows: SlewRows::EveryBlock,
         },
         soft_outputs: vec![SoftOutput {
             output: 1,
@@ -135,8 +141,11 @@ pub fn thin_wall_mpc(horizon: usize) -> Result<MpcController, MpcError> {
             tol_gap: 1e-10,
             tol_feas: 1e-10,
             iterative_refinement: false,
+            ..SolverConfig::default()
         },
     };
+    let mut cfg = cfg;
+    budget.apply(&mut cfg.solver);
     MpcController::new(&model, &cfg)
 }
 
@@ -258,15 +267,15 @@ pub struct MpcThinWallController {
 
 impl MpcThinWallController {
     /// From the controllers' plan of the wall and the wanted horizon, shortened to the plan's length
-    /// (at least 2 cycles).
+    /// (at least 2 cycles); the harness's cycle `budget`.
     ///
     /// # Errors
     /// Those of [`thin_wall_mpc`].
-    pub fn new(plan: WallPlan, horizon: usize) -> Result<Self, MpcError> {
+    pub fn new(plan: WallPlan, horizon: usize, budget: CycleBudget) -> Result<Self, MpcError> {
         let h = horizon.min(plan.deflection_um.len().max(2)).max(2);
         Ok(Self {
+            mpc: thin_wall_mpc(h, plan.dt_s, budget)?,
             plan,
-            mpc: thin_wall_mpc(h)?,
             window: PreviewWindow::zeros(h, 2),
         })
     }
@@ -279,6 +288,7 @@ impl MpcThinWallController {
 
 impl ThinWallController for MpcThinWallController {
     fn command(&mut self, k: usize, last: Option<&ThinWallMeasurement>) -> f64 {
+        let cycle_start = std::time::Instant::now();
         let n_steps = self.plan.deflection_um.len();
         let h = self.mpc.config().horizon;
         // y_k = [x_k, δ_{k−1} − x_k]: the excess channel's known offset at cycle k is the planned
@@ -296,7 +306,7 @@ impl ThinWallController for MpcThinWallController {
             None => [f64::NAN, f64::NAN],
         };
         self.mpc
-            .step(&y, &self.window)
+            .step_from(cycle_start, &y, &self.window)
             .map(|s| s.u[0])
             .unwrap_or(stage_meas)
     }

@@ -337,3 +337,60 @@ fn preview_acts_before_a_known_step() {
     let k = first_move.expect("controller moved");
     assert!(k < 30, "moved at {k}, after the step");
 }
+
+/// Run 40 cycles towards a 20 µm reference with budget fraction `f`, enforced or only timed; returns the
+/// commands and the final statistics.
+fn run_with_budget(f: f64, enforced: bool) -> (Vec<f64>, millcomp_mpc::SolverStats) {
+    let m = spindle();
+    let mut c = cfg(10);
+    c.solver.budget_fraction = f;
+    c.solver.enforce_budget = enforced;
+    let mut mpc = MpcController::new(&m, &c).unwrap();
+    let mut win = PreviewWindow::zeros(10, 1);
+    win.reference.iter_mut().for_each(|r| *r = 20.0);
+    let (mut x, mut y, mut us) = (m.zero_state(), 0.0, Vec::new());
+    for _ in 0..40 {
+        let s = mpc.step(&[y], &win).unwrap();
+        assert!(s.u[0].is_finite() && (0.0..=1000.0).contains(&s.u[0]));
+        assert!(s.cycle_us >= s.solve_us && s.cycle_us > 0.0);
+        us.push(s.u[0]);
+        y = advance(&m, &mut x, s.u[0]);
+    }
+    (us, mpc.stats())
+}
+
+#[test]
+fn an_impossible_budget_is_missed_every_cycle_and_falls_back_when_enforced() {
+    // 1e-6 of the 0.5 ms period is 0.5 ns: no cycle can make it
+    let (us, st) = run_with_budget(1e-6, true);
+    assert_eq!((st.solves, st.deadline_misses, st.fallbacks), (40, 40, 40));
+    assert!(st.budget_enforced && (st.budget_us - 5e-4).abs() < 1e-9);
+    // the fallback from rest is the hold: the command never leaves 0 V
+    assert!(us.iter().all(|&u| u == 0.0), "{us:?}");
+    assert!(st.max_us >= st.p99_us && st.p99_us >= st.median_us);
+}
+
+#[test]
+fn a_budget_only_timed_counts_misses_without_changing_the_commands() {
+    // not enforced: the same commands as with the default budget, the misses still counted
+    let (tight, st) = run_with_budget(1e-6, false);
+    let (normal, _) = run_with_budget(1.0, false);
+    assert_eq!(tight, normal);
+    assert_eq!((st.deadline_misses, st.fallbacks), (40, 0));
+    assert!(!st.budget_enforced);
+    assert!(normal[0] > 0.0); // the MPC did act
+}
+
+#[test]
+fn budget_fraction_outside_0_1_names_the_key() {
+    let mut c = cfg(10);
+    for bad in [0.0, 1.5, f64::NAN] {
+        c.solver.budget_fraction = bad;
+        match MpcController::new(&spindle(), &c) {
+            Err(millcomp_mpc::MpcError::InvalidConfig { key, .. }) => {
+                assert_eq!(key, "solver.budget_fraction")
+            }
+            other => panic!("{bad}: {other:?}"),
+        }
+    }
+}
