@@ -369,6 +369,14 @@ pub struct SimulateArgs {
     /// Add measurement noise with this seed (sessions).
     #[arg(long)]
     pub noise_seed: Option<u64>,
+    /// Scenarios: run the controller at normal priority (by default its thread gets real-time
+    /// priority where the machine permits it, as a real controller would; the report says which).
+    #[arg(long)]
+    pub no_realtime: bool,
+    /// Scenarios: the MPC cycle's time budget as a fraction of its period (default 0.5); a cycle
+    /// whose plan is not ready within it emits the fallback and counts as a deadline miss.
+    #[arg(long)]
+    pub budget_fraction: Option<f64>,
 }
 
 /// `millcomp batch`.

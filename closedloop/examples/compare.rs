@@ -14,6 +14,10 @@
 //! a time (`control.groove_mpc`: `stroke_aware`, `adapt_plan_scale`, `spindle_phase`, `flute_phase`,
 //! `gauge_disturbance`), all off, beside `pid-ff` — what each feature buys.
 //!
+//! `--rates`: the scenarios with process changes, the MPC at 2 kHz (horizon 20 = 10 ms, shipped), at
+//! 5 kHz with the same 20 steps (4 ms) and at 5 kHz with 50 steps (10 ms), beside `pid-ff` — what the
+//! faster cycle buys (issue 18).
+//!
 //! `--commissioned`: the hard form (`millcomp_closedloop::compare::commissioned`) — each groove scenario
 //! with instrument errors and a tool drawn from the seed and controllers built only from its own
 //! commissioning; each thin wall a part drawn from the seed; no deliberate force-model errors.
@@ -84,9 +88,16 @@ fn feature_variants() -> Vec<(&'static str, GrooveMpcFeatures)> {
     ]
 }
 
+/// The MPC rates of `--rates`: label, stage steps per MPC cycle (20 kHz stage), horizon in cycles.
+const RATE_VARIANTS: [(&str, usize, usize); 3] = [
+    ("mpc 2 kHz h20", 10, 20),
+    ("mpc 5 kHz h20", 4, 20),
+    ("mpc 5 kHz h50", 4, 50),
+];
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let (mut seeds, mut comm, mut ablations, mut changes, mut features) =
-        (10u64, false, false, false, false);
+    let (mut seeds, mut comm, mut ablations, mut changes, mut features, mut rates) =
+        (10u64, false, false, false, false, false);
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -96,6 +107,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 features = true;
             }
             "--ablations" => ablations = true,
+            "--rates" => {
+                ablations = true;
+                changes = true;
+                rates = true;
+            }
             "--changes" => {
                 ablations = true;
                 changes = true;
@@ -109,7 +125,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             other => {
                 return Err(format!(
-                    "unknown argument `{other}`: allowed --seeds N, --commissioned, --ablations, --changes, --features"
+                    "unknown argument `{other}`: allowed --seeds N, --commissioned, --ablations, --changes, --features, --rates"
                 )
                 .into());
             }
@@ -164,7 +180,37 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         bar.set_style(style);
     }
     let t0 = std::time::Instant::now();
-    let (rows, cols): (Vec<CompareRow>, Vec<String>) = if features {
+    let (rows, cols): (Vec<CompareRow>, Vec<String>) = if rates {
+        let mut rows = compare(
+            &scenarios,
+            &[ControllerKind::PidFeedforward],
+            1..1 + seeds,
+            &|| bar.inc(1),
+        )?;
+        let mut cols = vec![ControllerKind::PidFeedforward.name().to_string()];
+        for (label, every, horizon) in RATE_VARIANTS {
+            let variant: Vec<Scenario> = scenarios
+                .iter()
+                .map(|s| {
+                    let mut s = s.clone();
+                    s.control.mpc_every = every;
+                    s.control.horizon = horizon;
+                    // the amplifier's slew per cycle scales with the period (the same V/s)
+                    s.control.slew_v_per_cycle *= every as f64 / 10.0;
+                    s
+                })
+                .collect();
+            let mut r = compare(&variant, &[ControllerKind::Mpc], 1..1 + seeds, &|| {
+                bar.inc(1)
+            })?;
+            r.iter_mut()
+                .for_each(|row| row.controller = label.to_string());
+            rows.extend(r);
+            cols.push(label.to_string());
+        }
+        rows.sort_by(|a, b| (&a.scenario, &a.metric).cmp(&(&b.scenario, &b.metric)));
+        (rows, cols)
+    } else if features {
         // pid-ff once, then the MPC once per variant, its rows labelled with the variant
         let mut rows = compare(
             &scenarios,
@@ -202,7 +248,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "{} seeds (1..={seeds}){}{}; median [95 % interval of the median]; {:.0} s",
         seeds,
         if comm { ", commissioned" } else { "" },
-        if features {
+        if rates {
+            ", MPC rates"
+        } else if features {
             ", MPC features"
         } else if changes {
             ", process changes"

@@ -271,6 +271,7 @@ pub fn mpc_settings(
         force_noise_n: noise.force_noise_n,
         gauge_noise_um: noise.gauge_noise_um,
         features: s.control.groove_mpc,
+        budget: s.control.cycle_budget(),
     })
 }
 
@@ -510,7 +511,7 @@ pub fn run_groove_with(
             .map(|o| groove_measurement(o, &s.faults, &mut stuck));
         let t_now = k as f64 * dt;
         pending_failures.inject_due(t_now, |n| ctl.inject_solver_failures(n));
-        let v = ctl.command(obs.as_ref(), t_now);
+        let v = crate::realtime::cycle(|| ctl.command(obs.as_ref(), t_now));
         if !v.is_finite() {
             finite = false;
         }
@@ -611,6 +612,7 @@ pub fn run_groove_with(
         },
         nc_axis: None,
         simulated_s: k as f64 * dt,
+        realtime: false,
         wall_clock_s: wall.elapsed().as_secs_f64(),
         notes,
     };

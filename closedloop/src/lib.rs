@@ -54,6 +54,7 @@ pub mod model_files;
 pub mod nc_axis;
 pub mod optimum;
 pub mod parts;
+pub mod realtime;
 pub mod recording;
 pub mod report;
 pub mod runner;

@@ -810,10 +810,12 @@ fn drive(
             let k = stage.cycle();
             let a = stage.interpolator().reference(k).a_mm_s2;
             let (x, y) = stage.axes();
-            let u = ctl.cycle(&NcCycle {
-                index: k,
-                a_cmd_mm_s2: a,
-                y_axis_um: y,
+            let u = crate::realtime::cycle(|| {
+                ctl.cycle(&NcCycle {
+                    index: k,
+                    a_cmd_mm_s2: a,
+                    y_axis_um: y,
+                })
             })?;
             if !u.is_finite() {
                 finite = false;
@@ -1023,7 +1025,7 @@ fn step_ringing_um(rows: &[[f64; 6]], cycle_s: f64) -> Option<f64> {
 }
 
 /// A controller of the stage for `kind`, built from `models` (the proactive one records its reference
-/// run on `truth` with its own noise).
+/// run on `truth` with its own noise); the MPC with the harness's cycle `budget`.
 ///
 /// # Errors
 /// [`ClosedLoopError::InvalidConfig`] (`controller`) for a kind the stage does not have; the
@@ -1033,6 +1035,7 @@ pub fn nc_controller(
     nc: &NcAxisScenario,
     truth: &NcAxisConfig,
     models: &NcModels,
+    budget: millcomp_mpc::config::CycleBudget,
 ) -> Result<Box<dyn NcController>, ClosedLoopError> {
     let p = &nc.program;
     let channel = nc.channel();
@@ -1074,7 +1077,7 @@ pub fn nc_controller(
                 plan,
                 &channel,
                 models.force_noise_n,
-                &NcMpcSettings::default_nc(),
+                &NcMpcSettings::default_nc().with_budget(budget),
             )?)
         }
         other => {
@@ -1129,7 +1132,7 @@ pub fn run_nc_axis(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Clos
     let (truth, draw) = nc_truth(nc, s.seed)?;
     let commissioned = commission_nc(&truth, &nc.program, &nc.commissioning, s.seed)?;
     let models = NcModels::of(&commissioned, &nc.truth)?;
-    let mut ctl = nc_controller(kind, nc, &truth, &models)?;
+    let mut ctl = nc_controller(kind, nc, &truth, &models, s.control.cycle_budget())?;
     let d = drive(&truth, &nc.program, ctl.as_mut(), &nc.control.limits, false)?;
     let p = &nc.program;
     let contour =
@@ -1270,6 +1273,7 @@ pub fn run_nc_axis(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Clos
             draw,
         }),
         simulated_s: d.simulated_s,
+        realtime: false,
         wall_clock_s: wall_clock.elapsed().as_secs_f64(),
         notes,
     };

@@ -108,7 +108,8 @@ pub struct RunReport {
     pub controller: String,
     /// Error metrics.
     pub metrics: Metrics,
-    /// MPC only: `{solves, median_us, p99_us, fallbacks}`.
+    /// MPC only: `{solves, median_us, p99_us, max_us, fallbacks, budget_us, deadline_misses}`
+    /// (per-cycle wall time, [`SolverStats`]).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub solver: Option<SolverStats>,
     /// Thin walls: per-wall results.
@@ -131,6 +132,9 @@ pub struct RunReport {
     pub nc_axis: Option<crate::nc_axis::NcAxisReport>,
     /// Simulated duration (s).
     pub simulated_s: f64,
+    /// The run's thread had real-time priority (`[control] realtime`, [`crate::realtime`]).
+    #[serde(default)]
+    pub realtime: bool,
     /// Wall-clock time of the run (s).
     pub wall_clock_s: f64,
     /// Notes (assumptions in force for this run).

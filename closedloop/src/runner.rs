@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::ClosedLoopError;
 use crate::groove::run_groove;
+use crate::realtime::Scope;
 use crate::report::{RunOutput, RunReport};
 pub use crate::scenario::{ControllerKind, Scenario, StageKind};
 use crate::thin_wall::run_thin_wall;
@@ -50,11 +51,14 @@ pub fn run_scenario_with_trace(
     kind: ControllerKind,
 ) -> Result<RunOutput, ClosedLoopError> {
     s.validate()?;
-    match s.stage {
+    let rt = Scope::enter(s.control.realtime);
+    let mut out = match s.stage {
         StageKind::Groove => run_groove(s, kind),
         StageKind::ThinWall => run_thin_wall(s, kind),
         StageKind::NcAxis => crate::nc_axis::run_nc_axis(s, kind),
-    }
+    }?;
+    out.report.realtime = rt.active();
+    Ok(out)
 }
 
 /// One point of a stiffness-error sweep.

@@ -389,6 +389,17 @@ impl Default for TruthSpec {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ControlSpec {
+    /// Run as a real-time controller: its cycles at real-time priority where permitted
+    /// (`crate::realtime`; the report's `realtime` says whether they were) and the MPC's cycle budget
+    /// enforced (a plan not ready in time is replaced by the fallback). Off (the default; batches and
+    /// tests), cycles are timed and misses counted but the fresh plan is always used, so results do not
+    /// depend on the machine's load. `millcomp simulate` sets it unless `--no-realtime`.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub realtime: bool,
+    /// The MPC cycle's time budget as a fraction of its period (0 < f ≤ 1), overriding the MPC
+    /// configuration's `solver.budget_fraction` (default 0.5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub budget_fraction: Option<f64>,
     /// Stage step (s); PID and the signal chain run every step.
     #[serde(default = "default_dt")]
     pub dt_s: f64,
@@ -444,9 +455,21 @@ fn default_slew() -> f64 {
     100.0
 }
 
+impl ControlSpec {
+    /// The MPC's cycle budget for this run: `budget_fraction` if given, enforced when `realtime`.
+    pub fn cycle_budget(&self) -> millcomp_mpc::config::CycleBudget {
+        millcomp_mpc::config::CycleBudget {
+            fraction: self.budget_fraction,
+            enforced: self.realtime,
+        }
+    }
+}
+
 impl Default for ControlSpec {
     fn default() -> Self {
         Self {
+            realtime: false,
+            budget_fraction: None,
             dt_s: default_dt(),
             mpc_every: default_mpc_every(),
             horizon: default_horizon(),
@@ -627,6 +650,15 @@ impl Scenario {
             })?;
         }
         let c = &self.control;
+        if let Some(f) = c.budget_fraction
+            && !(f.is_finite() && f > 0.0 && f <= 1.0)
+        {
+            return Err(invalid(
+                "control.budget_fraction",
+                f,
+                "0 < fraction <= 1 (of the MPC period)",
+            ));
+        }
         if c.bundle.is_some() || c.commission {
             let from = if c.bundle.is_some() {
                 "control.bundle"

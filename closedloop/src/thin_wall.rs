@@ -97,13 +97,14 @@ fn thin_wall_controller(
     kind: ControllerKind,
     plan: &WallPlan,
     horizon: usize,
+    budget: millcomp_mpc::config::CycleBudget,
 ) -> Result<Box<dyn ThinWallController>, ClosedLoopError> {
     Ok(match kind {
         ControllerKind::None => Box::new(NoneController),
         ControllerKind::OpenLoop => Box::new(OpenLoopController::new(plan.clone())),
         ControllerKind::Threshold => Box::new(ThresholdController::new(plan.clone())),
         ControllerKind::Pid => Box::new(PiController::new(plan.clone())),
-        ControllerKind::Mpc => Box::new(MpcThinWallController::new(plan.clone(), horizon)?),
+        ControllerKind::Mpc => Box::new(MpcThinWallController::new(plan.clone(), horizon, budget)?),
         ControllerKind::PidAntiWindup
         | ControllerKind::PidDesign
         | ControllerKind::PidTuned
@@ -145,6 +146,7 @@ pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Cl
     let mut in_limits = true;
     let mut times = Vec::new();
     let mut fallbacks = 0;
+    let (mut deadline_misses, mut budget_us, mut enforced) = (0, 0.0, false);
     let mut trace = Trace::new(&[
         "wall_um",
         "t_s",
@@ -189,7 +191,8 @@ pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Cl
             .scaled(1.0 + s.truth.stiffness_error, 1.0 + force_errors.w_mpa)?;
         let plan = plan_wall(&model)?;
         let dt = plan.dt_s;
-        let mut ctl = thin_wall_controller(kind, &plan, s.control.horizon)?;
+        let mut ctl =
+            thin_wall_controller(kind, &plan, s.control.horizon, s.control.cycle_budget())?;
         let mut pending = SolverFailures::new(s);
         let mut st = ThinWallStage::new(truth.clone())?;
         let mut last: Option<ThinWallStepOutput> = None;
@@ -204,7 +207,7 @@ pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Cl
             let t_now = k as f64 * dt;
             pending.inject_due(t_now, |n| ctl.inject_solver_failures(n));
             let est = estimated_deflection_um(&plan, k, meas.as_ref());
-            let cmd = ctl.command(k, meas.as_ref());
+            let cmd = crate::realtime::cycle(|| ctl.command(k, meas.as_ref()));
             // stage travel (assumed ±: −20 … +60 µm around the programmed path) for every controller
             let cmd = if cmd.is_finite() {
                 cmd.clamp(STAGE_MIN_UM, STAGE_MAX_UM)
@@ -238,6 +241,9 @@ pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Cl
         times.extend_from_slice(ctl.solve_times_us());
         if let Some(st) = ctl.solver_stats() {
             fallbacks += st.fallbacks;
+            deadline_misses += st.deadline_misses;
+            budget_us = st.budget_us;
+            enforced = st.budget_enforced;
         }
         let t = st.mean_thickness_um();
         walls.push(WallReport {
@@ -268,8 +274,13 @@ pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Cl
             stage: "thin_wall".into(),
             controller: kind.name().into(),
             metrics,
-            solver: (kind == ControllerKind::Mpc)
-                .then(|| SolverStats::from_times(&times, fallbacks)),
+            solver: (kind == ControllerKind::Mpc).then(|| {
+                SolverStats::from_times(&times, fallbacks).with_budget(
+                    budget_us,
+                    deadline_misses,
+                    enforced,
+                )
+            }),
             walls: Some(walls),
             commands_finite: finite,
             commands_in_limits: in_limits,
@@ -284,6 +295,7 @@ pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Cl
             },
             nc_axis: None,
             simulated_s: simulated,
+            realtime: false,
             wall_clock_s: wall_clock.elapsed().as_secs_f64(),
             notes,
         },

@@ -145,7 +145,11 @@ fn is_scenario(path: &Path) -> anyhow::Result<bool> {
 
 /// `simulate SCENARIO --controller K`: one closed-loop run on the truth plant of the scenario.
 fn run_scenario(args: &SimulateArgs, json: bool) -> anyhow::Result<()> {
-    let scenario = Scenario::load(&args.file)?;
+    let mut scenario = Scenario::load(&args.file)?;
+    scenario.control.realtime = !args.no_realtime;
+    if args.budget_fraction.is_some() {
+        scenario.control.budget_fraction = args.budget_fraction;
+    }
     let name = args.controller.as_deref().unwrap_or("none");
     let kind: ControllerKind = name.parse().context("--controller")?;
     let out = run_scenario_with_trace(&scenario, kind)
@@ -239,8 +243,24 @@ fn run_scenario(args: &SimulateArgs, json: bool) -> anyhow::Result<()> {
     }
     if let Some(s) = &out.report.solver {
         println!(
-            "solver: {} solves, median {:.1} us, p99 {:.1} us, {} fallbacks",
-            s.solves, s.median_us, s.p99_us, s.fallbacks
+            "solver: {} solves, cycle time median {:.1} us, p99 {:.1} us, max {:.1} us (budget {:.0} us {}, {} deadline misses), {} fallbacks; {}",
+            s.solves,
+            s.median_us,
+            s.p99_us,
+            s.max_us,
+            s.budget_us,
+            if s.budget_enforced {
+                "enforced"
+            } else {
+                "timed only"
+            },
+            s.deadline_misses,
+            s.fallbacks,
+            if out.report.realtime {
+                "real-time priority"
+            } else {
+                "normal priority"
+            }
         );
     }
     if let Some(walls) = &out.report.walls {
