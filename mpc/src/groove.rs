@@ -410,6 +410,21 @@ impl DeflectionPlan {
         tooth_s: f64,
         pass_s: f64,
     ) -> Vec<f64> {
+        self.deflections_phased_cached(&mut PulseCache::default(), times_s, rev_s, tooth_s, pass_s)
+    }
+
+    /// [`Self::deflections_phased`] keeping the planned pulses in `cache` for the next call: a
+    /// controller's successive windows overlap, so only the pulses that entered the window are
+    /// computed (the cache is dropped when the spindle's angle estimate or the speed changes). The
+    /// result is the same, bit for bit.
+    pub fn deflections_phased_cached(
+        &self,
+        cache: &mut PulseCache,
+        times_s: &[f64],
+        rev_s: f64,
+        tooth_s: f64,
+        pass_s: f64,
+    ) -> Vec<f64> {
         let (Some(&first), Some(&last)) = (times_s.first(), times_s.last()) else {
             return Vec::new();
         };
@@ -424,18 +439,32 @@ impl DeflectionPlan {
         // pulse samples τ_i = pass + i·dt, waveform index i mod n (index 0 = the peak)
         let i0 = ((first - rev_s - pass_s) / dt).floor() as i64;
         let i1 = ((last - pass_s) / dt).floor() as i64;
-        let pulses: Vec<(f64, f64)> = (i0..=i1)
-            .map(|i| {
-                let tau = pass_s + i as f64 * dt;
-                let w = self.waveform[i.rem_euclid(n as i64) as usize];
-                let d = if tau < 0.0 {
-                    0.0
-                } else {
-                    self.deflection_at(self.x_at(tau))
-                };
-                (tau, w * d)
-            })
-            .collect();
+        let key = (pass_s.to_bits(), rev_s.to_bits());
+        if cache.key != key || cache.first > i0 {
+            cache.key = key;
+            cache.first = i0;
+            cache.pulses.clear();
+        }
+        while cache.first < i0 && !cache.pulses.is_empty() {
+            cache.pulses.pop_front();
+            cache.first += 1;
+        }
+        if cache.pulses.is_empty() {
+            cache.first = i0;
+        }
+        let have = cache.first + cache.pulses.len() as i64;
+        for i in have..=i1 {
+            let tau = pass_s + i as f64 * dt;
+            let w = self.waveform[i.rem_euclid(n as i64) as usize];
+            let d = if tau < 0.0 {
+                0.0
+            } else {
+                self.deflection_at(self.x_at(tau))
+            };
+            cache.pulses.push_back((tau, w * d));
+        }
+        let pulses = cache.pulses.make_contiguous();
+        let pulses = &pulses[..((i1 - i0 + 1).max(0) as usize).min(pulses.len())];
         times_s
             .iter()
             .map(|&t| {
@@ -560,6 +589,17 @@ fn flute_ratio(
     let (a, b) = (p[0][2].max(0.0), p[1][2].max(0.0));
     let big = a.max(b);
     Ok(if big > 0.0 { a.min(b) / big } else { 1.0 })
+}
+
+/// The planned pulses of the last window of [`DeflectionPlan::deflections_phased_cached`].
+#[derive(Debug, Clone, Default)]
+pub struct PulseCache {
+    /// (spindle pass, revolution) the pulses were computed for, as bits.
+    key: (u64, u64),
+    /// Index of the first pulse kept.
+    first: i64,
+    /// (time, planned deflection) of the pulses `first, first + 1, …`.
+    pulses: std::collections::VecDeque<(f64, f64)>,
 }
 
 /// Angles per revolution of the plan's force waveform: 120, the samples of a revolution at 10 000 rpm
@@ -1307,6 +1347,7 @@ pub struct MpcGrooveController {
     scale: PlanScale,
     phase: SpindlePhase,
     times_buf: Vec<f64>,
+    pulses: PulseCache,
     /// The plan's deflection range over the cut (µm) and the actuator's z-reach on the controllers'
     /// spindle model (µm), for the stroke band.
     plan_range_um: (f64, f64),
@@ -1363,6 +1404,7 @@ impl MpcGrooveController {
             scale: PlanScale::new(dt * settings.mpc_every as f64, PLAN_SCALE_TIME_CONSTANT_S),
             phase: SpindlePhase::new(program.speed_rpm),
             times_buf: Vec::with_capacity(n + 1),
+            pulses: PulseCache::default(),
             plan_range_um,
             reach_z_um: sp.gain_um_per_v * sp.voltage_max_v * sin_a,
         })
@@ -1423,7 +1465,9 @@ impl GrooveController for MpcGrooveController {
         times.push(t_s);
         times.extend((1..=n).map(|j| t_s + j as f64 * self.tc_s));
         let planned: Vec<f64> = match pass {
-            Some(p) => self.plan.deflections_phased(times, rev, tooth, p),
+            Some(p) => self
+                .plan
+                .deflections_phased_cached(&mut self.pulses, times, rev, tooth, p),
             None => times
                 .iter()
                 .map(|&t| self.plan.deflection_at_time(t, rev, tooth))

@@ -394,3 +394,42 @@ fn budget_fraction_outside_0_1_names_the_key() {
         }
     }
 }
+
+#[test]
+fn cached_phased_plan_equals_the_plan_computed_afresh() {
+    use millcomp_models::{ForceModelParams, StiffnessModel};
+    use millcomp_mpc::groove::{DeflectionPlan, PulseCache};
+    use millcomp_mpc::identified::{IdentifiedForceModel, IdentifiedStiffness, NominalTool};
+    use millcomp_mpc::predictor::ForcePredictor;
+    use millcomp_sim::groove::{DepthProfile, GrooveProgram};
+    // the documented step made at once (40 → 60 µm at x = 5 mm), as the MPC's windows slide over it
+    let mut program = GrooveProgram::thesis(20.0);
+    program.depth_profile = DepthProfile::Steps {
+        steps: vec![(0.0, 40.0), (5.0, 60.0)],
+    };
+    let tool = NominalTool::thesis_ball_end("S7");
+    let p = ForceModelParams {
+        fitted: Default::default(),
+        fixed: Default::default(),
+        covariance: Default::default(),
+    };
+    let predictor = ForcePredictor::Mechanistic(IdentifiedForceModel::new(&p, &tool).unwrap());
+    let k = IdentifiedStiffness::new(&StiffnessModel {
+        axial_n_per_um: 1.22,
+        radial_n_per_um: 0.114,
+        covariance: Default::default(),
+    })
+    .unwrap();
+    let plan = DeflectionPlan::new(&program, &predictor, &k, tool.radius_um, 0.01).unwrap();
+    let (rev, tooth) = (6e-3, 3e-3);
+    let mut cache = PulseCache::default();
+    for c in 0..400 {
+        // 2 kHz cycles around the step; the angle estimate moves once, halfway
+        let t0 = 2.95 + c as f64 * 5e-4;
+        let pass = if c < 200 { 3.0004 } else { 3.0007 };
+        let times: Vec<f64> = (0..=20).map(|j| t0 + j as f64 * 5e-4).collect();
+        let fresh = plan.deflections_phased(&times, rev, tooth, pass);
+        let cached = plan.deflections_phased_cached(&mut cache, &times, rev, tooth, pass);
+        assert_eq!(fresh, cached, "cycle {c}");
+    }
+}
