@@ -134,6 +134,8 @@ fn scenario_with_mpc_reports_metrics_and_solver_stats() {
                 "--controller",
                 controller,
                 "--json",
+                // timed, not enforced: the result must not depend on how busy the test machine is
+                "--no-realtime",
                 "--out",
             ])
             .arg(&out)
@@ -168,7 +170,54 @@ fn scenario_with_mpc_reports_metrics_and_solver_stats() {
     assert!(pp_mpc <= 0.1 * pp_none, "mpc pp {pp_mpc} vs {pp_none}");
     assert!(mpc["solver"]["solves"].as_u64().unwrap() > 1000);
     assert_eq!(mpc["solver"]["fallbacks"], 0);
+    assert_eq!(mpc["solver"]["budget_enforced"], false);
+    assert_eq!(mpc["realtime"], false);
+    let st = &mpc["solver"];
+    assert!(st["max_us"].as_f64().unwrap() >= st["p99_us"].as_f64().unwrap());
+    assert!((st["budget_us"].as_f64().unwrap() - 250.0).abs() < 1e-9); // 0.5 × 500 µs
     assert!(std::fs::read_to_string(&out).unwrap().lines().count() > 10);
+}
+
+#[test]
+fn an_impossible_cycle_budget_is_missed_every_cycle_and_the_commands_stay_safe() {
+    // 1e-4 of the 0.5 ms period (50 ns): enforced in a real-time run, every cycle falls back
+    let o = millcomp()
+        .args([
+            "simulate",
+            GROOVE_30,
+            "--controller",
+            "mpc",
+            "--json",
+            "--budget-fraction",
+            "0.0001",
+        ])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let doc: serde_json::Value = serde_json::from_slice(&o).unwrap();
+    let st = &doc["solver"];
+    assert_eq!(st["budget_enforced"], true);
+    let solves = st["solves"].as_u64().unwrap();
+    assert!(solves > 1000);
+    assert_eq!(st["deadline_misses"].as_u64(), Some(solves));
+    assert_eq!(st["fallbacks"].as_u64(), Some(solves));
+    assert_eq!(doc["commands_finite"], true);
+    assert_eq!(doc["commands_in_limits"], true);
+    // a budget outside (0, 1] is refused, naming the key
+    millcomp()
+        .args([
+            "simulate",
+            GROOVE_30,
+            "--controller",
+            "mpc",
+            "--budget-fraction",
+            "2",
+        ])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains("control.budget_fraction"));
 }
 
 #[test]
