@@ -95,6 +95,39 @@ const RATE_VARIANTS: [(&str, usize, usize); 3] = [
     ("mpc 5 kHz h50", 4, 50),
 ];
 
+/// `pid-ff` once, then the MPC once per variant (the scenarios changed by its setter), the MPC's rows
+/// labelled with the variant: the rows and the column labels.
+fn mpc_variants(
+    scenarios: &[Scenario],
+    seeds: u64,
+    tick: &(dyn Fn() + Sync),
+    variants: &[(String, Box<dyn Fn(&mut Scenario)>)],
+) -> Result<(Vec<CompareRow>, Vec<String>), Box<dyn std::error::Error>> {
+    let mut rows = compare(
+        scenarios,
+        &[ControllerKind::PidFeedforward],
+        1..1 + seeds,
+        tick,
+    )?;
+    let mut cols = vec![ControllerKind::PidFeedforward.name().to_string()];
+    for (label, set) in variants {
+        let variant: Vec<Scenario> = scenarios
+            .iter()
+            .map(|s| {
+                let mut s = s.clone();
+                set(&mut s);
+                s
+            })
+            .collect();
+        let mut r = compare(&variant, &[ControllerKind::Mpc], 1..1 + seeds, tick)?;
+        r.iter_mut().for_each(|row| row.controller = label.clone());
+        rows.extend(r);
+        cols.push(label.clone());
+    }
+    rows.sort_by(|a, b| (&a.scenario, &a.metric).cmp(&(&b.scenario, &b.metric)));
+    Ok((rows, cols))
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut seeds, mut comm, mut ablations, mut changes, mut features, mut rates) =
         (10u64, false, false, false, false, false);
@@ -181,63 +214,29 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let t0 = std::time::Instant::now();
     let (rows, cols): (Vec<CompareRow>, Vec<String>) = if rates {
-        let mut rows = compare(
-            &scenarios,
-            &[ControllerKind::PidFeedforward],
-            1..1 + seeds,
-            &|| bar.inc(1),
-        )?;
-        let mut cols = vec![ControllerKind::PidFeedforward.name().to_string()];
-        for (label, every, horizon) in RATE_VARIANTS {
-            let variant: Vec<Scenario> = scenarios
-                .iter()
-                .map(|s| {
-                    let mut s = s.clone();
+        let variants: Vec<(String, Box<dyn Fn(&mut Scenario)>)> = RATE_VARIANTS
+            .iter()
+            .map(|&(label, every, horizon)| {
+                let set: Box<dyn Fn(&mut Scenario)> = Box::new(move |s: &mut Scenario| {
                     s.control.mpc_every = every;
                     s.control.horizon = horizon;
                     // the amplifier's slew per cycle scales with the period (the same V/s)
                     s.control.slew_v_per_cycle *= every as f64 / 10.0;
-                    s
-                })
-                .collect();
-            let mut r = compare(&variant, &[ControllerKind::Mpc], 1..1 + seeds, &|| {
-                bar.inc(1)
-            })?;
-            r.iter_mut()
-                .for_each(|row| row.controller = label.to_string());
-            rows.extend(r);
-            cols.push(label.to_string());
-        }
-        rows.sort_by(|a, b| (&a.scenario, &a.metric).cmp(&(&b.scenario, &b.metric)));
-        (rows, cols)
+                });
+                (label.to_string(), set)
+            })
+            .collect();
+        mpc_variants(&scenarios, seeds, &|| bar.inc(1), &variants)?
     } else if features {
-        // pid-ff once, then the MPC once per variant, its rows labelled with the variant
-        let mut rows = compare(
-            &scenarios,
-            &[ControllerKind::PidFeedforward],
-            1..1 + seeds,
-            &|| bar.inc(1),
-        )?;
-        let mut cols = vec![ControllerKind::PidFeedforward.name().to_string()];
-        for (label, f) in feature_variants() {
-            let variant: Vec<Scenario> = scenarios
-                .iter()
-                .map(|s| {
-                    let mut s = s.clone();
-                    s.control.groove_mpc = f;
-                    s
-                })
-                .collect();
-            let mut r = compare(&variant, &[ControllerKind::Mpc], 1..1 + seeds, &|| {
-                bar.inc(1)
-            })?;
-            r.iter_mut()
-                .for_each(|row| row.controller = label.to_string());
-            rows.extend(r);
-            cols.push(label.to_string());
-        }
-        rows.sort_by(|a, b| (&a.scenario, &a.metric).cmp(&(&b.scenario, &b.metric)));
-        (rows, cols)
+        let variants: Vec<(String, Box<dyn Fn(&mut Scenario)>)> = feature_variants()
+            .into_iter()
+            .map(|(label, f)| {
+                let set: Box<dyn Fn(&mut Scenario)> =
+                    Box::new(move |s: &mut Scenario| s.control.groove_mpc = f);
+                (label.to_string(), set)
+            })
+            .collect();
+        mpc_variants(&scenarios, seeds, &|| bar.inc(1), &variants)?
     } else {
         let rows = compare(&scenarios, &controllers, 1..1 + seeds, &|| bar.inc(1))?;
         let cols = controllers.iter().map(|c| c.name().to_string()).collect();
