@@ -95,13 +95,18 @@ const RATE_VARIANTS: [(&str, usize, usize); 3] = [
     ("mpc 5 kHz h50", 4, 50),
 ];
 
+/// What a variant changes in a scenario.
+type Setter = Box<dyn Fn(&mut Scenario)>;
+/// A labelled variant of the MPC's scenarios.
+type Variant = (String, Setter);
+
 /// `pid-ff` once, then the MPC once per variant (the scenarios changed by its setter), the MPC's rows
 /// labelled with the variant: the rows and the column labels.
 fn mpc_variants(
     scenarios: &[Scenario],
     seeds: u64,
     tick: &(dyn Fn() + Sync),
-    variants: &[(String, Box<dyn Fn(&mut Scenario)>)],
+    variants: &[Variant],
 ) -> Result<(Vec<CompareRow>, Vec<String>), Box<dyn std::error::Error>> {
     let mut rows = compare(
         scenarios,
@@ -214,10 +219,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let t0 = std::time::Instant::now();
     let (rows, cols): (Vec<CompareRow>, Vec<String>) = if rates {
-        let variants: Vec<(String, Box<dyn Fn(&mut Scenario)>)> = RATE_VARIANTS
+        let variants: Vec<Variant> = RATE_VARIANTS
             .iter()
             .map(|&(label, every, horizon)| {
-                let set: Box<dyn Fn(&mut Scenario)> = Box::new(move |s: &mut Scenario| {
+                let set: Setter = Box::new(move |s: &mut Scenario| {
                     s.control.mpc_every = every;
                     s.control.horizon = horizon;
                     // the amplifier's slew per cycle scales with the period (the same V/s)
@@ -228,11 +233,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .collect();
         mpc_variants(&scenarios, seeds, &|| bar.inc(1), &variants)?
     } else if features {
-        let variants: Vec<(String, Box<dyn Fn(&mut Scenario)>)> = feature_variants()
+        let variants: Vec<Variant> = feature_variants()
             .into_iter()
             .map(|(label, f)| {
-                let set: Box<dyn Fn(&mut Scenario)> =
-                    Box::new(move |s: &mut Scenario| s.control.groove_mpc = f);
+                let set: Setter = Box::new(move |s: &mut Scenario| s.control.groove_mpc = f);
                 (label.to_string(), set)
             })
             .collect();
