@@ -31,7 +31,7 @@ pub fn run(args: BatchArgs, json: bool) -> anyhow::Result<()> {
         let start = std::time::Instant::now();
         let merged = merge(&m.dirs, &m.out)?;
         let mut summary = write_results(&merged.plan, &merged.records, &m.out, merged.summary)?;
-        summary.wall_clock_s = start.elapsed().as_secs_f64();
+        summary.invocation.wall_clock_s = start.elapsed().as_secs_f64();
         return show(&summary, json, &format!("merged {} slices", m.dirs.len()));
     }
     let shard = match &args.shard {
@@ -55,7 +55,7 @@ pub fn run(args: BatchArgs, json: bool) -> anyhow::Result<()> {
         )?)
     })?;
     let mut summary = outcome_summary(&plan, &outcome, (shard != Shard::ALL).then_some(shard));
-    summary.throughput_per_core = (outcome.n_ran > 0 && outcome.wall_clock_s > 0.0)
+    summary.invocation.throughput_per_core = (outcome.n_ran > 0 && outcome.wall_clock_s > 0.0)
         .then(|| outcome.simulated_s / outcome.wall_clock_s / outcome.threads.max(1) as f64);
     let summary = write_results(&plan, &outcome.records, &args.out, summary)?;
     let what = if shard == Shard::ALL {
@@ -70,11 +70,12 @@ pub fn run(args: BatchArgs, json: bool) -> anyhow::Result<()> {
 /// wall-clock time, the threads.
 pub fn outcome_summary(plan: &Plan, outcome: &ShardOutcome, shard: Option<Shard>) -> BatchSummary {
     let mut summary = new_summary(plan, outcome.records.len(), shard);
-    summary.n_ran = outcome.n_ran;
-    summary.n_resumed = outcome.n_resumed;
-    summary.simulated_s = outcome.simulated_s;
-    summary.threads = outcome.threads;
-    summary.wall_clock_s = outcome.wall_clock_s;
+    let i = &mut summary.invocation;
+    i.n_ran = outcome.n_ran;
+    i.n_resumed = outcome.n_resumed;
+    i.simulated_s = outcome.simulated_s;
+    i.threads = outcome.threads;
+    i.wall_clock_s = outcome.wall_clock_s;
     summary
 }
 

@@ -470,7 +470,8 @@ fn batch_stage(
         progress && std::io::IsTerminal::is_terminal(&std::io::stderr()),
     )?;
     let summary = outcome_summary(&plan, &outcome, None);
-    let s = write_results(&plan, &outcome.records, &dir, summary)?;
+    let written = write_results(&plan, &outcome.records, &dir, summary)?;
+    let s = &written.results;
     let med = |c: &str, m: &str| {
         s.by_controller
             .get(c)
@@ -530,7 +531,12 @@ fn batch_stage(
     for n in &s.notes {
         let _ = writeln!(md, "\n- note: {n}");
     }
-    let files: Vec<String> = s.files.iter().map(|f| rel(out, Path::new(f))).collect();
+    let files: Vec<String> = written
+        .invocation
+        .files
+        .iter()
+        .map(|f| rel(out, Path::new(f)))
+        .collect();
     let _ = writeln!(
         md,
         "\nTables: `batch/results.csv`, `batch/results.parquet`, `batch/summary.json`.\n"

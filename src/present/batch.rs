@@ -14,8 +14,8 @@ use millcomp_closedloop::batch::results::{
 
 use crate::present::plot::{Series, line_plot};
 
-/// Writes the results of a batch into `out`: the tables, the plots (`out/plots/`) and `summary.json`,
-/// whose `files` lists them in that order.
+/// Writes the results of a batch into `out`: the tables, the plots (`out/plots/`), `summary.json` and
+/// `invocation.json`, whose `files` lists them in that order.
 pub fn write_results(
     plan: &Plan,
     records: &[RunRecord],
@@ -24,7 +24,7 @@ pub fn write_results(
 ) -> anyhow::Result<BatchSummary> {
     let mut summary = write_tables(plan, records, out, summary)?;
     for p in plots(plan, records, &out.join("plots"))? {
-        summary.files.push(p.display().to_string());
+        summary.invocation.files.push(p.display().to_string());
     }
     Ok(write_summary(out, summary)?)
 }
@@ -138,15 +138,16 @@ pub fn plots(plan: &Plan, records: &[RunRecord], dir: &Path) -> anyhow::Result<V
 
 /// Prints the summary of a batch (`what`: `batch`, `shard K/N`, `merged N slices`): runs, throughput,
 /// the medians by controller, the ANOVA of the peak-to-peak error, notes and the files written.
-pub fn print_summary(s: &BatchSummary, what: &str) {
+pub fn print_summary(summary: &BatchSummary, what: &str) {
+    let (s, i) = (&summary.results, &summary.invocation);
     println!(
         "{what}: {} runs ({} run now, {} resumed) of {} planned   fingerprint {}",
-        s.n_runs, s.n_ran, s.n_resumed, s.n_runs_planned, s.fingerprint
+        s.n_runs, i.n_ran, i.n_resumed, s.n_runs_planned, s.fingerprint
     );
-    if let Some(t) = s.throughput_per_core {
+    if let Some(t) = i.throughput_per_core {
         println!(
             "simulated {:.1} s of machining in {:.1} s on {} threads: {:.2} simulated s per wall s per core",
-            s.simulated_s, s.wall_clock_s, s.threads, t
+            i.simulated_s, i.wall_clock_s, i.threads, t
         );
     }
     println!("\nmedians by controller");
@@ -163,7 +164,7 @@ pub fn print_summary(s: &BatchSummary, what: &str) {
         }
         println!();
     }
-    for (c, t) in &s.solve_times_us {
+    for (c, t) in &i.solve_times_us {
         println!(
             "{c:<12} QP solve: median {:.1} us over {} runs, largest p99 {:.1} us",
             t.median_us, t.runs, t.p99_max_us
@@ -256,7 +257,7 @@ pub fn print_summary(s: &BatchSummary, what: &str) {
         println!("note: {n}");
     }
     println!();
-    for f in &s.files {
+    for f in &i.files {
         println!("written: {f}");
     }
 }

@@ -6,7 +6,9 @@
 //! batch can be recognised. Execution ([`exec::run_shard`]) runs a deterministic slice in parallel and
 //! stores each run's result atomically (resume). Results ([`results`]) are the results table, the
 //! per-controller medians and the ANOVA of every metric with the controller as a factor; slices of a
-//! batch are joined with [`results::merge`].
+//! batch are joined with [`results::merge`]. The results are deterministic: a merge of slices writes
+//! the same bytes as one process (`bench/cluster/slurm-selftest` checks it under Slurm); what depends
+//! on the clock or the machine (wall-clock, threads, QP solve times) goes to `invocation.json`.
 //!
 //! ```no_run
 //! use millcomp_closedloop::batch::{exec, plan::{Plan, Shard, parse_controllers}, results};
@@ -16,8 +18,9 @@
 //! let done = exec::run_shard(&plan, Shard::ALL, out, &exec::MpcClosedLoop, false)?;
 //! let summary = results::new_summary(&plan, done.records.len(), None);
 //! let summary = results::write_tables(&plan, &done.records, out, summary)?;
-//! let summary = results::write_summary(out, summary)?; // after adding plots to `summary.files`
-//! println!("{:?}", summary.by_controller);
+//! // after adding plots to `summary.invocation.files`: summary.json and invocation.json
+//! let summary = results::write_summary(out, summary)?;
+//! println!("{:?}", summary.results.by_controller);
 //! # Ok::<(), millcomp_closedloop::ClosedLoopError>(())
 //! ```
 

@@ -31,9 +31,23 @@ pub struct AnovaEntry {
     pub terms: Vec<TermRow>,
 }
 
-/// The batch summary (`--json` output and `DIR/summary.json`).
+/// The batch summary (the `--json` output): the results ([`BatchResults`], `DIR/summary.json`) and how
+/// this call ran ([`BatchInvocation`], `DIR/invocation.json`), flattened into one object.
 #[derive(Debug, Clone, Serialize)]
 pub struct BatchSummary {
+    /// What the runs say: the same however the batch was run (one process or merged slices, any
+    /// number of threads, resumed or not) — byte for byte in `summary.json`.
+    #[serde(flatten)]
+    pub results: BatchResults,
+    /// How this call ran: wall-clock times, threads, what ran now, the files written.
+    #[serde(flatten)]
+    pub invocation: BatchInvocation,
+}
+
+/// The results of a batch (`DIR/summary.json`). Nothing here depends on the machine, the clock, the
+/// threads or the output directory, so a merge of slices writes the same file as one process.
+#[derive(Debug, Clone, Serialize)]
+pub struct BatchResults {
     /// Plan fingerprint.
     pub fingerprint: String,
     /// Runs in these results.
@@ -53,8 +67,16 @@ pub struct BatchSummary {
     pub anova: BTreeMap<String, AnovaEntry>,
     /// Each controller against the reference, scenario by scenario ([`super::paired`]).
     pub paired: Vec<PairedEntry>,
+    /// Notes (analyses that could not be made, and why).
+    pub notes: Vec<String>,
+}
+
+/// How one call of a batch ran (`DIR/invocation.json`): wall-clock and machine-dependent, so kept apart
+/// from the results.
+#[derive(Debug, Clone, Serialize)]
+pub struct BatchInvocation {
     /// MPC controllers: the median over the runs of each run's median QP solve time and the largest
-    /// run's 99th percentile (µs; wall-clock, this machine).
+    /// run's 99th percentile (µs; wall-clock, on the machine each run ran on).
     pub solve_times_us: BTreeMap<String, SolveTimes>,
     /// Runs executed by this call (0 for a merge).
     pub n_ran: usize,
@@ -68,10 +90,8 @@ pub struct BatchSummary {
     pub throughput_per_core: Option<f64>,
     /// Worker threads.
     pub threads: usize,
-    /// Files written.
+    /// Files written (paths as given with `--out`).
     pub files: Vec<String>,
-    /// Notes (analyses that could not be made, and why).
-    pub notes: Vec<String>,
 }
 
 /// QP solve times of one controller over a batch (µs).
@@ -315,9 +335,9 @@ pub fn anova(
     out
 }
 
-/// Writes `results.csv` and `results.parquet` into `out` (listed in the summary's `files`) and fills the
-/// summary's medians and analysis. Add further files (plots) to `summary.files`, then call
-/// [`write_summary`].
+/// Writes `results.csv` and `results.parquet` into `out` (listed in the invocation's `files`) and fills
+/// the summary's medians and analysis. Add further files (plots) to `summary.invocation.files`, then
+/// call [`write_summary`].
 ///
 /// # Errors
 /// [`ClosedLoopError::CreateDir`], [`ClosedLoopError::Write`] naming the file.
@@ -335,16 +355,18 @@ pub fn write_tables(
             path: path.clone(),
             source,
         })?;
-        summary.files.push(path.display().to_string());
+        summary.invocation.files.push(path.display().to_string());
     }
-    summary.by_controller = by_controller(plan, records);
-    summary.anova = anova(plan, records, &mut summary.notes);
-    summary.paired = paired(plan, records);
-    summary.solve_times_us = solve_times(plan, records);
+    let r = &mut summary.results;
+    r.by_controller = by_controller(plan, records);
+    r.anova = anova(plan, records, &mut r.notes);
+    r.paired = paired(plan, records);
+    summary.invocation.solve_times_us = solve_times(plan, records);
     Ok(summary)
 }
 
-/// Writes `summary.json` into `out` (and lists it last in `files`).
+/// Writes `summary.json` (the results) and `invocation.json` (how this call ran) into `out`, and lists
+/// them last in `files`.
 ///
 /// # Errors
 /// [`ClosedLoopError::Write`].
@@ -352,9 +374,16 @@ pub fn write_summary(
     out: &Path,
     mut summary: BatchSummary,
 ) -> Result<BatchSummary, ClosedLoopError> {
-    let path = out.join("summary.json");
-    summary.files.push(path.display().to_string());
-    write_text(&path, &serde_json::to_string_pretty(&summary)?)?;
+    let results = out.join("summary.json");
+    let invocation = out.join("invocation.json");
+    for p in [&results, &invocation] {
+        summary.invocation.files.push(p.display().to_string());
+    }
+    write_text(&results, &serde_json::to_string_pretty(&summary.results)?)?;
+    write_text(
+        &invocation,
+        &serde_json::to_string_pretty(&summary.invocation)?,
+    )?;
     Ok(summary)
 }
 
@@ -368,24 +397,28 @@ fn create_dir(dir: &Path) -> Result<(), ClosedLoopError> {
 /// An empty summary for `plan`.
 pub fn new_summary(plan: &Plan, n_runs: usize, shard: Option<Shard>) -> BatchSummary {
     BatchSummary {
-        fingerprint: plan.fingerprint.clone(),
-        n_runs,
-        n_runs_planned: plan.n_runs(),
-        n_scenarios: plan.scenarios.len(),
-        controllers: plan.controllers.clone(),
-        shard,
-        by_controller: BTreeMap::new(),
-        anova: BTreeMap::new(),
-        paired: Vec::new(),
-        solve_times_us: BTreeMap::new(),
-        n_ran: 0,
-        n_resumed: 0,
-        simulated_s: 0.0,
-        wall_clock_s: 0.0,
-        throughput_per_core: None,
-        threads: rayon::current_num_threads(),
-        files: Vec::new(),
-        notes: Vec::new(),
+        results: BatchResults {
+            fingerprint: plan.fingerprint.clone(),
+            n_runs,
+            n_runs_planned: plan.n_runs(),
+            n_scenarios: plan.scenarios.len(),
+            controllers: plan.controllers.clone(),
+            shard,
+            by_controller: BTreeMap::new(),
+            anova: BTreeMap::new(),
+            paired: Vec::new(),
+            notes: Vec::new(),
+        },
+        invocation: BatchInvocation {
+            solve_times_us: BTreeMap::new(),
+            n_ran: 0,
+            n_resumed: 0,
+            simulated_s: 0.0,
+            wall_clock_s: 0.0,
+            throughput_per_core: None,
+            threads: rayon::current_num_threads(),
+            files: Vec::new(),
+        },
     }
 }
 
@@ -431,7 +464,7 @@ pub struct MergedBatch {
 /// }
 /// let merged = merge(&slices, &dir.join("merged")).unwrap();
 /// assert_eq!(merged.records.iter().map(|r| r.run).collect::<Vec<_>>(), [0, 1, 2, 3]);
-/// assert_eq!((merged.summary.n_runs, merged.summary.n_runs_planned), (4, 4));
+/// assert_eq!((merged.summary.results.n_runs, merged.summary.results.n_runs_planned), (4, 4));
 /// // one slice alone leaves runs missing
 /// let e = merge(&slices[..1], &dir.join("bad")).unwrap_err();
 /// assert!(e.to_string().contains("2 of 4 runs are missing"), "{e}");
