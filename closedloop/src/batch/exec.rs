@@ -51,6 +51,12 @@ pub struct RunMetrics {
     /// MPC only: 99th-percentile QP solve time of the run (µs), informative as above.
     #[serde(default)]
     pub solve_p99_us: Option<f64>,
+    /// MPC only: the run's longest cycle (µs), informative as above.
+    #[serde(default)]
+    pub solve_max_us: Option<f64>,
+    /// MPC only: cycles over the budget (timed, not enforced in a batch), informative as above.
+    #[serde(default)]
+    pub deadline_misses: Option<usize>,
 }
 
 /// Metric names, in table order (the numeric result columns).
@@ -130,6 +136,8 @@ impl ClosedLoop for MpcClosedLoop {
                 .and_then(|c| c.bound_um),
             solve_median_us: r.solver.map(|s| s.median_us),
             solve_p99_us: r.solver.map(|s| s.p99_us),
+            solve_max_us: r.solver.map(|s| s.max_us),
+            deadline_misses: r.solver.map(|s| s.deadline_misses),
         };
         Ok((metrics, r.simulated_s))
     }

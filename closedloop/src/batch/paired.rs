@@ -246,6 +246,8 @@ mod tests {
                 change_bound_um: None,
                 solve_median_us: None,
                 solve_p99_us: None,
+                solve_max_us: None,
+                deadline_misses: None,
             },
             simulated_s: 1.0,
             wall_clock_s: 0.0,

@@ -103,6 +103,11 @@ pub struct SolveTimes {
     pub median_us: f64,
     /// Largest 99th-percentile solve time of any run.
     pub p99_max_us: f64,
+    /// Longest cycle of any run.
+    pub max_us: f64,
+    /// Cycles over their budget, all runs (timed only: a batch always uses the fresh plan, so its
+    /// results do not depend on the machine's load).
+    pub deadline_misses: usize,
 }
 
 /// Solve times per controller that reports them (the MPCs).
@@ -121,12 +126,19 @@ pub fn solve_times(plan: &Plan, records: &[RunRecord]) -> BTreeMap<String, Solve
             .iter()
             .filter_map(|r| r.metrics.solve_p99_us)
             .fold(0.0, f64::max);
+        let max_us = rs
+            .iter()
+            .filter_map(|r| r.metrics.solve_max_us)
+            .fold(0.0, f64::max);
+        let deadline_misses = rs.iter().filter_map(|r| r.metrics.deadline_misses).sum();
         out.insert(
             c.clone(),
             SolveTimes {
                 runs: med.len(),
                 median_us: median(&mut med),
                 p99_max_us: p99,
+                max_us,
+                deadline_misses,
             },
         );
     }
