@@ -6,6 +6,7 @@ mod common;
 mod bad_input;
 mod golden;
 mod jacobians;
+mod nist_strd;
 mod real_records;
 mod recovery;
 mod saved_model;
