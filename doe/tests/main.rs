@@ -9,5 +9,6 @@ mod errors;
 mod fractional;
 mod golden_anova;
 mod lenth_power;
+mod offset_anova;
 mod properties;
 mod surface_and_elimination;
