@@ -148,19 +148,8 @@ impl<'a, T> CurveFit<'a, T> {
             });
         }
         validate::finite("y", self.y)?;
-        let sw: Option<Vec<f64>> = match self.weights {
-            Some(w) => {
-                validate::same_len("weights", w, "y", n)?;
-                validate::finite("weights", w)?;
-                if let Some(row) = w.iter().position(|&v| v <= 0.0) {
-                    return Err(IdentifyError::InvalidParameter {
-                        name: format!("weights[{row}]"),
-                        value: w[row],
-                        allowed: "> 0 (inverse variance)",
-                    });
-                }
-                Some(w.iter().map(|v| v.sqrt()).collect())
-            }
+        let sw = match self.weights {
+            Some(_) => Some(validate::sqrt_weights(self.weights, n)?),
             None => None,
         };
         let model = ClosureModel {

@@ -98,21 +98,7 @@ pub fn fit_linear(
         let col: Vec<f64> = design.column(j).iter().copied().collect();
         validate::finite(name, &col)?;
     }
-    let sw: Vec<f64> = match weights {
-        Some(w) => {
-            validate::same_len("weights", w, "y", n)?;
-            validate::finite("weights", w)?;
-            if let Some(row) = w.iter().position(|&v| v <= 0.0) {
-                return Err(IdentifyError::InvalidParameter {
-                    name: format!("weights[{row}]"),
-                    value: w[row],
-                    allowed: "> 0 (inverse variance)",
-                });
-            }
-            w.iter().map(|v| v.sqrt()).collect()
-        }
-        None => vec![1.0; n],
-    };
+    let sw = validate::sqrt_weights(weights, n)?;
     validate::enough_points(n, p, model)?;
 
     let mut aw = design.clone();
