@@ -21,13 +21,13 @@ import os
 import sys
 from fractions import Fraction
 
-# The offset factorial (also written out in doe/tests/offset_anova.rs): A, B, C in standard order,
-# replicate 1 then replicate 2; response = 1e12 + D[i] (D drawn once: 0.9 + effects
-# 0.8, 0.3, 0.12 + N(0, 0.25²) noise, seed 18, rounded to four decimals).
+# The offset factorial: A, B, C in standard order, replicate 1 then replicate 2; response = 1e12 + d
+# with d from doe/tests/fixtures/offset_responses.txt (ten-thousandths), the file the tests read.
 LEVELS = [(-1 if (i >> 0) & 1 == 0 else 1, -1 if (i >> 1) & 1 == 0 else 1, -1 if (i >> 2) & 1 == 0 else 1)
           for i in range(8)] * 2
-D = ["0.4440", "1.4242", "0.5059", "1.5332", "0.1188", "1.2292", "0.4354", "1.5451",
-     "0.2726", "1.2805", "0.5109", "1.1832", "0.2099", "0.8184", "1.1097", "1.0621"]
+HERE = os.path.dirname(os.path.abspath(__file__))
+with open(os.path.join(HERE, "../../doe/tests/fixtures/offset_responses.txt")) as fh:
+    Y_TEXT = [l.strip() for l in fh if l.strip() and not l.startswith("#")]
 OFFSET = "1000000000000"
 
 
@@ -80,9 +80,9 @@ def dec(q, digits=17):
 
 
 def offset_factorial():
-    y_dec = [Fraction(OFFSET) + Fraction(d) for d in D]
-    # float() of a Fraction is correctly rounded, as Rust's parse of the same decimal literal
-    y_f64 = [Fraction(float(v)) for v in y_dec]
+    y_dec = [Fraction(t) for t in Y_TEXT]
+    # float() of the decimal text is correctly rounded, as Rust's parse of the same text
+    y_f64 = [Fraction(float(t)) for t in Y_TEXT]
     assert all(Fraction(OFFSET) < v < Fraction(OFFSET) + 2 for v in y_dec)
     f_dec = main_effect_f(y_dec)
     f_f64 = main_effect_f(y_f64)
@@ -95,8 +95,8 @@ def offset_line():
     """The same responses against x = 1e6 + i (i = 0..15): slope and intercept of the straight
     line, exact on the decimal data and on their f64 values (for identify's fit_linear test)."""
     x = [Fraction(10**6 + i) for i in range(16)]
-    for label, y in [("decimal", [Fraction(OFFSET) + Fraction(d) for d in D]),
-                     ("f64-exact", [Fraction(float(Fraction(OFFSET) + Fraction(d))) for d in D])]:
+    for label, y in [("decimal", [Fraction(t) for t in Y_TEXT]),
+                     ("f64-exact", [Fraction(float(t)) for t in Y_TEXT])]:
         n = len(x)
         mx, my = sum(x) / n, sum(y) / n
         sxx = sum((xi - mx) ** 2 for xi in x)
@@ -149,6 +149,5 @@ if __name__ == "__main__":
     offset_factorial()
     print("offset straight line (y = 1e12 + d against x = 1e6 + i):")
     offset_line()
-    here = os.path.dirname(os.path.abspath(__file__))
-    d = sys.argv[1] if len(sys.argv) > 1 else os.path.join(here, "../../doe/tests/fixtures/nist_strd")
+    d = sys.argv[1] if len(sys.argv) > 1 else os.path.join(HERE, "../../doe/tests/fixtures/nist_strd")
     nist_sets(d)

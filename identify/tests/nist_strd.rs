@@ -81,11 +81,12 @@ fn model(name: &str) -> (F, D) {
     }
     fn rational_d(x: f64, b: &[f64], nn: usize, d: &mut [f64]) {
         let (num, den) = rational(x, b, nn);
-        for k in 0..nn {
-            d[k] = x.powi(k as i32) / den;
-        }
-        for k in nn..b.len() {
-            d[k] = -num * x.powi((k - nn + 1) as i32) / (den * den);
+        for (k, dk) in d.iter_mut().enumerate().take(b.len()) {
+            *dk = if k < nn {
+                x.powi(k as i32) / den
+            } else {
+                -num * x.powi((k - nn + 1) as i32) / (den * den)
+            };
         }
     }
     fn roszman_v(x: &X, b: &[f64]) -> f64 {
