@@ -13,24 +13,7 @@
 use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze};
 
 use crate::common::crate_path;
-
-/// Log relative error, capped at 15 (a perfect match of float64 numbers).
-fn lre(x: f64, c: f64) -> f64 {
-    let err = ((x - c) / c).abs();
-    if err == 0.0 {
-        15.0
-    } else {
-        (-err.log10()).min(15.0)
-    }
-}
-
-/// The responses of `offset_responses.txt`, each parsed from its decimal text: correctly
-/// rounded, as the exact references' `float()` of the same decimals.
-fn offset_responses() -> Vec<f64> {
-    let text = include_str!("fixtures/offset_responses.txt");
-    let rows = text.lines().filter(|l| !l.starts_with('#'));
-    rows.map(|l| l.trim().parse().unwrap()).collect()
-}
+use crate::offset_data::{lre, offset_responses};
 
 /// The offset factorial of `exact_anova.py`: 2³ in standard order, two replicates, responses
 /// 1e12 + d with d to four decimals (the f64 spacing at 1e12 is 1.2e-4, so the 4th decimal is

@@ -10,22 +10,9 @@
 use millcomp_identify::{LinearMethod, fit_linear};
 use nalgebra::DMatrix;
 
-fn lre(x: f64, c: f64) -> f64 {
-    let err = ((x - c) / c).abs();
-    if err == 0.0 {
-        15.0
-    } else {
-        (-err.log10()).min(15.0)
-    }
-}
-
-/// The responses of `offset_responses.txt`, each parsed from its decimal text: correctly
-/// rounded, as the exact references' `float()` of the same decimals.
-fn offset_responses() -> Vec<f64> {
-    let text = include_str!("../../doe/tests/fixtures/offset_responses.txt");
-    let rows = text.lines().filter(|l| !l.starts_with('#'));
-    rows.map(|l| l.trim().parse().unwrap()).collect()
-}
+#[path = "../../doe/tests/offset_data.rs"]
+mod offset_data;
+use offset_data::{lre, offset_responses};
 
 #[test]
 fn offset_line_within_half_a_digit_of_the_float64_limit() {
