@@ -620,7 +620,8 @@ impl<M: ResidualModel> Solver<LsqProblem<M>, LsqState> for TrustRegionLsq {
 ///
 /// `kind` names the model in the report; `unit` is the data unit of the residuals (the
 /// `rms_residual_<unit>` key). Non-convergence is not an error: it is a report with status
-/// `max_iter` and a warning.
+/// `not_converged` and a warning. For a plain curve `y ≈ f(x, θ)`, [`CurveFit`](crate::CurveFit)
+/// builds the model from closures.
 ///
 /// # Errors
 /// * [`IdentifyError::BadBounds`] for a parameter whose bounds are NaN, not `lower < upper`, or
