@@ -326,11 +326,7 @@ pub(crate) fn fit(p: &Problem<'_>, start: &[f64]) -> Result<Fitted, IdentifyErro
         "um",
     )?;
     let theta: Vec<f64> = fit.theta.iter().copied().collect();
-    Ok(evaluate(
-        p,
-        &theta,
-        fit.report.status == millcomp_identify::FitStatus::Converged,
-    ))
+    Ok(evaluate(p, &theta, fit.report.status.is_success()))
 }
 
 /// The model at θ without fitting.

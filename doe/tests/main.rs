@@ -9,5 +9,7 @@ mod errors;
 mod fractional;
 mod golden_anova;
 mod lenth_power;
+mod offset_anova;
+mod offset_data;
 mod properties;
 mod surface_and_elimination;

@@ -54,8 +54,15 @@ pub(crate) fn newey_west(
             meat += (&c + c.transpose()) * w;
         }
     }
-    let bread = (design.transpose() * design)
-        .try_inverse()
+    // (XᵀX)⁻¹ = R⁻¹R⁻ᵀ from the QR of X: XᵀX is never formed (it squares X's condition number)
+    let bread = (n >= p)
+        .then(|| {
+            let r = design.clone().qr().r();
+            r.solve_upper_triangular(&DMatrix::identity(p, p))
+                .map(|ri| &ri * ri.transpose())
+        })
+        .flatten()
+        .filter(|b| b.iter().all(|v| v.is_finite()))
         .unwrap_or_else(|| DMatrix::from_element(p, p, f64::NAN));
     let cov = &bread * meat * &bread * (n as f64 / (n - p).max(1) as f64);
     let dof_eff = (n as f64 * (1.0 - r) / (1.0 + r) - p as f64).max(1.0);

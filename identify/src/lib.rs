@@ -4,7 +4,9 @@
 //!
 //! * Engine: weighted linear least squares ([`fit_linear`], QR/SVD, rank deficiency named by
 //!   parameter) and bounded nonlinear least squares on argmin ([`fit_nonlinear`], trust region
-//!   with Steihaug-CG steps on the Gauss–Newton model), both returning a [`FitReport`] with standard
+//!   with Levenberg–Marquardt steps solved by SVD, statuses `converged`, `stalled_at_rounding_level`
+//!   and `not_converged`; [`CurveFit`] fits `y ≈ f(x, θ)` from closures), both returning a
+//!   [`FitReport`] with the residual sum of squares, standard
 //!   errors, t-based 95 % intervals, covariance, correlation, condition number, identifiability
 //!   warnings and residual diagnostics.
 //! * Models are residual operators with Jacobians ([`ResidualModel`] = argmin `Operator` +
@@ -15,6 +17,7 @@
 #![warn(missing_docs)]
 
 pub mod columns;
+pub mod curve;
 pub mod error;
 mod hac;
 pub mod jacobian_check;
@@ -25,6 +28,7 @@ pub mod report;
 pub mod validate;
 
 pub use columns::{Columns, IdentifyOptions, Target, identify_columns};
+pub use curve::CurveFit;
 pub use error::{IdentifyError, Result};
 pub use jacobian_check::{JacobianCheck, check_jacobian, fd_jacobian};
 pub use linear::{LinearFit, LinearMethod, fit_linear};

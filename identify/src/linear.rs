@@ -1,8 +1,9 @@
 //! Weighted linear least squares `min ‖W^½(Aθ − y)‖²` by QR (default) or SVD, with rank
 //! deficiency detected and reported by parameter.
 //!
-//! Columns are scaled to unit norm before factorising (so that a column in N and one in µN are
-//! judged alike); the QR is nalgebra's column-pivoted Householder QR, whose `|R_kk|/|R_00|`
+//! With an intercept (a constant column) the other columns and the data are first centred on
+//! their (weighted) means, so that data sharing a large offset keep all their digits; columns are
+//! scaled to unit norm before factorising (so that a column in N and one in µN are judged alike); the QR is nalgebra's column-pivoted Householder QR, whose `|R_kk|/|R_00|`
 //! reveals the numerical rank. A rank-deficient problem is not an error: the minimum-norm SVD
 //! solution is returned with status `rank_deficient` and a warning naming the unseen combination.
 
@@ -97,72 +98,66 @@ pub fn fit_linear(
         let col: Vec<f64> = design.column(j).iter().copied().collect();
         validate::finite(name, &col)?;
     }
-    let sw: Vec<f64> = match weights {
-        Some(w) => {
-            validate::same_len("weights", w, "y", n)?;
-            validate::finite("weights", w)?;
-            if let Some(row) = w.iter().position(|&v| v <= 0.0) {
-                return Err(IdentifyError::InvalidParameter {
-                    name: format!("weights[{row}]"),
-                    value: w[row],
-                    allowed: "> 0 (inverse variance)",
-                });
-            }
-            w.iter().map(|v| v.sqrt()).collect()
-        }
-        None => vec![1.0; n],
-    };
+    let sw = validate::sqrt_weights(weights, n)?;
     validate::enough_points(n, p, model)?;
 
     let mut aw = design.clone();
     for (i, s) in sw.iter().enumerate() {
         aw.row_mut(i).scale_mut(*s);
     }
-    let yw = DVector::from_iterator(n, y.iter().zip(&sw).map(|(y, s)| y * s));
-    let col_norm: Vec<f64> = (0..p)
-        .map(|j| {
-            let c = aw.column(j).norm();
-            if c > 0.0 { c } else { 1.0 }
+    // Centre on the (weighted) means when the design has an intercept: the slopes are fitted to
+    // deviations, which keep every digit of data that share a large offset (a year, 1e12 + small
+    // differences), and the intercept follows from the means. Same least-squares problem.
+    let intercept = (p > 1)
+        .then(|| {
+            (0..p).find(|&j| {
+                let v = design[(0, j)];
+                v != 0.0 && design.column(j).iter().all(|&x| x == v)
+            })
         })
-        .collect();
-    let mut scaled = aw.clone();
-    for (j, c) in col_norm.iter().enumerate() {
-        scaled.column_mut(j).scale_mut(1.0 / c);
-    }
-
-    let mut extra = Vec::new();
-    let (z, used) = match method {
-        LinearMethod::Qr => {
-            let qr = scaled.clone().col_piv_qr();
-            let r = qr.r();
-            let r00 = r[(0, 0)].abs();
-            let deficient = (0..p).any(|k| r[(k, k)].abs() <= thresholds::RANK_RTOL * r00);
-            if deficient {
-                extra.push(
-                    "QR found the design rank deficient; the minimum-norm SVD solution is reported"
-                        .to_string(),
-                );
-                (svd_solve(&scaled, &yw), "linear_svd")
-            } else {
-                // R z' = Qᵀ y, then undo the pivoting.
-                let mut qty = yw.clone();
-                qr.q_tr_mul(&mut qty);
-                let rp = r.view((0, 0), (p, p)).into_owned();
-                let zp = rp
-                    .solve_upper_triangular(&qty.rows(0, p).into_owned())
-                    .ok_or(IdentifyError::SolverState {
-                        what: "triangular solve failed",
-                    })?;
-                let mut z = zp;
-                qr.p().inv_permute_rows(&mut z);
-                (z, "linear_qr")
-            }
-        }
-        LinearMethod::Svd => (svd_solve(&scaled, &yw), "linear_svd"),
+        .flatten();
+    let w2: Vec<f64> = sw.iter().map(|s| s * s).collect();
+    let wsum: f64 = w2.iter().sum();
+    let wmean = |v: &dyn Fn(usize) -> f64| -> f64 {
+        let m0 = (0..n).map(|i| w2[i] * v(i)).sum::<f64>() / wsum;
+        m0 + (0..n).map(|i| w2[i] * (v(i) - m0)).sum::<f64>() / wsum
     };
-    let theta = DVector::from_iterator(p, z.iter().zip(&col_norm).map(|(z, c)| z / c));
-    let resid_w = &aw * &theta - &yw;
-    let resid_raw = design * &theta - DVector::from_column_slice(y);
+    let (theta, used, extra, resid_w) = match intercept {
+        Some(c0) => {
+            // The intercept column stays in the solve: it absorbs what the rounded means leave
+            // (ȳ in f64 is off by up to half an ulp of the offset, which would otherwise add n·δ²
+            // to the RSS); the centred columns are orthogonal to it up to rounding.
+            let means: Vec<f64> = (0..p)
+                .map(|j| {
+                    if j == c0 {
+                        0.0
+                    } else {
+                        wmean(&|i| design[(i, j)])
+                    }
+                })
+                .collect();
+            let my = wmean(&|i| y[i]);
+            let ac = DMatrix::from_fn(n, p, |i, j| (design[(i, j)] - means[j]) * sw[i]);
+            let yc = DVector::from_iterator(n, (0..n).map(|i| (y[i] - my) * sw[i]));
+            let (mut theta, used, extra) = solve_scaled(&ac, &yc, method)?;
+            let resid_w = &ac * &theta - &yc;
+            theta[c0] += (my
+                - means
+                    .iter()
+                    .zip(theta.iter())
+                    .map(|(m, t)| m * t)
+                    .sum::<f64>())
+                / design[(0, c0)];
+            (theta, used, extra, resid_w)
+        }
+        None => {
+            let yw = DVector::from_iterator(n, y.iter().zip(&sw).map(|(y, s)| y * s));
+            let (theta, used, extra) = solve_scaled(&aw, &yw, method)?;
+            let resid_w = &aw * &theta - &yw;
+            (theta, used, extra, resid_w)
+        }
+    };
+    let resid_raw = DVector::from_iterator(n, resid_w.iter().zip(&sw).map(|(r, s)| r / s));
     let report = build_report(ReportInputs {
         model,
         method: used,
@@ -178,6 +173,58 @@ pub fn fit_linear(
         extra_warnings: extra,
     });
     Ok(LinearFit { report, theta })
+}
+
+/// Least squares `min ‖A θ − b‖` with the columns scaled to unit norm, by column-pivoted QR (SVD
+/// when rank deficient) or SVD; returns θ, the method's name and any warning.
+fn solve_scaled(
+    aw: &DMatrix<f64>,
+    yw: &DVector<f64>,
+    method: LinearMethod,
+) -> Result<(DVector<f64>, &'static str, Vec<String>)> {
+    let p = aw.ncols();
+    let col_norm: Vec<f64> = (0..p)
+        .map(|j| {
+            let c = aw.column(j).norm();
+            if c > 0.0 { c } else { 1.0 }
+        })
+        .collect();
+    let mut scaled = aw.clone();
+    for (j, c) in col_norm.iter().enumerate() {
+        scaled.column_mut(j).scale_mut(1.0 / c);
+    }
+    let mut extra = Vec::new();
+    let (z, used) = match method {
+        LinearMethod::Qr => {
+            let qr = scaled.clone().col_piv_qr();
+            let r = qr.r();
+            let r00 = r[(0, 0)].abs();
+            let deficient = (0..p).any(|k| r[(k, k)].abs() <= thresholds::RANK_RTOL * r00);
+            if deficient {
+                extra.push(
+                    "QR found the design rank deficient; the minimum-norm SVD solution is reported"
+                        .to_string(),
+                );
+                (svd_solve(&scaled, yw), "linear_svd")
+            } else {
+                // R z' = Qᵀ y, then undo the pivoting.
+                let mut qty = yw.clone();
+                qr.q_tr_mul(&mut qty);
+                let rp = r.view((0, 0), (p, p)).into_owned();
+                let zp = rp
+                    .solve_upper_triangular(&qty.rows(0, p).into_owned())
+                    .ok_or(IdentifyError::SolverState {
+                        what: "triangular solve failed",
+                    })?;
+                let mut z = zp;
+                qr.p().inv_permute_rows(&mut z);
+                (z, "linear_qr")
+            }
+        }
+        LinearMethod::Svd => (svd_solve(&scaled, yw), "linear_svd"),
+    };
+    let theta = DVector::from_iterator(p, z.iter().zip(&col_norm).map(|(z, c)| z / c));
+    Ok((theta, used, extra))
 }
 
 fn svd_solve(a: &DMatrix<f64>, b: &DVector<f64>) -> DVector<f64> {

@@ -1,10 +1,10 @@
 //! Regression on many candidate regressors with a stated selection rule, for records (the thermal
-//! study, the wear laws): standardised normal equations over a subset of rows, ordinary least
-//! squares on a subset of columns, ridge, stepwise selection by BIC, and contiguous folds for
-//! blocked cross-validation.
+//! study, the wear laws): the standardised columns over a subset of rows factorised once by QR,
+//! ordinary least squares on a subset of columns, ridge, stepwise selection by BIC, and contiguous
+//! folds for blocked cross-validation.
 //!
-//! Columns are standardised over the fitting rows (mean 0, standard deviation 1) before the normal
-//! equations are formed, so that a temperature in °C and a speed lag in (krpm)^e are judged alike and
+//! Columns are standardised over the fitting rows (mean 0, standard deviation 1) before they are
+//! factorised, so that a temperature in °C and a speed lag in (krpm)^e are judged alike and
 //! the ridge penalty `λ·n·‖β‖²` means the same for every column; the intercept is never penalised.
 //!
 //! ```
@@ -22,29 +22,38 @@
 
 use nalgebra::{DMatrix, DVector};
 
-/// The standardised normal equations of `y` on columns `x` over `rows`.
+/// The standardised least-squares problem of `y` on columns `x` over `rows`, factorised once:
+/// `Z = Q R` (Householder QR of the standardised columns), so that a fit on any subset `s` of the
+/// columns solves the small problem `min ‖Qᵀy − R_s β‖` by its own QR — never the normal
+/// equations `ZᵀZ β = Zᵀy`, whose condition number is the square of `Z`'s.
 #[derive(Debug, Clone)]
 pub struct Gram {
     mean: Vec<f64>,
     sd: Vec<f64>,
     ymean: f64,
-    g: DMatrix<f64>,
-    c: DVector<f64>,
+    /// `R` of `Z = Q R` (min(n, p) × p).
+    r: DMatrix<f64>,
+    /// `Qᵀ(y − ȳ)`.
+    qty: DVector<f64>,
+    /// `‖(I − QQᵀ)(y − ȳ)‖²`: what no combination of the columns explains, computed directly.
+    perp: f64,
     yy: f64,
     n: usize,
 }
 
 impl Gram {
-    /// Forms `ZᵀZ`, `Zᵀ(y − ȳ)` and `Σ(y − ȳ)²` over `rows`, `Z` the columns standardised over
-    /// those rows (a constant column keeps standard deviation 1 and is all zeros).
+    /// Factorises `Z` over `rows`, `Z` the columns standardised over those rows (a constant column
+    /// keeps standard deviation 1 and is all zeros).
     pub fn new(x: &[&[f64]], y: &[f64], rows: &[usize]) -> Self {
         let p = x.len();
         let n = rows.len();
         let nf = n.max(1) as f64;
-        let mean: Vec<f64> = x
-            .iter()
-            .map(|c| rows.iter().map(|&i| c[i]).sum::<f64>() / nf)
-            .collect();
+        // two-pass means: the second pass removes the rounding of the first
+        let mean_of = |v: &dyn Fn(usize) -> f64| -> f64 {
+            let m0 = rows.iter().map(|&i| v(i)).sum::<f64>() / nf;
+            m0 + rows.iter().map(|&i| v(i) - m0).sum::<f64>() / nf
+        };
+        let mean: Vec<f64> = x.iter().map(|c| mean_of(&|i| c[i])).collect();
         let sd: Vec<f64> = x
             .iter()
             .zip(&mean)
@@ -53,7 +62,7 @@ impl Gram {
                 if v > 0.0 { v.sqrt() } else { 1.0 }
             })
             .collect();
-        let ymean = rows.iter().map(|&i| y[i]).sum::<f64>() / nf;
+        let ymean = mean_of(&|i| y[i]);
         let mut z = DMatrix::<f64>::zeros(n, p);
         for (j, c) in x.iter().enumerate() {
             for (k, &i) in rows.iter().enumerate() {
@@ -61,9 +70,14 @@ impl Gram {
             }
         }
         let yc = DVector::from_iterator(n, rows.iter().map(|&i| y[i] - ymean));
+        let qr = z.qr();
+        let q = qr.q();
+        let qty = q.tr_mul(&yc);
+        let perp = (&yc - &q * &qty).norm_squared();
         Gram {
-            g: z.transpose() * &z,
-            c: z.transpose() * &yc,
+            r: qr.r(),
+            qty,
+            perp,
             yy: yc.norm_squared(),
             mean,
             sd,
@@ -72,7 +86,7 @@ impl Gram {
         }
     }
 
-    /// Rows the equations were formed over.
+    /// Rows the problem was formed over.
     pub fn n(&self) -> usize {
         self.n
     }
@@ -84,18 +98,38 @@ impl Gram {
 
     /// Standardised coefficients of columns `s` (with a free intercept) under the ridge penalty
     /// `lambda·n·‖β‖²` (0: ordinary least squares), and the residual sum of squares; `None` when the
-    /// system is singular.
+    /// columns are linearly dependent (without a penalty). Solved by the QR of `[R_s; √(λn)·I]`;
+    /// the RSS is `‖Qᵀy − R_s β‖² + λ-free remainder`, a sum of squares, never a difference.
     pub fn solve(&self, s: &[usize], lambda: f64) -> Option<(DVector<f64>, f64)> {
         if s.is_empty() {
             return Some((DVector::zeros(0), self.yy));
         }
         let k = s.len();
-        let gs = DMatrix::from_fn(k, k, |a, b| self.g[(s[a], s[b])]);
-        let cs = DVector::from_fn(k, |a, _| self.c[s[a]]);
-        let a = &gs + DMatrix::identity(k, k) * (lambda * self.n as f64);
-        let beta = a.cholesky()?.solve(&cs);
-        let rss = self.yy - 2.0 * beta.dot(&cs) + (beta.transpose() * &gs * &beta)[(0, 0)];
-        (rss.is_finite() && beta.iter().all(|b| b.is_finite())).then_some((beta, rss.max(0.0)))
+        let m = self.r.nrows();
+        let sl = (lambda * self.n as f64).sqrt();
+        let a = DMatrix::from_fn(m + k, k, |i, j| {
+            if i < m {
+                self.r[(i, s[j])]
+            } else if i - m == j {
+                sl
+            } else {
+                0.0
+            }
+        });
+        let b = DVector::from_fn(m + k, |i, _| if i < m { self.qty[i] } else { 0.0 });
+        let qr = a.qr();
+        let rs = qr.r();
+        let d0 = (0..k).map(|j| rs[(j, j)].abs()).fold(0.0, f64::max);
+        if (0..k).any(|j| rs[(j, j)].abs() <= 1e-12 * d0) || d0 == 0.0 {
+            return None;
+        }
+        let qtb = qr.q().tr_mul(&b);
+        let beta = rs.solve_upper_triangular(&qtb.rows(0, k).into_owned())?;
+        let fit = DVector::from_fn(m, |i, _| {
+            self.qty[i] - (0..k).map(|j| self.r[(i, s[j])] * beta[j]).sum::<f64>()
+        });
+        let rss = fit.norm_squared() + self.perp;
+        (rss.is_finite() && beta.iter().all(|b| b.is_finite())).then_some((beta, rss))
     }
 
     /// The prediction at row `i` of the fit `beta` on columns `s`.

@@ -84,7 +84,7 @@ pub struct ResidualDiagnostics {
 pub struct FitReport {
     /// Model kind, e.g. `spindle`, `thermal_exponential`.
     pub model: String,
-    /// Solver used, e.g. `linear_qr`, `argmin_trust_region_dogleg`.
+    /// Solver used, e.g. `linear_qr`, `argmin_trust_region_lm_svd`.
     pub method: String,
     /// Outcome.
     pub status: FitStatus,
@@ -107,6 +107,9 @@ pub struct FitReport {
     /// RMS of the unweighted residuals, key `rms_residual_<unit>`.
     #[serde(flatten)]
     pub rms_residual: RmsResidual,
+    /// Residual sum of squares `RSS = Σ r²` of the weighted residuals at the estimate (the
+    /// quantity minimised).
+    pub rss: f64,
     /// Residual standard deviation `s = √(RSS/dof)` of the weighted residuals.
     pub residual_std: f64,
     /// Number of observations (residuals).
@@ -339,6 +342,7 @@ pub(crate) fn build_report(inp: ReportInputs<'_>) -> FitReport {
             value: (inp.resid_raw.norm_squared() / nraw).sqrt(),
             unit: inp.unit.to_string(),
         },
+        rss,
         residual_std: s2.sqrt(),
         n_obs: n,
         dof: n.saturating_sub(p),

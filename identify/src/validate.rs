@@ -79,6 +79,29 @@ pub fn enough_points(n: usize, n_params: usize, what: &str) -> Result<()> {
     }
 }
 
+/// The square roots of `weights` (inverse variances), one per row of `y` (`n` rows); all 1 when
+/// there are none.
+///
+/// # Errors
+/// [`IdentifyError::LengthMismatch`] unless there is one weight per row,
+/// [`IdentifyError::NonFinite`] for a NaN or infinite weight and
+/// [`IdentifyError::InvalidParameter`] (`weights[row]`) for one that is not > 0.
+pub fn sqrt_weights(weights: Option<&[f64]>, n: usize) -> Result<Vec<f64>> {
+    let Some(w) = weights else {
+        return Ok(vec![1.0; n]);
+    };
+    same_len("weights", w, "y", n)?;
+    finite("weights", w)?;
+    if let Some(row) = w.iter().position(|&v| v <= 0.0) {
+        return Err(IdentifyError::InvalidParameter {
+            name: format!("weights[{row}]"),
+            value: w[row],
+            allowed: "> 0 (inverse variance)",
+        });
+    }
+    Ok(w.iter().map(|v| v.sqrt()).collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

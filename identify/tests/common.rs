@@ -153,3 +153,144 @@ pub fn assert_honest(verb: &str, stats: &BTreeMap<String, ParamStats>) {
         );
     }
 }
+
+/// A reader for NIST StRD regression files (`*.dat`): NIST's fixed text format, whose header
+/// gives the line ranges of the starting values, the certified values and the data.
+pub mod nist {
+    use std::path::Path;
+
+    /// One StRD regression problem.
+    #[derive(Debug, Clone)]
+    pub struct Problem {
+        /// Dataset name (the file stem).
+        pub name: String,
+        /// Starting values (nonlinear problems: two starts; linear ones: none).
+        pub starts: Vec<Vec<f64>>,
+        /// Certified parameter values b1, b2, …
+        pub certified: Vec<f64>,
+        /// Certified standard deviations of the parameters.
+        pub certified_sd: Vec<f64>,
+        /// Certified residual sum of squares.
+        pub certified_rss: f64,
+        /// Data rows in file order (`y, x` or `y, x1, x2`).
+        pub data: Vec<Vec<f64>>,
+    }
+
+    /// The 1-based inclusive line range `(lines a to b)` following `label` in the header.
+    fn range(text: &str, label: &str) -> Result<(usize, usize), String> {
+        let line = text
+            .lines()
+            .take(15)
+            .find(|l| {
+                l.trim_start()
+                    .strip_prefix(label)
+                    .is_some_and(|rest| rest.starts_with(' '))
+            })
+            .ok_or_else(|| format!("no `{label}` line range in the header"))?;
+        let inner = line
+            .split('(')
+            .nth(1)
+            .and_then(|s| s.split(')').next())
+            .ok_or_else(|| format!("`{label}`: no (lines a to b)"))?;
+        let nums: Vec<usize> = inner
+            .split_whitespace()
+            .filter_map(|w| w.parse().ok())
+            .collect();
+        match nums[..] {
+            [a, b] => Ok((a, b)),
+            _ => Err(format!("`{label}`: cannot read `{inner}`")),
+        }
+    }
+
+    fn number(w: &str, path: &Path, line: usize) -> Result<f64, String> {
+        w.parse::<f64>()
+            .map_err(|e| format!("{} line {line}: `{w}`: {e}", path.display()))
+    }
+
+    /// Reads a problem; the error names the file and line.
+    pub fn read(path: &Path) -> Result<Problem, String> {
+        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let lines: Vec<&str> = text.lines().collect();
+        let (c0, c1) = range(&text, "Certified Values")?;
+        let (d0, d1) = range(&text, "Data")?;
+        let mut starts: Vec<Vec<f64>> = Vec::new();
+        let (mut certified, mut certified_sd, mut certified_rss) = (Vec::new(), Vec::new(), None);
+        for (k, l) in lines.iter().enumerate().take(c1).skip(c0 - 1) {
+            if let Some((lhs, rhs)) = l.split_once('=') {
+                if !lhs.trim().starts_with('b') {
+                    continue;
+                }
+                let v: Vec<f64> = rhs
+                    .split_whitespace()
+                    .map(|w| number(w, path, k + 1))
+                    .collect::<Result<_, _>>()?;
+                let nstart = v.len() - 2;
+                starts.resize(nstart, Vec::new());
+                for (s, &x) in starts.iter_mut().zip(&v) {
+                    s.push(x);
+                }
+                certified.push(v[nstart]);
+                certified_sd.push(v[nstart + 1]);
+            } else if let Some(rest) = l.trim().strip_prefix("Residual Sum of Squares:") {
+                certified_rss = Some(number(rest.trim(), path, k + 1)?);
+            } else {
+                // linear files: `B0  estimate  sd` and the ANOVA row `Residual  df  SS  MS`
+                let w: Vec<&str> = l.split_whitespace().collect();
+                let is_param = |t: &str| {
+                    t.len() > 1 && t.starts_with('B') && t[1..].chars().all(|c| c.is_ascii_digit())
+                };
+                match w[..] {
+                    [b, est, sd] if is_param(b) => {
+                        certified.push(number(est, path, k + 1)?);
+                        certified_sd.push(number(sd, path, k + 1)?);
+                    }
+                    ["Residual", df, ss, _] if df.parse::<usize>().is_ok() => {
+                        certified_rss = Some(number(ss, path, k + 1)?)
+                    }
+                    _ => {}
+                }
+            }
+        }
+        let data = lines
+            .iter()
+            .enumerate()
+            .take(d1)
+            .skip(d0 - 1)
+            .map(|(k, l)| {
+                l.split_whitespace()
+                    .map(|w| number(w, path, k + 1))
+                    .collect::<Result<Vec<f64>, _>>()
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Problem {
+            name: path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+            starts,
+            certified,
+            certified_sd,
+            certified_rss: certified_rss
+                .ok_or_else(|| format!("{}: no residual sum of squares", path.display()))?,
+            data,
+        })
+    }
+
+    /// Log relative error `−log₁₀(|x − c|/|c|)` (absolute when `c = 0`), capped at `cap` (the
+    /// digits NIST certifies: 11 for nonlinear problems, 15 for linear ones); 0 for a non-finite `x`.
+    pub fn lre(x: f64, c: f64, cap: f64) -> f64 {
+        if !x.is_finite() {
+            return 0.0;
+        }
+        let err = if c == 0.0 {
+            x.abs()
+        } else {
+            ((x - c) / c).abs()
+        };
+        if err == 0.0 {
+            cap
+        } else {
+            (-err.log10()).clamp(0.0, cap)
+        }
+    }
+}

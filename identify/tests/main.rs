@@ -6,6 +6,8 @@ mod common;
 mod bad_input;
 mod golden;
 mod jacobians;
+mod nist_strd;
+mod offset_line;
 mod real_records;
 mod recovery;
 mod saved_model;

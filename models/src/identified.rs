@@ -17,11 +17,28 @@ use crate::error::{ModelError, Result};
 pub enum FitStatus {
     /// Converged (a tolerance was met) or solved exactly (linear, full rank).
     Converged,
-    /// The iteration limit was reached before any tolerance was met.
-    MaxIter,
+    /// Stopped because float64 cannot resolve further progress: the model predicts a reduction
+    /// below the cost's rounding, or every step longer than the step tolerance fails to reduce
+    /// the cost (MINPACK's "no further reduction possible"). A success: the estimate is as good
+    /// as the arithmetic allows.
+    StalledAtRoundingLevel,
+    /// Not converged: the iteration limit was reached before any tolerance was met (files
+    /// written before this status was named carry `max_iter`, read as this).
+    #[serde(alias = "max_iter")]
+    NotConverged,
     /// The data do not determine all parameters (the Jacobian is numerically rank deficient);
     /// the estimate is the minimum-norm one along the unseen directions named in `warnings`.
     RankDeficient,
+}
+
+impl FitStatus {
+    /// Whether the estimate is usable as a minimum: converged or stalled at rounding level.
+    pub fn is_success(self) -> bool {
+        matches!(
+            self,
+            FitStatus::Converged | FitStatus::StalledAtRoundingLevel
+        )
+    }
 }
 
 /// A square matrix indexed by parameter name (serialised as `{"names": [...], "values": [[...]]}`).

@@ -582,14 +582,24 @@ fn t_pvalue(t: f64, df: f64) -> Option<f64> {
         .map(|d| 2.0 * d.sf(t.abs()))
 }
 
-/// Least squares on a subset of columns; returns the residual sum of squares.
-fn rss_subset(x: &DMatrix<f64>, y: &DVector<f64>, cols: &[usize]) -> f64 {
+/// Least squares on a subset of columns (SVD, an orthogonal factorisation: no normal equations);
+/// returns the fitted values.
+fn fitted_subset(x: &DMatrix<f64>, y: &DVector<f64>, cols: &[usize]) -> Option<DVector<f64>> {
     let sub = x.select_columns(cols);
     let svd = sub.clone().svd(true, true);
-    match svd.solve(y, 1e-12) {
-        Ok(b) => (y - sub * b).norm_squared(),
-        Err(_) => f64::NAN,
-    }
+    svd.solve(y, 1e-12).ok().map(|b| sub * b)
+}
+
+/// The response centred on its mean, and that mean. Two passes: the mean of the data, then the
+/// mean of the deviations from it, so that `Σ(y − ȳ)²` carries no `n·δ²` from a rounded mean.
+/// A deviation `y − m` of two numbers within a factor 2 of each other is exact (Sterbenz), so
+/// responses sharing a large common offset (1e12 + a few units in the 4th decimal) keep all the
+/// digits their f64 values hold; the fit then works on numbers of the size of the differences.
+fn centred(y: &[f64]) -> (Vec<f64>, f64) {
+    let n = y.len().max(1) as f64;
+    let m0 = y.iter().sum::<f64>() / n;
+    let m = m0 + y.iter().map(|v| v - m0).sum::<f64>() / n;
+    (y.iter().map(|v| v - m).collect(), m)
 }
 
 /// Finds the first column that is a linear combination of the earlier ones (modified Gram–Schmidt); returns
@@ -702,20 +712,27 @@ pub fn analyze(input: &AnalysisInput) -> Result<Analysis> {
             },
         });
     }
-    let yv = DVector::from_vec(y.clone());
+    // Fit the centred response (column 0 is the intercept): the same least-squares problem, with
+    // the common offset moved into the intercept exactly.
+    let (yc, ybar) = centred(&y);
+    let yv = DVector::from_vec(yc.clone());
     let svd = mm.x.clone().svd(true, true);
-    let beta = svd.solve(&yv, 1e-14).map_err(|e| DoeError::Unsupported {
+    let mut beta = svd.solve(&yv, 1e-14).map_err(|e| DoeError::Unsupported {
         what: format!("least squares: {e}"),
     })?;
-    let fitted = &mm.x * &beta;
-    let resid = &yv - &fitted;
+    let fitted_c = &mm.x * &beta;
+    let resid = &yv - &fitted_c;
+    beta[0] += ybar;
+    let fitted = fitted_c.add_scalar(ybar);
     let sse = resid.norm_squared();
     let df_e = n - p;
-    let mean = y.iter().sum::<f64>() / n as f64;
-    let sst: f64 = y.iter().map(|v| (v - mean).powi(2)).sum();
-    // (XᵀX)⁻¹ = V Σ⁻² Vᵀ.
+    let sst: f64 = yc.iter().map(|v| v * v).sum();
+    // (XᵀX)⁻¹ = V Σ⁻² Vᵀ (for standard errors; leverages come from U).
     let v_t = svd.v_t.clone().ok_or_else(|| DoeError::Unsupported {
         what: "SVD without V".into(),
+    })?;
+    let u = svd.u.clone().ok_or_else(|| DoeError::Unsupported {
+        what: "SVD without U".into(),
     })?;
     let sv = &svd.singular_values;
     let xtx_inv = DMatrix::<f64>::from_fn(p, p, |i, j| {
@@ -739,7 +756,15 @@ pub fn analyze(input: &AnalysisInput) -> Result<Analysis> {
             .copied()
             .filter(|&c| mm.col_term[c] != Some(ti))
             .collect();
-        let ss = (rss_subset(&mm.x, &yv, &without) - rss_subset(&mm.x, &yv, &with)).max(0.0);
+        // SS(T | others) = ‖ŷ_with − ŷ_without‖²: the norm of a difference of fitted values, not
+        // the difference of two residual sums of squares (which cancels when SS ≪ RSS).
+        let ss = match (
+            fitted_subset(&mm.x, &yv, &with),
+            fitted_subset(&mm.x, &yv, &without),
+        ) {
+            (Some(a), Some(b)) => (a - b).norm_squared(),
+            _ => f64::NAN,
+        };
         let cols: Vec<usize> = (0..p).filter(|&c| mm.col_term[c] == Some(ti)).collect();
         let df = cols.len();
         let single = df == 1;
@@ -786,12 +811,8 @@ pub fn analyze(input: &AnalysisInput) -> Result<Analysis> {
         .collect();
 
     // Leverages and diagnostics.
-    let h: Vec<f64> = (0..n)
-        .map(|i| {
-            let xi = mm.x.row(i);
-            (xi * &xtx_inv * xi.transpose())[(0, 0)]
-        })
-        .collect();
+    // h_ii = ‖U_i‖² (thin U of the full-rank X; the aliasing check above guarantees full rank).
+    let h: Vec<f64> = (0..n).map(|i| u.row(i).norm_squared()).collect();
     let mut diag_runs = Vec::with_capacity(n);
     for i in 0..n {
         let (stud, cook) = match mse {
@@ -858,8 +879,8 @@ pub fn analyze(input: &AnalysisInput) -> Result<Analysis> {
         let ss_pe: f64 = groups
             .iter()
             .map(|(_, idx)| {
-                let m = idx.iter().map(|&i| y[i]).sum::<f64>() / idx.len() as f64;
-                idx.iter().map(|&i| (y[i] - m).powi(2)).sum::<f64>()
+                let (d, _) = centred(&idx.iter().map(|&i| yc[i]).collect::<Vec<_>>());
+                d.iter().map(|v| v * v).sum::<f64>()
             })
             .sum();
         if df_pe > 0 && df_e > df_pe && ss_pe > 0.0 {

@@ -73,7 +73,7 @@ pub(crate) fn combine(model: &str, groups: &BTreeMap<String, FitReport>) -> FitR
         rank += g.rank;
         iterations += g.iterations;
         ss += g.rms_residual.value.powi(2) * g.n_obs as f64;
-        rss_w += g.residual_std.powi(2) * g.dof as f64;
+        rss_w += g.rss;
         cond = cond.max(g.condition_number);
         unit = g.rms_residual.unit.clone();
         method = g.method.clone();
@@ -81,7 +81,10 @@ pub(crate) fn combine(model: &str, groups: &BTreeMap<String, FitReport>) -> FitR
             (FitStatus::RankDeficient, _) | (_, FitStatus::RankDeficient) => {
                 FitStatus::RankDeficient
             }
-            (FitStatus::MaxIter, _) | (_, FitStatus::MaxIter) => FitStatus::MaxIter,
+            (FitStatus::NotConverged, _) | (_, FitStatus::NotConverged) => FitStatus::NotConverged,
+            (FitStatus::StalledAtRoundingLevel, _) | (_, FitStatus::StalledAtRoundingLevel) => {
+                FitStatus::StalledAtRoundingLevel
+            }
             _ => FitStatus::Converged,
         };
     }
@@ -111,6 +114,7 @@ pub(crate) fn combine(model: &str, groups: &BTreeMap<String, FitReport>) -> FitR
             value: (ss / n_obs.max(1) as f64).sqrt(),
             unit,
         },
+        rss: rss_w,
         residual_std: (rss_w / dof.max(1) as f64).sqrt(),
         n_obs,
         dof,
