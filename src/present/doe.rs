@@ -725,15 +725,17 @@ mod tests {
     fn analysis_and_elimination_as_text() {
         // Reference: the output of the README command `doe-analyze` (Clayton thesis, seed 000, Table 3-3) as
         // printed by `Analysis::human()` before this text moved to the CLI; F = 57.149 is statsmodels'
-        // (doe's golden ANOVA test).
+        // (doe's golden ANOVA test). The exact sums of squares of speed and upfeed are 0.0136125 and
+        // 2.9646125 (8 · (effect/2)²): decimal ties at the sixth place, so that digit follows the last bit
+        // of the f64 result — the ANOVA on the centred response (issue 18) prints 0.013612 and 2.964613.
         let t = analysis_text(&analyze(&clayton("max_fx_n", ModelSpec::Main)).unwrap());
         assert_eq!(
             t,
             "Response: max_fx_n   runs: 8   model: depth_um + speed_rpm + upfeed_um\n\
              Term           Effect        Coef    SE Coef  DF       Sum Sq          F    p-value\n\
              depth_um      1.28250     0.64125    0.08483   1     3.289612     57.149   0.001641 **\n\
-             speed_rpm     0.08250     0.04125    0.08483   1     0.013613      0.236   0.652199\n\
-             upfeed_um     1.21750     0.60875    0.08483   1     2.964612     51.502   0.001997 **\n\
+             speed_rpm     0.08250     0.04125    0.08483   1     0.013612      0.236   0.652199\n\
+             upfeed_um     1.21750     0.60875    0.08483   1     2.964613     51.502   0.001997 **\n\
              Residual                                       4     0.230250\n\
              S = 0.23992   R² = 0.9646   adj R² = 0.9380   pred R² = 0.8583\n"
         );
