@@ -1150,7 +1150,7 @@ pub fn groove_mpc(
         c[(OUT_ERROR, j)] = sin_a * single.c[(0, j)];
     }
     let model = DiscreteLti::new(single.a, single.b, c, DMatrix::zeros(2, 1), tc)?;
-    let cfg = match &settings.config {
+    let mut cfg = match &settings.config {
         Some(m) => m.clone(),
         None => {
             let mut c = default_spindle_config(
@@ -1178,7 +1178,6 @@ pub fn groove_mpc(
             c
         }
     };
-    let mut cfg = cfg;
     settings.budget.apply(&mut cfg.solver);
     MpcController::new(&model, &cfg)
 }

@@ -98,7 +98,7 @@ pub fn thin_wall_mpc(
     let b = DMatrix::from_element(1, 1, 1.0);
     let c = DMatrix::from_column_slice(2, 1, &[1.0, -1.0]);
     let model = DiscreteLti::new(a, b, c, DMatrix::zeros(2, 1), dt_s)?;
-    let cfg = MpcConfig {
+    let mut cfg = MpcConfig {
         horizon,
         control_horizon: None,
         move_blocking: None,
@@ -144,7 +144,6 @@ pub fn thin_wall_mpc(
             ..SolverConfig::default()
         },
     };
-    let mut cfg = cfg;
     budget.apply(&mut cfg.solver);
     MpcController::new(&model, &cfg)
 }
