@@ -38,7 +38,30 @@ pub struct MpcConfig {
     /// Clarabel settings.
     #[serde(default)]
     pub solver: SolverConfig,
+    /// Outputs between the control cycles in the cost (default none: the outputs at the cycles only).
+    /// With it, the model given to [`crate::MpcController::new`] is sampled at the sub-step and the
+    /// controller runs every `substeps` of its steps.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub intersample: Option<Intersample>,
 }
+
+/// Tracking costs between the control cycles: the input is held over a cycle, but the output it moves
+/// is weighted at every one of `substeps` sub-steps of the first `cycles` cycles (each at `Q / substeps`,
+/// so such a cycle weighs as much as a later one seen at its end only). A change in the known offsets
+/// that falls between two cycles — a deflection rising within a fraction of a cycle — is then tracked
+/// where it happens, not only where the cycles sample it. Costs only: no rows are added to the QP's
+/// constraints and its size is unchanged.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Intersample {
+    /// Sub-steps per control cycle (`2 ..= 100`); the model's sample time is the cycle's over this.
+    pub substeps: usize,
+    /// Cycles of the horizon with costs between them (`1 ..= horizon`), from the first.
+    pub cycles: usize,
+}
+
+/// Largest `intersample.substeps`.
+pub const MAX_SUBSTEPS: usize = 100;
 
 /// Weights of the quadratic cost
 /// `Σₖ ‖y_k − r_k‖²_Q + Σₖ ‖Δu_k‖²_R + Σₖ ‖u_k − u_target‖²_S + ρ₁·Σ s + ρ₂·Σ s²`.
@@ -367,7 +390,19 @@ impl MpcConfig {
             disturbance: DisturbanceConfig::default(),
             kalman: KalmanConfig::default(),
             solver: SolverConfig::default(),
+            intersample: None,
         }
+    }
+
+    /// Sub-steps of the model per control cycle: `intersample.substeps`, 1 without it.
+    pub fn substeps(&self) -> usize {
+        self.intersample.map_or(1, |i| i.substeps)
+    }
+
+    /// Rows of intersample outputs per output (`cycles · (substeps − 1)`; 0 without them).
+    pub fn intersample_rows(&self) -> usize {
+        self.intersample
+            .map_or(0, |i| i.cycles * (i.substeps.saturating_sub(1)))
     }
 
     /// Parse from TOML text and validate the dimension-free parts (see [`Self::validate_keys`]).
@@ -398,6 +433,22 @@ impl MpcConfig {
                 self.horizon,
                 format!("1 ..= {MAX_HORIZON}"),
             ));
+        }
+        if let Some(i) = self.intersample {
+            if !(2..=MAX_SUBSTEPS).contains(&i.substeps) {
+                return Err(invalid(
+                    "intersample.substeps",
+                    i.substeps,
+                    format!("2 ..= {MAX_SUBSTEPS}"),
+                ));
+            }
+            if i.cycles == 0 || i.cycles > self.horizon {
+                return Err(invalid(
+                    "intersample.cycles",
+                    i.cycles,
+                    format!("1 ..= horizon ({})", self.horizon),
+                ));
+            }
         }
         if self.control_horizon.is_some() && self.move_blocking.is_some() {
             return Err(invalid(

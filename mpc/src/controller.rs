@@ -42,6 +42,15 @@ pub struct PreviewWindow {
     pub offsets: Vec<f64>,
     /// References `r_{k+1} … r_{k+N}` (N·n_outputs, step-major).
     pub reference: Vec<f64>,
+    /// Known offsets between the cycles, when the controller weighs them
+    /// ([`crate::config::Intersample`]): for cycle `k = 1..=cycles` and sub-step `s = 1..substeps−1`
+    /// the offset `s` sub-steps after cycle `k − 1` (cycle-major, then sub-step, then output); empty
+    /// otherwise.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub intersample_offsets: Vec<f64>,
+    /// References between the cycles, as [`Self::intersample_offsets`].
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub intersample_reference: Vec<f64>,
 }
 
 impl PreviewWindow {
@@ -51,6 +60,18 @@ impl PreviewWindow {
             offset_now: vec![0.0; n_outputs],
             offsets: vec![0.0; horizon * n_outputs],
             reference: vec![0.0; horizon * n_outputs],
+            intersample_offsets: Vec::new(),
+            intersample_reference: Vec::new(),
+        }
+    }
+
+    /// All-zero window for a controller configured by `cfg` (with its intersample rows).
+    pub fn zeros_for(cfg: &MpcConfig, n_outputs: usize) -> Self {
+        let rows = cfg.intersample_rows() * n_outputs;
+        Self {
+            intersample_offsets: vec![0.0; rows],
+            intersample_reference: vec![0.0; rows],
+            ..Self::zeros(cfg.horizon, n_outputs)
         }
     }
 }
@@ -96,6 +117,10 @@ pub struct MpcController {
     status_counts: Vec<(QpStatus, usize)>,
     inject_failures: usize,
     injecting: bool,
+    /// The horizon's and the intersample rows' offsets and references, stacked for the QP (used only
+    /// with intersample outputs).
+    offsets_buf: Vec<f64>,
+    reference_buf: Vec<f64>,
 }
 
 impl MpcController {
@@ -126,10 +151,21 @@ impl MpcController {
     /// assert!((y - 0.5).abs() < 1e-3);
     /// assert_eq!(mpc.stats().fallbacks, 0);
     /// ```
+    ///
+    /// With `cfg.intersample`, `model` is sampled at the sub-step: the controller runs every
+    /// `intersample.substeps` of its samples, on the model held over them ([`DiscreteLti::held_over`]),
+    /// and weighs the outputs in between.
     pub fn new(model: &DiscreteLti, cfg: &MpcConfig) -> Result<Self, MpcError> {
         let (nu, ny) = (model.n_inputs(), model.n_outputs());
         cfg.validate(nu, ny)?;
-        let aug = AugmentedModel::new(model, cfg)?;
+        let (aug, fine) = match cfg.intersample {
+            None => (AugmentedModel::new(model, cfg)?, None),
+            Some(i) => {
+                let aug = AugmentedModel::new(&model.held_over(i.substeps)?, cfg)?;
+                let fine = aug.same_coordinates(model, cfg)?;
+                (aug, Some(fine))
+            }
+        };
         let r: Vec<f64> = if cfg.kalman.measurement_noise.is_empty() {
             vec![1e-2; ny]
         } else {
@@ -142,7 +178,8 @@ impl MpcController {
             &r,
         )?;
         kf.set_gate(&cfg.kalman.innovation_gate, cfg.kalman.gate_max_skips);
-        let qp = CondensedQp::new(&aug, cfg)?;
+        let qp = CondensedQp::new(&aug, cfg, fine.as_ref())?;
+        let budget_s = cfg.solver.budget_fraction * aug.dt_s;
         let u0: Vec<f64> = (0..nu)
             .map(|i| 0.0f64.clamp(cfg.limits.u_min[i], cfg.limits.u_max[i]))
             .collect();
@@ -159,11 +196,13 @@ impl MpcController {
             times_us: Vec::new(),
             fallbacks: 0,
             deadline_misses: 0,
-            budget_s: cfg.solver.budget_fraction * model.dt_s,
+            budget_s,
             iteration_s: 0.0,
             status_counts: Vec::new(),
             inject_failures: 0,
             injecting: false,
+            offsets_buf: Vec::new(),
+            reference_buf: Vec::new(),
         })
     }
 
@@ -266,9 +305,41 @@ impl MpcController {
             None
         };
         let t0 = Instant::now();
-        let finite = self
-            .qp
-            .update(&xa, &self.u_prev, &window.offsets, &window.reference)?;
+        let finite = if self.cfg.intersample.is_some() {
+            let rows = self.cfg.intersample_rows() * ny;
+            if window.intersample_offsets.len() != rows
+                || window.intersample_reference.len() != rows
+            {
+                return Err(MpcError::DimensionMismatch {
+                    what: "preview window between the cycles (intersample offsets/reference)"
+                        .into(),
+                    expected: rows,
+                    found: window
+                        .intersample_offsets
+                        .len()
+                        .min(window.intersample_reference.len()),
+                });
+            }
+            for (buf, (cycles, between)) in [
+                (
+                    &mut self.offsets_buf,
+                    (&window.offsets, &window.intersample_offsets),
+                ),
+                (
+                    &mut self.reference_buf,
+                    (&window.reference, &window.intersample_reference),
+                ),
+            ] {
+                buf.clear();
+                buf.extend_from_slice(cycles);
+                buf.extend_from_slice(between);
+            }
+            self.qp
+                .update(&xa, &self.u_prev, &self.offsets_buf, &self.reference_buf)?
+        } else {
+            self.qp
+                .update(&xa, &self.u_prev, &window.offsets, &window.reference)?
+        };
         let (status, solve_us, iterations) = if finite {
             let st = self.qp.solve_by(deadline);
             let us = t0.elapsed().as_secs_f64() * 1e6;

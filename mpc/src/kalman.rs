@@ -68,6 +68,26 @@ impl AugmentedModel {
     /// Build from a strictly proper discrete model (`D = 0`: the measurement of cycle k is taken before the
     /// command of cycle k is applied) and the disturbance part of `cfg`.
     pub fn new(model: &DiscreteLti, cfg: &MpcConfig) -> Result<Self, MpcError> {
+        Self::with_scale(model, cfg, step_scales(model))
+    }
+
+    /// The same augmentation of another realisation of the plant — `model` sampled at a sub-step of
+    /// this one's cycle — in this one's scaled coordinates, so that states carry over between the two.
+    ///
+    /// # Errors
+    /// As [`Self::new`]; [`MpcError::DimensionMismatch`] when `model` has another number of states.
+    pub fn same_coordinates(&self, model: &DiscreteLti, cfg: &MpcConfig) -> Result<Self, MpcError> {
+        if model.n_states() != self.n_plant {
+            return Err(MpcError::DimensionMismatch {
+                what: "states of the sub-step model".into(),
+                expected: self.n_plant,
+                found: model.n_states(),
+            });
+        }
+        Self::with_scale(model, cfg, self.state_scale.clone())
+    }
+
+    fn with_scale(model: &DiscreteLti, cfg: &MpcConfig, t: DVector<f64>) -> Result<Self, MpcError> {
         let (nx, nu, ny) = (model.n_states(), model.n_inputs(), model.n_outputs());
         if model.d.iter().any(|v| *v != 0.0) {
             return Err(MpcError::InvalidConfig {
@@ -83,7 +103,6 @@ impl AugmentedModel {
                 found: nx.min(nu).min(ny),
             });
         }
-        let t = step_scales(model);
         // Ã = T⁻¹ A T, B̃ = T⁻¹ B, C̃ = C T
         let mut at = model.a.clone();
         let mut bt = model.b.clone();

@@ -111,7 +111,6 @@ impl QpStatus {
 pub struct CondensedQp {
     horizon: usize,
     nu: usize,
-    ny: usize,
     blocks: Vec<usize>,
     nv: usize,
     ns: usize,
@@ -198,6 +197,57 @@ pub fn prediction_matrices(model: &AugmentedModel, horizon: usize) -> (DMatrix<f
     (f, g)
 }
 
+/// Prediction rows of the outputs between the cycles ([`crate::config::Intersample`]): for cycles
+/// `k = 1..=cycles` and sub-steps `s = 1..substeps−1`, the output `s` sub-steps after cycle `k − 1`,
+/// `C A_f^s ξ_{k−1} + C (Σ_{i<s} A_f^i B_f) u_{k−1}` with `ξ_{k−1} = A^{k−1} ξ + Σ_j A^{k−2−j} B u_j`.
+/// `model` is the cycle's augmented model, `fine` the sub-step's in the same coordinates
+/// ([`AugmentedModel::same_coordinates`]). Rows are cycle-major, then sub-step, then output:
+/// F (cycles·(substeps−1)·ny × n) and G (… × N·nu).
+pub fn intersample_matrices(
+    model: &AugmentedModel,
+    fine: &AugmentedModel,
+    horizon: usize,
+    substeps: usize,
+    cycles: usize,
+) -> (DMatrix<f64>, DMatrix<f64>) {
+    let (n, nu, ny) = (model.n(), model.n_inputs(), model.n_outputs());
+    let per = substeps.saturating_sub(1);
+    let rows = cycles * per * ny;
+    let mut f = DMatrix::zeros(rows, n);
+    let mut g = DMatrix::zeros(rows, horizon * nu);
+    // C A_f^s and C Σ_{i<s} A_f^i B_f for s = 1..substeps−1
+    let (mut af, mut bf) = (DMatrix::<f64>::identity(n, n), DMatrix::<f64>::zeros(n, nu));
+    let mut ca_f = Vec::with_capacity(per);
+    let mut cb_f = Vec::with_capacity(per);
+    for _ in 0..per {
+        bf = &fine.a * &bf + &fine.b;
+        af = &fine.a * &af;
+        ca_f.push(&fine.c * &af);
+        cb_f.push(&fine.c * &bf);
+    }
+    // A^i and A^i B of the cycle model
+    let mut a_pow = vec![DMatrix::<f64>::identity(n, n)];
+    for i in 1..cycles.max(1) {
+        a_pow.push(&model.a * &a_pow[i - 1]);
+    }
+    let ab: Vec<DMatrix<f64>> = a_pow.iter().map(|a| a * &model.b).collect();
+    for k in 1..=cycles {
+        for s in 1..=per {
+            let r = ((k - 1) * per + (s - 1)) * ny;
+            let cas = &ca_f[s - 1];
+            f.view_mut((r, 0), (ny, n))
+                .copy_from(&(cas * &a_pow[k - 1]));
+            for j in 0..k - 1 {
+                g.view_mut((r, j * nu), (ny, nu))
+                    .copy_from(&(cas * &ab[k - 2 - j]));
+            }
+            g.view_mut((r, (k - 1) * nu), (ny, nu))
+                .copy_from(&cb_f[s - 1]);
+        }
+    }
+    (f, g)
+}
+
 /// The Clarabel settings for a solver configuration (presolve and zero dropping off so q/b can be
 /// updated; single-threaded QDLDL; quiet; no time limit — see the module docs).
 pub fn clarabel_settings(cfg: &SolverConfig) -> DefaultSettings<f64> {
@@ -218,8 +268,18 @@ pub fn clarabel_settings(cfg: &SolverConfig) -> DefaultSettings<f64> {
 }
 
 impl CondensedQp {
-    /// Build P, A, the constant parts of q and b, and the Clarabel solver (once).
-    pub fn new(model: &AugmentedModel, cfg: &MpcConfig) -> Result<Self, MpcError> {
+    /// Build P, A, the constant parts of q and b, and the Clarabel solver (once). With
+    /// `cfg.intersample`, `fine` is the sub-step's augmented model in `model`'s coordinates, and the
+    /// outputs between the cycles are rows after the horizon's.
+    ///
+    /// # Errors
+    /// [`MpcError::InvalidConfig`] for a configuration the model cannot take, or intersample outputs
+    /// without the sub-step model; [`MpcError::SolverSetup`] when Clarabel refuses the data.
+    pub fn new(
+        model: &AugmentedModel,
+        cfg: &MpcConfig,
+        fine: Option<&AugmentedModel>,
+    ) -> Result<Self, MpcError> {
         let (nu, ny) = (model.n_inputs(), model.n_outputs());
         cfg.validate(nu, ny)?;
         let horizon = cfg.horizon;
@@ -227,6 +287,28 @@ impl CondensedQp {
         let nb = blocks.len();
         let nv = nb * nu;
         let (f, g) = prediction_matrices(model, horizon);
+        // the outputs between the cycles, appended after the horizon's rows
+        let (f, g, is_cycles, substeps) = match (cfg.intersample, fine) {
+            (None, _) => (f, g, 0, 1),
+            (Some(i), Some(fine)) => {
+                let (fi, gi) = intersample_matrices(model, fine, horizon, i.substeps, i.cycles);
+                let stack = |a: DMatrix<f64>, b: DMatrix<f64>| {
+                    let mut m = DMatrix::zeros(a.nrows() + b.nrows(), a.ncols());
+                    m.view_mut((0, 0), a.shape()).copy_from(&a);
+                    m.view_mut((a.nrows(), 0), b.shape()).copy_from(&b);
+                    m
+                };
+                (stack(f, fi), stack(g, gi), i.cycles, i.substeps)
+            }
+            (Some(_), None) => {
+                return Err(crate::error::invalid(
+                    "intersample",
+                    "set without a model sampled at the sub-step",
+                    "MpcController::new with the sub-step model",
+                ));
+            }
+        };
+        let n_rows = f.nrows();
         // block expansion M (N·nu × nv)
         let mut mexp = DMatrix::zeros(horizon * nu, nv);
         let mut k = 0;
@@ -239,9 +321,17 @@ impl CondensedQp {
             }
         }
         let gb = &g * &mexp;
+        // Q per row; a cycle seen at its sub-steps too weighs Q / substeps at each of its samples
         let qdiag = DVector::from_iterator(
-            horizon * ny,
-            (0..horizon * ny).map(|r| cfg.weights.output[r % ny]),
+            n_rows,
+            (0..n_rows).map(|r| {
+                let w = cfg.weights.output[r % ny];
+                if r >= horizon * ny || r / ny < is_cycles {
+                    w / substeps as f64
+                } else {
+                    w
+                }
+            }),
         );
         let rw = &cfg.weights.input_rate;
         let sw: Vec<f64> = if cfg.weights.input.is_empty() {
@@ -404,7 +494,6 @@ impl CondensedQp {
         Ok(Self {
             horizon,
             nu,
-            ny,
             blocks,
             nv,
             ns,
@@ -421,7 +510,7 @@ impl CondensedQp {
             soft_rows,
             q,
             b,
-            c_buf: DVector::zeros(horizon * ny),
+            c_buf: DVector::zeros(n_rows),
             solver,
             settings,
             epoch,
@@ -447,8 +536,12 @@ impl CondensedQp {
     }
 
     /// Rewrite q and b for the current augmented estimate `xa`, previous input `u_prev`, known output offsets
-    /// `offsets` (w₁..w_N, N·ny, step-major) and reference `reference` (N·ny). Returns `false` if any of the
-    /// resulting data is not finite (the caller must then fall back without solving).
+    /// `offsets` (w₁..w_N, N·ny, step-major, then the intersample rows' if configured) and reference
+    /// `reference` (the same rows). Returns `false` if any of the resulting data is not finite (the caller
+    /// must then fall back without solving).
+    ///
+    /// # Errors
+    /// [`MpcError::DimensionMismatch`] for vectors of the wrong length.
     pub fn update(
         &mut self,
         xa: &DVector<f64>,
@@ -456,10 +549,11 @@ impl CondensedQp {
         offsets: &[f64],
         reference: &[f64],
     ) -> Result<bool, MpcError> {
-        let nyn = self.horizon * self.ny;
+        let nyn = self.c_buf.len();
         if offsets.len() != nyn || reference.len() != nyn {
             return Err(MpcError::DimensionMismatch {
-                what: "preview window (offsets/reference: horizon × outputs)".into(),
+                what: "preview window (offsets/reference: horizon × outputs, then the intersample rows)"
+                    .into(),
                 expected: nyn,
                 found: if offsets.len() != nyn {
                     offsets.len()
@@ -564,7 +658,8 @@ impl CondensedQp {
         }
     }
 
-    /// Predicted outputs (N·ny) for the decision `z` given the last [`Self::update`] data.
+    /// Predicted outputs (N·ny, then the intersample rows if configured) for the decision `z` given the
+    /// last [`Self::update`] data.
     pub fn predicted_outputs(&self, z: &[f64]) -> DVector<f64> {
         let v = DVector::from_column_slice(&z[..self.nv]);
         &self.c_buf + &self.gb * v

@@ -124,6 +124,7 @@ pub fn default_spindle_config(
             equilibrate: false,
             ..SolverConfig::default()
         },
+        intersample: None,
     }
 }
 

@@ -143,6 +143,7 @@ pub fn thin_wall_mpc(
             iterative_refinement: false,
             ..SolverConfig::default()
         },
+        intersample: None,
     };
     budget.apply(&mut cfg.solver);
     MpcController::new(&model, &cfg)

@@ -433,3 +433,143 @@ fn cached_phased_plan_equals_the_plan_computed_afresh() {
         assert_eq!(fresh, cached, "cycle {c}");
     }
 }
+
+/// The spindle of [`spindle`] sampled at the 50 µs stage step (ten per 0.5 ms cycle).
+fn spindle_fine() -> DiscreteLti {
+    PztSpindle::new(0.05, 0.46, 1302.0, Some(37_000.0), None)
+        .unwrap()
+        .to_lti()
+        .unwrap()
+        .discretize_zoh(5e-5)
+        .unwrap()
+}
+
+fn with_intersample(mut c: MpcConfig, substeps: usize, cycles: usize) -> MpcConfig {
+    c.intersample = Some(millcomp_mpc::config::Intersample { substeps, cycles });
+    c
+}
+
+#[test]
+fn intersample_rows_predict_what_the_fine_model_does_between_the_cycles() {
+    // the QP's stacked prediction F ξ + G u against a direct simulation of the sub-step model with
+    // each cycle's input held over its ten sub-steps
+    let fine = spindle_fine();
+    let c = with_intersample(cfg(6), 10, 3);
+    let mpc = MpcController::new(&fine, &c).unwrap();
+    let aug = mpc.model();
+    let fine_aug = aug.same_coordinates(&fine, &c).unwrap();
+    let (f, g) = millcomp_mpc::qp::intersample_matrices(aug, &fine_aug, 6, 10, 3);
+    assert_eq!(f.nrows(), 3 * 9);
+    // a state from a few volts of history, and a plan of six different inputs
+    let mut x = fine.zero_state();
+    for k in 0..37 {
+        fine.step_siso(&mut x, 100.0 + 7.0 * k as f64);
+    }
+    let u = [300.0, 120.0, 640.0, 500.0, 20.0, 800.0];
+    let xi = aug.to_internal(&DVector::from_iterator(
+        aug.n(),
+        x.iter()
+            .copied()
+            .chain(std::iter::repeat(0.0))
+            .take(aug.n()),
+    ));
+    let pred = &f * &xi + &g * DVector::from_column_slice(&u);
+    let mut xs = x.clone();
+    for (k, &uk) in u.iter().enumerate().take(3) {
+        for s in 1..=10 {
+            fine.step_siso(&mut xs, uk);
+            if s < 10 {
+                let y = (&fine.c * &xs)[0];
+                let r = k * 9 + s - 1;
+                assert_relative_eq!(pred[r], y, max_relative = 1e-9, epsilon = 1e-9);
+            }
+        }
+    }
+}
+
+#[test]
+fn intersample_costs_meet_an_offset_that_jumps_between_the_cycles() {
+    // a known offset that jumps by 2 µm 0.3 ms into a cycle: weighed at the cycles only, the MPC
+    // cannot see where between them it jumps; weighed at every sub-step it tracks it there. Score:
+    // the sum of squared errors at every sub-step of a run (what the intersample cost minimises)
+    let fine = spindle_fine();
+    let run = |c: &MpcConfig| -> f64 {
+        let (m, substeps) = (c.intersample.map_or(1, |i| i.substeps), 10usize);
+        let model = if m > 1 {
+            fine.clone()
+        } else {
+            fine.held_over(substeps).unwrap()
+        };
+        let mut mpc = MpcController::new(&model, c).unwrap();
+        let n = c.horizon;
+        let mut win = PreviewWindow::zeros_for(c, 1);
+        let jump_at = 40 * substeps + 3; // sub-step index of the jump
+        let offset = |i: usize| if i >= jump_at { -2.0 } else { 0.0 };
+        let mut x = fine.zero_state();
+        let mut sse = 0.0;
+        for k in 0..80 {
+            let i0 = k * substeps;
+            win.offset_now[0] = offset(i0);
+            for j in 0..n {
+                win.offsets[j] = offset(i0 + (j + 1) * substeps);
+            }
+            if let Some(is) = c.intersample {
+                for kk in 0..is.cycles {
+                    for s in 1..is.substeps {
+                        win.intersample_offsets[kk * (is.substeps - 1) + s - 1] =
+                            offset(i0 + kk * substeps + s);
+                    }
+                }
+            }
+            let y = (&fine.c * &x)[0] + offset(i0);
+            let u = mpc.step(&[y], &win).unwrap().u[0];
+            for s in 1..=substeps {
+                fine.step_siso(&mut x, u);
+                let e = (&fine.c * &x)[0] + offset(i0 + s);
+                sse += e * e;
+            }
+        }
+        sse
+    };
+    let mut base = cfg(20);
+    base.weights.input_rate = vec![1e-7];
+    base.limits.u_max = vec![2000.0];
+    base.limits.du_max = vec![2000.0];
+    let at_cycles = run(&base);
+    let between = run(&with_intersample(base.clone(), 10, 4));
+    assert!(
+        between < 0.8 * at_cycles,
+        "between the cycles {between:.4} µm², at the cycles only {at_cycles:.4} µm²"
+    );
+}
+
+#[test]
+fn intersample_keys_are_checked_and_the_window_must_carry_them() {
+    let fine = spindle_fine();
+    for (substeps, cycles, key) in [
+        (1, 2, "intersample.substeps"),
+        (101, 2, "intersample.substeps"),
+        (10, 0, "intersample.cycles"),
+        (10, 21, "intersample.cycles"),
+    ] {
+        match MpcController::new(&fine, &with_intersample(cfg(20), substeps, cycles)) {
+            Err(millcomp_mpc::MpcError::InvalidConfig { key: k, .. }) => assert_eq!(k, key),
+            other => panic!("{substeps}/{cycles}: {other:?}"),
+        }
+    }
+    let c = with_intersample(cfg(20), 10, 2);
+    let mut mpc = MpcController::new(&fine, &c).unwrap();
+    // a cycle-only window is refused, not silently read as zero offsets
+    assert!(matches!(
+        mpc.step(&[0.0], &PreviewWindow::zeros(20, 1)),
+        Err(millcomp_mpc::MpcError::DimensionMismatch { .. })
+    ));
+    let s = mpc.step(&[0.0], &PreviewWindow::zeros_for(&c, 1)).unwrap();
+    assert!(!s.fallback);
+    // the budget is the cycle's (0.5 ms), not the sub-step's
+    assert!(
+        (mpc.budget_us() - 250.0).abs() < 1e-6,
+        "{}",
+        mpc.budget_us()
+    );
+}

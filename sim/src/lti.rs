@@ -324,6 +324,46 @@ impl DiscreteLti {
         self.c.nrows()
     }
 
+    /// The same plant seen every `steps` samples with the input held over them: `A^steps`,
+    /// `Σ_{i<steps} A^i B`, the same `C` and `D`, sample time `steps · dt_s` — for a zero-order hold this
+    /// is the model discretised at the longer period, exactly (one step: a copy).
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] for `steps = 0`.
+    ///
+    /// # Examples
+    /// ```
+    /// use millcomp_sim::ContinuousLti;
+    /// let c = ContinuousLti::from_transfer_function(&[1.0], &[1e-3, 1.0]).unwrap();
+    /// let (fine, coarse) = (c.discretize_zoh(5e-5).unwrap(), c.discretize_zoh(5e-4).unwrap());
+    /// let held = fine.held_over(10).unwrap();
+    /// assert!((held.a[(0, 0)] - coarse.a[(0, 0)]).abs() < 1e-12);
+    /// assert!((held.b[(0, 0)] - coarse.b[(0, 0)]).abs() < 1e-12 * coarse.b[(0, 0)].abs());
+    /// assert!((held.dt_s - 5e-4).abs() < 1e-15);
+    /// ```
+    pub fn held_over(&self, steps: usize) -> Result<Self, SimError> {
+        if steps == 0 {
+            return Err(SimError::InvalidParameter {
+                name: "steps",
+                value: 0.0,
+                allowed: "steps >= 1",
+            });
+        }
+        let mut a = DMatrix::<f64>::identity(self.n_states(), self.n_states());
+        let mut b = DMatrix::<f64>::zeros(self.n_states(), self.n_inputs());
+        for _ in 0..steps {
+            b = &self.a * &b + &self.b;
+            a = &self.a * &a;
+        }
+        Self::new(
+            a,
+            b,
+            self.c.clone(),
+            self.d.clone(),
+            self.dt_s * steps as f64,
+        )
+    }
+
     /// A zero state vector of the right size.
     pub fn zero_state(&self) -> DVector<f64> {
         DVector::zeros(self.n_states())
