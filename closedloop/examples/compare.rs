@@ -12,7 +12,9 @@
 //!
 //! `--features`: the groove scenarios with the MPC's planning and estimation features switched off one at
 //! a time (`control.groove_mpc`: `stroke_aware`, `adapt_plan_scale`, `spindle_phase`, `flute_phase`,
-//! `gauge_disturbance`), all off, beside `pid-ff` — what each feature buys.
+//! `gauge_disturbance`, `intersample`), all off, beside `pid-ff` — what each feature buys; and the MPC
+//! and `pid-ff` driving the stack through the inverse of its identified hysteresis
+//! (`control.compensate_hysteresis`, off by default).
 //!
 //! `--rates`: the scenarios with process changes, the MPC at 2 kHz (horizon 20 = 10 ms, shipped), at
 //! 5 kHz with the same 20 steps (4 ms) and at 5 kHz with 50 steps (10 ms), beside `pid-ff` — what the
@@ -76,6 +78,13 @@ fn feature_variants() -> Vec<(&'static str, GrooveMpcFeatures)> {
             },
         ),
         (
+            "-intersample",
+            GrooveMpcFeatures {
+                intersample: false,
+                ..all
+            },
+        ),
+        (
             "-all",
             GrooveMpcFeatures {
                 stroke_aware: false,
@@ -83,6 +92,7 @@ fn feature_variants() -> Vec<(&'static str, GrooveMpcFeatures)> {
                 spindle_phase: false,
                 flute_phase: false,
                 gauge_disturbance: false,
+                intersample: false,
             },
         ),
     ]
@@ -97,10 +107,10 @@ const RATE_VARIANTS: [(&str, usize, usize); 3] = [
 
 /// What a variant changes in a scenario.
 type Setter = Box<dyn Fn(&mut Scenario)>;
-/// A labelled variant of the MPC's scenarios.
-type Variant = (String, Setter);
+/// A labelled variant: the controller and what it changes in the scenarios.
+type Variant = (String, ControllerKind, Setter);
 
-/// `pid-ff` once, then the MPC once per variant (the scenarios changed by its setter), the MPC's rows
+/// `pid-ff` once, then each variant's controller once (on the scenarios changed by its setter), its rows
 /// labelled with the variant: the rows and the column labels.
 fn mpc_variants(
     scenarios: &[Scenario],
@@ -115,7 +125,7 @@ fn mpc_variants(
         tick,
     )?;
     let mut cols = vec![ControllerKind::PidFeedforward.name().to_string()];
-    for (label, set) in variants {
+    for (label, kind, set) in variants {
         let variant: Vec<Scenario> = scenarios
             .iter()
             .map(|s| {
@@ -124,7 +134,7 @@ fn mpc_variants(
                 s
             })
             .collect();
-        let mut r = compare(&variant, &[ControllerKind::Mpc], 1..1 + seeds, tick)?;
+        let mut r = compare(&variant, &[*kind], 1..1 + seeds, tick)?;
         r.iter_mut().for_each(|row| row.controller = label.clone());
         rows.extend(r);
         cols.push(label.clone());
@@ -228,7 +238,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     // the amplifier's slew per cycle scales with the period (the same V/s)
                     s.control.slew_v_per_cycle *= every as f64 / 10.0;
                 });
-                (label.to_string(), set)
+                (label.to_string(), ControllerKind::Mpc, set)
             })
             .collect();
         mpc_variants(&scenarios, seeds, &|| bar.inc(1), &variants)?
@@ -237,8 +247,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .into_iter()
             .map(|(label, f)| {
                 let set: Setter = Box::new(move |s: &mut Scenario| s.control.groove_mpc = f);
-                (label.to_string(), set)
+                (label.to_string(), ControllerKind::Mpc, set)
             })
+            .chain(
+                [ControllerKind::Mpc, ControllerKind::PidFeedforward].map(|k| {
+                    // the stack driven through the inverse of its identified hysteresis (off by default)
+                    let set: Setter =
+                        Box::new(|s: &mut Scenario| s.control.compensate_hysteresis = true);
+                    (format!("{} +hyst-inverse", k.name()), k, set)
+                }),
+            )
             .collect();
         mpc_variants(&scenarios, seeds, &|| bar.inc(1), &variants)?
     } else {

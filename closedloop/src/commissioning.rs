@@ -17,7 +17,11 @@
 //!    BIC kept (the choice and the BICs go into the bundle's warnings/experiments).
 //! 3. **Load–deflection** (`000_…txt` §5.2.3): hanging masses, read by a dial indicator
 //!    ([`StiffnessCalibration`]), axial and radial directions fitted by `identify stiffness`.
-//! 4. **Sensors at rest**: the force channel (spindle in air, not cutting) and the gauge (PZT held) recorded
+//! 4. **Hysteresis sweep** in air: the amplifier drives the stack quasi-statically through the turning
+//!    points `hysteresis_turning_v` at `hysteresis_rate_v_per_s`, the gauge (its offset, noise and 0–50 µm
+//!    range) read every `hysteresis_dt_s`; a Prandtl–Ishlinskii model fitted (`identify hysteresis`). A
+//!    linear stack gives a model that is linear too (the plays' weights ≈ 0).
+//! 5. **Sensors at rest**: the force channel (spindle in air, not cutting) and the gauge (PZT held) recorded
 //!    for `noise_samples` samples every `step_dt_s`; each channel's noise level is its sample standard
 //!    deviation (quantisation included), with the χ² 95 % interval. The MPC's Kalman filter takes its
 //!    measurement noise from here.
@@ -26,7 +30,8 @@
 //! truth implies for it through the same instruments: the same fit on the same experiment without noise
 //! and quantisation (force, spindle), the truth's stiffness (loads and indicator are unbiased), and the
 //! standard deviation of the truth's noise through the channel's quantiser (sensors at rest). The coverage
-//! study compares the intervals to it.
+//! study compares the intervals to it. The hysteresis model has none: it is not the stack's form, and its
+//! intervals are not claimed (its report flags the correlated residuals).
 
 use std::collections::BTreeMap;
 
@@ -39,6 +44,9 @@ use millcomp_doe::{DesignKind, DesignRequest, FactorSpec, Level, generate};
 use millcomp_identify::targets::Identified;
 use millcomp_identify::targets::force::{
     ForceConditions, ForceData, ForceOptions, ForceParam, ForceTraceData, identify_force,
+};
+use millcomp_identify::targets::hysteresis::{
+    HysteresisData, HysteresisOptions, identify_hysteresis,
 };
 use millcomp_identify::targets::spindle::{SpindleData, SpindleOptions, identify_spindle};
 use millcomp_identify::targets::stiffness::{StiffnessData, StiffnessOptions, identify_stiffness};
@@ -80,6 +88,12 @@ pub struct CommissioningPlan {
     pub stiffness: StiffnessCalibration,
     /// Samples of each sensor's record at rest (every `step_dt_s`).
     pub noise_samples: usize,
+    /// Turning points of the hysteresis sweep (V), from rest at 0 V.
+    pub hysteresis_turning_v: Vec<f64>,
+    /// Rate of the hysteresis sweep (V/s): slow against the stack's dynamics.
+    pub hysteresis_rate_v_per_s: f64,
+    /// Gauge sampling interval of the hysteresis sweep (s).
+    pub hysteresis_dt_s: f64,
     /// Acceptance: the largest relative standard error of a parameter that sets the deflection prediction
     /// (the fitted force parameters and the two stiffnesses); above it the bundle carries a warning that
     /// the experiment was too small for the model to be trusted.
@@ -91,7 +105,9 @@ impl Default for CommissioningPlan {
     /// its 10 µm/rev), 2 replicates, 20 revolutions at 72 samples each; W, wearland and runout free (a fresh
     /// tool's wearland and runout are not the catalogue's; the averaged traces show both); a 10 V step
     /// from 20 V (≈ 0.5 µm, the thesis' step of Fig. 5-15) for 30 ms sampled at 20 kHz; the thesis'
-    /// hanging-mass calibration; 2000 samples (0.1 s) of each sensor at rest.
+    /// hanging-mass calibration; a hysteresis sweep at 500 V/s through a major loop 20–900 V (the
+    /// gauge's 50 µm range holds ≈ 950 V of tip) and minor loops of 20–700 V amplitude (≈ 13 s, read
+    /// every ms); 2000 samples (0.1 s) of each sensor at rest.
     fn default() -> Self {
         Self {
             force_depths_um: vec![20.0, 50.0, 80.0],
@@ -106,6 +122,12 @@ impl Default for CommissioningPlan {
             step_dt_s: 5e-5,
             stiffness: StiffnessCalibration::default(),
             noise_samples: 2000,
+            hysteresis_turning_v: vec![
+                900.0, 20.0, 700.0, 200.0, 600.0, 300.0, 500.0, 400.0, 460.0, 440.0, 900.0, 600.0,
+                750.0, 650.0, 700.0, 20.0, 300.0, 100.0, 200.0, 150.0,
+            ],
+            hysteresis_rate_v_per_s: 500.0,
+            hysteresis_dt_s: 1e-3,
             accept_rel_se: 0.05,
         }
     }
@@ -173,6 +195,8 @@ pub struct Commissioned {
     pub spindle_bic: Vec<(String, f64)>,
     /// Load–deflection test.
     pub stiffness: Experiment,
+    /// Hysteresis sweep in air.
+    pub hysteresis: Experiment,
     /// The sensors' record at rest.
     pub sensor_noise: NoiseRecord,
     /// The value the truth implies for each identified parameter through the same instruments (see the
@@ -189,6 +213,7 @@ impl Commissioned {
             ("force", &self.force),
             ("spindle", &self.spindle),
             ("stiffness", &self.stiffness),
+            ("hysteresis", &self.hysteresis),
         ] {
             let r = &e.fit.report;
             for (name, v) in &r.params {
@@ -273,6 +298,11 @@ pub fn commission(
     pseudo_true.insert("stiffness.axial_offset_um".into(), 0.0);
     pseudo_true.insert("stiffness.radial_offset_um".into(), 0.0);
 
+    // no pseudo-true values for the hysteresis: its model is not the stack's form (a Prandtl–Ishlinskii
+    // fit of whatever the stack does), its residuals are correlated along the sweep and the plays it
+    // keeps depend on the noise — the report says so, and no coverage is claimed
+    let (hysteresis, hysteresis_desc) = hysteresis_experiment(plant, plan, seed)?;
+
     let sensor_noise = noise_experiment(plant, plan, seed)?;
     pseudo_true.insert(
         "sensor_noise.force_noise_n".into(),
@@ -285,6 +315,7 @@ pub fn commission(
         ("force", &force),
         ("spindle", &spindle),
         ("stiffness", &stiffness),
+        ("hysteresis", &hysteresis),
     ] {
         warnings.extend(fit.report.warnings.iter().map(|w| format!("{what}: {w}")));
     }
@@ -310,6 +341,7 @@ pub fn commission(
             force_desc.clone(),
             spindle_desc.clone(),
             stiffness_desc.clone(),
+            hysteresis_desc.clone(),
             sensor_noise.description.clone(),
         ],
         warnings,
@@ -317,6 +349,7 @@ pub fn commission(
         force: Some(force.model.clone()),
         stiffness: Some(stiffness.model.clone()),
         sensor_noise: Some(sensor_noise.model.clone()),
+        hysteresis: Some(hysteresis.model.clone()),
     };
     Ok(Commissioned {
         bundle,
@@ -332,6 +365,10 @@ pub fn commission(
         stiffness: Experiment {
             description: stiffness_desc,
             fit: stiffness,
+        },
+        hysteresis: Experiment {
+            description: hysteresis_desc,
+            fit: hysteresis,
         },
         sensor_noise,
         pseudo_true,
@@ -389,6 +426,38 @@ fn validate_plan(p: &CommissioningPlan) -> Result<(), ClosedLoopError> {
             key("step_duration_s"),
             p.step_duration_s,
             "at most 20 000 samples of step_dt_s",
+        ));
+    }
+    for (name, v) in [
+        ("hysteresis_rate_v_per_s", p.hysteresis_rate_v_per_s),
+        ("hysteresis_dt_s", p.hysteresis_dt_s),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(invalid(key(name), v, "finite and > 0"));
+        }
+    }
+    if p.hysteresis_turning_v.len() < 2
+        || p.hysteresis_turning_v
+            .iter()
+            .any(|v| !v.is_finite() || *v < 0.0)
+    {
+        return Err(invalid(
+            key("hysteresis_turning_v"),
+            format!("{:?}", p.hysteresis_turning_v),
+            "two or more finite voltages >= 0 (a loop needs a reversal)",
+        ));
+    }
+    let travel: f64 = std::iter::once(0.0)
+        .chain(p.hysteresis_turning_v.iter().copied())
+        .collect::<Vec<_>>()
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .sum();
+    if travel / p.hysteresis_rate_v_per_s / p.hysteresis_dt_s > 1e6 {
+        return Err(invalid(
+            key("hysteresis_rate_v_per_s"),
+            p.hysteresis_rate_v_per_s,
+            "a sweep of at most 1 000 000 samples of hysteresis_dt_s",
         ));
     }
     if !(p.accept_rel_se.is_finite() && p.accept_rel_se > 0.0) {
@@ -683,6 +752,54 @@ fn spindle_experiment(
         SPINDLE_STRUCTURES[chosen].0
     );
     Ok((fit, bics, desc, chosen))
+}
+
+/// The hysteresis sweep: from rest at 0 V the drive voltage ramps through the plan's turning points at
+/// its rate, the gauge (its offset, noise and range) read after every step.
+fn hysteresis_experiment(
+    plant: &CommissioningPlant<'_>,
+    plan: &CommissioningPlan,
+    seed: u64,
+) -> Result<(Identified, String), ClosedLoopError> {
+    let dt = plan.hysteresis_dt_s;
+    let mut sp = plant.truth.spindle.discretize(dt)?;
+    let mut gauge = CapacitanceGauge::new(
+        CapacitanceGauge::rd20().range_um,
+        CapacitanceGauge::rd20().sensitivity_um_per_v,
+        plant.instruments.gauge_offset_um,
+        plant.gauge_noise_um,
+        seed ^ 0x4_7573,
+    )?;
+    let dv = plan.hysteresis_rate_v_per_s * dt;
+    let (mut u, mut y) = (Vec::new(), Vec::new());
+    let mut v = 0.0f64;
+    for &target in &plan.hysteresis_turning_v {
+        let n = ((target - v).abs() / dv).ceil().max(1.0) as usize;
+        let from = v;
+        for k in 1..=n {
+            v = from + (target - from) * k as f64 / n as f64;
+            sp.step(v);
+            u.push(v);
+            y.push(gauge.measure_um(sp.tip_um()));
+        }
+    }
+    let fit = identify_hysteresis(
+        &HysteresisData { u_v: &u, y_um: &y },
+        &HysteresisOptions::default(),
+    )
+    .map_err(|source| ClosedLoopError::Commissioning {
+        experiment: "hysteresis sweep",
+        source: Box::new(source),
+    })?;
+    let desc = format!(
+        "hysteresis: sweep in air from 0 V through {} V at {} V/s, the gauge read every {} s; \
+         Prandtl-Ishlinskii model, {} plays",
+        fmt_levels(&plan.hysteresis_turning_v),
+        plan.hysteresis_rate_v_per_s,
+        dt,
+        fit.report.params.len() - 1
+    );
+    Ok((fit, desc))
 }
 
 fn stiffness_experiment(

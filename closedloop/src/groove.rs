@@ -15,11 +15,13 @@ use millcomp_sim::sensors::{InstrumentErrors, NoiseSpec};
 
 use millcomp_models::SensorNoise;
 use millcomp_mpc::groove::{
-    DeflectionPlan, FeedforwardPidController, ForcePeakChain, GrooveController, GrooveMpcSettings,
-    MpcGrooveController, NoneController, OpenLoopController, PidController, TunedPidController,
+    Compensated, DeflectionPlan, FeedforwardPidController, ForcePeakChain, GrooveController,
+    GrooveMpcSettings, MpcGrooveController, NoneController, OpenLoopController, PidController,
+    TunedPidController,
 };
 use millcomp_mpc::identified::{
-    IdentifiedForceModel, IdentifiedSpindle, IdentifiedStiffness, NominalTool,
+    HysteresisCompensator, IdentifiedForceModel, IdentifiedHysteresis, IdentifiedSpindle,
+    IdentifiedStiffness, NominalTool,
 };
 use millcomp_mpc::pid::{AntiWindup, PidGains};
 use millcomp_mpc::predictor::ForcePredictor;
@@ -54,6 +56,8 @@ pub struct GrooveSetup {
     pub model_stiffness: IdentifiedStiffness,
     /// Controllers' spindle model (identified).
     pub model_spindle: IdentifiedSpindle,
+    /// The stack's hysteresis (identified; a bundle from a commissioning has one).
+    pub model_hysteresis: Option<IdentifiedHysteresis>,
     /// The deliberate force-parameter errors laid on the identified force model.
     pub force_errors: ForceErrors,
     /// Truth force scale (calibrated or sim's default).
@@ -212,6 +216,13 @@ pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, ClosedLoopError> {
     let model_stiffness =
         IdentifiedStiffness::new(&bundle.stiffness(&origin, "the controllers' deflection model")?)?
             .scaled(1.0 + s.truth.stiffness_error)?;
+    let model_hysteresis = bundle
+        .hysteresis(&origin)?
+        .map(|h| IdentifiedHysteresis::new(&h))
+        .transpose()?;
+    if model_hysteresis.is_some() {
+        from.push("stack hysteresis from its sweep in air".into());
+    }
     let sensor_noise = match bundle.sensor_noise(&origin, "the MPC's Kalman filter") {
         Ok((noise, source)) => {
             from.push(format!("sensor noise from {source}"));
@@ -226,6 +237,7 @@ pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, ClosedLoopError> {
         model_force,
         model_stiffness,
         model_spindle,
+        model_hysteresis,
         force_errors,
         sensor_noise,
         models_from: from.join("; "),
@@ -459,6 +471,26 @@ pub fn run_groove_with(
             }
         }
     };
+    // every controller built from the bundle drives the stack through the inverse of its hysteresis
+    // model; the published PID and `none` do not
+    let compensated = !matches!(
+        kind,
+        ControllerKind::None
+            | ControllerKind::Pid
+            | ControllerKind::PidAntiWindup
+            | ControllerKind::PidDesign
+    );
+    if let (true, true, Some(h)) = (
+        s.control.compensate_hysteresis,
+        compensated,
+        &setup.model_hysteresis,
+    ) {
+        notes.push("the stack driven through the inverse of its identified hysteresis".into());
+        ctl = Box::new(Compensated::new(
+            ctl,
+            HysteresisCompensator::new(h, &setup.model_spindle),
+        ));
+    }
     let mut pending_failures = SolverFailures::new(s);
     // process changes inside the groove: depth steps / plunges, feed changes, the exit
     let windows = change_windows(t);

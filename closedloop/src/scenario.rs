@@ -440,6 +440,16 @@ pub struct ControlSpec {
     /// `flute_phase`; all on by default — switched off one at a time for the ablations).
     #[serde(default)]
     pub groove_mpc: millcomp_mpc::groove::GrooveMpcFeatures,
+    /// Drive the PZT stack through the inverse of the bundle's hysteresis model (a commissioning's sweep
+    /// in air; `mpc::identified::HysteresisCompensator`) for every controller built from the bundle —
+    /// `open-loop`, `pid-tuned`, `pid-ff`, `mpc`, `mpc-nopreview` — when the bundle has one. The
+    /// published `pid` (and `pid-aw`, `pid-design`) stay as published. Off by default: on the
+    /// commissioned grooves it bought nothing (README, `compare --ablations --commissioned`): the
+    /// identified Prandtl–Ishlinskii model takes the stack's static error from 3.5–5 µm to about 1 µm
+    /// of tip, but at a change what matters is the stack's slope, which the gauge channel's
+    /// disturbance estimate follows already.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub compensate_hysteresis: bool,
 }
 
 fn default_dt() -> f64 {
@@ -481,6 +491,7 @@ impl Default for ControlSpec {
             bundle: None,
             commission: false,
             groove_mpc: Default::default(),
+            compensate_hysteresis: false,
         }
     }
 }

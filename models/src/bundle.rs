@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{ModelError, Result};
 use crate::identified::{
-    ForceModelParams, IdentifiedModel, SensorNoise, SpindleModel, StiffnessModel,
+    ForceModelParams, HysteresisModel, IdentifiedModel, SensorNoise, SpindleModel, StiffnessModel,
 };
 
 /// The `[model]` table of a bundle.
@@ -39,6 +39,11 @@ pub struct ModelBundle {
     /// from separate calibration files and in bundles written before it existed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sensor_noise: Option<IdentifiedModel>,
+    /// The PZT stack's hysteresis from a quasi-static sweep in air (kind `hysteresis`); absent in bundles
+    /// written before it existed and in bundles assembled from files without one: the controllers then
+    /// take the stack as linear.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hysteresis: Option<IdentifiedModel>,
 }
 
 impl ModelBundle {
@@ -213,7 +218,19 @@ impl ModelBundle {
             force,
             stiffness,
             sensor_noise: None,
+            hysteresis: None,
         })
+    }
+
+    /// The stack's hysteresis, when the bundle has one (a commissioning's sweep in air).
+    ///
+    /// # Errors
+    /// The view's errors ([`HysteresisModel::from_identified`]).
+    pub fn hysteresis(&self, origin: &Path) -> Result<Option<HysteresisModel>> {
+        self.hysteresis
+            .as_ref()
+            .map(|m| HysteresisModel::from_identified(m, origin))
+            .transpose()
     }
 
     /// Checks that the force model was commissioned on `material` (the material a scenario cuts).
@@ -271,6 +288,7 @@ mod tests {
                 ("radial_stiffness_n_per_um", 0.114),
             ])),
             sensor_noise: None,
+            hysteresis: None,
         }
     }
 

@@ -291,6 +291,135 @@ impl SpindleModel {
     }
 }
 
+/// The PZT stack's rate-independent hysteresis identified from a quasi-static sweep in air (kind
+/// `hysteresis`): a Prandtl–Ishlinskii operator `tip = Σᵢ wᵢ · Fᵣᵢ[v] + offset`, weights `wNN_um_per_v`
+/// on the play thresholds `rNN_v` (fixed inputs of the fit), `NN` the operator's index.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HysteresisModel {
+    /// Play thresholds (V), ascending from 0.
+    pub thresholds_v: Vec<f64>,
+    /// Weights (µm of tip per V), one per threshold.
+    pub weights_um_per_v: Vec<f64>,
+    /// The gauge's reading at rest (µm) during the sweep.
+    pub offset_um: f64,
+}
+
+impl HysteresisModel {
+    /// Kinds this view reads.
+    pub const KINDS: [&'static str; 1] = ["hysteresis"];
+
+    /// The typed view of an identified `hysteresis` model (`origin` names the file in errors).
+    ///
+    /// # Errors
+    /// [`ModelError::MissingKey`] for a weight without its threshold (or none at all), or without
+    /// `offset_um`; [`ModelError::InvalidValue`] for a non-finite value, a first threshold that is not 0,
+    /// thresholds out of order, a weight below 0 or a first weight that is not > 0.
+    ///
+    /// # Examples
+    /// ```
+    /// use std::path::Path;
+    /// use millcomp_models::{HysteresisModel, IdentifiedModel};
+    /// let m: IdentifiedModel = toml::from_str(r#"
+    /// status = "converged"
+    /// n_obs = 900
+    /// dof = 897
+    /// rms_residual = 0.05
+    /// residual_unit = "um"
+    /// [params]
+    /// w00_um_per_v = 0.04
+    /// w03_um_per_v = 0.006
+    /// offset_um = 0.2
+    /// [fixed]
+    /// r00_v = 0.0
+    /// r03_v = 56.25
+    /// [std_err]
+    /// [covariance]
+    /// names = []
+    /// values = []
+    /// "#).unwrap();
+    /// let h = HysteresisModel::from_identified(&m, Path::new("hysteresis.toml")).unwrap();
+    /// assert_eq!(h.thresholds_v, vec![0.0, 56.25]);
+    /// assert_eq!(h.weights_um_per_v, vec![0.04, 0.006]);
+    /// ```
+    pub fn from_identified(m: &IdentifiedModel, origin: &Path) -> Result<Self> {
+        let invalid = |key: &str, value: f64, allowed: &str| ModelError::InvalidValue {
+            path: origin.to_path_buf(),
+            key: key.to_string(),
+            value: format!("{value}"),
+            allowed: allowed.to_string(),
+        };
+        let mut pairs = Vec::new();
+        for (name, &w) in &m.params {
+            let Some(idx) = name
+                .strip_prefix('w')
+                .and_then(|r| r.strip_suffix("_um_per_v"))
+            else {
+                continue;
+            };
+            let r_key = format!("r{idx}_v");
+            let r = m
+                .fixed
+                .get(&r_key)
+                .copied()
+                .ok_or_else(|| ModelError::MissingKey {
+                    path: origin.to_path_buf(),
+                    kind: "hysteresis".into(),
+                    key: format!("model.fixed.{r_key} (the threshold of model.params.{name})"),
+                    available: m.fixed.keys().cloned().collect::<Vec<_>>().join(", "),
+                })?;
+            if !(w.is_finite() && w >= 0.0) {
+                return Err(invalid(
+                    &format!("model.params.{name}"),
+                    w,
+                    "finite and >= 0",
+                ));
+            }
+            if !r.is_finite() {
+                return Err(invalid(&format!("model.fixed.{r_key}"), r, "finite"));
+            }
+            pairs.push((r, w));
+        }
+        if pairs.is_empty() {
+            return Err(ModelError::MissingKey {
+                path: origin.to_path_buf(),
+                kind: "hysteresis".into(),
+                key: "model.params.w00_um_per_v".into(),
+                available: m.params.keys().cloned().collect::<Vec<_>>().join(", "),
+            });
+        }
+        pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
+        if pairs[0].0 != 0.0 {
+            return Err(invalid(
+                "model.fixed.r00_v",
+                pairs[0].0,
+                "0 (the linear play)",
+            ));
+        }
+        if pairs[0].1 <= 0.0 {
+            return Err(invalid("model.params.w00_um_per_v", pairs[0].1, "> 0"));
+        }
+        if let Some(w) = pairs.windows(2).find(|w| w[1].0 <= w[0].0) {
+            return Err(invalid(
+                "model.fixed.rNN_v",
+                w[1].0,
+                "thresholds all different",
+            ));
+        }
+        let offset_um = m.require_valid(
+            "offset_um",
+            origin,
+            "hysteresis",
+            |v: f64| v.is_finite(),
+            "finite",
+        )?;
+        Ok(Self {
+            thresholds_v: pairs.iter().map(|p| p.0).collect(),
+            weights_um_per_v: pairs.iter().map(|p| p.1).collect(),
+            offset_um,
+        })
+    }
+}
+
 /// Force-model parameters identified from measured forces (kind `force`): the fitted subset of
 /// [`ForceModelParams::PARAMETERS`] with their covariance, and the values held fixed in the fit.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -64,7 +64,7 @@ pub use file::{
     utc_now_rfc3339, write_atomic,
 };
 pub use identified::{
-    Derived, FitStatus, ForceModelParams, IdentifiedModel, NamedMatrix, SensorNoise, SpindleModel,
-    StiffnessModel,
+    Derived, FitStatus, ForceModelParams, HysteresisModel, IdentifiedModel, NamedMatrix,
+    SensorNoise, SpindleModel, StiffnessModel,
 };
 pub use surface::{ActualTerm, CodedFit, FactorCoding, Level, Prediction, ResponseSurface};

@@ -22,7 +22,7 @@
 //!   ([`SlidingMax`]) of the 2 kHz-low-passed force × compliance; a sensor reading that stays
 //!   bit-identical too long is left out of the measurement update.
 
-use crate::identified::{IdentifiedSpindle, IdentifiedStiffness};
+use crate::identified::{HysteresisCompensator, IdentifiedSpindle, IdentifiedStiffness};
 use millcomp_sim::DiscreteLti;
 use millcomp_sim::SimError;
 use millcomp_sim::feed::FeedProfile;
@@ -654,6 +654,51 @@ pub trait GrooveController {
     }
     /// Make the next `cycles` QP solves fail (fault injection; MPC only, a no-op for the others).
     fn inject_solver_failures(&mut self, _cycles: usize) {}
+}
+
+impl<C: GrooveController + ?Sized> GrooveController for Box<C> {
+    fn command(&mut self, last: Option<&GrooveMeasurement>, t_s: f64) -> f64 {
+        (**self).command(last, t_s)
+    }
+
+    fn solver_stats(&self) -> Option<SolverStats> {
+        (**self).solver_stats()
+    }
+
+    fn inject_solver_failures(&mut self, cycles: usize) {
+        (**self).inject_solver_failures(cycles);
+    }
+}
+
+/// Any groove controller designed on the linear spindle model, driving the stack through the inverse of
+/// its identified hysteresis ([`HysteresisCompensator`]): the controller's command is the voltage the
+/// linear model would need, the compensator emits the one the hysteretic stack needs for the same tip.
+#[derive(Debug)]
+pub struct Compensated<C> {
+    inner: C,
+    compensator: HysteresisCompensator,
+}
+
+impl<C: GrooveController> Compensated<C> {
+    /// `inner` through `compensator`.
+    pub fn new(inner: C, compensator: HysteresisCompensator) -> Self {
+        Self { inner, compensator }
+    }
+}
+
+impl<C: GrooveController> GrooveController for Compensated<C> {
+    fn command(&mut self, last: Option<&GrooveMeasurement>, t_s: f64) -> f64 {
+        let u = self.inner.command(last, t_s);
+        self.compensator.drive_v(u)
+    }
+
+    fn solver_stats(&self) -> Option<SolverStats> {
+        self.inner.solver_stats()
+    }
+
+    fn inject_solver_failures(&mut self, cycles: usize) {
+        self.inner.inject_solver_failures(cycles);
+    }
 }
 
 /// No compensation: 0 V.

@@ -44,7 +44,8 @@
 //! assert!(c.design().ms <= 1.6 + 1e-9);
 //! ```
 
-use millcomp_models::{ForceModelParams, SpindleModel, StiffnessModel};
+use millcomp_models::{ForceModelParams, HysteresisModel, SpindleModel, StiffnessModel};
+use millcomp_sim::actuator::PrandtlIshlinskii;
 use millcomp_sim::force::{BallEndForceModel, ForceParams};
 use millcomp_sim::material::Material;
 use millcomp_sim::spindle::{DeadTimeModel, PztSpindle};
@@ -100,6 +101,94 @@ impl IdentifiedSpindle {
     /// The transfer function (read only).
     pub fn plant(&self) -> &PztSpindle {
         &self.0
+    }
+}
+
+/// The controllers' model of the stack's hysteresis: the identified Prandtl–Ishlinskii operator (volts →
+/// tip µm), at rest at 0 V. Made only from an identified [`HysteresisModel`].
+#[derive(Debug, Clone)]
+pub struct IdentifiedHysteresis(PrandtlIshlinskii);
+
+impl IdentifiedHysteresis {
+    /// From an identified hysteresis model.
+    ///
+    /// # Errors
+    /// [`MpcError::IdentifiedModel`] (key `hysteresis_model`) when the operator cannot be inverted (a
+    /// first weight ≤ 0, a negative weight, thresholds out of order).
+    pub fn new(m: &HysteresisModel) -> Result<Self, MpcError> {
+        PrandtlIshlinskii::new(m.thresholds_v.clone(), m.weights_um_per_v.clone(), 0.0)
+            .map(Self)
+            .map_err(|source| MpcError::IdentifiedModel {
+                key: "hysteresis_model".into(),
+                value: format!("{m:?}"),
+                source,
+            })
+    }
+
+    /// The operator (read only).
+    pub fn operator(&self) -> &PrandtlIshlinskii {
+        &self.0
+    }
+}
+
+/// The inverse of the identified hysteresis in front of the amplifier: a controller designed on the
+/// linear spindle model asks for `u` volts; the compensator emits the voltage `v` that, through the
+/// identified operator from the state the stack is in, gives the tip the linear model expects,
+/// `P[v] = K·u` (`K` the spindle model's static gain). The operator is stepped with the voltage actually
+/// emitted (clamped to the amplifier's `0 … v_max`), so its state follows the stack's. A non-finite
+/// request holds the last voltage.
+///
+/// # Examples
+/// ```
+/// use millcomp_models::{HysteresisModel, NamedMatrix, SpindleModel};
+/// use millcomp_mpc::identified::{HysteresisCompensator, IdentifiedHysteresis, IdentifiedSpindle};
+/// use millcomp_sim::actuator::PrandtlIshlinskii;
+/// // a stack that reads 0.04 µm/V plus 0.01 µm/V behind a 100 V play; the spindle fitted at 0.045 µm/V
+/// let h = HysteresisModel { thresholds_v: vec![0.0, 100.0], weights_um_per_v: vec![0.04, 0.01], offset_um: 0.0 };
+/// let sp = SpindleModel { gain_um_per_v: 0.045, zeta: 0.46, wn_rad_s: 1302.0, pole_rad_s: None,
+///     dead_time_s: None, dead_time_pade_order: None, covariance: NamedMatrix::default() };
+/// let (h, sp) = (IdentifiedHysteresis::new(&h).unwrap(), IdentifiedSpindle::new(&sp).unwrap());
+/// let mut c = HysteresisCompensator::new(&h, &sp);
+/// let mut stack = PrandtlIshlinskii::new(vec![0.0, 100.0], vec![0.04, 0.01], 0.0).unwrap();
+/// // up to 600 V-equivalent, back to 300: the stack reads 0.045 µm per requested volt on both branches
+/// for u in [600.0, 300.0, 450.0] {
+///     let v = c.drive_v(u);
+///     assert!((stack.step(v) - 0.045 * u).abs() < 1e-9, "{u} -> {v}");
+/// }
+/// ```
+#[derive(Debug, Clone)]
+pub struct HysteresisCompensator {
+    model: PrandtlIshlinskii,
+    gain_um_per_v: f64,
+    v_max: f64,
+    last_v: f64,
+}
+
+impl HysteresisCompensator {
+    /// The inverse of `hysteresis` for controllers designed on `spindle` (its static gain and the
+    /// amplifier's rated maximum voltage).
+    pub fn new(hysteresis: &IdentifiedHysteresis, spindle: &IdentifiedSpindle) -> Self {
+        let p = spindle.plant();
+        Self {
+            model: hysteresis.0.clone(),
+            gain_um_per_v: p.gain_um_per_v,
+            v_max: p.voltage_max_v,
+            last_v: 0.0,
+        }
+    }
+
+    /// The voltage to emit for a request of `u_v` volts of the linear model.
+    pub fn drive_v(&mut self, u_v: f64) -> f64 {
+        if !u_v.is_finite() {
+            return self.last_v;
+        }
+        let v = self
+            .model
+            .input_for(self.gain_um_per_v * u_v)
+            .clamp(0.0, self.v_max);
+        self.model.step(v);
+        self.last_v = v;
+        v
     }
 }
 

@@ -107,6 +107,10 @@ pub const FACTORS: &[(&str, &str)] = &[
         "mpc_flute_phase",
         "0/1: the groove MPC's plan steps once per revolution where one flute dominates (flute_phase)",
     ),
+    (
+        "mpc_intersample",
+        "0/1: the groove MPC weighs the error between its cycles, at every stage step (intersample)",
+    ),
 ];
 
 /// `feed_step`: the feed axis' acceleration (mm/s²) — a doubling of 1.67 mm/s in 17 µs, at once.
@@ -396,6 +400,7 @@ pub fn build_scenario(spec: &ScenarioSpec) -> Result<Scenario, ClosedLoopError> 
         ("mpc_plan_scale", &mut features.adapt_plan_scale),
         ("mpc_spindle_phase", &mut features.spindle_phase),
         ("mpc_flute_phase", &mut features.flute_phase),
+        ("mpc_intersample", &mut features.intersample),
     ] {
         match num(spec, name)? {
             None => {}

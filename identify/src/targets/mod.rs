@@ -14,6 +14,7 @@ pub(crate) mod combine;
 pub mod feed_axis;
 pub mod flutes;
 pub mod force;
+pub mod hysteresis;
 pub mod kienzle;
 pub mod part;
 pub mod spindle;
