@@ -201,7 +201,7 @@ pub struct IdentifyArgs {
     /// `rot_deg,fx_n|fy_n|fz_n` with the cut conditions; wall `force_n,deflection_um`; part
     /// `part,deflection_um,planned_deflection_um|force_peak_n`; kienzle
     /// `fz_mm,ap_mm,ae_mm,mean_fx_n|mean_fy_n[,diameter_mm,teeth,helix_deg]`; feed-axis
-    /// `t_s,reference_um,position_um`.
+    /// `t_s,reference_um,position_um`; hysteresis `u_v,y_um` (a slow sweep that reverses).
     pub file: PathBuf,
     /// Write the identified model as TOML (schema: models/MODEL.md).
     #[arg(long)]
@@ -301,6 +301,8 @@ pub enum IdentifyWhat {
     Kienzle,
     /// Dead time and lag of an NC feed axis from its servo trace (003).
     FeedAxis,
+    /// The PZT stack's hysteresis (a Prandtl–Ishlinskii model) from a quasi-static voltage sweep in air.
+    Hysteresis,
     /// How the cutting force grows with flank wear and with cut count, from a per-cut record.
     Wear,
     /// Per-flute peak forces and the flute asymmetry (flute runout) of a raw force record.

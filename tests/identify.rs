@@ -152,3 +152,42 @@ fn part_fit_from_measured_grooves_names_bad_part_numbers() {
         .code(1)
         .stderr(predicate::str::contains("part[1]"));
 }
+
+#[test]
+fn hysteresis_sweep_recovers_a_known_operator_and_a_sweep_without_reversal_is_named() {
+    // a stack reading 0.04 µm/V plus 0.006 µm/V behind a play of 56.25 V (a threshold of the default
+    // grid, 900·(3/12)²), swept 0 → 800 → 100 → 600 V in 2 V steps, gauge zero 0.2 µm,
+    // ±0.005 µm of pseudo-noise
+    use millcomp_sim::actuator::PrandtlIshlinskii;
+    let mut stack = PrandtlIshlinskii::new(vec![0.0, 56.25], vec![0.04, 0.006], 0.0).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let mut csv = String::from("u_v,y_um\n");
+    let mut v = 0.0f64;
+    let mut i = 0;
+    for target in [800.0, 100.0, 600.0] {
+        while (v - target).abs() > 1e-9 {
+            v += (target - v).clamp(-2.0, 2.0);
+            let y = stack.step(v) + 0.2 + 0.005 * wiggle(i);
+            csv.push_str(&format!("{v},{y}\n"));
+            i += 1;
+        }
+    }
+    let file = write(dir.path(), "sweep.csv", &csv);
+    let doc = run_json(&["identify", "hysteresis", s(&file)]);
+    let w0 = doc["params"]["w00_um_per_v"].as_f64().unwrap();
+    let w3 = doc["params"]["w03_um_per_v"].as_f64().unwrap();
+    assert!((w0 - 0.04).abs() < 2e-4, "{w0}");
+    assert!((w3 - 0.006).abs() < 2e-4, "{w3}");
+    assert!((doc["params"]["offset_um"].as_f64().unwrap() - 0.2).abs() < 0.01);
+    // only rising: no loop to see, and the message names the column
+    let rising: String = std::iter::once("u_v,y_um".to_string())
+        .chain((0..200).map(|k| format!("{},{}", k as f64 * 4.0, 0.05 * k as f64 * 4.0)))
+        .collect::<Vec<_>>()
+        .join("\n");
+    let bad = write(dir.path(), "rising.csv", &rising);
+    millcomp()
+        .args(["identify", "hysteresis", s(&bad)])
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains("u_v").and(predicate::str::contains("reverses")));
+}

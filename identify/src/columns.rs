@@ -12,6 +12,7 @@
 //! | `part`      | `part, deflection_um` and one of `planned_deflection_um` (→ ρ) or `force_peak_n` (→ c) |      |
 //! | `kienzle`   | `fz_mm, ap_mm, ae_mm` and any of `mean_fx_n, mean_fy_n` | `diameter_mm, teeth, helix_deg` (constant; 003's tool otherwise) |
 //! | `feed-axis` | `t_s, reference_um, position_um`     |                                          |
+//! | `hysteresis`| `u_v, y_um` (a quasi-static sweep)   |                                          |
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::str::FromStr;
@@ -24,6 +25,7 @@ use crate::targets::force::{
     ForceConditions, ForceData, ForceOptions, ForceParam, ForceTraceData, PeakForceData,
     identify_force,
 };
+use crate::targets::hysteresis::{HysteresisData, HysteresisOptions, identify_hysteresis};
 use crate::targets::kienzle::{KienzleData, KienzleOptions, identify_kienzle};
 use crate::targets::part::{PartData, PartRegressor, identify_part};
 use crate::targets::spindle::{SpindleData, SpindleOptions, identify_spindle};
@@ -50,6 +52,8 @@ pub enum Target {
     Kienzle,
     /// Dead time and lag of an NC feed axis from a servo trace (`targets::feed_axis`).
     FeedAxis,
+    /// The PZT stack's hysteresis from a quasi-static sweep in air (`targets::hysteresis`).
+    Hysteresis,
 }
 
 impl Target {
@@ -64,13 +68,15 @@ impl Target {
             Target::Part => "part",
             Target::Kienzle => "kienzle",
             Target::FeedAxis => "feed-axis",
+            Target::Hysteresis => "hysteresis",
         }
     }
 }
 
 impl FromStr for Target {
     type Err = IdentifyError;
-    /// Parses `spindle`, `stiffness`, `force`, `thermal`, `wall`, `part`, `kienzle` or `feed-axis`.
+    /// Parses `spindle`, `stiffness`, `force`, `thermal`, `wall`, `part`, `kienzle`, `feed-axis` or
+    /// `hysteresis`.
     ///
     /// # Errors
     /// [`IdentifyError::UnknownTarget`] for any other name.
@@ -84,6 +90,7 @@ impl FromStr for Target {
             "part" => Target::Part,
             "kienzle" => Target::Kienzle,
             "feed-axis" => Target::FeedAxis,
+            "hysteresis" => Target::Hysteresis,
             _ => {
                 return Err(IdentifyError::UnknownTarget { name: s.into() });
             }
@@ -235,6 +242,13 @@ pub fn identify_columns(
                 ..Default::default()
             };
             identify_spindle(&d, &o)?
+        }
+        Target::Hysteresis => {
+            let d = HysteresisData {
+                u_v: p.req("u_v")?,
+                y_um: p.req("y_um")?,
+            };
+            identify_hysteresis(&d, &HysteresisOptions::default())?
         }
         Target::Stiffness => {
             let d = StiffnessData {

@@ -32,6 +32,7 @@ pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
         IdentifyWhat::Part => Target::Part,
         IdentifyWhat::Kienzle => Target::Kienzle,
         IdentifyWhat::FeedAxis => Target::FeedAxis,
+        IdentifyWhat::Hysteresis => Target::Hysteresis,
         IdentifyWhat::Wear => return crate::cmd::record::wear(args, json),
         IdentifyWhat::Flutes => return crate::cmd::record::flutes(args, json),
     };
