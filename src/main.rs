@@ -17,6 +17,7 @@ const EXIT_OK: u8 = 0;
 const EXIT_FAILURE: u8 = 1;
 
 fn main() -> ExitCode {
+    restore_sigpipe();
     // clap prints usage errors itself and exits with status 2.
     let cli = Cli::parse();
     match cmd::run(cli) {
@@ -25,6 +26,16 @@ fn main() -> ExitCode {
             report(&err);
             ExitCode::from(EXIT_FAILURE)
         }
+    }
+}
+
+/// A reader that stops early (`millcomp … | head`) ends the program quietly, as it ends any Unix tool:
+/// the Rust runtime ignores SIGPIPE, so a write to the closed pipe would fail and `println!` panic.
+fn restore_sigpipe() {
+    #[cfg(unix)]
+    // SAFETY: called first thing in `main`, before any thread exists; SIG_DFL is a valid disposition.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
 }
 

@@ -167,12 +167,14 @@ impl Plan {
         }
     }
 
-    /// The runs of shard `k` of `n` (round robin over the global run index: every shard gets a mix of
-    /// scenarios and controllers, so slices take similar time).
+    /// The runs of shard `k` of `n`, in global order: run (scenario `s`, controller `c`) goes to shard
+    /// `(s + c) mod n`, so every shard holds every controller on 1/n of the scenarios and slices take
+    /// similar time (a plain round robin over the run index would give each slice one controller when
+    /// the number of controllers divides the number of slices).
     pub fn shard_runs(&self, shard: Shard) -> Vec<RunId> {
         (0..self.n_runs())
-            .filter(|i| i % shard.count == shard.index)
             .map(|i| self.run_id(i))
+            .filter(|r| (r.scenario + r.controller) % shard.count == shard.index)
             .collect()
     }
 }
@@ -324,6 +326,26 @@ mod tests {
         assert_eq!(all, (0..10).collect::<Vec<_>>());
         assert_eq!(p.run_id(7).scenario, 3);
         assert_eq!(p.run_id(7).controller, 1);
+    }
+
+    #[test]
+    fn every_shard_holds_every_controller() {
+        // 16 scenarios × 2 controllers in 4 slices (the Slurm self-test's shape): a round robin over the
+        // run index would give slices 0 and 2 only the first controller
+        let scen = (0..16)
+            .map(|index| ScenarioSpec {
+                index,
+                factors: Default::default(),
+            })
+            .collect();
+        let p = Plan::new(vec![], scen, vec!["pid".into(), "mpc".into()]).unwrap();
+        for k in 0..4 {
+            let runs = p.shard_runs(Shard::new(k, 4, "t").unwrap());
+            assert_eq!(runs.len(), 8);
+            for c in 0..2 {
+                assert_eq!(runs.iter().filter(|r| r.controller == c).count(), 4, "slice {k}");
+            }
+        }
     }
 
     #[test]
