@@ -42,7 +42,8 @@ pub struct Step {
     pub shape: String,
     /// What drives the family.
     pub driver: String,
-    /// 95 % intervals of `params` (t with Satterthwaite dof per parameter).
+    /// Linearised 95 % intervals of `params` (t with Satterthwaite dof per parameter; the final
+    /// model's are in [`DiagnoseReport::final_ci95`], profile-likelihood for nonlinear ones).
     pub ci95: BTreeMap<String, [f64; 2]>,
     /// Standard errors of `params`.
     pub std_err: BTreeMap<String, f64>,
@@ -235,8 +236,11 @@ pub struct DiagnoseReport {
     pub scatter: ScatterReport,
     /// Final joint estimates per effect.
     pub final_params: BTreeMap<String, BTreeMap<String, f64>>,
-    /// Final joint 95 % intervals per effect.
+    /// Final joint 95 % intervals per effect: t-based (linearised) for the coefficients,
+    /// profile-likelihood for the nonlinear parameters (time constants, onsets, runouts, …).
     pub final_ci95: BTreeMap<String, BTreeMap<String, [f64; 2]>>,
+    /// The linearised 95 % intervals of every parameter (estimate ± t·SE), for comparison.
+    pub final_ci95_linearised: BTreeMap<String, BTreeMap<String, [f64; 2]>>,
     /// Family and shape of each named effect.
     pub shapes: BTreeMap<String, String>,
     /// Every round, with every family's test.

@@ -14,7 +14,7 @@ use crate::families::{self, Family, Shape};
 use crate::logo;
 use crate::measured::Measured;
 use crate::model::{
-    Fitted, NuisanceSet, Problem, Term, evaluate, fit, orthonormal_basis, project_out,
+    Fitted, NuisanceSet, Problem, Term, evaluate, fit, fit_held, orthonormal_basis, project_out,
     strata_of_columns, strata_of_residual,
 };
 use crate::nested::{StrataTest, StrataVariance, strata_test, t975};
@@ -621,35 +621,42 @@ impl Diagnoser {
         w: &Whitening,
         rows: usize,
     ) -> Option<DMatrix<f64>> {
-        let n = self.sm.len();
-        let p = Problem {
-            sm: &self.sm,
-            nm: &self.nm,
-            y: &[],
-            terms,
-            w,
-            nuis: &self.nuis,
-        };
         let mut cols: Vec<Vec<f64>> = Vec::new();
-        for (k, t) in terms.iter().enumerate() {
-            let Some(fam) = self.families.iter().find(|f| f.name == t.family) else {
-                continue;
-            };
+        let mut a = self.nuis.free.len();
+        for t in terms {
             // the runout the term was fitted with (its first nonlinear parameter)
-            let a = p.term_start(k) + t.shape.linear.len();
-            let runout = if t.shape.nonlinear.is_empty() {
-                3.0
-            } else {
-                theta[a]
-            };
-            for mut c in fam.driver_basis(&self.sm, runout) {
-                w.apply(&mut c);
-                cols.push(c);
-            }
+            let runout = theta.get(a + t.shape.linear.len()).copied();
+            cols.extend(self.term_basis(t, runout, w));
+            a += t.shape.n_params();
         }
+        self.stack(cols, rows)
+    }
+
+    /// The whitened flexible driver basis of one term's family (data rows).
+    fn term_basis(&self, t: &Term, runout_um: Option<f64>, w: &Whitening) -> Vec<Vec<f64>> {
+        let Some(fam) = self.families.iter().find(|f| f.name == t.family) else {
+            return Vec::new();
+        };
+        let runout = if t.shape.nonlinear.is_empty() {
+            3.0
+        } else {
+            runout_um.unwrap_or(3.0)
+        };
+        fam.driver_basis(&self.sm, runout)
+            .into_iter()
+            .map(|mut c| {
+                w.apply(&mut c);
+                c
+            })
+            .collect()
+    }
+
+    /// Columns (data rows) as a matrix with `rows` rows (prior rows zero), `None` when empty.
+    fn stack(&self, cols: Vec<Vec<f64>>, rows: usize) -> Option<DMatrix<f64>> {
         if cols.is_empty() {
             return None;
         }
+        let n = self.sm.len();
         let mut e = DMatrix::zeros(rows, cols.len());
         for (j, c) in cols.iter().enumerate() {
             e.column_mut(j).rows_mut(0, n).copy_from_slice(c);
@@ -709,6 +716,124 @@ impl Diagnoser {
 
     /// Parameter estimates, SEs and 95 % intervals of a fitted model, by parameter index.
     fn intervals(&self, w: &Whitening, f: &Fitted) -> Vec<(f64, f64, [f64; 2])> {
+        self.interval_parts(w, f)
+            .into_iter()
+            .map(|(est, se, t, _)| (est, se, [est - t * se, est + t * se]))
+            .collect()
+    }
+
+    /// Profile-likelihood 95 % intervals of the terms' nonlinear parameters (time constants,
+    /// onsets, runouts, …), in place of the linearised ones in `iv`: `{v : RSS(θ_j = v) − RSS ≤
+    /// s²·t²}` with every other parameter refitted at each v, s² and the t quantile as the
+    /// linearised interval's (the strata's combined variance and its Satterthwaite dof). Where
+    /// the model is nearly linear in the parameter both agree; where it is not (the onset of a
+    /// speed-dependent growth between two of the plan's speeds, a runout interacting with the
+    /// force scale) the linearised interval was too narrow (`diagnose/STUDY.md`). A side whose
+    /// profile never reaches the level within the parameter's bounds ends at the bound; a side
+    /// whose constrained fits fail keeps the linearised end.
+    fn profile_intervals(
+        &self,
+        y: &[f64],
+        terms: &[Term],
+        w: &Whitening,
+        f: &Fitted,
+        iv: &mut [(f64, f64, [f64; 2])],
+    ) {
+        let parts = self.interval_parts(w, f);
+        let p = self.problem(y, terms, w);
+        let specs = p.param_specs(&f.theta);
+        for (k, t) in terms.iter().enumerate() {
+            let a = p.term_start(k) + t.shape.linear.len();
+            for j in a..a + t.shape.nonlinear.len() {
+                let (_, se, tq, s2) = parts[j];
+                let crit = s2 * tq * tq;
+                if !(crit.is_finite() && se.is_finite() && se > 0.0) {
+                    continue;
+                }
+                let (lo_b, hi_b) = (specs[j].lower, specs[j].upper);
+                for (side, end) in [(-1.0, 0usize), (1.0, 1usize)] {
+                    let limit = if side < 0.0 { lo_b } else { hi_b };
+                    if let Some(b) = self.profile_end(&p, f, j, side, limit, tq * se, crit) {
+                        iv[j].2[end] = b;
+                    }
+                }
+            }
+        }
+    }
+
+    /// One end of a profile interval (see [`Self::profile_intervals`]): steps out from the
+    /// estimate (first step the linearised half-width, then doubling) until the constrained RSS
+    /// rises by `crit`, then regula falsi on √ΔRSS; `None` when a constrained fit fails before
+    /// the level is bracketed.
+    #[allow(clippy::too_many_arguments)]
+    fn profile_end(
+        &self,
+        p: &Problem<'_>,
+        f: &Fitted,
+        j: usize,
+        side: f64,
+        limit: f64,
+        half_width: f64,
+        crit: f64,
+    ) -> Option<f64> {
+        let est = f.theta[j];
+        let range = if limit.is_finite() {
+            (limit - est).abs()
+        } else {
+            f64::INFINITY
+        };
+        // stay a hair inside the bound (the bounded transform is singular on it)
+        let max_step = if range.is_finite() {
+            range * (1.0 - 1e-6)
+        } else {
+            f64::INFINITY
+        };
+        let delta = |v: f64, start: &[f64]| -> Option<(f64, Vec<f64>)> {
+            fit_held(p, start, j, v)
+                .ok()
+                .map(|(theta, rss)| ((rss - f.rss).max(0.0), theta))
+        };
+        let g = |d: f64| d.sqrt() - crit.sqrt();
+        let mut inside = (0.0f64, f.theta.clone(), 0.0f64); // (distance, θ, ΔRSS)
+        let mut step = half_width.max(1e-9 * est.abs().max(1.0));
+        let mut outside: Option<(f64, f64)> = None;
+        for _ in 0..10 {
+            let dist = (inside.0 + step).min(max_step);
+            let (d, theta) = delta(est + side * dist, &inside.1)?;
+            if d >= crit {
+                outside = Some((dist, d));
+                break;
+            }
+            inside = (dist, theta, d);
+            if dist >= max_step {
+                return Some(est + side * dist);
+            }
+            step *= 2.0;
+        }
+        let (mut d_out, mut delta_out) = outside?;
+        for _ in 0..6 {
+            let (d_in, ref th_in, delta_in) = inside;
+            let (g_in, g_out) = (g(delta_in), g(delta_out));
+            let dist = d_in + (d_out - d_in) * (-g_in) / (g_out - g_in).max(1e-300);
+            let Some((d, theta)) = delta(est + side * dist, th_in) else {
+                break;
+            };
+            if g(d).abs() < 0.01 * crit.sqrt() {
+                return Some(est + side * dist);
+            }
+            if d < crit {
+                inside = (dist, theta, d);
+            } else {
+                d_out = dist;
+                delta_out = d;
+            }
+        }
+        Some(est + side * 0.5 * (inside.0 + d_out))
+    }
+
+    /// Estimate, SE, t quantile and combined stratum variance of every parameter of a fitted
+    /// model (the linearised interval is estimate ± t·SE).
+    fn interval_parts(&self, w: &Whitening, f: &Fitted) -> Vec<(f64, f64, f64, f64)> {
         let n = self.sm.len();
         let p = f.x.ncols();
         let v = self.strata_variance(w, f, n);
@@ -728,9 +853,7 @@ impl Diagnoser {
                 let tot = (s[0] + s[1] + s[2]).max(1e-300);
                 let (s2, df) = v.combine([s[0] / tot, s[1] / tot, s[2] / tot]);
                 let se = (inv[(j, j)] * s2).sqrt();
-                let t = t975(df);
-                let est = f.theta[j];
-                (est, se, [est - t * se, est + t * se])
+                (f.theta[j], se, t975(df), s2)
             })
             .collect()
     }
@@ -897,19 +1020,64 @@ impl Diagnoser {
                 break;
             }
             let threshold = alpha / shapes_tried.max(1) as f64;
-            // significant candidates first, each group by p (most significant first): ranking by
-            // the raw RMS left instead (the first version) favours the most flexible family,
-            // whose extra parameters also fit the misfit of another effect's shape
+            // significant candidates first, ranked by how much of the discrepancy they close for
+            // their parameters — the BIC of the raw residual, n·ln(RSS) + q·ln n: the raw RMS
+            // alone (the first version) favours the most flexible family, whose extra
+            // parameters also fit the misfit of another effect's shape; p alone favours a
+            // pattern within grooves (hundreds of dof) over one between them (a dozen groove
+            // means); the others by p
             let sig = |c: &Candidate| c.test.p_value < threshold && cur.rss > c.alt.rss;
+            let raw_bic = |c: &Candidate| {
+                n as f64 * (c.rms_after * c.rms_after).max(1e-300).ln()
+                    + c.term.shape.n_params() as f64 * ln_n
+            };
+            let named_basis = self.named_driver_basis(&terms, &cur.theta, &w, cur.r.len());
+            // which significant candidate explains what another cannot: a candidate is
+            // dominated by another when the other is significant beyond a flexible shape of the
+            // candidate in its own driver and the candidate is not beyond the other's
+            let significant: Vec<usize> = (0..cands.len()).filter(|&k| sig(&cands[k])).collect();
+            let bases: Vec<Vec<Vec<f64>>> = cands
+                .iter()
+                .map(|c| {
+                    let runout = c.alt.theta.get(p0 + c.term.shape.linear.len()).copied();
+                    self.term_basis(&c.term, runout, &w)
+                })
+                .collect();
+            let beyond = |a: usize, b: usize| -> bool {
+                let mut cols = bases[b].clone();
+                if let Some(e) = &named_basis {
+                    for j in 0..e.ncols() {
+                        cols.push(e.column(j).rows(0, n).iter().copied().collect());
+                    }
+                }
+                let Some(e) = self.stack(cols, cur.r.len()) else {
+                    return true;
+                };
+                let c = &cands[a];
+                self.test_beyond(&w, &cur, &c.alt, c.term.shape.n_params(), &e)
+                    .p_value
+                    < threshold
+            };
+            let mut dominated = vec![0usize; cands.len()];
+            for &a in &significant {
+                for &b in &significant {
+                    if a != b && beyond(b, a) && !beyond(a, b) {
+                        dominated[a] += 1;
+                    }
+                }
+            }
             let mut order: Vec<usize> = (0..cands.len()).collect();
             order.sort_by(|&a, &b| {
                 let (ca, cb) = (&cands[a], &cands[b]);
-                sig(cb)
-                    .cmp(&sig(ca))
-                    .then(ca.test.ln_p.total_cmp(&cb.test.ln_p))
+                sig(cb).cmp(&sig(ca)).then(if sig(ca) && sig(cb) {
+                    dominated[a]
+                        .cmp(&dominated[b])
+                        .then(raw_bic(ca).total_cmp(&raw_bic(cb)))
+                } else {
+                    ca.test.ln_p.total_cmp(&cb.test.ln_p)
+                })
             });
             let logo_null = logo::score(&w, &cur.x, &cur.r);
-            let named_basis = self.named_driver_basis(&terms, &cur.theta, &w, cur.r.len());
             let mut tested: Vec<Tested> = Vec::new();
             let mut accepted: Option<usize> = None;
             for &ci in &order {
@@ -1061,20 +1229,26 @@ impl Diagnoser {
         let pf = self.problem(&y, &terms, &w);
         let pred = pf.predict(&cur.theta);
         let final_rms = rms(&resid(&y, &pred));
-        let iv = self.intervals(&w, &cur);
+        let mut iv = self.intervals(&w, &cur);
+        let linearised = iv.clone();
+        self.profile_intervals(&y, &terms, &w, &cur, &mut iv);
         let mut final_params = BTreeMap::new();
         let mut final_ci95 = BTreeMap::new();
+        let mut final_ci95_linearised = BTreeMap::new();
         let mut shapes = BTreeMap::new();
         for (k, t) in terms.iter().enumerate() {
             let a = pf.term_start(k);
             let mut pm = BTreeMap::new();
             let mut cm = BTreeMap::new();
+            let mut lm = BTreeMap::new();
             for (j, name) in t.shape.param_names().into_iter().enumerate() {
                 pm.insert(name.to_string(), iv[a + j].0);
                 cm.insert(name.to_string(), iv[a + j].2);
+                lm.insert(name.to_string(), linearised[a + j].2);
             }
             final_params.insert(t.family.to_string(), pm);
             final_ci95.insert(t.family.to_string(), cm);
+            final_ci95_linearised.insert(t.family.to_string(), lm);
             shapes.insert(t.family.to_string(), t.shape.name.to_string());
         }
         let nu = pf.nu(&cur.theta);
@@ -1175,6 +1349,7 @@ impl Diagnoser {
             },
             final_params,
             final_ci95,
+            final_ci95_linearised,
             shapes,
             rounds,
             skipped,
