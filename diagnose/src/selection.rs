@@ -1105,18 +1105,16 @@ impl Diagnoser {
                         "significant, but not beyond a flexible shape of the named effects in their own drivers (p = {:.1e}): what it fits is their shapes' misfit",
                         b.p_value
                     )
+                } else if !logo_accepts(&c.test, l, c.term.shape.n_params()) {
+                    "significant but does not improve the prediction of held-out grooves".into()
+                } else if amplitude <= u.resolution_um {
+                    format!(
+                        "significant but its amplitude {amplitude:.3} µm is within the measurement resolution ({} µm)",
+                        u.resolution_um
+                    )
                 } else {
-                    if !logo_accepts(&c.test, l, c.term.shape.n_params()) {
-                        "significant but does not improve the prediction of held-out grooves".into()
-                    } else if amplitude <= u.resolution_um {
-                        format!(
-                            "significant but its amplitude {amplitude:.3} µm is within the measurement resolution ({} µm)",
-                            u.resolution_um
-                        )
-                    } else {
-                        accepted = Some(ci);
-                        "added".into()
-                    }
+                    accepted = Some(ci);
+                    "added".into()
                 };
                 let a0 = pa.term_start(all.len() - 1);
                 let params = c
