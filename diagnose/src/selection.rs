@@ -1407,7 +1407,10 @@ impl Diagnoser {
                 "the data do not point to it (p = {:.2} beyond the recalibrated nominal model)",
                 t.test.p_value
             ),
-            None => "it was not tried".into(),
+            None if self.plan.cannot_separate_any => {
+                "it was not tested (this plan separates no candidate from the nominal model)".into()
+            }
+            None => "it was not tested".into(),
         };
         WithinNominal {
             effect: f.effect.clone(),

@@ -1364,7 +1364,7 @@ pub fn committed_variants() -> Vec<CommittedVariant> {
         },
         CommittedVariant {
             name: "real_tool_wear",
-            description: "tool wear with running-in then linear wear (not a family shape)",
+            description: "tool wear with running-in then linear wear (a wear family shape since diagnose's second round)",
             spec: VariantSpec {
                 row: Row::Single,
                 effects: vec!["tool_wear"],
