@@ -27,7 +27,7 @@
 //!    a bow, a cubic or a spline in machine X, …). In each round every shape of every remaining
 //!    family is searched over its grid of nonlinear parameters (linearised, in the GLS metric);
 //!    the family's best shape by GLS-BIC is refined by bounded nonlinear least squares jointly with
-//!    the nuisance and the effects already added, and tested ([`nested::strata_test`]; Bonferroni
+//!    the nuisance and the effects already added, and tested (`nested::strata_test`; Bonferroni
 //!    over all shapes tried in the round).
 //! 5. **Stop when the gain is not real.** A family is added — the most significant first — only if
 //!    it is significant, it is still significant when every effect already named is given a
