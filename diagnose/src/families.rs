@@ -6,13 +6,13 @@
 //!
 //! | family (effect) | driver | shapes (coefficients; nonlinear parameters) |
 //! |---|---|---|
-//! | `coolant_thermal_drift` | coolant state history | `one_lag` (amplitude; τ), `two_lag` (fast, slow; τ_fast, τ_slow) — the fast reaction and slow drift of 002 §4.7 |
+//! | `coolant_thermal_drift` | coolant state history | `one_lag` (amplitude; τ), `two_lag` (fast, slow; τ_fast, τ_slow) — the fast reaction and slow drift of 002 §4.7, `dead_time_lag` (amplitude; τ, dead time) — the coolant reaching the column late |
 //! | `spindle_thermal_growth` | spindle speed history | `onset_one_lag` (growth at 50 000 rpm; onset, τ) — sim's form, `onset_two_lag` (fast, slow; onset, τ_fast, τ_slow), `quadratic_one_lag` (growth at 50 000 rpm with gain ∝ rpm²; τ) |
 //! | `probe_tilt_offset` | one constant per tool | `constant` (offset) |
-//! | `tool_wear` | engaged length, monotone | `saturating` (max wear ≥ 0; L0) — sim's form, `power_law` (wear at the end ≥ 0; exponent) |
+//! | `tool_wear` | engaged length, monotone | `saturating` (max wear ≥ 0; L0) — sim's form, `power_law` (wear at the end ≥ 0; exponent), `running_in_linear` (running-in wear ≥ 0, steady wear at the end ≥ 0; running-in length) |
 //! | `slideway_straightness` | machine X, smooth, zero at the start of the X range | `bow` (amplitude) — sim's parabola, `cubic` (three polynomial coefficients), `spline` (eight cubic B-spline coefficients, knots every 1/6 of the range) |
 //! | `machine_compliance` | peak force | `constant` (compliance ≥ 0), `x_linear` (compliance at X start and its change over the range) |
-//! | `flute_runout` | chip asymmetry of the two flutes | `constant` (runout; sim's form), `growing` (runout at the start and its growth over the session's engaged length) |
+//! | `flute_runout` | chip asymmetry of the two flutes | `constant` (runout; sim's form), `growing` (runout at the start and its growth over the session's engaged length), `speed_dependent` (runout at rest and its growth ∝ rpm², dynamic unbalance) |
 //!
 //! The first shape of each family is its **reference** form (sim's effect); the plan analysis
 //! ([`crate::aliasing`]) uses it at its reference parameters (002's values).
@@ -41,6 +41,8 @@ pub struct NonlinearParam {
 pub enum ShapeKind {
     /// Σ_k A_k·lag(τ_k) of the coolant state (one column per lag).
     CoolantLags(usize),
+    /// A·lag(τ) of the coolant state delayed by a dead time.
+    CoolantDeadTime,
     /// Σ_k G_k·lag(τ_k) of the steady growth ((rpm − onset)/(50 000 − onset))₊.
     SpindleOnsetLags(usize),
     /// G·lag(τ) of (rpm/50 000)².
@@ -51,6 +53,8 @@ pub enum ShapeKind {
     WearSaturating,
     /// −W·(L/L_end)^k.
     WearPower,
+    /// −W₁·(1 − exp(−L/L₁)) − W₂·L/L_end: running-in, then steady wear.
+    WearRunningIn,
     /// a·4u(1 − u), u = (X − X_start)/(X_end − X_start).
     Bow,
     /// b₁u + b₂u² + b₃u³.
@@ -66,6 +70,8 @@ pub enum ShapeKind {
     RunoutConstant,
     /// sim's flute runout with runout r₀ + r₁·L/L_end (fixed column).
     RunoutGrowing,
+    /// sim's flute runout with runout r₀ + r₂·(rpm/50 000)² (fixed column).
+    RunoutSpeed,
 }
 
 /// One shape of a family.
@@ -81,8 +87,8 @@ pub struct Shape {
     pub nonlinear: Vec<NonlinearParam>,
     /// How it is evaluated.
     pub kind: ShapeKind,
-    /// For one-coefficient shapes whose coefficient has a physical sign (wear shortens the tool,
-    /// compliance adds deflection): the coefficient must be ≥ 0.
+    /// For shapes whose coefficients have a physical sign (wear shortens the tool, compliance
+    /// adds deflection): every coefficient must be ≥ 0.
     pub nonnegative: bool,
     /// Reference coefficient (002's magnitude) for the plan analysis.
     pub reference_coef: f64,
@@ -151,6 +157,14 @@ impl Shape {
         let u = |x: f64| ((x - f.x_start_mm) / f.x_span_mm()).clamp(0.0, 1.0);
         match self.kind {
             ShapeKind::CoolantLags(k) => (0..k).map(|j| lag(&f.coolant_events, phi[j])).collect(),
+            ShapeKind::CoolantDeadTime => {
+                let ev: Vec<(f64, f64)> = f
+                    .coolant_events
+                    .iter()
+                    .map(|(t, on)| (t + phi[1], *on))
+                    .collect();
+                vec![lag(&ev, phi[0])]
+            }
             ShapeKind::SpindleOnsetLags(k) => {
                 let onset = phi[0];
                 let ev: Vec<(f64, f64)> = f
@@ -177,6 +191,14 @@ impl Shape {
             ShapeKind::WearPower => vec![
                 pts.iter()
                     .map(|p| -(p.cut_length_mm.max(0.0) / f.end_mm.max(1e-9)).powf(phi[0]))
+                    .collect(),
+            ],
+            ShapeKind::WearRunningIn => vec![
+                pts.iter()
+                    .map(|p| -(1.0 - (-p.cut_length_mm.max(0.0) / phi[0]).exp()))
+                    .collect(),
+                pts.iter()
+                    .map(|p| -p.cut_length_mm.max(0.0) / f.end_mm.max(1e-9))
                     .collect(),
             ],
             ShapeKind::Bow => vec![
@@ -207,8 +229,11 @@ impl Shape {
                     .collect(),
             ],
             ShapeKind::RunoutConstant => vec![runout_column(sm, |_| phi[0])],
-            ShapeKind::RunoutGrowing => vec![runout_column(sm, |l| {
-                phi[0] + phi[1] * l / f.end_mm.max(1e-9)
+            ShapeKind::RunoutGrowing => vec![runout_column(sm, |c| {
+                phi[0] + phi[1] * c.cut_length_mm.max(0.0) / f.end_mm.max(1e-9)
+            })],
+            ShapeKind::RunoutSpeed => vec![runout_column(sm, |c| {
+                phi[0] + phi[1] * (c.speed_rpm / 50_000.0).powi(2)
             })],
         }
     }
@@ -231,13 +256,13 @@ impl Shape {
     }
 }
 
-/// sim's flute runout offset at every point with runout `r(cut_length_mm)` (µm).
-fn runout_column(sm: &SessionModel, r: impl Fn(f64) -> f64) -> Vec<f64> {
+/// sim's flute runout offset at every point with the runout `r(point)` (µm) there.
+fn runout_column(sm: &SessionModel, r: impl Fn(&EffectContext<'_>) -> f64) -> Vec<f64> {
     (0..sm.len())
         .map(|i| {
             let ctx: EffectContext<'_> = sm.ctx(i);
             let e = FluteRunout {
-                runout_um: r(ctx.cut_length_mm.max(0.0)).max(0.0),
+                runout_um: r(&ctx).max(0.0),
             };
             millcomp_sim::effects::Effect::depth_offset_um(&e, &ctx)
         })
@@ -300,6 +325,122 @@ pub struct Family {
     pub shapes: Vec<Shape>,
 }
 
+impl Family {
+    /// A flexible basis in the family's own driver (raw columns, µm per unit coefficient): what
+    /// the effect could look like if its true shape were none of the family's. `diagnose` names
+    /// a further effect only if it is significant beyond this basis of every effect already
+    /// named — otherwise what it fits is the named effect's misfit, not a second effect.
+    ///
+    /// | family | basis |
+    /// |---|---|
+    /// | coolant | first-order lags of the coolant state, τ = 30 s … 10 000 s (6) |
+    /// | spindle | first-order lags of (rpm/50 000)^k, k = 1, 2, 3, τ = 120 … 9600 s (12): any gain as a function of the speed, any mix of lags |
+    /// | probe tilt | none (a constant is complete) |
+    /// | wear | cubic B-spline in engaged length, 6 intervals, zero at L = 0 (8) |
+    /// | straightness | cubic B-spline in machine X, 12 intervals, zero at the start (14) |
+    /// | compliance | force × a cubic B-spline in force (4 intervals, 7) and force × u, u² along X (2) |
+    /// | runout | the runout column's change for a runout change ∝ 1, L, rpm², depth, at runout `runout_um` (4) |
+    pub fn driver_basis(&self, sm: &SessionModel, runout_um: f64) -> Vec<Vec<f64>> {
+        let pts = sm.points();
+        let f = &sm.facts;
+        let lag = |events: &[(f64, f64)], tau: f64| -> Vec<f64> {
+            pts.iter()
+                .map(|p| first_order_response(events, p.t_s, tau))
+                .collect()
+        };
+        let u = |x: f64| ((x - f.x_start_mm) / f.x_span_mm()).clamp(0.0, 1.0);
+        let spline = |v: &dyn Fn(&millcomp_sim::session::PointContext) -> f64,
+                      m: usize,
+                      scale: &dyn Fn(&millcomp_sim::session::PointContext) -> f64|
+         -> Vec<Vec<f64>> {
+            let basis: Vec<Vec<f64>> = pts.iter().map(|p| bspline_basis(v(p), m)).collect();
+            (1..m + 3)
+                .map(|j| {
+                    basis
+                        .iter()
+                        .zip(pts)
+                        .map(|(b, p)| b[j] * scale(p))
+                        .collect()
+                })
+                .collect()
+        };
+        match self.name {
+            "coolant_thermal_drift" => [30.0, 120.0, 400.0, 1200.0, 3600.0, 10_000.0]
+                .iter()
+                .map(|&tau| lag(&f.coolant_events, tau))
+                .collect(),
+            "spindle_thermal_growth" => {
+                let mut out = Vec::new();
+                for k in 1..=3 {
+                    let ev: Vec<(f64, f64)> = f
+                        .spindle_events
+                        .iter()
+                        .map(|(t, rpm)| (*t, (rpm / 50_000.0).powi(k)))
+                        .collect();
+                    for tau in [120.0, 600.0, 2400.0, 9600.0] {
+                        out.push(lag(&ev, tau));
+                    }
+                }
+                out
+            }
+            "tool_wear" => spline(
+                &|p| p.cut_length_mm.max(0.0) / f.end_mm.max(1e-9),
+                6,
+                &|_| -1.0,
+            ),
+            "slideway_straightness" => spline(&|p| u(p.machine_x_mm), 12, &|_| 1.0),
+            "machine_compliance" => {
+                let fmax = f.max_force_n.max(1e-9);
+                // all seven B-splines (a compliance at zero force is allowed)
+                let mut out: Vec<Vec<f64>> = (0..7)
+                    .map(|j| {
+                        pts.iter()
+                            .map(|p| -p.force_z_n * bspline_basis(p.force_z_n / fmax, 4)[j])
+                            .collect()
+                    })
+                    .collect();
+                out.push(
+                    pts.iter()
+                        .map(|p| -p.force_z_n * u(p.machine_x_mm))
+                        .collect(),
+                );
+                out.push(
+                    pts.iter()
+                        .map(|p| -p.force_z_n * u(p.machine_x_mm).powi(2))
+                        .collect(),
+                );
+                out
+            }
+            "flute_runout" => {
+                let r0 = runout_um.max(0.1);
+                let h = 0.05 * r0;
+                let base = runout_column(sm, |_| r0);
+                let dmax = pts
+                    .iter()
+                    .map(|p| p.depth_actual_um)
+                    .fold(0.0f64, f64::max)
+                    .max(1e-9);
+                let gs: [&dyn Fn(&EffectContext<'_>) -> f64; 4] = [
+                    &|_| 1.0,
+                    &|c| c.cut_length_mm.max(0.0) / f.end_mm.max(1e-9),
+                    &|c| (c.speed_rpm / 50_000.0).powi(2),
+                    &|c| c.depth_actual_um / dmax,
+                ];
+                gs.iter()
+                    .map(|g| {
+                        runout_column(sm, |c| r0 + h * g(c))
+                            .iter()
+                            .zip(&base)
+                            .map(|(a, b)| (a - b) / h)
+                            .collect()
+                    })
+                    .collect()
+            }
+            _ => Vec::new(),
+        }
+    }
+}
+
 fn nl(name: &'static str, lower: f64, upper: f64, grid: &[f64], reference: f64) -> NonlinearParam {
     NonlinearParam {
         name,
@@ -340,6 +481,24 @@ pub fn standard() -> Vec<Family> {
                     nl("tau_slow_s", 5.0, 1e5, &TAU_SLOW, 3600.0),
                 ],
                 kind: ShapeKind::CoolantLags(2),
+                nonnegative: false,
+                reference_coef: 8.5,
+            },
+            Shape {
+                name: "dead_time_lag",
+                description: "first-order lag of the driver delayed by a dead time (transport to the column)",
+                linear: vec![amp],
+                nonlinear: vec![
+                    nl("time_constant_s", 5.0, 1e5, &TAU_GRID, 900.0),
+                    nl(
+                        "dead_time_s",
+                        0.0,
+                        3600.0,
+                        &[60.0, 180.0, 400.0, 800.0],
+                        300.0,
+                    ),
+                ],
+                kind: ShapeKind::CoolantDeadTime,
                 nonnegative: false,
                 reference_coef: 8.5,
             },
@@ -442,6 +601,21 @@ pub fn standard() -> Vec<Family> {
                     nonnegative: true,
                     reference_coef: 8.0,
                 },
+                Shape {
+                    name: "running_in_linear",
+                    description: "−W₁(1 − exp(−L/L₁)) − W₂·L/L_end: running-in, then steady wear (the classic wear curve's first two stages)",
+                    linear: vec!["running_in_um", "steady_wear_at_end_um"],
+                    nonlinear: vec![nl(
+                        "running_in_length_mm",
+                        0.5,
+                        1e5,
+                        &[5.0, 10.0, 20.0, 40.0, 80.0, 160.0],
+                        20.0,
+                    )],
+                    kind: ShapeKind::WearRunningIn,
+                    nonnegative: true,
+                    reference_coef: 8.0,
+                },
             ],
         },
         Family {
@@ -534,6 +708,24 @@ pub fn standard() -> Vec<Family> {
                         nl("runout_growth_um", -50.0, 50.0, &[-2.0, 0.0, 2.0, 5.0], 0.0),
                     ],
                     kind: ShapeKind::RunoutGrowing,
+                    nonnegative: false,
+                    reference_coef: 1.0,
+                },
+                Shape {
+                    name: "speed_dependent",
+                    description: "runout r0 + r2·(rpm/50 000)², growing with speed (dynamic unbalance)",
+                    linear: vec![],
+                    nonlinear: vec![
+                        nl("runout_um", 0.0, 50.0, &[0.5, 1.5, 3.0, 5.0], 3.0),
+                        nl(
+                            "runout_at_50000_rpm_um",
+                            0.0,
+                            100.0,
+                            &[0.5, 2.0, 5.0, 10.0, 20.0],
+                            0.0,
+                        ),
+                    ],
+                    kind: ShapeKind::RunoutSpeed,
                     nonnegative: false,
                     reference_coef: 1.0,
                 },

@@ -27,17 +27,23 @@
 //!    a bow, a cubic or a spline in machine X, …). In each round every shape of every remaining
 //!    family is searched over its grid of nonlinear parameters (linearised, in the GLS metric);
 //!    the family's best shape by GLS-BIC is refined by bounded nonlinear least squares jointly with
-//!    the nuisance and the effects already added, and tested ([`nested::strata_test`]; Bonferroni
+//!    the nuisance and the effects already added, and tested (`nested::strata_test`; Bonferroni
 //!    over all shapes tried in the round).
 //! 5. **Stop when the gain is not real.** A family is added — the most significant first — only if
-//!    it is significant, it improves the prediction of held-out grooves (leave-one-groove-out,
-//!    [`logo`]) and its amplitude exceeds the measurement's resolution. Otherwise the selection
-//!    stops; what remains is reported with what it correlates with
-//!    ([`DiagnoseReport::unexplained`]).
+//!    it is significant, it is still significant when every effect already named is given a
+//!    flexible shape in its own driver ([`Family::driver_basis`]: lags of the coolant state or of
+//!    the speed, splines in engaged length, machine X or force — otherwise what it fits is the
+//!    named effect's misfit, not a second effect), it improves the prediction of held-out grooves
+//!    (leave-one-groove-out, [`logo`]) and its amplitude exceeds the measurement's resolution.
+//!    Otherwise the selection stops; what remains is reported with what it correlates with
+//!    ([`DiagnoseReport::unexplained`]). The final intervals of nonlinear parameters are
+//!    profile-likelihood intervals ([`DiagnoseReport::final_ci95`]).
 //! 6. **What the plan cannot separate** ([`aliasing`]): candidates aliased with the nuisance (a
 //!    constant offset and the touch-off, a tilt-independent compliance and the stiffnesses) are
-//!    named only beyond the nuisance's prior and are otherwise listed as within the nominal
-//!    model's uncertainty; aliased pairs get a proposed session change. A plan that separates no
+//!    named only beyond the nuisance's prior and are otherwise reported as "within the nominal
+//!    model's uncertainty" ([`report::WithinNominal`], with whether the data point to it);
+//!    aliased pairs get a proposed session change. A session that states a tighter prior (a
+//!    stiffness measured by a load–deflection test) separates what the default priors cannot. A plan that separates no
 //!    candidate from the nuisance names none (`verdict = plan_cannot_separate`).
 //! 7. With a force trace ([`ForceTrace`]), `flute_runout` is also tested on the flute-to-flute
 //!    force asymmetry ([`force_channel`]).
@@ -92,7 +98,7 @@ pub use measured::{ForceTrace, Measured};
 pub use nested::{Decision, StrataTest};
 pub use nominal::SessionModel;
 pub use report::{DiagnoseReport, Round, Series, Skipped, Step, StructureReport};
-pub use selection::{DiagnoseOptions, Diagnoser};
+pub use selection::{DiagnoseOptions, Diagnoser, WITHIN_NOMINAL};
 pub use structure::StructureItem;
 
 /// Diagnoses `measured` against the nominal model of `session` (crate documentation): the

@@ -329,6 +329,67 @@ pub(crate) fn fit(p: &Problem<'_>, start: &[f64]) -> Result<Fitted, IdentifyErro
     Ok(evaluate(p, &theta, fit.report.status.is_success()))
 }
 
+/// The model `p` with parameter `j` held at `value`: the free parameters are the others.
+struct Held<'a, 'b> {
+    p: &'a Problem<'b>,
+    j: usize,
+    value: f64,
+}
+
+impl Held<'_, '_> {
+    fn full(&self, free: &[f64]) -> Vec<f64> {
+        let mut t = free.to_vec();
+        t.insert(self.j, self.value);
+        t
+    }
+}
+
+impl Operator for Held<'_, '_> {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+    fn apply(&self, theta: &DVector<f64>) -> Result<DVector<f64>, ArgminError> {
+        let r = self.p.residual(&self.full(theta.as_slice()));
+        if r.iter().any(|v| !v.is_finite()) {
+            return Err(ArgminError::msg("non-finite residual"));
+        }
+        Ok(r)
+    }
+}
+
+impl Jacobian for Held<'_, '_> {
+    type Param = DVector<f64>;
+    type Jacobian = DMatrix<f64>;
+    fn jacobian(&self, theta: &DVector<f64>) -> Result<DMatrix<f64>, ArgminError> {
+        Ok(self
+            .p
+            .jacobian_matrix(&self.full(theta.as_slice()))
+            .remove_column(self.j))
+    }
+}
+
+impl ResidualModel for Held<'_, '_> {}
+
+/// Fits `p` with parameter `j` held at `value`, from `start` (all parameters; `start[j]` is
+/// ignored): the full θ and the whitened RSS of the constrained fit.
+pub(crate) fn fit_held(
+    p: &Problem<'_>,
+    start: &[f64],
+    j: usize,
+    value: f64,
+) -> Result<(Vec<f64>, f64), IdentifyError> {
+    let mut full = start.to_vec();
+    full[j] = value;
+    let mut specs = p.param_specs(&full);
+    specs.remove(j);
+    let held = Held { p, j, value };
+    let fit = fit_nonlinear(held, &specs, &nls_options(), "diagnose", "um")?;
+    let free: Vec<f64> = fit.theta.iter().copied().collect();
+    let mut theta = free;
+    theta.insert(j, value);
+    let rss = p.residual(&theta).norm_squared();
+    Ok((theta, rss))
+}
+
 /// The model at θ without fitting.
 pub(crate) fn evaluate(p: &Problem<'_>, theta: &[f64], converged: bool) -> Fitted {
     let r = p.residual(theta);

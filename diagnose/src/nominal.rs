@@ -59,6 +59,8 @@ pub struct SessionFacts {
     pub x_end_mm: f64,
     /// Engaged length at the last point (mm).
     pub end_mm: f64,
+    /// Largest nominal peak z-force of the points (N).
+    pub max_force_n: f64,
     /// Points of each groove: `(groove_id, first index, end index)` in plan order.
     pub grooves: Vec<(i64, usize, usize)>,
 }
@@ -197,6 +199,7 @@ fn facts(c: &SessionContexts) -> SessionFacts {
             .map(|p| p.machine_x_mm)
             .fold(f64::NEG_INFINITY, f64::max),
         end_mm: pts.iter().map(|p| p.cut_length_mm).fold(0.0, f64::max),
+        max_force_n: pts.iter().map(|p| p.force_z_n).fold(0.0, f64::max),
         grooves,
     }
 }

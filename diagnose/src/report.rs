@@ -42,7 +42,8 @@ pub struct Step {
     pub shape: String,
     /// What drives the family.
     pub driver: String,
-    /// 95 % intervals of `params` (t with Satterthwaite dof per parameter).
+    /// Linearised 95 % intervals of `params` (t with Satterthwaite dof per parameter; the final
+    /// model's are in [`DiagnoseReport::final_ci95`], profile-likelihood for nonlinear ones).
     pub ci95: BTreeMap<String, [f64; 2]>,
     /// Standard errors of `params`.
     pub std_err: BTreeMap<String, f64>,
@@ -81,10 +82,16 @@ pub struct Tested {
     pub rms_after_um: f64,
     /// p < α/m.
     pub significant: bool,
-    /// Leave-one-groove-out scores, for significant ones.
+    /// Leave-one-groove-out scores of the model without and with it.
     pub logo: Option<Logo>,
     /// Amplitude (µm).
     pub amplitude_um: f64,
+    /// The shape's fitted parameters (names with unit).
+    pub params: BTreeMap<String, f64>,
+    /// Its test with a flexible shape of every named effect in its own driver added to both
+    /// models (`Family::driver_basis`); `null` in the first round. A candidate that is not
+    /// significant beyond them fits the named effects' misfit and is not added.
+    pub beyond_named: Option<StrataTest>,
     /// Why it was or was not added.
     pub decision: String,
 }
@@ -156,14 +163,33 @@ pub struct Unexplained {
     pub stratum: String,
 }
 
-/// A candidate the plan cannot separate from the nominal model's uncertainty, not named.
+/// A candidate the plan cannot separate from the nominal model's uncertainty, not named (issue
+/// 15: "named only when it lies beyond the nuisance's prior; otherwise it is reported as within
+/// the nominal model's uncertainty").
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct WithinNominal {
     /// Effect.
     pub effect: String,
+    /// Always `within the nominal model's uncertainty` (the issue's words).
+    pub status: String,
     /// The nuisance parameters it is aliased with.
     pub nuisance: Vec<String>,
-    /// What the nuisance step found there.
+    /// The data point to it: its test beyond the recalibrated nominal model (in the last round
+    /// it was tried) has p < α, though not below the round's threshold — the nominal model had
+    /// to move further than its prior makes likely, in this effect's direction. Not a name:
+    /// a nominal model off by more than its stated prior looks the same.
+    pub indicated: bool,
+    /// p-value of that test (`null` when it was not tried).
+    pub p_value: Option<f64>,
+    /// The round's threshold it did not reach.
+    pub threshold: Option<f64>,
+    /// Its shape and parameters in that test: the size it would have if it were present.
+    pub shape: Option<String>,
+    /// The parameters of that shape.
+    pub params: BTreeMap<String, f64>,
+    /// The aliased nuisance parameters as recalibrated: `(name, estimate, prior SDs)`.
+    pub nuisance_moved: Vec<(String, f64, f64)>,
+    /// One sentence for people.
     pub note: String,
 }
 
@@ -210,8 +236,11 @@ pub struct DiagnoseReport {
     pub scatter: ScatterReport,
     /// Final joint estimates per effect.
     pub final_params: BTreeMap<String, BTreeMap<String, f64>>,
-    /// Final joint 95 % intervals per effect.
+    /// Final joint 95 % intervals per effect: t-based (linearised) for the coefficients,
+    /// profile-likelihood for the nonlinear parameters (time constants, onsets, runouts, …).
     pub final_ci95: BTreeMap<String, BTreeMap<String, [f64; 2]>>,
+    /// The linearised 95 % intervals of every parameter (estimate ± t·SE), for comparison.
+    pub final_ci95_linearised: BTreeMap<String, BTreeMap<String, [f64; 2]>>,
     /// Family and shape of each named effect.
     pub shapes: BTreeMap<String, String>,
     /// Every round, with every family's test.

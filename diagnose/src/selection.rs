@@ -14,7 +14,7 @@ use crate::families::{self, Family, Shape};
 use crate::logo;
 use crate::measured::Measured;
 use crate::model::{
-    Fitted, NuisanceSet, Problem, Term, evaluate, fit, orthonormal_basis, project_out,
+    Fitted, NuisanceSet, Problem, Term, evaluate, fit, fit_held, orthonormal_basis, project_out,
     strata_of_columns, strata_of_residual,
 };
 use crate::nested::{StrataTest, StrataVariance, strata_test, t975};
@@ -26,6 +26,9 @@ use crate::report::{
 };
 use crate::scatter::{self, Components, PRIOR_SCATTER_DOF, Whitening};
 use crate::{force_channel, structure, thresholds};
+
+/// The words for a candidate aliased with the nominal model and not beyond its prior.
+pub const WITHIN_NOMINAL: &str = "within the nominal model's uncertainty";
 
 /// Options of [`diagnose`](crate::diagnose).
 #[derive(Debug, Clone, PartialEq)]
@@ -109,6 +112,35 @@ fn lstsq(a: &DMatrix<f64>, b: &DMatrix<f64>) -> Option<DMatrix<f64>> {
     }
     let x = ata.cholesky()?.solve(&(a.transpose() * b));
     x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
+/// The smallest `‖r + B·β‖²` over β ≥ 0 (B with at most a few columns: every subset of
+/// columns is solved by least squares and the best one with all coefficients ≥ 0 is kept; the
+/// non-negative least-squares optimum is one of them). `None` when only β = 0 is feasible.
+fn nonnegative_rss(b: &DMatrix<f64>, r: &DMatrix<f64>) -> Option<f64> {
+    let k = b.ncols();
+    let mut best: Option<f64> = None;
+    for mask in 1u32..(1u32 << k) {
+        let cols: Vec<usize> = (0..k).filter(|j| mask & (1 << j) != 0).collect();
+        let bs = b.select_columns(&cols);
+        let Some(beta) = lstsq(&bs, &(-r)) else {
+            continue;
+        };
+        if beta.iter().any(|v| *v < 0.0) {
+            continue;
+        }
+        let rss = (r + &bs * &beta).norm_squared();
+        if best.is_none_or(|b| rss < b) {
+            best = Some(rss);
+        }
+    }
+    best
+}
+
+/// Whether a fitted term (its parameters `theta`, coefficients first) breaks its shape's sign
+/// constraint (every coefficient ≥ 0 for a non-negative shape).
+fn sign_violated(shape: &Shape, theta: &[f64]) -> bool {
+    shape.nonnegative && theta.iter().take(shape.linear.len()).any(|v| *v < 0.0)
 }
 
 fn rms(v: &[f64]) -> f64 {
@@ -439,7 +471,7 @@ impl Diagnoser {
                 let Ok(f) = fit(&self.problem(y, &t2, w), &start) else {
                     continue;
                 };
-                if s.nonnegative && f.theta[base.theta.len()] < 0.0 {
+                if sign_violated(s, &f.theta[base.theta.len()..]) {
                     continue;
                 }
                 let crit = f.rss + f.theta.len() as f64 * ln_n;
@@ -466,9 +498,19 @@ impl Diagnoser {
 
     /// Residual variances per stratum of a fitted model and their dof.
     fn strata_variance(&self, w: &Whitening, f: &Fitted, n: usize) -> StrataVariance {
-        let q = orthonormal_basis(&f.x);
-        let tr = strata_of_columns(w, &q, n);
-        let rs = strata_of_residual(w, &f.r, n);
+        Self::strata_variance_of(w, &orthonormal_basis(&f.x), &f.r, n)
+    }
+
+    /// Residual variances per stratum of a model with orthonormal basis `q` and whitened
+    /// residual `r`, and their dof.
+    fn strata_variance_of(
+        w: &Whitening,
+        q: &DMatrix<f64>,
+        r: &DVector<f64>,
+        n: usize,
+    ) -> StrataVariance {
+        let tr = strata_of_columns(w, q, n);
+        let rs = strata_of_residual(w, r, n);
         let g = w.n_groups() as f64;
         let df_w = (n as f64 - g - tr[0]).max(1.0);
         let df_b = g - tr[1];
@@ -516,13 +558,14 @@ impl Diagnoser {
                 if q.ncols() < bp.ncols() {
                     continue;
                 }
-                // coefficients: least squares of −r⊥ on B⊥ (full column rank: checked above)
-                let Some(beta) = lstsq(&bp, &(-&r_perp)) else {
-                    continue;
-                };
-                if shape.nonnegative && beta[(0, 0)] < 0.0 {
-                    base_rss
+                // coefficients: least squares of −r⊥ on B⊥ (full column rank: checked above),
+                // non-negative ones by the best subset with every coefficient ≥ 0
+                if shape.nonnegative {
+                    nonnegative_rss(&bp, &r_perp).unwrap_or(base_rss)
                 } else {
+                    let Some(beta) = lstsq(&bp, &(-&r_perp)) else {
+                        continue;
+                    };
                     (&r_perp + &bp * &beta).norm_squared()
                 }
             };
@@ -569,6 +612,93 @@ impl Diagnoser {
         theta
     }
 
+    /// The whitened flexible driver bases ([`Family::driver_basis`]) of the effects in the model
+    /// (data rows; the prior rows are zero), or `None` when no named effect has one.
+    fn named_driver_basis(
+        &self,
+        terms: &[Term],
+        theta: &[f64],
+        w: &Whitening,
+        rows: usize,
+    ) -> Option<DMatrix<f64>> {
+        let mut cols: Vec<Vec<f64>> = Vec::new();
+        let mut a = self.nuis.free.len();
+        for t in terms {
+            // the runout the term was fitted with (its first nonlinear parameter)
+            let runout = theta.get(a + t.shape.linear.len()).copied();
+            cols.extend(self.term_basis(t, runout, w));
+            a += t.shape.n_params();
+        }
+        self.stack(cols, rows)
+    }
+
+    /// The whitened flexible driver basis of one term's family (data rows).
+    fn term_basis(&self, t: &Term, runout_um: Option<f64>, w: &Whitening) -> Vec<Vec<f64>> {
+        let Some(fam) = self.families.iter().find(|f| f.name == t.family) else {
+            return Vec::new();
+        };
+        let runout = if t.shape.nonlinear.is_empty() {
+            3.0
+        } else {
+            runout_um.unwrap_or(3.0)
+        };
+        fam.driver_basis(&self.sm, runout)
+            .into_iter()
+            .map(|mut c| {
+                w.apply(&mut c);
+                c
+            })
+            .collect()
+    }
+
+    /// Columns (data rows) as a matrix with `rows` rows (prior rows zero), `None` when empty.
+    fn stack(&self, cols: Vec<Vec<f64>>, rows: usize) -> Option<DMatrix<f64>> {
+        if cols.is_empty() {
+            return None;
+        }
+        let n = self.sm.len();
+        let mut e = DMatrix::zeros(rows, cols.len());
+        for (j, c) in cols.iter().enumerate() {
+            e.column_mut(j).rows_mut(0, n).copy_from_slice(c);
+        }
+        Some(e)
+    }
+
+    /// The test of a candidate (fitted as `alt`, `q` parameters) against the current model `cur`
+    /// with the flexible driver bases `e` of the named effects added to both (linearised at each
+    /// fit): what the candidate explains that no shape in the named effects' own drivers could.
+    fn test_beyond(
+        &self,
+        w: &Whitening,
+        cur: &Fitted,
+        alt: &Fitted,
+        q: usize,
+        e: &DMatrix<f64>,
+    ) -> StrataTest {
+        let n = self.sm.len();
+        let p0 = cur.x.ncols();
+        let hstack = |a: &DMatrix<f64>, b: &DMatrix<f64>| {
+            let mut m = DMatrix::zeros(a.nrows(), a.ncols() + b.ncols());
+            m.columns_mut(0, a.ncols()).copy_from(a);
+            m.columns_mut(a.ncols(), b.ncols()).copy_from(b);
+            m
+        };
+        let col = |r: &DVector<f64>| DMatrix::from_column_slice(r.len(), 1, r.as_slice());
+        let q0 = orthonormal_basis(&hstack(&cur.x, e));
+        let rss0 = project_out(&q0, &col(&cur.r)).norm_squared();
+        let q1 = orthonormal_basis(&hstack(&alt.x, e));
+        let r1 = project_out(&q1, &col(&alt.r));
+        let rss1 = r1.norm_squared();
+        let qa = orthonormal_basis(&hstack(&alt.x.columns(0, p0).into_owned(), e));
+        let qc = orthonormal_basis(&project_out(&qa, &alt.x.columns(p0, q).into_owned()));
+        let s = strata_of_columns(w, &qc, n);
+        let tot = (s[0] + s[1] + s[2]).max(1e-300);
+        let shares = [s[0] / tot, s[1] / tot, s[2] / tot];
+        let r1v = DVector::from_column_slice(r1.as_slice());
+        let v = Self::strata_variance_of(w, &q1, &r1v, n);
+        strata_test(rss0 - rss1, q.min(qc.ncols()).max(1), shares, &v)
+    }
+
     /// Tests one candidate term fitted as `alt` against the current model `cur`.
     fn test(&self, w: &Whitening, cur: &Fitted, alt: &Fitted, q: usize) -> StrataTest {
         let n = self.sm.len();
@@ -586,6 +716,124 @@ impl Diagnoser {
 
     /// Parameter estimates, SEs and 95 % intervals of a fitted model, by parameter index.
     fn intervals(&self, w: &Whitening, f: &Fitted) -> Vec<(f64, f64, [f64; 2])> {
+        self.interval_parts(w, f)
+            .into_iter()
+            .map(|(est, se, t, _)| (est, se, [est - t * se, est + t * se]))
+            .collect()
+    }
+
+    /// Profile-likelihood 95 % intervals of the terms' nonlinear parameters (time constants,
+    /// onsets, runouts, …), in place of the linearised ones in `iv`: `{v : RSS(θ_j = v) − RSS ≤
+    /// s²·t²}` with every other parameter refitted at each v, s² and the t quantile as the
+    /// linearised interval's (the strata's combined variance and its Satterthwaite dof). Where
+    /// the model is nearly linear in the parameter both agree; where it is not (the onset of a
+    /// speed-dependent growth between two of the plan's speeds, a runout interacting with the
+    /// force scale) the linearised interval was too narrow (`diagnose/STUDY.md`). A side whose
+    /// profile never reaches the level within the parameter's bounds ends at the bound; a side
+    /// whose constrained fits fail keeps the linearised end.
+    fn profile_intervals(
+        &self,
+        y: &[f64],
+        terms: &[Term],
+        w: &Whitening,
+        f: &Fitted,
+        iv: &mut [(f64, f64, [f64; 2])],
+    ) {
+        let parts = self.interval_parts(w, f);
+        let p = self.problem(y, terms, w);
+        let specs = p.param_specs(&f.theta);
+        for (k, t) in terms.iter().enumerate() {
+            let a = p.term_start(k) + t.shape.linear.len();
+            for j in a..a + t.shape.nonlinear.len() {
+                let (_, se, tq, s2) = parts[j];
+                let crit = s2 * tq * tq;
+                if !(crit.is_finite() && se.is_finite() && se > 0.0) {
+                    continue;
+                }
+                let (lo_b, hi_b) = (specs[j].lower, specs[j].upper);
+                for (side, end) in [(-1.0, 0usize), (1.0, 1usize)] {
+                    let limit = if side < 0.0 { lo_b } else { hi_b };
+                    if let Some(b) = self.profile_end(&p, f, j, side, limit, tq * se, crit) {
+                        iv[j].2[end] = b;
+                    }
+                }
+            }
+        }
+    }
+
+    /// One end of a profile interval (see [`Self::profile_intervals`]): steps out from the
+    /// estimate (first step the linearised half-width, then doubling) until the constrained RSS
+    /// rises by `crit`, then regula falsi on √ΔRSS; `None` when a constrained fit fails before
+    /// the level is bracketed.
+    #[allow(clippy::too_many_arguments)]
+    fn profile_end(
+        &self,
+        p: &Problem<'_>,
+        f: &Fitted,
+        j: usize,
+        side: f64,
+        limit: f64,
+        half_width: f64,
+        crit: f64,
+    ) -> Option<f64> {
+        let est = f.theta[j];
+        let range = if limit.is_finite() {
+            (limit - est).abs()
+        } else {
+            f64::INFINITY
+        };
+        // stay a hair inside the bound (the bounded transform is singular on it)
+        let max_step = if range.is_finite() {
+            range * (1.0 - 1e-6)
+        } else {
+            f64::INFINITY
+        };
+        let delta = |v: f64, start: &[f64]| -> Option<(f64, Vec<f64>)> {
+            fit_held(p, start, j, v)
+                .ok()
+                .map(|(theta, rss)| ((rss - f.rss).max(0.0), theta))
+        };
+        let g = |d: f64| d.sqrt() - crit.sqrt();
+        let mut inside = (0.0f64, f.theta.clone(), 0.0f64); // (distance, θ, ΔRSS)
+        let mut step = half_width.max(1e-9 * est.abs().max(1.0));
+        let mut outside: Option<(f64, f64)> = None;
+        for _ in 0..10 {
+            let dist = (inside.0 + step).min(max_step);
+            let (d, theta) = delta(est + side * dist, &inside.1)?;
+            if d >= crit {
+                outside = Some((dist, d));
+                break;
+            }
+            inside = (dist, theta, d);
+            if dist >= max_step {
+                return Some(est + side * dist);
+            }
+            step *= 2.0;
+        }
+        let (mut d_out, mut delta_out) = outside?;
+        for _ in 0..6 {
+            let (d_in, ref th_in, delta_in) = inside;
+            let (g_in, g_out) = (g(delta_in), g(delta_out));
+            let dist = d_in + (d_out - d_in) * (-g_in) / (g_out - g_in).max(1e-300);
+            let Some((d, theta)) = delta(est + side * dist, th_in) else {
+                break;
+            };
+            if g(d).abs() < 0.01 * crit.sqrt() {
+                return Some(est + side * dist);
+            }
+            if d < crit {
+                inside = (dist, theta, d);
+            } else {
+                d_out = dist;
+                delta_out = d;
+            }
+        }
+        Some(est + side * 0.5 * (inside.0 + d_out))
+    }
+
+    /// Estimate, SE, t quantile and combined stratum variance of every parameter of a fitted
+    /// model (the linearised interval is estimate ± t·SE).
+    fn interval_parts(&self, w: &Whitening, f: &Fitted) -> Vec<(f64, f64, f64, f64)> {
         let n = self.sm.len();
         let p = f.x.ncols();
         let v = self.strata_variance(w, f, n);
@@ -605,9 +853,7 @@ impl Diagnoser {
                 let tot = (s[0] + s[1] + s[2]).max(1e-300);
                 let (s2, df) = v.combine([s[0] / tot, s[1] / tot, s[2] / tot]);
                 let se = (inv[(j, j)] * s2).sqrt();
-                let t = t975(df);
-                let est = f.theta[j];
-                (est, se, [est - t * se, est + t * se])
+                (f.theta[j], se, t975(df), s2)
             })
             .collect()
     }
@@ -676,7 +922,7 @@ impl Diagnoser {
             let mut cands: Vec<Candidate> = Vec::new();
             for &k in &remaining {
                 let fam = &self.families[k];
-                let mut best: Option<(f64, usize, Vec<f64>)> = None;
+                let mut ranked: Vec<(f64, usize, Vec<f64>)> = Vec::new();
                 let mut tried: Vec<(String, f64)> = Vec::new();
                 for (si, shape) in fam.shapes.iter().enumerate() {
                     let q = shape.n_params();
@@ -705,34 +951,55 @@ impl Diagnoser {
                     };
                     let crit = rss + q as f64 * ln_n;
                     tried.push((shape.name.to_string(), crit));
-                    if best.as_ref().is_none_or(|b| crit < b.0) {
-                        best = Some((crit, si, phi));
-                    }
+                    ranked.push((crit, si, phi));
                 }
-                let Some((_, si, phi)) = best else { continue };
-                let shape = fam.shapes[si].clone();
-                let start = self.start_for(&shape, &phi, &w, &cur);
+                // the family's best shape by the linearised GLS-BIC; when its fit breaks the
+                // shape's sign constraint, the next one
+                ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let mut chosen: Option<(Shape, Fitted)> = None;
+                let mut violated: Option<(Shape, Fitted)> = None;
+                for (_, si, phi) in ranked {
+                    let shape = fam.shapes[si].clone();
+                    let start = self.start_for(&shape, &phi, &w, &cur);
+                    let mut all = terms.clone();
+                    all.push(Term {
+                        family: fam.name,
+                        shape: shape.clone(),
+                    });
+                    let p = self.problem(&y, &all, &w);
+                    let alt = match fit(&p, &start) {
+                        Ok(f) if f.rss <= cur.rss + 1e-9 * cur.rss.max(1.0) => f,
+                        Ok(_) => evaluate(&p, &start, false),
+                        Err(e) => {
+                            notes.push(format!(
+                                "{} ({}): no fit in round {} ({e})",
+                                fam.name,
+                                shape.name,
+                                rounds.len() + 1
+                            ));
+                            continue;
+                        }
+                    };
+                    if sign_violated(&shape, &alt.theta[p0..]) {
+                        violated.get_or_insert((shape, alt));
+                        continue;
+                    }
+                    chosen = Some((shape, alt));
+                    break;
+                }
+                // every shape's fit broke its sign: reported with p = 1
+                let no_sign = chosen.is_none();
+                let Some((shape, alt)) = chosen.or(violated) else {
+                    continue;
+                };
                 let mut all = terms.clone();
                 all.push(Term {
                     family: fam.name,
                     shape: shape.clone(),
                 });
                 let p = self.problem(&y, &all, &w);
-                let alt = match fit(&p, &start) {
-                    Ok(f) if f.rss <= cur.rss + 1e-9 * cur.rss.max(1.0) => f,
-                    Ok(_) => evaluate(&p, &start, false),
-                    Err(e) => {
-                        notes.push(format!(
-                            "{} ({}): no fit in round {} ({e})",
-                            fam.name,
-                            shape.name,
-                            rounds.len() + 1
-                        ));
-                        continue;
-                    }
-                };
                 let mut test = self.test(&w, &cur, &alt, shape.n_params());
-                if shape.nonnegative && alt.theta[p0] < 0.0 {
+                if no_sign {
                     test.p_value = 1.0;
                     test.ln_p = 0.0;
                 }
@@ -753,16 +1020,59 @@ impl Diagnoser {
                 break;
             }
             let threshold = alpha / shapes_tried.max(1) as f64;
-            // significant candidates by how much of the discrepancy they close (the raw RMS left:
-            // the whitened fit weighs the few groove means lightly, and a within-groove
-            // pattern of one effect can then outrank the effect that explains the grooves), the
-            // others by p
+            // significant candidates first, ranked by how much of the discrepancy they close for
+            // their parameters — the BIC of the raw residual, n·ln(RSS) + q·ln n: the raw RMS
+            // alone (the first version) favours the most flexible family, whose extra
+            // parameters also fit the misfit of another effect's shape; p alone favours a
+            // pattern within grooves (hundreds of dof) over one between them (a dozen groove
+            // means); the others by p
             let sig = |c: &Candidate| c.test.p_value < threshold && cur.rss > c.alt.rss;
+            let raw_bic = |c: &Candidate| {
+                n as f64 * (c.rms_after * c.rms_after).max(1e-300).ln()
+                    + c.term.shape.n_params() as f64 * ln_n
+            };
+            let named_basis = self.named_driver_basis(&terms, &cur.theta, &w, cur.r.len());
+            // which significant candidate explains what another cannot: a candidate is
+            // dominated by another when the other is significant beyond a flexible shape of the
+            // candidate in its own driver and the candidate is not beyond the other's
+            let significant: Vec<usize> = (0..cands.len()).filter(|&k| sig(&cands[k])).collect();
+            let bases: Vec<Vec<Vec<f64>>> = cands
+                .iter()
+                .map(|c| {
+                    let runout = c.alt.theta.get(p0 + c.term.shape.linear.len()).copied();
+                    self.term_basis(&c.term, runout, &w)
+                })
+                .collect();
+            let beyond = |a: usize, b: usize| -> bool {
+                let mut cols = bases[b].clone();
+                if let Some(e) = &named_basis {
+                    for j in 0..e.ncols() {
+                        cols.push(e.column(j).rows(0, n).iter().copied().collect());
+                    }
+                }
+                let Some(e) = self.stack(cols, cur.r.len()) else {
+                    return true;
+                };
+                let c = &cands[a];
+                self.test_beyond(&w, &cur, &c.alt, c.term.shape.n_params(), &e)
+                    .p_value
+                    < threshold
+            };
+            let mut dominated = vec![0usize; cands.len()];
+            for &a in &significant {
+                for &b in &significant {
+                    if a != b && beyond(b, a) && !beyond(a, b) {
+                        dominated[a] += 1;
+                    }
+                }
+            }
             let mut order: Vec<usize> = (0..cands.len()).collect();
             order.sort_by(|&a, &b| {
                 let (ca, cb) = (&cands[a], &cands[b]);
                 sig(cb).cmp(&sig(ca)).then(if sig(ca) && sig(cb) {
-                    ca.rms_after.total_cmp(&cb.rms_after)
+                    dominated[a]
+                        .cmp(&dominated[b])
+                        .then(raw_bic(ca).total_cmp(&raw_bic(cb)))
                 } else {
                     ca.test.ln_p.total_cmp(&cb.test.ln_p)
                 })
@@ -778,29 +1088,43 @@ impl Diagnoser {
                 let amplitude = offsets.iter().fold(0.0f64, |a, v| a.max(*v))
                     - offsets.iter().fold(0.0f64, |a, v| a.min(*v));
                 let significant = c.test.p_value < threshold && cur.rss > c.alt.rss;
-                let mut logo_s = None;
+                let l = Logo {
+                    before: logo_null,
+                    after: logo::score(&w, &c.alt.x, &c.alt.r),
+                };
+                let logo_s = Some(l);
+                let beyond_named = named_basis
+                    .as_ref()
+                    .map(|e| self.test_beyond(&w, &cur, &c.alt, c.term.shape.n_params(), e));
                 let decision = if !significant {
                     format!("not significant (p ≥ {threshold:.2e})")
                 } else if accepted.is_some() {
                     "significant; another candidate was added first".to_string()
+                } else if let Some(b) = beyond_named.filter(|b| b.p_value >= threshold) {
+                    format!(
+                        "significant, but not beyond a flexible shape of the named effects in their own drivers (p = {:.1e}): what it fits is their shapes' misfit",
+                        b.p_value
+                    )
+                } else if !logo_accepts(&c.test, l, c.term.shape.n_params()) {
+                    "significant but does not improve the prediction of held-out grooves".into()
+                } else if amplitude <= u.resolution_um {
+                    format!(
+                        "significant but its amplitude {amplitude:.3} µm is within the measurement resolution ({} µm)",
+                        u.resolution_um
+                    )
                 } else {
-                    let l = Logo {
-                        before: logo_null,
-                        after: logo::score(&w, &c.alt.x, &c.alt.r),
-                    };
-                    logo_s = Some(l);
-                    if !logo_accepts(&c.test, l, c.term.shape.n_params()) {
-                        "significant but does not improve the prediction of held-out grooves".into()
-                    } else if amplitude <= u.resolution_um {
-                        format!(
-                            "significant but its amplitude {amplitude:.3} µm is within the measurement resolution ({} µm)",
-                            u.resolution_um
-                        )
-                    } else {
-                        accepted = Some(ci);
-                        "added".into()
-                    }
+                    accepted = Some(ci);
+                    "added".into()
                 };
+                let a0 = pa.term_start(all.len() - 1);
+                let params = c
+                    .term
+                    .shape
+                    .param_names()
+                    .into_iter()
+                    .enumerate()
+                    .map(|(j, name)| (name.to_string(), c.alt.theta[a0 + j]))
+                    .collect();
                 tested.push(Tested {
                     effect: c.term.family.into(),
                     shape: c.term.shape.name.into(),
@@ -811,6 +1135,8 @@ impl Diagnoser {
                     significant,
                     logo: logo_s,
                     amplitude_um: amplitude,
+                    params,
+                    beyond_named,
                     decision,
                 });
             }
@@ -901,20 +1227,26 @@ impl Diagnoser {
         let pf = self.problem(&y, &terms, &w);
         let pred = pf.predict(&cur.theta);
         let final_rms = rms(&resid(&y, &pred));
-        let iv = self.intervals(&w, &cur);
+        let mut iv = self.intervals(&w, &cur);
+        let linearised = iv.clone();
+        self.profile_intervals(&y, &terms, &w, &cur, &mut iv);
         let mut final_params = BTreeMap::new();
         let mut final_ci95 = BTreeMap::new();
+        let mut final_ci95_linearised = BTreeMap::new();
         let mut shapes = BTreeMap::new();
         for (k, t) in terms.iter().enumerate() {
             let a = pf.term_start(k);
             let mut pm = BTreeMap::new();
             let mut cm = BTreeMap::new();
+            let mut lm = BTreeMap::new();
             for (j, name) in t.shape.param_names().into_iter().enumerate() {
                 pm.insert(name.to_string(), iv[a + j].0);
                 cm.insert(name.to_string(), iv[a + j].2);
+                lm.insert(name.to_string(), linearised[a + j].2);
             }
             final_params.insert(t.family.to_string(), pm);
             final_ci95.insert(t.family.to_string(), cm);
+            final_ci95_linearised.insert(t.family.to_string(), lm);
             shapes.insert(t.family.to_string(), t.shape.name.to_string());
         }
         let nu = pf.nu(&cur.theta);
@@ -959,25 +1291,8 @@ impl Diagnoser {
             .plan
             .families
             .iter()
-            .filter(|f| {
-                f.testable && f.aliased && !named.contains(&f.effect)
-            })
-            .map(|f| {
-                let moved: Vec<String> = f
-                    .aliased_with
-                    .iter()
-                    .filter_map(|a| nuisance_params.iter().find(|p| &p.name == a))
-                    .map(|p| format!("{} {:+.3} ({:+.1} prior SD)", p.name, p.estimate, p.z_prior))
-                    .collect();
-                WithinNominal {
-                    effect: f.effect.clone(),
-                    nuisance: f.aliased_with.clone(),
-                    note: format!(
-                        "not separable from the nominal model by this plan; not named since not beyond the prior; the nuisance step moved {}",
-                        moved.join(", ")
-                    ),
-                }
-            })
+            .filter(|f| f.testable && f.aliased && !named.contains(&f.effect))
+            .map(|f| self.within_nominal(f, &rounds, &nuisance_params, alpha))
             .collect();
         let force_channel = match &measured.forces {
             Some(tr) => {
@@ -1032,6 +1347,7 @@ impl Diagnoser {
             },
             final_params,
             final_ci95,
+            final_ci95_linearised,
             shapes,
             rounds,
             skipped,
@@ -1047,6 +1363,70 @@ impl Diagnoser {
             notes,
             series,
         })
+    }
+
+    /// How a candidate aliased with the nominal model and not named is reported: within the
+    /// nominal model's uncertainty, with what its last test found ([`WithinNominal`]).
+    fn within_nominal(
+        &self,
+        f: &aliasing::FamilyPlan,
+        rounds: &[Round],
+        nuisance_params: &[NuisanceEstimate],
+        alpha: f64,
+    ) -> WithinNominal {
+        let last = rounds.iter().rev().find_map(|r| {
+            r.tested
+                .iter()
+                .find(|t| t.effect == f.effect)
+                .map(|t| (r.threshold, t))
+        });
+        let moved: Vec<(String, f64, f64)> = f
+            .aliased_with
+            .iter()
+            .filter_map(|a| nuisance_params.iter().find(|p| &p.name == a))
+            .map(|p| (p.name.clone(), p.estimate, p.z_prior))
+            .collect();
+        let moved_text = moved
+            .iter()
+            .map(|(n, e, z)| format!("{n} {e:+.3} ({z:+.1} prior SD)"))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let indicated = last.is_some_and(|(_, t)| t.test.p_value < alpha);
+        let evidence = match last {
+            Some((thr, t)) if indicated => format!(
+                "the data point to it (p = {:.1e} < α = {alpha} beyond the recalibrated nominal model, not below the round's threshold {thr:.1e}; as `{}` it would be {}), but a nominal model off by more than its prior looks the same",
+                t.test.p_value,
+                t.shape,
+                t.params
+                    .iter()
+                    .map(|(k, v)| format!("{k} = {v:.4}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            Some((_, t)) => format!(
+                "the data do not point to it (p = {:.2} beyond the recalibrated nominal model)",
+                t.test.p_value
+            ),
+            None if self.plan.cannot_separate_any => {
+                "it was not tested (this plan separates no candidate from the nominal model)".into()
+            }
+            None => "it was not tested".into(),
+        };
+        WithinNominal {
+            effect: f.effect.clone(),
+            status: WITHIN_NOMINAL.into(),
+            nuisance: f.aliased_with.clone(),
+            indicated,
+            p_value: last.map(|(_, t)| t.test.p_value),
+            threshold: last.map(|(thr, _)| thr),
+            shape: last.map(|(_, t)| t.shape.clone()),
+            params: last.map(|(_, t)| t.params.clone()).unwrap_or_default(),
+            nuisance_moved: moved,
+            note: format!(
+                "{WITHIN_NOMINAL}: this plan cannot separate it from {}, and it is not named since it does not lie beyond their prior; the nuisance step moved {moved_text}; {evidence}",
+                f.aliased_with.join(", ")
+            ),
+        }
     }
 
     /// Residual correlations with the session's variables beyond the final model.

@@ -174,3 +174,105 @@ fn nothing_hidden_names_none_after_recalibration() {
     assert_eq!(rep.named, vec!["none"], "{}", show(&rep));
     assert!(rep.nuisance_rms_um < rep.initial_rms_um);
 }
+
+/// A flexible family must not be named for the misfit of a named effect's shape (issue 15: "in
+/// five sessions 1–3 spurious effects are added after the right one to soak up the misfit"). A
+/// logistic (accelerating) wear, none of the wear family's shapes, leaves a misfit along the
+/// engaged length that a straightness cubic in machine X fits significantly (the plan's first
+/// grooves move along X as the engaged length grows); it is not significant beyond a flexible
+/// shape of the wear in its own driver (a spline in engaged length), so it is not named.
+/// Development seed found in the development runs (diagnose/STUDY.md).
+#[test]
+fn the_misfit_of_a_named_effect_is_not_named_as_another() {
+    let spec = VariantSpec {
+        row: Row::Single,
+        effects: vec!["tool_wear"],
+        seed: DEV_SEED_BASE + 31,
+    };
+    let v = draw(&study_session(), &spec).unwrap();
+    assert_eq!(v.hidden[0].shape, "logistic");
+    let rep = run(&Measured::new("wear", v.points));
+    assert_eq!(rep.named, vec!["tool_wear"], "{}", show(&rep));
+    let rejected: Vec<_> = rep
+        .rounds
+        .iter()
+        .flat_map(|r| r.tested.iter().map(move |t| (r.threshold, t)))
+        .filter(|(thr, t)| {
+            t.effect == "slideway_straightness"
+                && t.significant
+                && t.beyond_named.is_some_and(|b| b.p_value >= *thr)
+        })
+        .collect();
+    assert!(!rejected.is_empty(), "{}", show(&rep));
+}
+
+/// Issue 15: an effect aliased with the nominal model "is named only when it lies beyond the
+/// nuisance's prior; otherwise it is reported as 'within the nominal model's uncertainty'". A
+/// probe tilt of 3.4 µm with a touch-off error of −0.2 µm moves the touch-off by ≈ 3.2 prior SDs:
+/// not beyond the round's threshold, so not named — reported within the nominal model's
+/// uncertainty, and the data point to it (p < α). Development seed.
+#[test]
+fn a_probe_tilt_within_the_touch_off_prior_is_reported_within_the_nominal_uncertainty() {
+    let spec = VariantSpec {
+        row: Row::Single,
+        effects: vec!["probe_tilt_offset"],
+        seed: DEV_SEED_BASE + 30,
+    };
+    let v = draw(&study_session(), &spec).unwrap();
+    let rep = run(&Measured::new("probe", v.points));
+    assert_eq!(rep.named, vec!["none"], "{}", show(&rep));
+    let w = rep
+        .within_nominal_uncertainty
+        .iter()
+        .find(|w| w.effect == "probe_tilt_offset")
+        .unwrap();
+    assert_eq!(w.status, "within the nominal model's uncertainty");
+    assert!(w.note.starts_with("within the nominal model's uncertainty"));
+    assert!(w.indicated, "{w:?}");
+    let (p, thr) = (w.p_value.unwrap(), w.threshold.unwrap());
+    assert!(thr <= p && p < 0.01, "{w:?}");
+    assert_eq!(w.nuisance, vec!["touch_off_um"]);
+    // the offset it would have: the tilt plus the touch-off error, within the noise
+    let truth = 4.67 * v.hidden[0].amplitude_factor + v.errors.touch_off_um;
+    assert!(
+        (w.params["offset_um"] - truth).abs() < 0.5,
+        "{w:?} vs {truth}"
+    );
+    // the machine compliance, not hidden, is listed too, without the data pointing to it
+    let mc = rep
+        .within_nominal_uncertainty
+        .iter()
+        .find(|w| w.effect == "machine_compliance")
+        .unwrap();
+    assert!(!mc.indicated, "{mc:?}");
+}
+
+/// With the tool's stiffness measured by a load–deflection test (the session states 1 % priors,
+/// row `measured_stiffness` of VARIANTS.md), a machine compliance is no longer within the nominal
+/// model's uncertainty: it is named. With the default 6 % priors the same measured points are
+/// within them. Development seed.
+#[test]
+fn a_stated_stiffness_prior_separates_the_machine_compliance() {
+    let session = millcomp_synthetic::variants::measured_stiffness_session();
+    let spec = VariantSpec {
+        row: Row::MeasuredStiffness,
+        effects: vec!["machine_compliance"],
+        seed: Row::MeasuredStiffness.seed_base(millcomp_synthetic::variants::SeedBlock::Dev),
+    };
+    let v = draw(&session, &spec).unwrap();
+    let tight = Diagnoser::new(&session, &opts()).unwrap();
+    let rep = tight.run(&Measured::new("mc", v.points.clone())).unwrap();
+    assert_eq!(rep.named, vec!["machine_compliance"], "{}", show(&rep));
+    let loose = run(&Measured::new("mc", v.points));
+    assert!(
+        !loose.named.contains(&"machine_compliance".to_string()),
+        "{}",
+        show(&loose)
+    );
+    assert!(
+        loose
+            .within_nominal_uncertainty
+            .iter()
+            .any(|w| w.effect == "machine_compliance")
+    );
+}

@@ -179,13 +179,7 @@ pub fn text(rep: &DiagnoseReport) -> String {
         );
     }
     for x in &rep.within_nominal_uncertainty {
-        w(
-            &mut s,
-            format!(
-                "within the nominal model's uncertainty: {}: {}",
-                x.effect, x.note
-            ),
-        );
+        w(&mut s, format!("{}: {}", x.effect, x.note));
     }
     for a in &rep.aliasing {
         w(&mut s, format!("plan: {}", a.note));

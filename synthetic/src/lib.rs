@@ -1012,8 +1012,9 @@ pub fn readme(
          Drawn by `millcomp_synthetic::variants` from the diagnose study's distribution \
          (`synthetic/VARIANTS.md`, development seeds): the nominal model in `NAME.toml` is off \
          (force scale ±5 %, stiffnesses ±10 %, wearland ±2 µm, touch-off), every groove has a \
-         random offset (σ = 0.5 µm), and the hidden effects have shapes other than the candidate \
-         families'. The truth:\n\n| NAME | what it shows | seed | nominal errors | hidden |\n|---|---|---|---|---|\n",
+         random offset (σ = 0.5 µm), and the hidden effects have shapes that were none of the \
+         candidate families' when the distribution was fixed (some are family shapes since, \
+         `synthetic/VARIANTS.md`). The truth:\n\n| NAME | what it shows | seed | nominal errors | hidden |\n|---|---|---|---|---|\n",
     );
     for (c, v) in drawn {
         let e = &v.errors;

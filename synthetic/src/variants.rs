@@ -93,17 +93,59 @@ pub enum Row {
     /// One hidden effect with the candidate family's reference form (sim's effect), for the
     /// coverage of the parameter intervals.
     Matched,
+    /// Added after version 1's study (`VARIANTS.md`, "Row `measured_stiffness`"): the session
+    /// states the axial and radial stiffness from a load–deflection test (prior SD
+    /// [`MEASURED_STIFFNESS_PCT`] %, [`measured_stiffness_session`]) and the truth's stiffness
+    /// errors are drawn within it; even variants hide `machine_compliance` (a non-candidate
+    /// shape, as in [`Row::Single`]), odd ones nothing.
+    MeasuredStiffness,
+}
+
+/// Which block of seeds a run uses (`VARIANTS.md`, "Seeds").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum SeedBlock {
+    /// Version 1's study seeds (1 000 000 + k … 4 000 000 + k): run for the first study and
+    /// looked at since — kept for comparison with it.
+    Study,
+    /// Fresh study seeds (5 000 000 + k … 8 000 000 + k), first run after the second round of
+    /// development: the honest estimate of that version of `diagnose`.
+    Fresh,
+    /// Development seeds (9 000 000 + 100 000·row + k): tuning and tests.
+    Dev,
+}
+
+impl SeedBlock {
+    /// Label.
+    pub fn name(self) -> &'static str {
+        match self {
+            SeedBlock::Study => "study (version 1's, looked at)",
+            SeedBlock::Fresh => "fresh study",
+            SeedBlock::Dev => "development",
+        }
+    }
 }
 
 impl Row {
     /// Seed of the first variant of the row in the study (`VARIANTS.md`); variant k has seed
     /// `base + k`. Development runs use [`DEV_SEED_BASE`].
     pub fn study_seed_base(self) -> u64 {
-        match self {
-            Row::Single => 1_000_000,
-            Row::Two => 2_000_000,
-            Row::None => 3_000_000,
-            Row::Matched => 4_000_000,
+        self.seed_base(SeedBlock::Study)
+    }
+
+    /// Seed of the first variant of the row in a block (`VARIANTS.md`, "Seeds").
+    pub fn seed_base(self, block: SeedBlock) -> u64 {
+        let k = match self {
+            Row::Single => 0,
+            Row::Two => 1,
+            Row::None => 2,
+            Row::Matched => 3,
+            Row::MeasuredStiffness => 4,
+        };
+        match block {
+            // the added row has no version-1 seeds: its block continues after `matched`'s
+            SeedBlock::Study => 1_000_000 * (k + 1) - u64::from(k == 4) * 500_000,
+            SeedBlock::Fresh => 5_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
+            SeedBlock::Dev => DEV_SEED_BASE + 100_000 * k,
         }
     }
 
@@ -114,6 +156,24 @@ impl Row {
             Row::Two => "two",
             Row::None => "none",
             Row::Matched => "matched",
+            Row::MeasuredStiffness => "measured_stiffness",
+        }
+    }
+
+    /// The nominal session `diagnose` is given for this row's variants: [`study_session`], or
+    /// for [`Row::MeasuredStiffness`] [`measured_stiffness_session`].
+    pub fn nominal_session(self) -> Session {
+        match self {
+            Row::MeasuredStiffness => measured_stiffness_session(),
+            _ => study_session(),
+        }
+    }
+
+    /// Half-range of the truth's axial and radial stiffness errors (uniform, relative).
+    pub fn stiffness_range(self) -> f64 {
+        match self {
+            Row::MeasuredStiffness => MEASURED_STIFFNESS_PCT / 100.0 * 3f64.sqrt(),
+            _ => STIFFNESS_RANGE,
         }
     }
 }
@@ -149,6 +209,13 @@ pub fn row_specs(row: Row, n: usize, seed_base: u64) -> Vec<VariantSpec> {
                     vec![EFFECTS[a], EFFECTS[b]]
                 }
                 Row::None => Vec::new(),
+                Row::MeasuredStiffness => {
+                    if k % 2 == 0 {
+                        vec!["machine_compliance"]
+                    } else {
+                        Vec::new()
+                    }
+                }
             },
             seed: seed_base + k as u64,
         })
@@ -396,6 +463,25 @@ pub fn study_session() -> Session {
         "Nominal model of the diagnose study (issue 15): the truth of each variant is drawn by \
          millcomp_synthetic::variants (synthetic/VARIANTS.md).",
     )
+}
+
+/// Prior SD (%) of the axial and radial stiffness that a load–deflection test of the tool gives
+/// (row [`Row::MeasuredStiffness`]): an assumption — a known load and a dial gauge at the tip
+/// read the tool's stiffness to about ±1.7 % (uniform, SD 1 %).
+pub const MEASURED_STIFFNESS_PCT: f64 = 1.0;
+
+/// The study's nominal session with the tool's axial and radial stiffness measured by a
+/// load–deflection test: its `[uncertainty]` states them to [`MEASURED_STIFFNESS_PCT`] % (the
+/// other priors as [`study_session`]). Row [`Row::MeasuredStiffness`].
+pub fn measured_stiffness_session() -> Session {
+    let mut s = crate::base_session(
+        "study_measured_stiffness",
+        "Nominal model of the diagnose study (issue 15) with the tool's stiffness measured by a \
+         load-deflection test (prior SD 1 %): row measured_stiffness of synthetic/VARIANTS.md.",
+    );
+    s.uncertainty.axial_stiffness_pct = MEASURED_STIFFNESS_PCT;
+    s.uncertainty.radial_stiffness_pct = MEASURED_STIFFNESS_PCT;
+    s
 }
 
 /// Response at `t` of a linear system with unit step response `h` to a piecewise-constant input
@@ -1138,10 +1224,11 @@ fn draw_shape(
 /// [`SyntheticError::Noise`] never in practice (fixed σ).
 pub fn draw(nominal: &Session, spec: &VariantSpec) -> Result<Variant> {
     let mut rng = ChaCha8Rng::seed_from_u64(spec.seed);
+    let stiffness_range = spec.row.stiffness_range();
     let errors = NominalErrors {
         force_scale_factor: 1.0 + uniform(&mut rng, -FORCE_SCALE_RANGE, FORCE_SCALE_RANGE),
-        axial_stiffness_factor: 1.0 + uniform(&mut rng, -STIFFNESS_RANGE, STIFFNESS_RANGE),
-        radial_stiffness_factor: 1.0 + uniform(&mut rng, -STIFFNESS_RANGE, STIFFNESS_RANGE),
+        axial_stiffness_factor: 1.0 + uniform(&mut rng, -stiffness_range, stiffness_range),
+        radial_stiffness_factor: 1.0 + uniform(&mut rng, -stiffness_range, stiffness_range),
         wearland_delta_um: uniform(&mut rng, -WEARLAND_RANGE_UM, WEARLAND_RANGE_UM),
         touch_off_um: uniform(&mut rng, -TOUCH_OFF_RANGE_UM, TOUCH_OFF_RANGE_UM),
     };
@@ -1277,7 +1364,7 @@ pub fn committed_variants() -> Vec<CommittedVariant> {
         },
         CommittedVariant {
             name: "real_tool_wear",
-            description: "tool wear with running-in then linear wear (not a family shape)",
+            description: "tool wear with running-in then linear wear (a wear family shape since diagnose's second round)",
             spec: VariantSpec {
                 row: Row::Single,
                 effects: vec!["tool_wear"],

@@ -176,4 +176,54 @@ mod variants {
         // three shapes per effect (one for the constant)
         assert_eq!(shapes.len(), 6 * 3 + 1, "{shapes:?}");
     }
+
+    /// The seed blocks do not overlap (variant k < 500 000 of every row and block), the four
+    /// version-1 rows keep their study seeds, and the `measured_stiffness` row draws the truth's
+    /// stiffness within its stated 1 % prior (± √3 %) and hides machine compliance in every
+    /// other variant (VARIANTS.md, "Seeds" and "Row `measured_stiffness`").
+    #[test]
+    fn seed_blocks_and_the_measured_stiffness_row() {
+        use millcomp_synthetic::variants::{SeedBlock, measured_stiffness_session};
+        let rows = [
+            Row::Single,
+            Row::Two,
+            Row::None,
+            Row::Matched,
+            Row::MeasuredStiffness,
+        ];
+        let mut starts: Vec<u64> = rows
+            .iter()
+            .flat_map(|r| {
+                [SeedBlock::Study, SeedBlock::Fresh, SeedBlock::Dev].map(|b| r.seed_base(b))
+            })
+            .collect();
+        assert_eq!(Row::Single.study_seed_base(), 1_000_000);
+        assert_eq!(Row::Matched.seed_base(SeedBlock::Study), 4_000_000);
+        assert_eq!(Row::Single.seed_base(SeedBlock::Fresh), 5_000_000);
+        starts.sort_unstable();
+        for w in starts.windows(2) {
+            assert!(w[1] - w[0] >= 100_000, "{starts:?}");
+        }
+        let s = measured_stiffness_session();
+        assert_eq!(s.uncertainty.axial_stiffness_pct, 1.0);
+        assert_eq!(s.uncertainty.radial_stiffness_pct, 1.0);
+        let specs = row_specs(Row::MeasuredStiffness, 40, DEV_SEED_BASE + 7_000);
+        for (k, spec) in specs.iter().enumerate() {
+            let hides: Vec<&str> = if k % 2 == 0 {
+                vec!["machine_compliance"]
+            } else {
+                vec![]
+            };
+            assert_eq!(spec.effects, hides);
+            let v = draw(&s, spec).unwrap();
+            for f in [
+                v.errors.axial_stiffness_factor,
+                v.errors.radial_stiffness_factor,
+            ] {
+                assert!((f - 1.0).abs() <= 0.01 * 3f64.sqrt(), "{f}");
+            }
+        }
+        // the version-1 rows draw what they drew: the stiffness range is still ± 10 %
+        assert_eq!(Row::Single.stiffness_range(), 0.10);
+    }
 }

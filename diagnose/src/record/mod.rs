@@ -11,7 +11,7 @@
 //! 1. **Nominal**: the signal's first value, held. `initial_rms` is the RMS of the signal about it.
 //! 2. **Nuisance step**: the nominal's level is recalibrated (a free constant — the record's zero is
 //!    not trusted any more than a probe's), `nuisance.rms_after`.
-//! 3. **Forward selection** over the candidate families of [`families`] (the groove candidates'
+//! 3. **Forward selection** over the candidate families of [`crate::families`] (the groove candidates'
 //!    shapes on the record's own context): each is fitted jointly with the level and the effects
 //!    already added (bounded nonlinear least squares on the identify engine, from a grid of starts),
 //!    tested with the nested F-test and BIC. A dense record's residuals are strongly autocorrelated
