@@ -16,6 +16,7 @@
 //!   [`stiffness_sweep`]: residual error vs stiffness error ([`groove`], [`thin_wall`], [`report`]);
 //! - [`nc_axis`]: the NC feed-axis stage of `003_…txt` — its `[nc_axis]` scenario table, truth, the
 //!   commissioning of the NC plant, the `none | reactive | proactive | mpc` runs and the wall's metrics;
+//!   [`nc_axis_bound`]: its physical limits (the smallest wall error any controller could leave);
 //! - [`changes`]: the transient a controller adds at a process change (entry, depth, feed, exit);
 //! - [`faults`]: force spikes, stuck sensors and solver failures injected into what the controllers see;
 //! - [`recording`]: the spindle MPC's QPs recorded in closed loop (`bench/mpc-vs-casadi`,
@@ -52,6 +53,7 @@ pub mod groove;
 pub mod model_errors;
 pub mod model_files;
 pub mod nc_axis;
+pub mod nc_axis_bound;
 pub mod optimum;
 pub mod parts;
 pub mod realtime;

@@ -47,6 +47,7 @@ use millcomp_sim::nc_axis::{
 use millcomp_sim::sensors::quantize;
 
 use crate::error::{ClosedLoopError, invalid};
+use crate::nc_axis_bound::{Level, NcBoundSetup, Segment};
 use crate::report::{Metrics, ModelSummary, RunOutput, RunReport, Trace};
 use crate::scenario::{
     ControllerKind, Scenario, finite_nonneg as nonneg, finite_pos as pos, sim_keyed as sim_key,
@@ -103,6 +104,10 @@ pub struct NcTruthSpec {
     pub stiffness_error: f64,
     /// Extra relative error on the controllers' identified kc1.1 and kr1.1.
     pub kienzle_error: f64,
+    /// Axial elements of the truth's cutting edge (sim's `KienzleMillingModel::axial_slices`): the
+    /// force model's resolution. 8 leaves steps of ≈ 25 µm in the wall's deflection at the exit (the
+    /// elements leave the blank one by one); 32 is converged to a few µm (SCENARIOS.md).
+    pub axial_slices: usize,
 }
 
 impl Default for NcTruthSpec {
@@ -118,6 +123,7 @@ impl Default for NcTruthSpec {
             platform_gain_sigma: 0.01,
             stiffness_error: 0.0,
             kienzle_error: 0.0,
+            axial_slices: 8,
         }
     }
 }
@@ -136,6 +142,22 @@ pub struct NcControlSpec {
     pub proactive_window: OffsetWindow,
     /// The correction's limits (every controller).
     pub limits: CorrectionLimits,
+    /// The MPC's model of the feed axes (its preview's x axis and its y axis).
+    pub mpc_axis_model: NcAxisModel,
+    /// The MPC plans for the instants the teeth generate the wall (`millcomp_mpc::nc_axis::
+    /// WallInstants`, from the NC's spindle angle); off: at the cycle starts.
+    pub mpc_wall_instants: bool,
+}
+
+/// Which commissioned model of the feed axes the MPC uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum NcAxisModel {
+    /// The step response read off the commissioning's servo trace at the cycle starts (DMC-style).
+    #[default]
+    StepResponse,
+    /// `identify feed-axis`' dead time + first-order lag.
+    DeadTimeLag,
 }
 
 impl Default for NcControlSpec {
@@ -146,6 +168,8 @@ impl Default for NcControlSpec {
             lowpass_hz: 120.0,
             proactive_window: OffsetWindow::default(),
             limits: CorrectionLimits::default(),
+            mpc_axis_model: NcAxisModel::default(),
+            mpc_wall_instants: true,
         }
     }
 }
@@ -371,6 +395,13 @@ impl NcAxisScenario {
                 return Err(invalid(k, v, format!("0 ..= {hi}")));
             }
         }
+        if !(1..=200).contains(&t.axial_slices) {
+            return Err(invalid(
+                "nc_axis.truth.axial_slices",
+                t.axial_slices,
+                "1 ..= 200",
+            ));
+        }
         nonneg("nc_axis.truth.platform_noise_n", t.platform_noise_n)?;
         nonneg(
             "nc_axis.truth.platform_resolution_n",
@@ -525,7 +556,7 @@ pub fn nc_truth(
                 kre_n_mm: nc.truth.edge.kre_n_mm * d.force_factor,
             },
             tool,
-            axial_slices: 8,
+            axial_slices: nc.truth.axial_slices,
         },
         stiffness: NcStiffness {
             machine_n_per_um: m.machine_stiffness_n_per_um,
@@ -562,6 +593,13 @@ pub struct NcCommissioned {
     pub x_axis: Identified,
     /// `identify feed-axis` of the y axis' trace.
     pub y_axis: Identified,
+    /// The x axis' unit step response at the cycle starts, read off the same trace
+    /// (`IdentifiedFeedAxis::step_response_from_trace`).
+    pub x_axis_step: Vec<f64>,
+    /// The y axis' unit step response, the same way.
+    pub y_axis_step: Vec<f64>,
+    /// The NC cycle of the traces (s).
+    pub cycle_s: f64,
     /// σ of the platform at rest (N).
     pub force_noise_n: f64,
 }
@@ -713,7 +751,7 @@ pub fn commission_nc(
     let spc = (program.cycle_s / dt).round() as usize;
     let axis_fit = |d: &AxisDynamics, what: &'static str| {
         let (t, r, pos) = axis_trace(d, dt, spc, program.cycle_s, plan.axis_step_um)?;
-        identify_feed_axis(
+        let fit = identify_feed_axis(
             &FeedAxisData {
                 t_s: &t,
                 reference_um: &r,
@@ -721,10 +759,12 @@ pub fn commission_nc(
             },
             &FeedAxisOptions::default(),
         )
-        .map_err(experiment(what))
+        .map_err(experiment(what))?;
+        let step = IdentifiedFeedAxis::step_response_from_trace(&r, &pos)?;
+        Ok::<_, ClosedLoopError>((fit, step))
     };
-    let x_axis = axis_fit(&truth.x_axis, "x axis trace")?;
-    let y_axis = axis_fit(&truth.y_axis, "y axis trace")?;
+    let (x_axis, x_axis_step) = axis_fit(&truth.x_axis, "x axis trace")?;
+    let (y_axis, y_axis_step) = axis_fit(&truth.y_axis, "y axis trace")?;
     // 4. the platform at rest
     let rest: Vec<f64> = (0..plan.noise_samples)
         .map(|_| read(0.0, &mut rng))
@@ -736,6 +776,9 @@ pub fn commission_nc(
         stiffness,
         x_axis,
         y_axis,
+        x_axis_step,
+        y_axis_step,
+        cycle_s: program.cycle_s,
         force_noise_n: var.sqrt(),
     })
 }
@@ -756,16 +799,30 @@ pub struct NcModels {
 }
 
 impl NcModels {
-    /// From a commissioning and the scenario's `truth.stiffness_error`, `truth.kienzle_error`.
+    /// From a commissioning and the scenario's `truth.stiffness_error`, `truth.kienzle_error`; the
+    /// axes as `axis_model` says (the MPC and its plan use it; the published controllers use the dead
+    /// time + lag's equivalent delay either way).
     ///
     /// # Errors
     /// The identified types' errors.
-    pub fn of(c: &NcCommissioned, truth: &NcTruthSpec) -> Result<Self, ClosedLoopError> {
+    pub fn of(
+        c: &NcCommissioned,
+        truth: &NcTruthSpec,
+        axis_model: NcAxisModel,
+    ) -> Result<Self, ClosedLoopError> {
+        let axis =
+            |fit: &Identified, step: &[f64]| -> Result<IdentifiedFeedAxis, ClosedLoopError> {
+                let a = IdentifiedFeedAxis::new(&fit.model)?;
+                Ok(match axis_model {
+                    NcAxisModel::StepResponse => a.with_step_response(step.to_vec(), c.cycle_s)?,
+                    NcAxisModel::DeadTimeLag => a,
+                })
+            };
         Ok(Self {
             force: IdentifiedKienzle::new(&c.kienzle.model, &NominalEndMill::brecher_003())?
                 .rescaled(1.0 + truth.kienzle_error)?,
-            x_axis: IdentifiedFeedAxis::new(&c.x_axis.model)?,
-            y_axis: IdentifiedFeedAxis::new(&c.y_axis.model)?,
+            x_axis: axis(&c.x_axis, &c.x_axis_step)?,
+            y_axis: axis(&c.y_axis, &c.y_axis_step)?,
             stiffness: IdentifiedNcStiffness::new(&c.stiffness.model)?
                 .scaled(1.0 + truth.stiffness_error)?,
             force_noise_n: c.force_noise_n,
@@ -810,11 +867,13 @@ fn drive(
             let k = stage.cycle();
             let a = stage.interpolator().reference(k).a_mm_s2;
             let (x, y) = stage.axes();
+            let theta = stage.spindle_angle_rad();
             let u = crate::realtime::cycle(|| {
                 ctl.cycle(&NcCycle {
                     index: k,
                     a_cmd_mm_s2: a,
                     y_axis_um: y,
+                    spindle_angle_rad: theta,
                 })
             })?;
             if !u.is_finite() {
@@ -851,6 +910,12 @@ fn drive(
     })
 }
 
+/// The feed step's window (mm before, after the change) of [`NcWallMetrics::feed_step_peak_um`].
+pub const FEED_STEP_WINDOW_MM: [f64; 2] = [2.0, 15.0];
+/// The exit's window (mm before the blank's end) of [`NcWallMetrics::exit_undersize_um`]: one
+/// radius plus 1 mm.
+pub const EXIT_WINDOW_MM: f64 = 9.0;
+
 /// The metrics of the measured wall (µm; + = material left, − = undersize).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 pub struct NcWallMetrics {
@@ -885,6 +950,47 @@ pub struct NcWallMetrics {
     pub exit_max_um: f64,
     /// The windows of constant conditions used (mm).
     pub windows_mm: Vec<[f64; 2]>,
+    /// The physical limit of [`Self::feed_step_peak_um`]: the smallest peak |error| over the same
+    /// window of this run's measured contour any controller correcting the y reference once per NC
+    /// cycle could leave, through the true axis, knowing the truth's deflection in advance
+    /// ([`crate::nc_axis_bound`]); a lower bound of every controller's peak on this seed.
+    #[serde(default)]
+    pub feed_step_peak_bound_um: Option<f64>,
+    /// The same for [`Self::feed_step_excess_um`]: about a free settled level before and one after
+    /// the change.
+    #[serde(default)]
+    pub feed_step_excess_bound_um: Option<f64>,
+    /// The smallest largest |error| over the exit window any controller could leave: no controller
+    /// keeps the exit's wall within ± less than this (a lower bound of `max(exit_undersize_um,
+    /// exit_max_um)`).
+    #[serde(default)]
+    pub exit_bound_um: Option<f64>,
+    /// The certainty-equivalent reference of the same run (module doc of [`crate::nc_axis_bound`]):
+    /// the wall of a controller that cancels, at every tooth pass, the deflection it sees — the
+    /// orthogonal force known in advance exactly as the platform measures it, noise-free, over the
+    /// commissioned stiffness. The axis allows it (the physical limit is ≈ 0); what is left is what no
+    /// force feedback sees: the machine stiffness' span along the blank, the load–deflection test's
+    /// and the platform gain's errors. Not a lower bound (a controller can be wrong the other way).
+    #[serde(default)]
+    pub certainty_equivalent: Option<NcReferenceWall>,
+}
+
+/// The figures of a reference wall ([`NcWallMetrics::certainty_equivalent`]), as
+/// [`NcWallMetrics`] measures a controller's.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+pub struct NcReferenceWall {
+    /// Mean |error| over the constant-condition windows (µm).
+    pub static_error_um: f64,
+    /// The feed step's peak |error| (µm).
+    pub feed_step_peak_um: Option<f64>,
+    /// The feed step's excess over the settled wall (µm).
+    pub feed_step_excess_um: Option<f64>,
+    /// The exit's undersize (µm).
+    pub exit_undersize_um: f64,
+    /// The largest error over the exit window (µm).
+    pub exit_max_um: f64,
+    /// Peak-to-peak of the measured contour over the blank (µm).
+    pub pp_um: f64,
 }
 
 fn contour_at(contour: &[(f64, f64)], x: f64) -> f64 {
@@ -975,7 +1081,7 @@ fn wall_metrics(p: &NcProgram, contour: &[(f64, f64)], defl: &[(f64, f64)]) -> N
         let settled_after = level(contour, &[xc + 10.0, xc + 20.0]);
         let (mut peak, mut signed, mut excess) = (0.0f64, 0.0, 0.0f64);
         for &(x, e) in contour {
-            if x >= xc - 2.0 && x <= xc + 15.0 {
+            if x >= xc - FEED_STEP_WINDOW_MM[0] && x <= xc + FEED_STEP_WINDOW_MM[1] {
                 if e.abs() > peak {
                     peak = e.abs();
                     signed = e;
@@ -992,7 +1098,7 @@ fn wall_metrics(p: &NcProgram, contour: &[(f64, f64)], defl: &[(f64, f64)]) -> N
         m.feed_step_peak_signed_um = Some(signed);
         m.feed_step_excess_um = Some(excess);
     }
-    let (lo_x, hi_x) = (p.blank_end_mm - 9.0, p.blank_end_mm);
+    let (lo_x, hi_x) = (p.blank_end_mm - EXIT_WINDOW_MM, p.blank_end_mm);
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for &(x, e) in contour {
         if x >= lo_x && x <= hi_x {
@@ -1004,6 +1110,39 @@ fn wall_metrics(p: &NcProgram, contour: &[(f64, f64)], defl: &[(f64, f64)]) -> N
     m.exit_max_um = hi;
     m.exit_undersize_um = (-lo).max(0.0);
     m
+}
+
+/// Fill the wall metrics' physical limits ([`crate::nc_axis_bound`]) of a run on `p`.
+fn nc_bounds(
+    setup: &NcBoundSetup<'_>,
+    p: &NcProgram,
+    wm: &mut NcWallMetrics,
+) -> Result<(), ClosedLoopError> {
+    if let Some(xc) = p
+        .feed_changes
+        .first()
+        .map(|c| c.x_mm)
+        .filter(|x| *x > p.blank_start_mm && *x < p.blank_end_mm)
+    {
+        let (a, b) = (xc - FEED_STEP_WINDOW_MM[0], xc + FEED_STEP_WINDOW_MM[1]);
+        let seg = |from_mm, to_mm, level| Segment {
+            from_mm,
+            to_mm,
+            level,
+        };
+        wm.feed_step_peak_bound_um = setup.bound(&[seg(a, b, Level::Zero)])?;
+        // the excess' settled level switches at the change (x < xc before it); a point within 1e-9 mm
+        // below xc is left out (fewer rows: still a lower bound)
+        wm.feed_step_excess_bound_um =
+            setup.bound(&[seg(a, xc - 1e-9, Level::Free), seg(xc, b, Level::Free)])?;
+    }
+    let exit = [Segment {
+        from_mm: p.blank_end_mm - EXIT_WINDOW_MM,
+        to_mm: p.blank_end_mm,
+        level: Level::Zero,
+    }];
+    wm.exit_bound_um = setup.bound(&exit)?;
+    Ok(())
 }
 
 /// The ringing of the executed correction after the first feed change ([`NcWallMetrics`]); rows are
@@ -1077,7 +1216,11 @@ pub fn nc_controller(
                 plan,
                 &channel,
                 models.force_noise_n,
-                &NcMpcSettings::default_nc().with_budget(budget),
+                &NcMpcSettings {
+                    wall_instants: nc.control.mpc_wall_instants,
+                    ..NcMpcSettings::default_nc()
+                }
+                .with_budget(budget),
             )?)
         }
         other => {
@@ -1131,7 +1274,7 @@ pub fn run_nc_axis(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Clos
     }
     let (truth, draw) = nc_truth(nc, s.seed)?;
     let commissioned = commission_nc(&truth, &nc.program, &nc.commissioning, s.seed)?;
-    let models = NcModels::of(&commissioned, &nc.truth)?;
+    let models = NcModels::of(&commissioned, &nc.truth, nc.control.mpc_axis_model)?;
     let mut ctl = nc_controller(kind, nc, &truth, &models, s.control.cycle_budget())?;
     let d = drive(&truth, &nc.program, ctl.as_mut(), &nc.control.limits, false)?;
     let p = &nc.program;
@@ -1154,6 +1297,53 @@ pub fn run_nc_axis(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Clos
     .measure(&deflection_wall, p.blank_start_mm, p.blank_end_mm, 0)?;
     let mut wm = wall_metrics(p, &contour, &defl_contour);
     wm.feed_step_oscillation_um = step_ringing_um(&d.rows, p.cycle_s);
+    // the physical limits on this seed: the deflection-only wall measured with the run's seed (its
+    // noise is the run's), the true y axis, the limits every controller has
+    let uncompensated = nc.contour.device.measure(
+        &deflection_wall,
+        p.blank_start_mm,
+        p.blank_end_mm,
+        s.seed ^ 0xC0C0,
+    )?;
+    let setup = NcBoundSetup {
+        wall: &d.wall,
+        axis: &truth.y_axis,
+        dt_s: truth.dt_s,
+        steps_per_cycle: (p.cycle_s / truth.dt_s).round() as usize,
+        limits: &nc.control.limits,
+        device: &nc.contour.device,
+        from_mm: p.blank_start_mm,
+        to_mm: p.blank_end_mm,
+        uncompensated: &uncompensated,
+    };
+    nc_bounds(&setup, p, &mut wm)?;
+    // the certainty-equivalent wall: the deflection seen per measured newton through the commissioned
+    // stiffness, cancelled exactly at every pass — the error left is δ (1 − g k(x)/k_model)
+    let k_model = models.stiffness.n_per_um();
+    let mut ce_wall = Vec::with_capacity(d.wall.len());
+    for w in &d.wall {
+        let k = truth
+            .stiffness
+            .system_at(w.x_mm, p.blank_start_mm, p.blank_end_mm)?;
+        ce_wall.push(WallPoint {
+            error_um: w.deflection_um * (1.0 - truth.platform.gain * k / k_model),
+            ..*w
+        });
+    }
+    let ce =
+        nc.contour
+            .device
+            .measure(&ce_wall, p.blank_start_mm, p.blank_end_mm, s.seed ^ 0xC0C0)?;
+    let cm = wall_metrics(p, &ce, &defl_contour);
+    let ce_errors: Vec<f64> = ce.iter().map(|c| c.1).collect();
+    wm.certainty_equivalent = Some(NcReferenceWall {
+        static_error_um: cm.static_error_um,
+        feed_step_peak_um: cm.feed_step_peak_um,
+        feed_step_excess_um: cm.feed_step_excess_um,
+        exit_undersize_um: cm.exit_undersize_um,
+        exit_max_um: cm.exit_max_um,
+        pp_um: Metrics::from_errors(&ce_errors, 0.0).pp_error_um,
+    });
     let mut trace = Trace::new(&[
         "t_s",
         "x_mm",
@@ -1173,7 +1363,6 @@ pub fn run_nc_axis(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Clos
     let k_true = truth
         .stiffness
         .system_at(x_mid, p.blank_start_mm, p.blank_end_mm)?;
-    let k_model = models.stiffness.n_per_um();
     let est = |i: &Identified, n: &str| (i.report.param(n), i.report.se(n));
     let kc = KienzleCoefficients::c45_handbook().scaled(draw.force_factor);
     let mut lines = Vec::new();
@@ -1251,6 +1440,9 @@ pub fn run_nc_axis(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Clos
         controller: kind.name().into(),
         metrics: Metrics {
             exit_overcut_um: None,
+            // the NC meaning of the whole cut's optimum: the certainty-equivalent wall's
+            // peak-to-peak (the deflection seen through the commissioned stiffness, cancelled)
+            optimum_pp_um: wm.certainty_equivalent.map(|c| c.pp_um),
             change_excess_um: wm.feed_step_peak_um.map(|p| p.max(wm.exit_undersize_um)),
             ..Metrics::from_errors(&errors, d.travel_um)
         },

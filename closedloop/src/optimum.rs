@@ -106,68 +106,148 @@ pub fn excess_lower_bound(
     let ix = |k: usize, j: usize| n_steps + k * nx + j;
     let ic = n_steps + (n_steps + 1) * nx;
     let ih = ic + 1;
-    let n_var = ih + 1;
-    let (mut rows, mut cols, mut vals) = (Vec::new(), Vec::new(), Vec::new());
-    let mut b = Vec::new();
-    let mut push = |r: usize, c: usize, v: f64| {
-        if v != 0.0 {
-            rows.push(r);
-            cols.push(c);
-            vals.push(v);
-        }
-    };
-    // dynamics (zero cone): x_{k+1} − A x_k − B u_k = 0
-    let mut r = 0;
+    let mut lp = LinearProgramme::new(ih + 1);
+    let mut row = Vec::with_capacity(2 * nx + 3);
+    // dynamics: x_{k+1} − A x_k − B u_k = 0
     for k in 0..n_steps {
         for i in 0..nx {
-            push(r, ix(k + 1, i), 1.0);
+            row.clear();
+            row.push((ix(k + 1, i), 1.0));
             for j in 0..nx {
-                push(r, ix(k, j), -a_s(i, j));
+                row.push((ix(k, j), -a_s(i, j)));
             }
-            push(r, iu(k), -b_s(i));
-            b.push(0.0);
-            r += 1;
+            row.push((iu(k), -b_s(i)));
+            lp.eq(&row, 0.0);
         }
     }
-    let n_eq = r;
-    // inequalities (nonnegative cone, A z ≤ b)
+    // inequalities: 0 ≤ u_k ≤ 1, ±(sin α (C x_k + D u_k) − δ_k − c) ≤ h
     for (k, &delta_um) in deflection_um.iter().enumerate().take(n_steps) {
-        push(r, iu(k), 1.0);
-        b.push(1.0);
-        push(r + 1, iu(k), -1.0);
-        b.push(0.0);
-        // ±(sin α (C x_k + D u_k) − δ_k − c) ≤ h
-        for (sign, off) in [(1.0, 0), (-1.0, 1)] {
-            let rr = r + 2 + off;
+        lp.le(&[(iu(k), 1.0)], 1.0);
+        lp.le(&[(iu(k), -1.0)], 0.0);
+        for sign in [1.0, -1.0] {
+            row.clear();
             for j in 0..nx {
-                push(rr, ix(k, j), sign * sin_a * c_s(j));
+                row.push((ix(k, j), sign * sin_a * c_s(j)));
             }
-            push(rr, iu(k), sign * sin_a * d_s);
-            push(rr, ic, -sign);
-            push(rr, ih, -1.0);
-            b.push(sign * delta_um);
+            row.push((iu(k), sign * sin_a * d_s));
+            row.push((ic, -sign));
+            row.push((ih, -1.0));
+            lp.le(&row, sign * delta_um);
         }
-        r += 4;
     }
-    let n_rows = r;
-    let a = CscMatrix::new_from_triplets(n_rows, n_var, rows, cols, vals);
-    let p = CscMatrix::zeros((n_var, n_var));
-    let mut q = vec![0.0; n_var];
-    q[ih] = 1.0;
-    let cones: Vec<SupportedConeT<f64>> = vec![ZeroConeT(n_eq), NonnegativeConeT(n_rows - n_eq)];
-    let settings = DefaultSettingsBuilder::default()
-        .verbose(false)
-        .max_iter(200)
-        .build()
-        .ok()?;
-    let mut solver = DefaultSolver::new(&p, &q, &a, &b, &cones, settings).ok()?;
-    solver.solve();
-    match solver.solution.status {
-        SolverStatus::Solved | SolverStatus::AlmostSolved => {
-            let h = solver.solution.x[ih];
-            h.is_finite().then_some(h.max(0.0))
+    let z = lp.minimise(ih, 200)?;
+    let h = z[ih];
+    h.is_finite().then_some(h.max(0.0))
+}
+
+/// A sparse linear programme `minimise z[objective] subject to E z = f, G z ≤ g`, built row by row and
+/// solved with Clarabel — the machinery of the references in this crate ([`excess_lower_bound`], the NC
+/// stage's `crate::nc_axis_bound`). Zero coefficients are left out; rows keep the order they were added
+/// in (equality rows first in the solver).
+///
+/// ```
+/// use millcomp_closedloop::optimum::LinearProgramme;
+/// // minimise h subject to |z0 − 3| ≤ h, |z0 − 1| ≤ h: z0 = 2, h = 1
+/// let mut lp = LinearProgramme::new(2);
+/// for d in [3.0, 1.0] {
+///     lp.le(&[(0, 1.0), (1, -1.0)], d);
+///     lp.le(&[(0, -1.0), (1, -1.0)], -d);
+/// }
+/// let z = lp.minimise(1, 100).unwrap();
+/// assert!((z[0] - 2.0).abs() < 1e-6 && (z[1] - 1.0).abs() < 1e-6);
+/// ```
+#[derive(Debug, Clone, Default)]
+pub struct LinearProgramme {
+    n_var: usize,
+    eq: (Vec<usize>, Vec<usize>, Vec<f64>, Vec<f64>),
+    le: (Vec<usize>, Vec<usize>, Vec<f64>, Vec<f64>),
+}
+
+impl LinearProgramme {
+    /// A programme over `n_var` variables, no rows yet.
+    pub fn new(n_var: usize) -> Self {
+        Self {
+            n_var,
+            ..Self::default()
         }
-        _ => None,
+    }
+
+    /// Number of variables.
+    pub fn n_var(&self) -> usize {
+        self.n_var
+    }
+
+    fn push(
+        rows: &mut (Vec<usize>, Vec<usize>, Vec<f64>, Vec<f64>),
+        coeffs: &[(usize, f64)],
+        rhs: f64,
+    ) {
+        let r = rows.3.len();
+        for &(c, v) in coeffs {
+            if v != 0.0 {
+                rows.0.push(r);
+                rows.1.push(c);
+                rows.2.push(v);
+            }
+        }
+        rows.3.push(rhs);
+    }
+
+    /// Add the row `Σ v·z[c] = rhs` over `coeffs` = `(c, v)`.
+    pub fn eq(&mut self, coeffs: &[(usize, f64)], rhs: f64) {
+        Self::push(&mut self.eq, coeffs, rhs);
+    }
+
+    /// Add the row `Σ v·z[c] ≤ rhs`.
+    pub fn le(&mut self, coeffs: &[(usize, f64)], rhs: f64) {
+        Self::push(&mut self.le, coeffs, rhs);
+    }
+
+    /// Solve for the smallest `z[objective]` within `max_iter` interior-point iterations: the solution
+    /// when Clarabel reports it solved (or almost), `None` otherwise (an infeasible or unbounded
+    /// programme, a variable index out of range) — reported, not an error.
+    pub fn minimise(&self, objective: usize, max_iter: u32) -> Option<Vec<f64>> {
+        let n = self.n_var;
+        if objective >= n
+            || self.eq.1.iter().chain(&self.le.1).any(|&c| c >= n)
+            || self.eq.3.iter().chain(&self.le.3).any(|v| !v.is_finite())
+        {
+            return None;
+        }
+        let n_eq = self.eq.3.len();
+        let n_rows = n_eq + self.le.3.len();
+        let rows: Vec<usize> = self
+            .eq
+            .0
+            .iter()
+            .copied()
+            .chain(self.le.0.iter().map(|r| r + n_eq))
+            .collect();
+        let cols: Vec<usize> = self.eq.1.iter().chain(&self.le.1).copied().collect();
+        let vals: Vec<f64> = self.eq.2.iter().chain(&self.le.2).copied().collect();
+        let b: Vec<f64> = self.eq.3.iter().chain(&self.le.3).copied().collect();
+        let a = CscMatrix::new_from_triplets(n_rows, n, rows, cols, vals);
+        let p = CscMatrix::zeros((n, n));
+        let mut q = vec![0.0; n];
+        q[objective] = 1.0;
+        let mut cones: Vec<SupportedConeT<f64>> = Vec::with_capacity(2);
+        if n_eq > 0 {
+            cones.push(ZeroConeT(n_eq));
+        }
+        if n_rows > n_eq {
+            cones.push(NonnegativeConeT(n_rows - n_eq));
+        }
+        let settings = DefaultSettingsBuilder::default()
+            .verbose(false)
+            .max_iter(max_iter)
+            .build()
+            .ok()?;
+        let mut solver = DefaultSolver::new(&p, &q, &a, &b, &cones, settings).ok()?;
+        solver.solve();
+        match solver.solution.status {
+            SolverStatus::Solved | SolverStatus::AlmostSolved => Some(solver.solution.x.clone()),
+            _ => None,
+        }
     }
 }
 

@@ -39,6 +39,8 @@ use millcomp_sim::kienzle::{CutState, EndMill, KienzleCoefficients, KienzleMilli
 use millcomp_sim::nc_axis::{
     NcInterpolator, NcProgram, dead_time_lag_coefficients, dead_time_lag_response,
 };
+use std::f64::consts::PI;
+
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
@@ -136,12 +138,27 @@ impl IdentifiedKienzle {
     }
 }
 
-/// The controllers' model of a feed axis: dead time + first-order lag (`identify feed-axis`).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// The controllers' model of a feed axis: dead time + first-order lag (`identify feed-axis`), and —
+/// where the commissioning recorded one ([`Self::with_step_response`]) — the axis' measured step
+/// response at the position cycle, a non-parametric (DMC-style) model that the MPC and its plan use
+/// instead ([`Self::discrete`], [`Self::respond`]).
+#[derive(Debug, Clone, PartialEq)]
 pub struct IdentifiedFeedAxis {
     dead_time_s: f64,
     lag_s: f64,
+    step: Option<MeasuredStep>,
 }
+
+/// A step response measured at the start of each position cycle after a reference step latched at
+/// cycle 0, normalised to a unit step.
+#[derive(Debug, Clone, PartialEq)]
+struct MeasuredStep {
+    cycle_s: f64,
+    s: Vec<f64>,
+}
+
+/// Shortest step response [`IdentifiedFeedAxis::step_response_from_trace`] accepts (cycles).
+pub const MIN_STEP_RESPONSE_CYCLES: usize = 20;
 
 impl IdentifiedFeedAxis {
     /// From a `feed_axis` fit (`dead_time_s`, `lag_s`).
@@ -157,7 +174,125 @@ impl IdentifiedFeedAxis {
         if lag_s <= 0.0 {
             return Err(invalid("feed_axis.lag_s", lag_s, "> 0"));
         }
-        Ok(Self { dead_time_s, lag_s })
+        Ok(Self {
+            dead_time_s,
+            lag_s,
+            step: None,
+        })
+    }
+
+    /// The unit step response at the cycle starts from an NC servo trace (the reference and the
+    /// encoder at the start of each cycle, the reference held over its cycle): every jump of the
+    /// reference from a value held for at least [`MIN_STEP_RESPONSE_CYCLES`] cycles (the axis at
+    /// rest) and followed by at least as many cycles at the new value gives
+    /// `(p[i+k] − p[i]) / (r[i] − r[i−1])`, k = 0 … until the reference changes again; the responses
+    /// are averaged over the common length.
+    ///
+    /// ```
+    /// use millcomp_mpc::nc_axis::IdentifiedFeedAxis;
+    /// // a trace of an axis that follows one cycle late: a step up and back, 30 cycles each
+    /// let r: Vec<f64> = (0..90).map(|i| if (25..55).contains(&i) { 100.0 } else { 0.0 }).collect();
+    /// let p: Vec<f64> = (0..90).map(|i| if i == 0 { 0.0 } else { r[i - 1] }).collect();
+    /// let s = IdentifiedFeedAxis::step_response_from_trace(&r, &p).unwrap();
+    /// assert_eq!(s.len(), 30);
+    /// assert_eq!((s[0], s[1], s[29]), (0.0, 1.0, 1.0));
+    /// ```
+    ///
+    /// # Errors
+    /// [`MpcError::InvalidConfig`] (`feed_axis.trace`) for traces of different lengths, non-finite
+    /// values, or no step held long enough.
+    pub fn step_response_from_trace(
+        reference_um: &[f64],
+        position_um: &[f64],
+    ) -> Result<Vec<f64>, MpcError> {
+        let n = reference_um.len();
+        if position_um.len() != n
+            || reference_um
+                .iter()
+                .chain(position_um)
+                .any(|v| !v.is_finite())
+        {
+            return Err(invalid(
+                "feed_axis.trace",
+                format!("{n} references, {} positions", position_um.len()),
+                "as many finite positions as references",
+            ));
+        }
+        let mut steps: Vec<Vec<f64>> = Vec::new();
+        for i in 1..n {
+            let a = reference_um[i] - reference_um[i - 1];
+            if a.abs() <= 1e-9 * reference_um[i].abs().max(1.0) {
+                continue;
+            }
+            let held = reference_um[i..]
+                .iter()
+                .take_while(|r| **r == reference_um[i])
+                .count();
+            // from rest: the reference held before the jump as long (the axis settled)
+            let rest = reference_um[..i]
+                .iter()
+                .rev()
+                .take_while(|r| **r == reference_um[i - 1])
+                .count();
+            if held >= MIN_STEP_RESPONSE_CYCLES && rest >= MIN_STEP_RESPONSE_CYCLES {
+                steps.push(
+                    (0..held)
+                        .map(|k| (position_um[i + k] - position_um[i]) / a)
+                        .collect(),
+                );
+            }
+        }
+        let len = steps.iter().map(Vec::len).min().ok_or_else(|| {
+            invalid(
+                "feed_axis.trace",
+                "no step",
+                format!("a reference step held for at least {MIN_STEP_RESPONSE_CYCLES} cycles"),
+            )
+        })?;
+        Ok((0..len)
+            .map(|k| steps.iter().map(|s| s[k]).sum::<f64>() / steps.len() as f64)
+            .collect())
+    }
+
+    /// This model with the measured unit step response `step` at the cycle `cycle_s` (from
+    /// [`Self::step_response_from_trace`]): [`Self::discrete`] and [`Self::respond`] use it, the
+    /// response held at its last value beyond its length.
+    ///
+    /// # Errors
+    /// [`MpcError::InvalidConfig`] (`feed_axis.step_response`) for fewer than
+    /// [`MIN_STEP_RESPONSE_CYCLES`] values, non-finite values or a non-positive cycle.
+    pub fn with_step_response(mut self, step: Vec<f64>, cycle_s: f64) -> Result<Self, MpcError> {
+        if step.len() < MIN_STEP_RESPONSE_CYCLES
+            || step.iter().any(|v| !v.is_finite())
+            || !(cycle_s.is_finite() && cycle_s > 0.0)
+        {
+            return Err(invalid(
+                "feed_axis.step_response",
+                format!("{} values at {cycle_s} s", step.len()),
+                format!("at least {MIN_STEP_RESPONSE_CYCLES} finite values, cycle > 0"),
+            ));
+        }
+        self.step = Some(MeasuredStep { cycle_s, s: step });
+        Ok(self)
+    }
+
+    /// This model without a measured step response (the dead time + lag alone).
+    pub fn without_step_response(mut self) -> Self {
+        self.step = None;
+        self
+    }
+
+    /// Whether a measured step response is used.
+    pub fn has_step_response(&self) -> bool {
+        self.step.is_some()
+    }
+
+    /// The measured step response at `cycle_s`, if one is held at that cycle.
+    fn step_at(&self, cycle_s: f64) -> Option<&[f64]> {
+        self.step
+            .as_ref()
+            .filter(|m| (m.cycle_s - cycle_s).abs() <= 1e-9 * cycle_s)
+            .map(|m| m.s.as_slice())
     }
 
     /// Dead time (s).
@@ -182,6 +317,23 @@ impl IdentifiedFeedAxis {
     /// # Errors
     /// [`MpcError::Sim`] for a non-positive cycle.
     pub fn discrete(&self, cycle_s: f64) -> Result<DiscreteLti, MpcError> {
+        if let Some(st) = self.step_at(cycle_s) {
+            // FIR on the past references u_{k−1} … u_{k−n}, n = N − 1: y_k = Σ_j (S_j − S_{j−1})
+            // u_{k−j} (S_0 = 0: the position at a cycle's start has not seen that cycle's reference);
+            // beyond N the response is taken as settled at S_{N−1}
+            let n = st.len() - 1;
+            let mut am = DMatrix::zeros(n, n);
+            let mut bm = DMatrix::zeros(n, 1);
+            let mut cm = DMatrix::zeros(1, n);
+            bm[(0, 0)] = 1.0;
+            for i in 1..n {
+                am[(i, i - 1)] = 1.0;
+            }
+            for j in 1..=n {
+                cm[(0, j - 1)] = st[j] - st[j - 1];
+            }
+            return Ok(DiscreteLti::new(am, bm, cm, DMatrix::zeros(1, 1), cycle_s)?);
+        }
         let (n, a, b1, b2) = dead_time_lag_coefficients(cycle_s, self.dead_time_s, self.lag_s);
         // state: p, then d_1..d_{n+1} with d_i = u_{k−i}
         let nx = n + 2;
@@ -207,6 +359,26 @@ impl IdentifiedFeedAxis {
     /// The response at the start of each cycle to references held over each cycle, from `p0` at rest.
     pub fn respond(&self, reference: &[f64], cycle_s: f64) -> Vec<f64> {
         let p0 = reference.first().copied().unwrap_or(0.0);
+        if let Some(st) = self.step_at(cycle_s) {
+            // p_k = p0 + Σ_{m ≤ k} (r_m − r_{m−1}) S_{k−m} with r_{−1} = p0 and S held at S_{N−1}
+            // beyond its end: the references older than N − 1 cycles enter at the settled gain
+            let n = st.len() - 1;
+            let last = st[n];
+            return (0..reference.len())
+                .map(|k| {
+                    let mut pk = p0;
+                    let lo = k.saturating_sub(n - 1);
+                    if k >= n {
+                        pk += last * (reference[k - n] - p0);
+                    }
+                    for m in lo..=k {
+                        let prev = if m == 0 { p0 } else { reference[m - 1] };
+                        pk += (reference[m] - prev) * st[k - m];
+                    }
+                    pk
+                })
+                .collect();
+        }
         dead_time_lag_response(reference, p0, cycle_s, self.dead_time_s, self.lag_s)
     }
 }
@@ -291,6 +463,9 @@ pub struct NcCycle {
     pub a_cmd_mm_s2: f64,
     /// The y axis' encoder (µm).
     pub y_axis_um: f64,
+    /// The spindle's angle at the cycle's start (rad, accumulated; the NC's spindle encoder — an
+    /// NC-internal datum like the reference acceleration). Not finite: unknown.
+    pub spindle_angle_rad: f64,
 }
 
 /// A compensating controller in the position-control cycle.
@@ -596,6 +771,12 @@ impl NcController for ProactiveNc {
     }
 }
 
+/// Grid step (mm) of the wall's engagement tables of [`NcPlan`]: at the exit the wall's engagement
+/// falls by a third within a few hundredths of a millimetre (the front of the edge leaving).
+const WALL_STEP_MM: f64 = 0.005;
+/// Axial elements of the plan's cutter model: enough that the wall's engagement at the exit is
+/// converged (a few µm; sim's default of 8 leaves steps of ≈ 25 µm there).
+const PLAN_AXIAL_SLICES: usize = 32;
 /// Grid step (mm) of the engagement tables of [`NcPlan`].
 const ENGAGEMENT_STEP_MM: f64 = 0.05;
 /// Angles per revolution of the engagement tables.
@@ -616,6 +797,89 @@ const ENGAGEMENT_SAMPLES: usize = 180;
 pub struct NcPlan {
     force_n: Vec<f64>,
     deflection_um: Vec<f64>,
+    wall: WallForcePlan,
+}
+
+/// What [`NcPlan::wall_force_n_at`] needs: the predicted path at the cycle starts and the engagement
+/// tables of the wall's generation.
+#[derive(Debug, Clone, PartialEq)]
+struct WallForcePlan {
+    xp: Vec<f64>,
+    cycle_s: f64,
+    per_mm_s: f64,
+    coefficients: KienzleCoefficients,
+    /// The engagement sums near the blank's start: `[(S_t, S_r) every ENGAGEMENT_STEP_MM, (S_t, S_r)
+    /// at the wall every WALL_STEP_MM]`.
+    start_tab: [Vec<[f64; 2]>; 2],
+    /// The same near the blank's end.
+    end_tab: [Vec<[f64; 2]>; 2],
+    blank_start_mm: f64,
+    blank_end_mm: f64,
+    radius_mm: f64,
+    k_n_per_um: f64,
+    teeth: usize,
+    /// The spindle angle at which a tooth generates the wall at the plan's height (rad): π + the
+    /// helix' lag over the height (the stage's convention).
+    pass_angle_rad: f64,
+    omega_rad_s: f64,
+}
+
+impl WallForcePlan {
+    /// Engagement sums `(S_t, S_r, S_t at the wall, S_r at the wall)` at the tool centre `x`.
+    fn sums(&self, x: f64) -> [f64; 4] {
+        let lookup = |tab: &[[f64; 2]], step: f64, x0: f64| -> [f64; 2] {
+            let n = tab.len();
+            let u = ((x - x0) / step).clamp(0.0, (n - 1) as f64);
+            let i = (u.floor() as usize).min(n - 2);
+            let w = u - i as f64;
+            std::array::from_fn(|j| tab[i][j] * (1.0 - w) + tab[i + 1][j] * w)
+        };
+        let both = |t: &[Vec<[f64; 2]>; 2], x0: f64| -> [f64; 4] {
+            let m = lookup(&t[0], ENGAGEMENT_STEP_MM, x0);
+            let w = lookup(&t[1], WALL_STEP_MM, x0);
+            [m[0], m[1], w[0], w[1]]
+        };
+        let r = self.radius_mm;
+        if x <= self.blank_start_mm - r || x >= self.blank_end_mm {
+            [0.0; 4]
+        } else if x < self.blank_start_mm {
+            both(&self.start_tab, self.blank_start_mm - r)
+        } else if x > self.blank_end_mm - r {
+            both(&self.end_tab, self.blank_end_mm - r)
+        } else {
+            let (m, w) = (&self.start_tab[0], &self.start_tab[1]);
+            let (m, w) = (m[m.len() - 1], w[w.len() - 1]);
+            [m[0], m[1], w[0], w[1]]
+        }
+    }
+
+    /// Kienzle's two factors at feed per tooth `fz` (mm).
+    fn factors(&self, fz: f64) -> (f64, f64) {
+        let c = &self.coefficients;
+        if fz > 0.0 {
+            (
+                c.kc11_n_mm2 * fz.powf(1.0 - c.mc),
+                c.kr11_n_mm2 * fz.powf(1.0 - c.mr),
+            )
+        } else {
+            (0.0, 0.0)
+        }
+    }
+
+    /// The path at time `t_s` from the program's start: position (mm) and feed per tooth (mm),
+    /// linear between the cycle starts.
+    fn path_at(&self, t_s: f64) -> (f64, f64) {
+        let n = self.xp.len();
+        let u = (t_s / self.cycle_s).clamp(0.0, (n - 1) as f64);
+        let i = (u.floor() as usize).min(n.saturating_sub(2));
+        let j = (i + 1).min(n - 1);
+        let w = u - i as f64;
+        let v = ((self.xp[j] - self.xp[i]) / self.cycle_s).max(0.0);
+        (
+            self.xp[i] + w * (self.xp[j] - self.xp[i]),
+            v * self.per_mm_s,
+        )
+    }
 }
 
 impl NcPlan {
@@ -657,72 +921,108 @@ impl NcPlan {
             })
         };
         let (mt, mtr) = (unit(0.0)?, unit(1.0)?);
-        let n_grid = (r / ENGAGEMENT_STEP_MM).round() as usize + 1;
-        // (S_t, S_r, S_t at the wall, S_r at the wall) at x_c = edge − r + i·step for the start
-        // (edge = blank start) and end tables
-        let table = |x0: f64| -> Vec<[f64; 4]> {
-            (0..n_grid)
+        // the wall's engagement with the catalogue cutter's edge integrated finely: a real edge
+        // leaves the blank continuously (the revolution mean is smooth at the default resolution)
+        let fine = |m: &KienzleMillingModel| KienzleMillingModel {
+            axial_slices: PLAN_AXIAL_SLICES,
+            ..m.clone()
+        };
+        let (mt_fine, mtr_fine) = (fine(&mt), fine(&mtr));
+        // (S_t, S_r) at x_c = edge − r + i·step for the start (edge = blank start) and end tables,
+        // on the revolution mean's grid; (S_t, S_r at the wall) on the finer wall grid: the wall's
+        // engagement changes in steps as the edge's elements leave the blank
+        let cut_at = |x: f64| CutState {
+            x_center_mm: x,
+            fz_mm: 1.0,
+            ap_mm: program.ap_mm,
+            ae_mm: program.ae_mm,
+            blank_start_mm: program.blank_start_mm,
+            blank_end_mm: program.blank_end_mm,
+        };
+        let mean_table = |x0: f64| -> Vec<[f64; 2]> {
+            let n = (r / ENGAGEMENT_STEP_MM).round() as usize + 1;
+            (0..n)
                 .map(|i| {
-                    let cut = CutState {
-                        x_center_mm: x0 + i as f64 * ENGAGEMENT_STEP_MM,
-                        fz_mm: 1.0,
-                        ap_mm: program.ap_mm,
-                        ae_mm: program.ae_mm,
-                        blank_start_mm: program.blank_start_mm,
-                        blank_end_mm: program.blank_end_mm,
-                    };
+                    let cut = cut_at(x0 + i as f64 * ENGAGEMENT_STEP_MM);
                     let st = mt.mean_forces_at(&cut, ENGAGEMENT_SAMPLES)[1];
                     let str_ = mtr.mean_forces_at(&cut, ENGAGEMENT_SAMPLES)[1];
-                    let wt = mt.wall_forces_at(&cut, wall_height_mm)[1];
-                    let wtr = mtr.wall_forces_at(&cut, wall_height_mm)[1];
-                    [st, str_ - st, wt, wtr - wt]
+                    [st, str_ - st]
                 })
                 .collect()
         };
-        let start_tab = table(program.blank_start_mm - r);
-        let end_tab = table(program.blank_end_mm - r);
-        let full = start_tab[n_grid - 1];
-        let lookup = |tab: &[[f64; 4]], x0: f64, x: f64| -> [f64; 4] {
-            let u = ((x - x0) / ENGAGEMENT_STEP_MM).clamp(0.0, (n_grid - 1) as f64);
-            let i = (u.floor() as usize).min(n_grid - 2);
-            let w = u - i as f64;
-            std::array::from_fn(|j| tab[i][j] * (1.0 - w) + tab[i + 1][j] * w)
+        let wall_table = |x0: f64| -> Vec<[f64; 2]> {
+            let n = (r / WALL_STEP_MM).round() as usize + 1;
+            (0..n)
+                .map(|i| {
+                    let cut = cut_at(x0 + i as f64 * WALL_STEP_MM);
+                    let wt = mt_fine.wall_forces_at(&cut, wall_height_mm)[1];
+                    let wtr = mtr_fine.wall_forces_at(&cut, wall_height_mm)[1];
+                    [wt, wtr - wt]
+                })
+                .collect()
         };
-        let sums = |x: f64| -> [f64; 4] {
-            if x <= program.blank_start_mm - r || x >= program.blank_end_mm {
-                [0.0; 4]
-            } else if x < program.blank_start_mm {
-                lookup(&start_tab, program.blank_start_mm - r, x)
-            } else if x > program.blank_end_mm - r {
-                lookup(&end_tab, program.blank_end_mm - r, x)
-            } else {
-                full
-            }
+        let wall = WallForcePlan {
+            start_tab: [
+                mean_table(program.blank_start_mm - r),
+                wall_table(program.blank_start_mm - r),
+            ],
+            end_tab: [
+                mean_table(program.blank_end_mm - r),
+                wall_table(program.blank_end_mm - r),
+            ],
+            xp,
+            cycle_s: ts,
+            per_mm_s: 60.0 / (program.speed_rpm * tool.teeth as f64),
+            coefficients: c,
+            blank_start_mm: program.blank_start_mm,
+            blank_end_mm: program.blank_end_mm,
+            radius_mm: r,
+            k_n_per_um: k.n_per_um(),
+            teeth: tool.teeth as usize,
+            pass_angle_rad: PI + wall_height_mm * tool.helix_deg.to_radians().tan() / r,
+            omega_rad_s: 2.0 * PI * program.speed_rpm / 60.0,
         };
-        let per_mm_s = 60.0 / (program.speed_rpm * tool.teeth as f64);
-        let kk = k.n_per_um();
+        let xp = &wall.xp;
         let mut force_n = Vec::with_capacity(xp.len());
         let mut deflection_um = Vec::with_capacity(xp.len());
         for i in 0..xp.len() {
             let x1 = xp[(i + 1).min(xp.len() - 1)];
             let v = ((x1 - xp[i]) / ts).max(0.0);
-            let fz = v * per_mm_s;
-            let s4 = sums(0.5 * (xp[i] + x1));
-            let (gt, gr) = if fz > 0.0 {
-                (
-                    c.kc11_n_mm2 * fz.powf(1.0 - c.mc),
-                    c.kr11_n_mm2 * fz.powf(1.0 - c.mr),
-                )
-            } else {
-                (0.0, 0.0)
-            };
+            let (gt, gr) = wall.factors(v * wall.per_mm_s);
+            let s4 = wall.sums(0.5 * (xp[i] + x1));
             force_n.push(gt * s4[0] + gr * s4[1]);
-            deflection_um.push((gt * s4[2] + gr * s4[3]) / kk);
+            deflection_um.push((gt * s4[2] + gr * s4[3]) / wall.k_n_per_um);
         }
         Ok(Self {
             force_n,
             deflection_um,
+            wall,
         })
+    }
+
+    /// The planned orthogonal force (N) at the instant `t_s` after the program's start if a tooth
+    /// generated the wall then: the predicted path interpolated between the cycle starts, its feed per
+    /// tooth, the engagement at the wall's generation.
+    pub fn wall_force_n_at(&self, t_s: f64) -> f64 {
+        let (x, fz) = self.wall.path_at(t_s);
+        let (gt, gr) = self.wall.factors(fz);
+        let s4 = self.wall.sums(x);
+        gt * s4[2] + gr * s4[3]
+    }
+
+    /// The predicted position (mm) of the tool at the start of cycle `k` (the last beyond the end).
+    pub fn position_mm(&self, k: usize) -> f64 {
+        self.wall.xp[k.min(self.wall.xp.len() - 1)]
+    }
+
+    /// The stiffness the plan's deflections are over (N/µm).
+    pub fn stiffness_n_per_um(&self) -> f64 {
+        self.wall.k_n_per_um
+    }
+
+    /// The position cycle (s).
+    pub fn cycle_s(&self) -> f64 {
+        self.wall.cycle_s
     }
 
     /// Planned revolution-mean orthogonal force (N) of cycle `k` (the last beyond the end).
@@ -743,6 +1043,22 @@ impl NcPlan {
     /// Whether the plan is empty (never for a valid program).
     pub fn is_empty(&self) -> bool {
         self.force_n.is_empty()
+    }
+
+    /// The range (max − min) of the planned wall force (N; deflection × stiffness) over cycles
+    /// `from ..= to`.
+    pub fn wall_force_range_n(&self, from: usize, to: usize) -> f64 {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for k in from..=to {
+            let f = self.deflection_um(k);
+            lo = lo.min(f);
+            hi = hi.max(f);
+        }
+        if hi >= lo {
+            (hi - lo) * self.wall.k_n_per_um
+        } else {
+            0.0
+        }
     }
 
     /// The range (max − min) of the planned force over cycles `from ..= to`.
@@ -816,6 +1132,14 @@ pub struct NcMpcSettings {
     /// Cycles over which a change of the plan keeps the estimator on the prediction (the chain's
     /// settling).
     pub estimator_window_cycles: usize,
+    /// Plan for the instants the teeth generate the wall ([`WallInstants`]) when the NC gives the
+    /// spindle's angle: the preview's deflection at each tooth pass, the force measured at the passes
+    /// scaling it per tooth. Off (or no angle): the plan at the cycle starts scaled by the
+    /// revolution-mean force.
+    pub wall_instants: bool,
+    /// Cycles back over which a change of the planned wall force keeps the wall-instant estimator on
+    /// the prediction: its samples are raw (no filter to settle), so only the sweep itself.
+    pub wall_window_cycles: usize,
 }
 
 impl NcMpcSettings {
@@ -828,7 +1152,7 @@ impl NcMpcSettings {
     /// Horizon 25 cycles (50 ms: three axis delays), moves blocked 1,1,1,2,2,3,3,4,4,4; tracking weight
     /// 1/µm², 10⁻⁴ per µm² of move; the correction limits of [`CorrectionLimits::default`]; an output
     /// disturbance on the axis position (what the axis model misses); the encoder's noise 10⁻⁴ µm²;
-    /// the estimator's window 40 cycles (80 ms).
+    /// the estimator's window 40 cycles (80 ms); planning for the wall instants with a 2-cycle window.
     pub fn default_nc() -> Self {
         let l = CorrectionLimits::default();
         let mut mpc = MpcConfig::siso(25, -l.range_um, l.range_um, l.slew_um_per_cycle);
@@ -842,6 +1166,130 @@ impl NcMpcSettings {
         Self {
             mpc,
             estimator_window_cycles: 40,
+            wall_instants: true,
+            wall_window_cycles: 2,
+        }
+    }
+}
+
+/// The wall's generation in time, for [`MpcNc`] (`NcMpcSettings::wall_instants`): the wall is cut
+/// at the instants a tooth passes it (the static surface-error model; the stage's convention), so the
+/// preview's deflection is planned at the tooth passes — from the spindle's angle at the cycle start
+/// and the programmed speed — and interpolated in time between them to the cycle starts (a
+/// deflection that changes between two passes is met at the passes, not in between). The force the
+/// platform measures at a pass is the force that generates the wall there: every pass updates the
+/// scale of the planned wall force ([`ScaleEstimator`], raw samples: no filter delay) and, at
+/// constant conditions, an additive offset per tooth (the runout: a few per cent of the force per
+/// tooth, nearly independent of the feed), kept with zero mean over the teeth.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WallInstants {
+    /// The scale of the planned wall force.
+    pub scale: ScaleEstimator,
+    /// Additive force per tooth (N), in the order the passes count them.
+    pub tooth_offsets_n: Vec<f64>,
+    /// The offsets' gain per pass of their tooth.
+    pub offset_gain: f64,
+    force_dt_s: f64,
+    theta0: f64,
+    t0: f64,
+    n: usize,
+    last_pass: Option<i64>,
+}
+
+impl WallInstants {
+    fn new(teeth: usize, force_dt_s: f64, r0_n2: f64) -> Self {
+        let mut scale = ScaleEstimator::new(r0_n2);
+        // one update per pass (≈ 166 Hz here): a time constant of about 3 passes at constant
+        // conditions
+        scale.q = 2.5e-6;
+        Self {
+            scale,
+            tooth_offsets_n: vec![0.0; teeth],
+            offset_gain: 0.2,
+            force_dt_s,
+            theta0: f64::NAN,
+            t0: 0.0,
+            n: 0,
+            last_pass: None,
+        }
+    }
+
+    /// The pass index at angle `theta` (a pass `p` happens at `pass_angle + 2πp/Z`).
+    fn pass_index(plan: &WallForcePlan, theta: f64) -> i64 {
+        ((theta - plan.pass_angle_rad) * plan.teeth as f64 / (2.0 * PI)).floor() as i64
+    }
+
+    /// The time of pass `p` from this cycle's start angle and time.
+    fn pass_time(&self, plan: &WallForcePlan, p: i64) -> f64 {
+        let angle = plan.pass_angle_rad + 2.0 * PI * p as f64 / plan.teeth as f64;
+        self.t0 + (angle - self.theta0) / plan.omega_rad_s
+    }
+
+    /// The planned deflection (µm) a pass `p` at time `t` generates the wall with.
+    fn deflection_at_pass(&self, plan: &NcPlan, p: i64, t: f64) -> f64 {
+        let tooth = p.rem_euclid(plan.wall.teeth as i64) as usize;
+        let h = plan.wall_force_n_at(t);
+        if h <= 0.0 {
+            return 0.0;
+        }
+        (self.scale.s * h + self.tooth_offsets_n[tooth]) / plan.wall.k_n_per_um
+    }
+
+    /// The planned deflection (µm) at time `t`: between the passes around it, linear in time.
+    fn deflection_at(&self, plan: &NcPlan, t: f64) -> f64 {
+        let theta = self.theta0 + plan.wall.omega_rad_s * (t - self.t0);
+        let pa = Self::pass_index(&plan.wall, theta);
+        let (ta, tb) = (
+            self.pass_time(&plan.wall, pa),
+            self.pass_time(&plan.wall, pa + 1),
+        );
+        let (da, db) = (
+            self.deflection_at_pass(plan, pa, ta),
+            self.deflection_at_pass(plan, pa + 1, tb),
+        );
+        let w = ((t - ta) / (tb - ta)).clamp(0.0, 1.0);
+        da + w * (db - da)
+    }
+
+    /// A new cycle `k` at spindle angle `theta` (rad).
+    fn start_cycle(&mut self, plan: &NcPlan, k: usize, theta: f64) {
+        self.t0 = k as f64 * plan.wall.cycle_s;
+        self.theta0 = theta;
+        self.n = 0;
+        if self.last_pass.is_none() {
+            self.last_pass = Some(Self::pass_index(&plan.wall, theta));
+        }
+    }
+
+    /// One force sample (N); at a pass, learn from it (`range_n`: the planned wall force's range over
+    /// the estimator's window).
+    fn sample(&mut self, plan: &NcPlan, f: f64, range_n: f64) {
+        if !self.theta0.is_finite() {
+            return;
+        }
+        self.n += 1;
+        let t = self.t0 + self.n as f64 * self.force_dt_s;
+        let theta = self.theta0 + plan.wall.omega_rad_s * (t - self.t0);
+        let p = Self::pass_index(&plan.wall, theta);
+        if self.last_pass == Some(p) {
+            return;
+        }
+        self.last_pass = Some(p);
+        if !f.is_finite() {
+            return;
+        }
+        let tooth = p.rem_euclid(plan.wall.teeth as i64) as usize;
+        let h = plan.wall_force_n_at(t);
+        self.scale
+            .update(f - self.tooth_offsets_n[tooth], h, range_n);
+        // the offsets only at constant conditions (1 % of the force)
+        if h.abs() >= self.scale.min_force_n && range_n < 0.01 * h.abs() {
+            let a = &mut self.tooth_offsets_n[tooth];
+            *a += self.offset_gain * ((f - self.scale.s * h) - *a);
+            let mean = self.tooth_offsets_n.iter().sum::<f64>() / self.tooth_offsets_n.len() as f64;
+            for a in &mut self.tooth_offsets_n {
+                *a -= mean;
+            }
         }
     }
 }
@@ -860,6 +1308,8 @@ pub struct MpcNc {
     window: usize,
     horizon: usize,
     preview: PreviewWindow,
+    wall: Option<WallInstants>,
+    wall_window: usize,
 }
 
 impl MpcNc {
@@ -895,7 +1345,6 @@ impl MpcNc {
             mpc,
             plan_chain: meas_chain.clone(),
             meas_chain,
-            plan,
             meas: 0.0,
             planned: 0.0,
             cycle: 0,
@@ -903,7 +1352,21 @@ impl MpcNc {
             window: settings.estimator_window_cycles,
             horizon,
             preview: PreviewWindow::zeros(horizon, 1),
+            wall: settings.wall_instants.then(|| {
+                WallInstants::new(
+                    plan.wall.teeth,
+                    channel.force_dt_s,
+                    force_noise_n * force_noise_n,
+                )
+            }),
+            wall_window: settings.wall_window_cycles,
+            plan,
         })
+    }
+
+    /// The wall-instant planning's state (`None` when off).
+    pub fn wall_instants(&self) -> Option<&WallInstants> {
+        self.wall.as_ref()
     }
 
     /// The estimator's current state.
@@ -921,6 +1384,13 @@ impl NcController for MpcNc {
             self.meas = self.meas_chain.step(f);
         }
         self.planned = self.plan_chain.step(self.plan.force_n(self.cycle));
+        if let Some(w) = self.wall.as_mut() {
+            let k = self.cycle;
+            let range = self
+                .plan
+                .wall_force_range_n(k.saturating_sub(self.wall_window), k + 1);
+            w.sample(&self.plan, f, range);
+        }
     }
     fn cycle(&mut self, c: &NcCycle) -> Result<f64, MpcError> {
         let cycle_start = std::time::Instant::now();
@@ -931,10 +1401,24 @@ impl NcController for MpcNc {
             .force_range_n(k.saturating_sub(self.window), k + 1);
         self.estimator.update(self.meas, self.planned, range);
         let s = self.estimator.s;
-        let w0 = s * self.plan.deflection_um(k);
+        let ts = self.plan.cycle_s();
+        let w0 = match self.wall.as_mut() {
+            Some(w) if c.spindle_angle_rad.is_finite() => {
+                w.start_cycle(&self.plan, k, c.spindle_angle_rad);
+                for j in 0..self.horizon {
+                    self.preview.offsets[j] = w.deflection_at(&self.plan, (k + 1 + j) as f64 * ts);
+                }
+                w.deflection_at(&self.plan, k as f64 * ts)
+            }
+            _ => {
+                for j in 0..self.horizon {
+                    self.preview.offsets[j] = s * self.plan.deflection_um(k + 1 + j);
+                }
+                s * self.plan.deflection_um(k)
+            }
+        };
         self.preview.offset_now[0] = w0;
         for j in 0..self.horizon {
-            self.preview.offsets[j] = s * self.plan.deflection_um(k + 1 + j);
             self.preview.reference[j] = 0.0;
         }
         let y = if c.y_axis_um.is_finite() {
@@ -988,6 +1472,123 @@ mod tests {
         // unit gain: a position loop follows its reference
         assert!((want[59] - 100.0).abs() < 0.2);
         assert!(IdentifiedFeedAxis::new(&fit(&[("dead_time_s", 0.005)])).is_err());
+    }
+
+    #[test]
+    fn a_measured_step_response_model_reproduces_the_trace() {
+        // a trace of the 4 ms + 12 ms dead time + lag recursion: step up at cycle 10, down at 70
+        let ax =
+            IdentifiedFeedAxis::new(&fit(&[("dead_time_s", 0.004), ("lag_s", 0.012)])).unwrap();
+        // then a ramp to 100 and a hold: its last increment is no step from rest
+        let r: Vec<f64> = (0..230)
+            .map(|i| match i {
+                10..70 => 100.0,
+                130..180 => 2.0 * (i - 130) as f64,
+                180.. => 100.0,
+                _ => 0.0,
+            })
+            .collect();
+        let p = ax.respond(&r, 0.002);
+        let st = IdentifiedFeedAxis::step_response_from_trace(&r, &p).unwrap();
+        // the step down at 70 (from 60 cycles of rest, held 61 cycles); the step up at 10 follows
+        // only 10 cycles of rest and is left out
+        assert_eq!(st.len(), 61);
+        // nothing for the 4 ms (two cycles) of dead time, then the lag: 1 − e^(−2 ms/12 ms) one
+        // cycle later (the axis had settled to 6e-5 of the step before it)
+        assert!(st[..3].iter().all(|v| v.abs() < 1e-4), "{:?}", &st[..3]);
+        assert!(
+            (st[3] - (1.0 - (-1.0f64 / 6.0).exp())).abs() < 1e-4,
+            "{}",
+            st[3]
+        );
+        let m = ax.clone().with_step_response(st, 0.002).unwrap();
+        assert!(m.has_step_response());
+        // a ramp and a sine (up to 170 µm) through the FIR and through the recursion: the same within
+        // the 60-cycle truncation (e^(−116/12) = 6e-5 of a step) and the down step's start, not quite
+        // settled
+        let u: Vec<f64> = (0..300)
+            .map(|i| 0.5 * i as f64 + 20.0 * (0.3 * i as f64).sin())
+            .collect();
+        let want = ax.respond(&u, 0.002);
+        let got = m.respond(&u, 0.002);
+        let lti = m.discrete(0.002).unwrap();
+        // the state-space form from rest at u_0 … the FIR's registers hold u_0 before the start
+        let mut x = nalgebra::DVector::from_element(lti.n_states(), u[0]);
+        for (i, ui) in u.iter().enumerate() {
+            let y = (lti.c.clone() * &x)[0];
+            assert!(
+                (got[i] - want[i]).abs() < 0.02,
+                "respond, cycle {i}: {} vs {}",
+                got[i],
+                want[i]
+            );
+            assert!(
+                (y - want[i]).abs() < 0.02,
+                "discrete, cycle {i}: {y} vs {}",
+                want[i]
+            );
+            x = &lti.a * &x + &lti.b * *ui;
+        }
+        // another cycle than the measured one falls back to the dead time + lag
+        assert_eq!(m.respond(&u, 0.001), ax.respond(&u, 0.001));
+    }
+
+    #[test]
+    fn the_wall_instants_learn_the_force_at_the_passes_per_tooth() {
+        // 003's slot at a constant 500 mm/min over a 40 mm blank, a commissioned-like model
+        let program = NcProgram {
+            feed_changes: vec![],
+            blank_end_mm: 40.0,
+            end_mm: 50.0,
+            ..NcProgram::brecher_003()
+        };
+        let interp = NcInterpolator::new(&program, 10).unwrap();
+        let force = IdentifiedKienzle::new(
+            &fit(&[
+                ("kc11_n_mm2", 1800.0),
+                ("mc", 0.25),
+                ("kr11_n_mm2", 550.0),
+                ("mr", 0.45),
+            ]),
+            &NominalEndMill::brecher_003(),
+        )
+        .unwrap();
+        let axis =
+            IdentifiedFeedAxis::new(&fit(&[("dead_time_s", 0.006), ("lag_s", 0.010)])).unwrap();
+        let k = IdentifiedNcStiffness::new(&fit(&[("stiffness_n_per_um", 14.0)])).unwrap();
+        let plan = NcPlan::new(&program, &interp, &force, &axis, &k, 1.0).unwrap();
+        // the platform: 4 % above the plan at the passes, plus a per-tooth pattern (zero mean), and
+        // something else between the passes (never used)
+        let pattern = [60.0, -20.0, -50.0, 30.0, -20.0];
+        let (ts, dt) = (plan.cycle_s(), 1e-4);
+        let omega = plan.wall.omega_rad_s;
+        let theta0 = 0.3;
+        let mut w = WallInstants::new(5, dt, 4.0);
+        let n_cycles = interp.cycle_at_x(30.0).unwrap();
+        for c in 0..n_cycles {
+            let t0 = c as f64 * ts;
+            w.start_cycle(&plan, c, theta0 + omega * t0);
+            let range = plan.wall_force_range_n(c.saturating_sub(2), c + 1);
+            for n in 1..=20 {
+                let t = t0 + n as f64 * dt;
+                let p = WallInstants::pass_index(&plan.wall, theta0 + omega * t);
+                let f = 1.04 * plan.wall_force_n_at(t) + pattern[p.rem_euclid(5) as usize];
+                w.sample(&plan, f, range);
+            }
+        }
+        assert!((w.scale.s - 1.04).abs() < 2e-3, "{}", w.scale.s);
+        for (a, b) in w.tooth_offsets_n.iter().zip(pattern) {
+            assert!((a - b).abs() < 5.0, "{:?}", w.tooth_offsets_n);
+        }
+        // the preview at a pass instant is that pass' deflection; between passes it lies between
+        let c = n_cycles;
+        w.start_cycle(&plan, c, theta0 + omega * c as f64 * ts);
+        let p = WallInstants::pass_index(&plan.wall, theta0 + omega * c as f64 * ts) + 1;
+        let tp = w.pass_time(&plan.wall, p);
+        let d = w.deflection_at_pass(&plan, p, tp);
+        assert!((w.deflection_at(&plan, tp) - d).abs() < 1e-9);
+        let want = (1.04 * plan.wall_force_n_at(tp) + pattern[p.rem_euclid(5) as usize]) / 14.0;
+        assert!((d - want).abs() < 0.5, "{d} vs {want}");
     }
 
     #[test]

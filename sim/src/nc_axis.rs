@@ -796,6 +796,10 @@ pub struct WallPoint {
     pub error_um: f64,
     /// The tool deflection's part of it (µm): the error without any compensation.
     pub deflection_um: f64,
+    /// Time (s) at the end of the stage step that generated it (the y axis' position and the deflection
+    /// of that step make it).
+    #[serde(default)]
+    pub t_s: f64,
 }
 
 /// The steppable NC stage.
@@ -902,6 +906,11 @@ impl NcAxisStage {
         &self.wall
     }
 
+    /// The spindle's angle (rad, accumulated since the start; what the NC's spindle encoder reads).
+    pub fn spindle_angle_rad(&self) -> f64 {
+        self.theta
+    }
+
     /// Actual axis positions (x mm, y µm).
     pub fn axes(&self) -> (f64, f64) {
         (self.x_axis.position(), self.y_axis.position())
@@ -952,6 +961,7 @@ impl NcAxisStage {
                     x_mm: x,
                     error_um: y + delta,
                     deflection_um: delta,
+                    t_s: t,
                 });
             }
             self.last_pass = pass;
@@ -1001,7 +1011,7 @@ impl ContourDevice {
     /// ```
     /// use millcomp_sim::nc_axis::{ContourDevice, WallPoint};
     /// let wall: Vec<WallPoint> = (0..=1000)
-    ///     .map(|i| WallPoint { x_mm: i as f64 * 0.05, error_um: 3.0, deflection_um: 3.0 })
+    ///     .map(|i| WallPoint { x_mm: i as f64 * 0.05, error_um: 3.0, deflection_um: 3.0, t_s: 0.0 })
     ///     .collect();
     /// let dev = ContourDevice { noise_um: 0.0, ..ContourDevice::default() };
     /// let c = dev.measure(&wall, 1.0, 49.0, 7).unwrap();
@@ -1072,6 +1082,101 @@ impl ContourDevice {
                 }
             }
             out.push((from_mm + i as f64 * self.spacing_mm, s / sw));
+        }
+        Ok(out)
+    }
+
+    /// [`Self::measure`] without its noise as a linear map of the wall points' errors: row `i` (the
+    /// contour at `from_mm + i·spacing_mm`) lists `(index into wall, weight)` such that the noise-free
+    /// measurement is `Σ weight · wall[index].error_um` — the interpolation onto the grid and the
+    /// Gaussian filter, both linear. Points with a non-finite position or error are skipped, as
+    /// [`Self::measure`] skips them. A measurement with noise is this map plus the measurement of a
+    /// zero wall with the same seed.
+    ///
+    /// ```
+    /// use millcomp_sim::nc_axis::{ContourDevice, WallPoint};
+    /// let wall: Vec<WallPoint> = (0..=200)
+    ///     .map(|i| WallPoint { x_mm: i as f64 * 0.05, error_um: (i as f64).sin(), deflection_um: 0.0, t_s: 0.0 })
+    ///     .collect();
+    /// let dev = ContourDevice { noise_um: 0.0, ..ContourDevice::default() };
+    /// let c = dev.measure(&wall, 1.0, 9.0, 7).unwrap();
+    /// let map = dev.linear_map(&wall, 1.0, 9.0).unwrap();
+    /// for (row, (_, y)) in map.iter().zip(&c) {
+    ///     let v: f64 = row.iter().map(|&(j, w)| w * wall[j].error_um).sum();
+    ///     assert!((v - y).abs() < 1e-12);
+    /// }
+    /// ```
+    ///
+    /// # Errors
+    /// As [`Self::measure`].
+    pub fn linear_map(
+        &self,
+        wall: &[WallPoint],
+        from_mm: f64,
+        to_mm: f64,
+    ) -> Result<Vec<Vec<(usize, f64)>>, SimError> {
+        check_positive("spacing_mm", self.spacing_mm)?;
+        check_positive("cutoff_mm", self.cutoff_mm)?;
+        let pts: Vec<(usize, f64)> = wall
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.x_mm.is_finite() && p.error_um.is_finite())
+            .map(|(i, p)| (i, p.x_mm))
+            .collect();
+        if to_mm.partial_cmp(&from_mm) != Some(std::cmp::Ordering::Greater) || pts.len() < 2 {
+            return Err(SimError::InvalidParameter {
+                name: "to_mm",
+                value: to_mm,
+                allowed: "> from_mm, with at least two wall points",
+            });
+        }
+        let n = ((to_mm - from_mm) / self.spacing_mm).floor() as usize + 1;
+        // the interpolation of each grid point: (wall index, weight) × 2
+        let mut raw: Vec<[(usize, f64); 2]> = Vec::with_capacity(n);
+        let mut j = 0usize;
+        for i in 0..n {
+            let x = from_mm + i as f64 * self.spacing_mm;
+            while j + 1 < pts.len() - 1 && pts[j + 1].1 < x {
+                j += 1;
+            }
+            let (a, b) = (pts[j], pts[(j + 1).min(pts.len() - 1)]);
+            raw.push(if b.1 > a.1 {
+                let w = ((x - a.1) / (b.1 - a.1)).clamp(0.0, 1.0);
+                [(a.0, 1.0 - w), (b.0, w)]
+            } else {
+                [(a.0, 1.0), (b.0, 0.0)]
+            });
+        }
+        let alpha = (2f64.ln() / PI).sqrt();
+        let half = (self.cutoff_mm / self.spacing_mm).ceil() as isize;
+        let w: Vec<f64> = (-half..=half)
+            .map(|k| {
+                let x = k as f64 * self.spacing_mm / (alpha * self.cutoff_mm);
+                (-PI * x * x).exp()
+            })
+            .collect();
+        let mut out = Vec::with_capacity(n);
+        for i in 0..n as isize {
+            let mut row: Vec<(usize, f64)> = Vec::new();
+            let mut sw = 0.0;
+            for (kk, wk) in w.iter().enumerate() {
+                let m = i + kk as isize - half;
+                if m >= 0 && (m as usize) < n {
+                    sw += wk;
+                    for &(idx, c) in &raw[m as usize] {
+                        if c != 0.0 {
+                            match row.iter_mut().find(|(r, _)| *r == idx) {
+                                Some(e) => e.1 += wk * c,
+                                None => row.push((idx, wk * c)),
+                            }
+                        }
+                    }
+                }
+            }
+            for e in &mut row {
+                e.1 /= sw;
+            }
+            out.push(row);
         }
         Ok(out)
     }

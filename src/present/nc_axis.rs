@@ -33,6 +33,34 @@ pub fn print_wall(nc: &NcAxisReport) {
         "  exit: undersize {:.2} um (wall from {:.2} to {:.2} um over the last 9 mm)",
         w.exit_undersize_um, w.exit_min_um, w.exit_max_um
     );
+    let um = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
+    println!(
+        "  physical limit (any controller, one correction per NC cycle through the true axis, the deflection known in advance):"
+    );
+    if w.feed_step_peak_um.is_some() {
+        println!(
+            "    feed step: peak >= {} um, excess >= {} um",
+            um(w.feed_step_peak_bound_um),
+            um(w.feed_step_excess_bound_um)
+        );
+    }
+    println!(
+        "    exit: wall within +/- {} um at best",
+        um(w.exit_bound_um)
+    );
+    if let Some(c) = &w.certainty_equivalent {
+        println!(
+            "  certainty-equivalent wall (the measured force known in advance, over the commissioned stiffness):"
+        );
+        println!(
+            "    static error {:.2} um; feed step peak {} um, excess {} um; exit undersize {:.2} um; peak-to-peak {:.2} um",
+            c.static_error_um,
+            um(c.feed_step_peak_um),
+            um(c.feed_step_excess_um),
+            c.exit_undersize_um,
+            c.pp_um
+        );
+    }
     println!(
         "commissioned models (estimate, SE; the truth's value where its structure is the same):"
     );

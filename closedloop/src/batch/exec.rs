@@ -41,7 +41,9 @@ pub struct RunMetrics {
     #[serde(default)]
     pub optimum_pp_um: Option<f64>,
     /// The smallest excess any controller could leave at the change where this run's excess is largest
-    /// (`crate::optimum::excess_lower_bound`); absent without a change.
+    /// (`crate::optimum::excess_lower_bound`); absent without a change. NC rows: the smallest feed-step
+    /// peak any controller could leave (`crate::nc_axis_bound`), a lower bound of their
+    /// `change_excess_um` (the larger of the feed step's peak and the exit's undersize).
     #[serde(default)]
     pub change_bound_um: Option<f64>,
     /// MPC only: median QP solve time of the run (µs) — wall-clock, so informative: not in the results
@@ -133,7 +135,12 @@ impl ClosedLoop for MpcClosedLoop {
                 .changes
                 .iter()
                 .max_by(|a, b| a.excess_um.total_cmp(&b.excess_um))
-                .and_then(|c| c.bound_um),
+                .and_then(|c| c.bound_um)
+                .or_else(|| {
+                    r.nc_axis
+                        .as_ref()
+                        .and_then(|n| n.wall.feed_step_peak_bound_um)
+                }),
             solve_median_us: r.solver.map(|s| s.median_us),
             solve_p99_us: r.solver.map(|s| s.p99_us),
             solve_max_us: r.solver.map(|s| s.max_us),
