@@ -47,7 +47,7 @@ impl RealRecord {
     /// Reads the embedded copy as the file would be read.
     ///
     /// # Errors
-    /// Those of [`read_any_str`](crate::read_any_str) — for a shipped record only if it were
+    /// Those of [`read_any_str`] — for a shipped record only if it were
     /// broken, which the test suite rules out.
     pub fn load(&self) -> Result<Table, DatasetError> {
         read_any_str(&self.path(), self.csv)

@@ -1,5 +1,5 @@
 //! Curve fitting with closures: `y ≈ f(x, θ)` by the nonlinear least squares of
-//! [`fit_nonlinear`](crate::fit_nonlinear), without implementing any trait.
+//! [`fit_nonlinear`], without implementing any trait.
 //!
 //! The model is a closure `f(&x, θ) → ŷ` over the points `x` (any type: a number, an array of
 //! predictors, a struct); the Jacobian `∂ŷ/∂θ` is an optional second closure writing one row,

@@ -47,7 +47,7 @@ pub struct FeedAxisOptions {
 }
 
 /// The model's response to `reference` from `p0`, cycle `cycle_s`, parameters `[dead_time_s, lag_s]`:
-/// the physics crate's [`dead_time_lag_response`].
+/// the physics crate's [`dead_time_lag_response`](millcomp_sim::nc_axis::dead_time_lag_response).
 pub use millcomp_sim::nc_axis::dead_time_lag_response as response;
 
 /// Residual operator `[dead_time_s, lag_s] ↦ response − position`.
