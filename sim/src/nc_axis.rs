@@ -1006,6 +1006,21 @@ impl Default for ContourDevice {
 }
 
 impl ContourDevice {
+    /// The profile filter's weights on the sampling grid, unnormalised, and their half-width in
+    /// samples: ISO 16610-21's Gaussian s(x) = exp(−π (x/(α λc))²)/(α λc), α = √(ln 2/π),
+    /// truncated at ±λc.
+    fn gaussian_weights(&self) -> (isize, Vec<f64>) {
+        let alpha = (2f64.ln() / PI).sqrt();
+        let half = (self.cutoff_mm / self.spacing_mm).ceil() as isize;
+        let w = (-half..=half)
+            .map(|k| {
+                let x = k as f64 * self.spacing_mm / (alpha * self.cutoff_mm);
+                (-PI * x * x).exp()
+            })
+            .collect();
+        (half, w)
+    }
+
     /// Measure the wall between `from_mm` and `to_mm`: `(x_mm, error_um)` every `spacing_mm`.
     ///
     /// ```
@@ -1062,15 +1077,7 @@ impl ContourDevice {
             };
             raw.push(y + noise.sample());
         }
-        // ISO 16610-21: s(x) = exp(−π (x/(α λc))²)/(α λc), α = √(ln 2/π), truncated at ±λc
-        let alpha = (2f64.ln() / PI).sqrt();
-        let half = (self.cutoff_mm / self.spacing_mm).ceil() as isize;
-        let w: Vec<f64> = (-half..=half)
-            .map(|k| {
-                let x = k as f64 * self.spacing_mm / (alpha * self.cutoff_mm);
-                (-PI * x * x).exp()
-            })
-            .collect();
+        let (half, w) = self.gaussian_weights();
         let mut out = Vec::with_capacity(n);
         for i in 0..n as isize {
             let (mut s, mut sw) = (0.0, 0.0);
@@ -1147,14 +1154,7 @@ impl ContourDevice {
                 [(a.0, 1.0), (b.0, 0.0)]
             });
         }
-        let alpha = (2f64.ln() / PI).sqrt();
-        let half = (self.cutoff_mm / self.spacing_mm).ceil() as isize;
-        let w: Vec<f64> = (-half..=half)
-            .map(|k| {
-                let x = k as f64 * self.spacing_mm / (alpha * self.cutoff_mm);
-                (-PI * x * x).exp()
-            })
-            .collect();
+        let (half, w) = self.gaussian_weights();
         let mut out = Vec::with_capacity(n);
         for i in 0..n as isize {
             let mut row: Vec<(usize, f64)> = Vec::new();
