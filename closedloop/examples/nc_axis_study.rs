@@ -1,24 +1,42 @@
 //! Issue 16's study of the NC feed-axis stage (003): every "Must show" figure, medians with
-//! distribution-free 95 % intervals over seeds.
+//! distribution-free 95 % intervals over seeds, next to the stage's references
+//! (`millcomp_closedloop::nc_axis_bound`: the physical limit of any controller correcting the y
+//! reference once per NC cycle, and the certainty-equivalent wall of one that knows the measured force
+//! in advance but the stiffness only as commissioned).
 //!
-//! `cargo run --release -p millcomp-closedloop --example nc_axis_study -- [--seeds N] [--band-seeds M]`
+//! `cargo run --release -p millcomp-closedloop --example nc_axis_study -- [--seeds N] [--band-seeds M]
+//! [--out DIR] [--sections 1,2,…]` (default: all seven sections below, the figure in `nc_axis_study/`)
 //!
 //! 1. The published groove (`nc_c45_feed_step.toml`: feed 500 → 1000 mm/min at 90 mm, exit at 185 mm)
 //!    with `none`, `reactive`, `proactive`, `mpc` over seeds 1..=N (default 10): static error removed,
 //!    the feed step's peak and excess, the ringing of the correction, the exit's undersize, the
-//!    deflection step (a model output), and per seed the ratios proactive/reactive and mpc/proactive.
+//!    deflection step (a model output), per seed the ratios proactive/reactive and mpc/proactive, and
+//!    the references.
 //! 2. The band: machine stiffness 20 / 30 / 50 N/µm × overhang 3 / 3.5 / 4 D, seeds 1..=M (default 3)
 //!    at each point; per point the median of each figure; the band is their range.
 //! 3. The exit alone (`nc_c45_exit.toml`) over seeds 1..=N.
 //! 4. Ablation: the proactive offset curve superimposed only while the reference acceleration is
 //!    non-zero (the literal reading of 003 Fig. 3's caption) on the published groove.
+//! 5. What each of the MPC's parts buys: the shipped MPC against it without planning for the wall
+//!    instants and with the dead time + lag axis model instead of the measured step response, on the
+//!    groove and the exit, seeds 1..=N.
+//! 6. The NC's feed change: the published groove with the feed change limited in acceleration only
+//!    (no jerk limit, 4.2 ms instead of 25.8 ms) — 003 names neither; seeds 1..=N — and the reactive
+//!    controller's actuating value after the step under both, normalised, beside the notch chain's
+//!    own response to a force step (`DIR/ringing.csv`, `DIR/ringing.svg`, seed 1).
+//! 7. Convergence of the truth's force model at the exit: the groove with 32 axial elements of the
+//!    cutting edge instead of 8, seeds 1..=N.
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use millcomp_closedloop::compare::median_ci95;
-use millcomp_closedloop::{ControllerKind, RunReport, Scenario, run_scenario};
+use millcomp_closedloop::nc_axis::NcAxisModel;
+use millcomp_closedloop::{
+    ControllerKind, RunReport, Scenario, run_scenario, run_scenario_with_trace,
+};
 use millcomp_mpc::nc_axis::OffsetWindow;
 use rayon::prelude::*;
 
@@ -38,11 +56,24 @@ fn figures(r: &RunReport) -> Figures {
     f.insert("static_error_um", w.static_error_um);
     f.insert("exit_undersize_um", w.exit_undersize_um);
     f.insert("exit_min_um", w.exit_min_um);
+    f.insert("exit_max_um", w.exit_max_um);
+    let ce = w.certainty_equivalent;
     for (k, v) in [
         ("feed_step_peak_um", w.feed_step_peak_um),
         ("feed_step_excess_um", w.feed_step_excess_um),
         ("ringing_um", w.feed_step_oscillation_um),
         ("deflection_step_um", w.deflection_step_um),
+        ("feed_step_peak_bound_um", w.feed_step_peak_bound_um),
+        ("feed_step_excess_bound_um", w.feed_step_excess_bound_um),
+        ("exit_bound_um", w.exit_bound_um),
+        ("ce_static_error_um", ce.map(|c| c.static_error_um)),
+        ("ce_feed_step_peak_um", ce.and_then(|c| c.feed_step_peak_um)),
+        (
+            "ce_feed_step_excess_um",
+            ce.and_then(|c| c.feed_step_excess_um),
+        ),
+        ("ce_exit_undersize_um", ce.map(|c| c.exit_undersize_um)),
+        ("ce_exit_max_um", ce.map(|c| c.exit_max_um)),
     ] {
         if let Some(v) = v {
             f.insert(k, v);
@@ -120,41 +151,221 @@ fn ratio(
         .collect()
 }
 
-/// A markdown table: one row per figure, one column per controller of [`KINDS`].
-fn table(r: &BTreeMap<(usize, u64), Figures>, seeds: &[u64], names: &[&str]) {
-    println!(
-        "| figure | {} |",
-        KINDS
-            .iter()
-            .map(|k| k.name())
-            .collect::<Vec<_>>()
-            .join(" | ")
-    );
-    println!("|---|{}", "---|".repeat(KINDS.len()));
+/// A markdown table: one row per figure, one column per controller of `kinds` (named `labels`).
+fn table(r: &BTreeMap<(usize, u64), Figures>, labels: &[&str], seeds: &[u64], names: &[&str]) {
+    println!("| figure | {} |", labels.join(" | "));
+    println!("|---|{}", "---|".repeat(labels.len()));
     for name in names {
-        let cells: Vec<String> = (0..KINDS.len())
+        let cells: Vec<String> = (0..labels.len())
             .map(|k| cell(column(r, k, seeds, name)))
             .collect();
         println!("| {name} | {} |", cells.join(" | "));
     }
 }
 
+/// The references of a run set (the same for every controller of a seed: taken from `kind`'s runs).
+fn references(r: &BTreeMap<(usize, u64), Figures>, kind: usize, seeds: &[u64], names: &[&str]) {
+    let cells: Vec<String> = names
+        .iter()
+        .map(|n| format!("{n} {}", cell(column(r, kind, seeds, n))))
+        .collect();
+    println!("references: {}", cells.join("; "));
+}
+
+/// The reactive controller's actuating value (the correction it commands, per NC cycle) from 10 ms
+/// before to 200 ms after the first feed change starts, on `s` seed 1, normalised: 0 before the
+/// change (its mean over the 10 ms), 1 after it (its mean from 150 to 200 ms).
+fn actuating_after_step(s: &Scenario) -> Result<Vec<(f64, f64)>, Box<dyn std::error::Error>> {
+    let mut sc = s.clone();
+    sc.seed = 1;
+    let out = run_scenario_with_trace(&sc, ControllerKind::Reactive)?;
+    let col = |name: &str| {
+        out.trace
+            .columns
+            .iter()
+            .position(|c| c == name)
+            .ok_or(format!("no {name} column"))
+    };
+    let (ia, iu) = (col("a_cmd_mm_s2")?, col("correction_um")?);
+    let cycle = sc.nc_axis.as_ref().ok_or("no [nc_axis]")?.program.cycle_s;
+    let c = |t: f64| (t / cycle).round() as usize;
+    let start = out
+        .trace
+        .rows
+        .iter()
+        .position(|r| r[ia] != 0.0)
+        .ok_or("no feed change")?;
+    let rows = out
+        .trace
+        .rows
+        .get(start - c(0.01)..start + c(0.2))
+        .ok_or("trace too short")?;
+    let u: Vec<f64> = rows.iter().map(|r| r[iu]).collect();
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let (u0, u1) = (mean(&u[..c(0.01)]), mean(&u[c(0.16)..]));
+    Ok(u.iter()
+        .enumerate()
+        .map(|(i, v)| {
+            (
+                (i as f64 - c(0.01) as f64) * cycle * 1e3,
+                (v - u0) / (u1 - u0),
+            )
+        })
+        .collect())
+}
+
+/// The notch chain + low-pass of 003 (the reactive controller's filter) fed a force step at t = 0,
+/// read every NC cycle, from −10 to 200 ms.
+fn chain_step(s: &Scenario) -> Result<Vec<(f64, f64)>, Box<dyn std::error::Error>> {
+    let nc = s.nc_axis.as_ref().ok_or("no [nc_axis]")?;
+    let mut chain = nc.channel().chain()?;
+    let per_cycle = (nc.program.cycle_s / nc.control.dt_s).round() as usize;
+    let mut out = Vec::new();
+    let mut last = 0.0;
+    for k in 0..105 {
+        let t_ms = (k as f64 - 5.0) * nc.program.cycle_s * 1e3;
+        out.push((t_ms, last));
+        for _ in 0..per_cycle {
+            last = chain.step(if t_ms >= 0.0 { 1.0 } else { 0.0 });
+        }
+    }
+    Ok(out)
+}
+
+/// The first overshoot beyond 1 and the undershoot after it of a normalised step response.
+fn swing(v: &[(f64, f64)]) -> (f64, f64) {
+    let Some(i) = v.iter().position(|p| p.1 >= 1.0) else {
+        return (0.0, 0.0);
+    };
+    let (mut hi, mut at) = (1.0f64, i);
+    for (j, p) in v.iter().enumerate().skip(i) {
+        if p.1 > hi {
+            hi = p.1;
+            at = j;
+        }
+        if p.1 < 1.0 {
+            break;
+        }
+    }
+    let lo = v[at..].iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
+    (hi - 1.0, 1.0 - lo)
+}
+
+/// A line plot of `series` (label, points).
+fn lines_svg(series: &[(String, Vec<(f64, f64)>)], title: &str, x_label: &str) -> String {
+    let (w, h, l, r, t, b) = (900.0, 420.0, 70.0, 20.0, 40.0, 50.0);
+    let all = || series.iter().flat_map(|s| s.1.iter().copied());
+    let (x0, x1) = all().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+        (a.min(p.0), b.max(p.0))
+    });
+    let (y0, y1) = all().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+        (a.min(p.1), b.max(p.1))
+    });
+    let pad = 0.05 * (y1 - y0).max(1e-9);
+    let (y0, y1) = (y0 - pad, y1 + pad);
+    let px = |x: f64| l + (w - l - r) * (x - x0) / (x1 - x0).max(1e-9);
+    let py = |y: f64| h - b - (h - t - b) * (y - y0) / (y1 - y0);
+    let mut svg = String::new();
+    let _ = writeln!(
+        svg,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" font-family="sans-serif" font-size="12">"#
+    );
+    let _ = writeln!(svg, r#"<rect width="{w}" height="{h}" fill="white"/>"#);
+    let _ = writeln!(
+        svg,
+        r#"<text x="{}" y="22" text-anchor="middle" font-size="14">{title}</text>"#,
+        w / 2.0
+    );
+    for yv in [0.0, 1.0] {
+        let _ = writeln!(
+            svg,
+            r##"<line x1="{l}" y1="{0:.1}" x2="{1}" y2="{0:.1}" stroke="#bbb" stroke-dasharray="4 3"/>"##,
+            py(yv),
+            w - r
+        );
+    }
+    let _ = writeln!(
+        svg,
+        r#"<line x1="{l}" y1="{0}" x2="{1}" y2="{0}" stroke="black"/><line x1="{l}" y1="{t}" x2="{l}" y2="{0}" stroke="black"/>"#,
+        h - b,
+        w - r
+    );
+    for k in 0..=5 {
+        let xv = x0 + (x1 - x0) * k as f64 / 5.0;
+        let yv = y0 + (y1 - y0) * k as f64 / 5.0;
+        let _ = writeln!(
+            svg,
+            r#"<text x="{:.1}" y="{}" text-anchor="middle">{xv:.0}</text><text x="{}" y="{:.1}" text-anchor="end">{yv:.2}</text>"#,
+            px(xv),
+            h - b + 16.0,
+            l - 6.0,
+            py(yv) + 4.0
+        );
+    }
+    let _ = writeln!(
+        svg,
+        r#"<text x="{}" y="{}" text-anchor="middle">{x_label}</text>"#,
+        (l + w - r) / 2.0,
+        h - 12.0
+    );
+    for (i, (label, v)) in series.iter().enumerate() {
+        let color = ["#d62728", "#1f77b4", "#2ca02c", "#9467bd"][i % 4];
+        let pts: Vec<String> = v
+            .iter()
+            .filter(|p| p.0.is_finite() && p.1.is_finite())
+            .map(|p| format!("{:.1},{:.1}", px(p.0), py(p.1)))
+            .collect();
+        let _ = writeln!(
+            svg,
+            r#"<polyline fill="none" stroke="{color}" stroke-width="1.5" points="{}"/>"#,
+            pts.join(" ")
+        );
+        let _ = writeln!(
+            svg,
+            r#"<text x="{}" y="{}" fill="{color}" text-anchor="end">{label}</text>"#,
+            w - r - 8.0,
+            h - b - 16.0 * (series.len() - i) as f64
+        );
+    }
+    svg.push_str("</svg>\n");
+    svg
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut n_seeds, mut band_seeds) = (10u64, 3u64);
+    let mut out_dir = PathBuf::from("nc_axis_study");
+    let mut sections: Vec<u32> = (1..=7).collect();
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
-        let mut num = |name: &str| -> Result<u64, String> {
-            args.next()
-                .ok_or(format!("{name} needs a number"))?
-                .parse()
-                .map_err(|e| format!("{name}: {e}"))
-        };
         match a.as_str() {
-            "--seeds" => n_seeds = num("--seeds")?,
-            "--band-seeds" => band_seeds = num("--band-seeds")?,
+            "--seeds" | "--band-seeds" => {
+                let v: u64 = args
+                    .next()
+                    .ok_or(format!("{a} needs a number"))?
+                    .parse()
+                    .map_err(|e| format!("{a}: {e}"))?;
+                if a == "--seeds" {
+                    n_seeds = v;
+                } else {
+                    band_seeds = v;
+                }
+            }
+            "--out" => out_dir = PathBuf::from(args.next().ok_or("--out needs a directory")?),
+            "--sections" => {
+                sections = args
+                    .next()
+                    .ok_or("--sections needs a list, e.g. 1,3")?
+                    .split(',')
+                    .map(|v| {
+                        v.trim()
+                            .parse::<u32>()
+                            .map_err(|e| format!("--sections: {e}"))
+                    })
+                    .collect::<Result<_, _>>()?;
+            }
             other => {
                 return Err(format!(
-                    "unknown argument `{other}`: allowed --seeds N, --band-seeds M"
+                    "unknown argument `{other}`: allowed --seeds N, --band-seeds M, --out DIR, --sections 1,2,…"
                 )
                 .into());
             }
@@ -166,139 +377,361 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let exit = Scenario::load(dir.join("nc_c45_exit.toml"))?;
     let seeds: Vec<u64> = (1..=n_seeds).collect();
     let done = AtomicUsize::new(0);
+    let labels: Vec<&str> = KINDS.iter().map(|k| k.name()).collect();
 
     // 1. the published groove
-    let r = runs(&groove, &KINDS, &seeds, &done)?;
-    println!(
-        "## 1. nc_c45_feed_step (k_M 30 N/um, 3.5 D), seeds 1..={n_seeds}: median [95 % interval of the median]"
-    );
-    let names = [
-        "static_removed_pct",
-        "static_error_um",
-        "deflection_step_um",
-        "feed_step_peak_um",
-        "feed_step_excess_um",
-        "ringing_um",
-        "exit_undersize_um",
-    ];
-    table(&r, &seeds, &names);
-    for name in ["feed_step_peak_um", "feed_step_excess_um"] {
+    if sections.contains(&1) {
+        let r = runs(&groove, &KINDS, &seeds, &done)?;
         println!(
-            "per seed, {name}: proactive/reactive {} (003: 43/74 = 0.58); mpc/proactive {}",
-            cell(ratio(&r, 2, 1, &seeds, name)),
-            cell(ratio(&r, 3, 2, &seeds, name))
+            "## 1. nc_c45_feed_step (k_M 30 N/um, 3.5 D), seeds 1..={n_seeds}: median [95 % interval of the median]"
         );
-    }
-
-    // 2. the band
-    let km = [20.0, 30.0, 50.0];
-    let od = [3.0, 3.5, 4.0];
-    let bseeds: Vec<u64> = (1..=band_seeds).collect();
-    println!(
-        "\n## 2. band: machine stiffness x overhang, medians over seeds 1..={band_seeds} at each point"
-    );
-    println!(
-        "| k_M N/um | overhang D | deflection step | reactive peak | proactive peak | mpc peak | mpc/proactive | reactive excess | proactive excess | mpc excess | exit undersize r/p/m |"
-    );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
-    let mut band: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
-    for &k in &km {
-        for &o in &od {
-            let mut s = groove.clone();
-            let nc = s.nc_axis.as_mut().ok_or("no [nc_axis]")?;
-            nc.machine.machine_stiffness_n_per_um = k;
-            nc.machine.overhang_d = o;
-            let rb = runs(&s, &KINDS, &bseeds, &done)?;
-            let m = |kind: usize, name: &str| med_ci(column(&rb, kind, &bseeds, name)).0;
-            let ratio_m = med_ci(ratio(&rb, 3, 2, &bseeds, "feed_step_peak_um")).0;
-            let vals = [
-                ("deflection_step", m(0, "deflection_step_um")),
-                ("reactive_peak", m(1, "feed_step_peak_um")),
-                ("proactive_peak", m(2, "feed_step_peak_um")),
-                ("mpc_peak", m(3, "feed_step_peak_um")),
-                ("mpc_over_proactive_peak", ratio_m),
-                ("reactive_excess", m(1, "feed_step_excess_um")),
-                ("proactive_excess", m(2, "feed_step_excess_um")),
-                ("mpc_excess", m(3, "feed_step_excess_um")),
-                (
-                    "proactive_over_reactive_peak",
-                    m(2, "feed_step_peak_um") / m(1, "feed_step_peak_um"),
-                ),
-                ("reactive_exit", m(1, "exit_undersize_um")),
-                ("proactive_exit", m(2, "exit_undersize_um")),
-                ("mpc_exit", m(3, "exit_undersize_um")),
-            ];
-            for (n, v) in vals {
-                band.entry(n).or_default().push(v);
-            }
+        table(
+            &r,
+            &labels,
+            &seeds,
+            &[
+                "static_removed_pct",
+                "static_error_um",
+                "deflection_step_um",
+                "feed_step_peak_um",
+                "feed_step_excess_um",
+                "ringing_um",
+                "exit_undersize_um",
+                "exit_max_um",
+            ],
+        );
+        references(
+            &r,
+            0,
+            &seeds,
+            &[
+                "feed_step_peak_bound_um",
+                "feed_step_excess_bound_um",
+                "exit_bound_um",
+            ],
+        );
+        references(
+            &r,
+            0,
+            &seeds,
+            &[
+                "ce_static_error_um",
+                "ce_feed_step_peak_um",
+                "ce_feed_step_excess_um",
+                "ce_exit_undersize_um",
+                "ce_exit_max_um",
+            ],
+        );
+        for name in ["feed_step_peak_um", "feed_step_excess_um"] {
             println!(
-                "| {k} | {o} | {:.1} | {:.1} | {:.1} | {:.1} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1} / {:.1} / {:.1} |",
-                vals[0].1,
-                vals[1].1,
-                vals[2].1,
-                vals[3].1,
-                vals[4].1,
-                vals[5].1,
-                vals[6].1,
-                vals[7].1,
-                vals[9].1,
-                vals[10].1,
-                vals[11].1
+                "per seed, {name}: proactive/reactive {} (003: 43/74 = 0.58); mpc/proactive {}",
+                cell(ratio(&r, 2, 1, &seeds, name)),
+                cell(ratio(&r, 3, 2, &seeds, name))
             );
         }
     }
-    let range = |n: &str| {
-        let v = &band[n];
-        (
-            v.iter().copied().fold(f64::INFINITY, f64::min),
-            v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-        )
-    };
-    for (n, published) in [
-        ("reactive_peak", Some(74.0)),
-        ("proactive_peak", Some(43.0)),
-        ("reactive_excess", Some(74.0)),
-        ("proactive_excess", Some(43.0)),
-        ("proactive_over_reactive_peak", Some(0.58)),
-        ("mpc_over_proactive_peak", None),
-        ("deflection_step", None),
-    ] {
-        let (lo, hi) = range(n);
-        match published {
-            Some(p) => println!(
-                "band {n}: {lo:.2} .. {hi:.2}; published {p}: {}",
-                if p >= lo && p <= hi {
-                    "inside"
-                } else {
-                    "outside"
+
+    // 2. the band
+    if sections.contains(&2) {
+        let km = [20.0, 30.0, 50.0];
+        let od = [3.0, 3.5, 4.0];
+        let bseeds: Vec<u64> = (1..=band_seeds).collect();
+        println!(
+            "\n## 2. band: machine stiffness x overhang, medians over seeds 1..={band_seeds} at each point"
+        );
+        println!(
+            "| k_M N/um | overhang D | deflection step | reactive peak | proactive peak | mpc peak | mpc/proactive | peak bound / CE | reactive excess | proactive excess | mpc excess | exit undersize r/p/m (CE) |"
+        );
+        println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+        let mut band: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
+        for &k in &km {
+            for &o in &od {
+                let mut s = groove.clone();
+                let nc = s.nc_axis.as_mut().ok_or("no [nc_axis]")?;
+                nc.machine.machine_stiffness_n_per_um = k;
+                nc.machine.overhang_d = o;
+                let rb = runs(&s, &KINDS, &bseeds, &done)?;
+                let m = |kind: usize, name: &str| med_ci(column(&rb, kind, &bseeds, name)).0;
+                let ratio_m = med_ci(ratio(&rb, 3, 2, &bseeds, "feed_step_peak_um")).0;
+                let vals = [
+                    ("deflection_step", m(0, "deflection_step_um")),
+                    ("reactive_peak", m(1, "feed_step_peak_um")),
+                    ("proactive_peak", m(2, "feed_step_peak_um")),
+                    ("mpc_peak", m(3, "feed_step_peak_um")),
+                    ("mpc_over_proactive_peak", ratio_m),
+                    ("peak_bound", m(0, "feed_step_peak_bound_um")),
+                    ("ce_peak", m(0, "ce_feed_step_peak_um")),
+                    ("reactive_excess", m(1, "feed_step_excess_um")),
+                    ("proactive_excess", m(2, "feed_step_excess_um")),
+                    ("mpc_excess", m(3, "feed_step_excess_um")),
+                    (
+                        "proactive_over_reactive_peak",
+                        m(2, "feed_step_peak_um") / m(1, "feed_step_peak_um"),
+                    ),
+                    ("reactive_exit", m(1, "exit_undersize_um")),
+                    ("proactive_exit", m(2, "exit_undersize_um")),
+                    ("mpc_exit", m(3, "exit_undersize_um")),
+                    ("ce_exit", m(0, "ce_exit_undersize_um")),
+                ];
+                for (n, v) in vals {
+                    band.entry(n).or_default().push(v);
                 }
-            ),
-            None => println!("band {n}: {lo:.2} .. {hi:.2}"),
+                let v = |n: &str| vals.iter().find(|x| x.0 == n).map_or(f64::NAN, |x| x.1);
+                println!(
+                    "| {k} | {o} | {:.1} | {:.1} | {:.1} | {:.1} | {:.2} | {:.2} / {:.1} | {:.1} | {:.1} | {:.1} | {:.1} / {:.1} / {:.1} ({:.1}) |",
+                    v("deflection_step"),
+                    v("reactive_peak"),
+                    v("proactive_peak"),
+                    v("mpc_peak"),
+                    v("mpc_over_proactive_peak"),
+                    v("peak_bound"),
+                    v("ce_peak"),
+                    v("reactive_excess"),
+                    v("proactive_excess"),
+                    v("mpc_excess"),
+                    v("reactive_exit"),
+                    v("proactive_exit"),
+                    v("mpc_exit"),
+                    v("ce_exit")
+                );
+            }
+        }
+        let range = |n: &str| {
+            let v = &band[n];
+            (
+                v.iter().copied().fold(f64::INFINITY, f64::min),
+                v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            )
+        };
+        for (n, published) in [
+            ("reactive_peak", Some(74.0)),
+            ("proactive_peak", Some(43.0)),
+            ("reactive_excess", Some(74.0)),
+            ("proactive_excess", Some(43.0)),
+            ("proactive_over_reactive_peak", Some(0.58)),
+            ("mpc_over_proactive_peak", None),
+            ("mpc_exit", None),
+            ("ce_exit", None),
+            ("deflection_step", None),
+        ] {
+            let (lo, hi) = range(n);
+            match published {
+                Some(p) => println!(
+                    "band {n}: {lo:.2} .. {hi:.2}; published {p}: {}",
+                    if p >= lo && p <= hi {
+                        "inside"
+                    } else {
+                        "outside"
+                    }
+                ),
+                None => println!("band {n}: {lo:.2} .. {hi:.2}"),
+            }
         }
     }
 
     // 3. the exit alone
-    let re = runs(&exit, &KINDS, &seeds, &done)?;
-    println!("\n## 3. nc_c45_exit (1000 mm/min), seeds 1..={n_seeds}");
-    table(
-        &re,
-        &seeds,
-        &["exit_undersize_um", "exit_min_um", "static_removed_pct"],
-    );
+    if sections.contains(&3) {
+        let re = runs(&exit, &KINDS, &seeds, &done)?;
+        println!("\n## 3. nc_c45_exit (1000 mm/min), seeds 1..={n_seeds}");
+        table(
+            &re,
+            &labels,
+            &seeds,
+            &[
+                "exit_undersize_um",
+                "exit_min_um",
+                "exit_max_um",
+                "static_removed_pct",
+            ],
+        );
+        references(
+            &re,
+            0,
+            &seeds,
+            &["exit_bound_um", "ce_exit_undersize_um", "ce_exit_max_um"],
+        );
+    }
 
     // 4. the literal proactive window
-    let mut lit = groove.clone();
-    lit.nc_axis
-        .as_mut()
-        .ok_or("no [nc_axis]")?
-        .control
-        .proactive_window = OffsetWindow::Acceleration;
-    let rl = runs(&lit, &[ControllerKind::Proactive], &seeds, &done)?;
-    println!(
-        "\n## 4. proactive, offset only while a_cmd != 0: feed_step_peak_um {}, excess {}",
-        cell(column(&rl, 0, &seeds, "feed_step_peak_um")),
-        cell(column(&rl, 0, &seeds, "feed_step_excess_um"))
-    );
+    if sections.contains(&4) {
+        let mut lit = groove.clone();
+        lit.nc_axis
+            .as_mut()
+            .ok_or("no [nc_axis]")?
+            .control
+            .proactive_window = OffsetWindow::Acceleration;
+        let rl = runs(&lit, &[ControllerKind::Proactive], &seeds, &done)?;
+        println!(
+            "\n## 4. proactive, offset only while a_cmd != 0: feed_step_peak_um {}, excess {}",
+            cell(column(&rl, 0, &seeds, "feed_step_peak_um")),
+            cell(column(&rl, 0, &seeds, "feed_step_excess_um"))
+        );
+    }
+
+    // 5. what the MPC's parts buy
+    if sections.contains(&5) {
+        println!(
+            "\n## 5. the MPC's parts, seeds 1..={n_seeds}: shipped / without planning for the wall instants / dead time + lag axis model"
+        );
+        let variants = |s: &Scenario| -> Result<Vec<Scenario>, String> {
+            let mut a = s.clone();
+            a.nc_axis
+                .as_mut()
+                .ok_or("no [nc_axis]")?
+                .control
+                .mpc_wall_instants = false;
+            let mut b = s.clone();
+            b.nc_axis
+                .as_mut()
+                .ok_or("no [nc_axis]")?
+                .control
+                .mpc_axis_model = NcAxisModel::DeadTimeLag;
+            Ok(vec![s.clone(), a, b])
+        };
+        for (name, base, names) in [
+            (
+                "nc_c45_feed_step",
+                &groove,
+                &[
+                    "static_error_um",
+                    "feed_step_peak_um",
+                    "feed_step_excess_um",
+                    "exit_undersize_um",
+                    "exit_max_um",
+                ][..],
+            ),
+            (
+                "nc_c45_exit",
+                &exit,
+                &["static_error_um", "exit_undersize_um", "exit_max_um"][..],
+            ),
+        ] {
+            let mut merged: BTreeMap<(usize, u64), Figures> = BTreeMap::new();
+            for (i, v) in variants(base)?.iter().enumerate() {
+                for ((_, sd), f) in runs(v, &[ControllerKind::Mpc], &seeds, &done)? {
+                    merged.insert((i, sd), f);
+                }
+            }
+            println!("{name}:");
+            table(
+                &merged,
+                &["mpc", "no wall instants", "dead time + lag"],
+                &seeds,
+                names,
+            );
+        }
+    }
+
+    // 6. the NC's feed change: jerk-limited (shipped) against acceleration-limited
+    if sections.contains(&6) {
+        let mut brisk = groove.clone();
+        brisk
+            .nc_axis
+            .as_mut()
+            .ok_or("no [nc_axis]")?
+            .program
+            .path_jerk_mm_s3 = 1e12;
+        let rbk = runs(&brisk, &KINDS[1..], &seeds, &done)?;
+        println!(
+            "\n## 6. the feed change limited in acceleration only (2 m/s^2, no jerk limit: 4.2 ms), seeds 1..={n_seeds}"
+        );
+        table(
+            &rbk,
+            &labels[1..],
+            &seeds,
+            &[
+                "feed_step_peak_um",
+                "feed_step_excess_um",
+                "ringing_um",
+                "feed_step_peak_bound_um",
+                "ce_feed_step_peak_um",
+            ],
+        );
+        println!(
+            "per seed, feed_step_peak_um: proactive/reactive {}; mpc/proactive {}",
+            cell(ratio(&rbk, 1, 0, &seeds, "feed_step_peak_um")),
+            cell(ratio(&rbk, 2, 1, &seeds, "feed_step_peak_um"))
+        );
+        std::fs::create_dir_all(&out_dir)?;
+        let mut series = vec![(
+            "the chain alone, a force step at 0 ms".to_string(),
+            chain_step(&groove)?,
+        )];
+        for (label, s) in [
+            ("reactive, jerk-limited change (shipped)", &groove),
+            ("reactive, acceleration-limited change", &brisk),
+        ] {
+            series.push((label.to_string(), actuating_after_step(s)?));
+        }
+        let mut csv = String::from("series,t_ms,normalised\n");
+        for (label, v) in &series {
+            for (t, y) in v {
+                let _ = writeln!(csv, "\"{label}\",{t:.1},{y:.5}");
+            }
+            let (over, under) = swing(v);
+            println!(
+                "ringing, {label}: first overshoot {:.1} % of the step, the undershoot after it {:.1} %",
+                100.0 * over,
+                100.0 * under
+            );
+        }
+        std::fs::write(out_dir.join("ringing.csv"), csv)?;
+        std::fs::write(
+            out_dir.join("ringing.svg"),
+            lines_svg(
+                &series,
+                "the notch chain's ringing: the reactive actuating value after the feed change (seed 1), normalised to the step",
+                "time after the feed change starts (ms; the chain alone: after the force step)",
+            ),
+        )?;
+        println!(
+            "written: {}, {}",
+            out_dir.join("ringing.csv").display(),
+            out_dir.join("ringing.svg").display()
+        );
+    }
+
+    // 7. the truth's force model at 32 axial elements
+    if sections.contains(&7) {
+        let mut fine = groove.clone();
+        fine.nc_axis
+            .as_mut()
+            .ok_or("no [nc_axis]")?
+            .truth
+            .axial_slices = 32;
+        let rf = runs(&fine, &KINDS, &seeds, &done)?;
+        println!(
+            "\n## 7. the truth's cutting edge in 32 axial elements (shipped: 8), seeds 1..={n_seeds}"
+        );
+        table(
+            &rf,
+            &labels,
+            &seeds,
+            &[
+                "static_error_um",
+                "feed_step_peak_um",
+                "feed_step_excess_um",
+                "exit_undersize_um",
+                "exit_max_um",
+            ],
+        );
+        references(
+            &rf,
+            0,
+            &seeds,
+            &[
+                "feed_step_peak_bound_um",
+                "exit_bound_um",
+                "ce_feed_step_peak_um",
+                "ce_exit_undersize_um",
+            ],
+        );
+        println!(
+            "per seed, feed_step_peak_um: mpc/proactive {}",
+            cell(ratio(&rf, 3, 2, &seeds, "feed_step_peak_um"))
+        );
+    }
+
     println!(
         "\n{} runs in {:.0} s",
         done.load(Ordering::Relaxed),
