@@ -343,7 +343,11 @@ mod tests {
             let runs = p.shard_runs(Shard::new(k, 4, "t").unwrap());
             assert_eq!(runs.len(), 8);
             for c in 0..2 {
-                assert_eq!(runs.iter().filter(|r| r.controller == c).count(), 4, "slice {k}");
+                assert_eq!(
+                    runs.iter().filter(|r| r.controller == c).count(),
+                    4,
+                    "slice {k}"
+                );
             }
         }
     }
