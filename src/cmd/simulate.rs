@@ -230,7 +230,9 @@ fn run_scenario(args: &SimulateArgs, json: bool) -> anyhow::Result<()> {
             "stroke bound: {b:.3} um peak-to-peak (the deflection met exceeds the PZT's range in z by this much)"
         );
     }
-    if let Some(o) = m.optimum_pp_um {
+    // On the NC stage `optimum_pp_um` is the certainty-equivalent wall's peak-to-peak, a reference
+    // and not a bound; the wall block below prints it with its own wording.
+    if let Some(o) = m.optimum_pp_um.filter(|_| out.report.nc_axis.is_none()) {
         println!(
             "optimum: {o:.3} um peak-to-peak (the best static plan within the stroke, deflection seen through the commissioned model; noise-free)"
         );
