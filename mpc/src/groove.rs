@@ -1079,17 +1079,17 @@ pub struct GrooveMpcFeatures {
     /// the error channel's disturbance alone. Only with the default configuration (`control.mpc` unset).
     pub gauge_disturbance: bool,
     /// Weigh the error between the cycles too ([`crate::config::Intersample`]): at every stage step of
-    /// the first [`INTERSAMPLE_CYCLES`] cycles, on the spindle model sampled at the stage step. A
+    /// the first [`INTERSAMPLE_WINDOW_S`] of the horizon, on the spindle model sampled at the stage step. A
     /// deflection that rises within a fraction of a cycle (the flank of one tooth's force at a change
     /// made at once) is then met where it rises; off: the error at the cycles only. Only with the
     /// default configuration (`control.mpc` unset).
     pub intersample: bool,
 }
 
-/// Cycles at the start of the groove MPC's horizon whose error is weighed at every stage step (with
-/// [`GrooveMpcFeatures::intersample`]): 2 ms at 2 kHz, the time a tooth's force takes to rise and the
-/// spindle to follow.
-pub const INTERSAMPLE_CYCLES: usize = 4;
+/// The stretch at the start of the groove MPC's horizon whose error is weighed at every stage step
+/// (with [`GrooveMpcFeatures::intersample`]), in seconds: the time a tooth's force takes to rise and
+/// the spindle to follow — 4 cycles at 2 kHz, 10 at 5 kHz (never more than the horizon).
+pub const INTERSAMPLE_WINDOW_S: f64 = 2e-3;
 
 /// The groove MPC's move weight (per V²) with the error weighed between the cycles, instead of the
 /// default design's 1e-4. Seen at its sub-steps, a move that overdrives the stack for one cycle to
@@ -1249,7 +1249,8 @@ pub fn groove_mpc(
             if between {
                 c.intersample = Some(Intersample {
                     substeps: settings.mpc_every,
-                    cycles: INTERSAMPLE_CYCLES.min(c.horizon),
+                    cycles: ((INTERSAMPLE_WINDOW_S / tc - 1e-9).ceil() as usize)
+                        .clamp(1, c.horizon),
                 });
                 c.weights.input_rate = vec![INTERSAMPLE_INPUT_RATE];
             }
