@@ -1100,6 +1100,10 @@ pub const INTERSAMPLE_WINDOW_S: f64 = 2e-3;
 /// (between the cycles the moves overshoot unseen), so it goes with them.
 pub const INTERSAMPLE_INPUT_RATE: f64 = 1e-5;
 
+/// The MPC cycle [`INTERSAMPLE_INPUT_RATE`] was chosen at (2 kHz); at a cycle `tc` the weight is
+/// scaled by (this / `tc`)², which keeps the continuous-time trade-off between the moves and the error.
+pub const INTERSAMPLE_RATE_CYCLE_S: f64 = 5e-4;
+
 impl Default for GrooveMpcFeatures {
     fn default() -> Self {
         Self {
@@ -1252,7 +1256,10 @@ pub fn groove_mpc(
                     cycles: ((INTERSAMPLE_WINDOW_S / tc - 1e-9).ceil() as usize)
                         .clamp(1, c.horizon),
                 });
-                c.weights.input_rate = vec![INTERSAMPLE_INPUT_RATE];
+                // per cycle Σ(Δu)² ≈ tc·∫u̇² dt while Σ Q e² ≈ (Q/tc)·∫e² dt: the weight chosen at
+                // 2 kHz keeps its trade-off at another rate scaled by (0.5 ms / tc)²
+                c.weights.input_rate =
+                    vec![INTERSAMPLE_INPUT_RATE * (INTERSAMPLE_RATE_CYCLE_S / tc).powi(2)];
             }
             c
         }
