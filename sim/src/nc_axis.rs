@@ -1006,6 +1006,30 @@ impl Default for ContourDevice {
 }
 
 impl ContourDevice {
+    /// The checks [`Self::measure`] and [`Self::linear_map`] share: the indices of the wall's finite
+    /// points and the number of grid points from `from_mm` to `to_mm`.
+    fn grid(
+        &self,
+        wall: &[WallPoint],
+        from_mm: f64,
+        to_mm: f64,
+    ) -> Result<(Vec<usize>, usize), SimError> {
+        check_positive("spacing_mm", self.spacing_mm)?;
+        check_positive("cutoff_mm", self.cutoff_mm)?;
+        let finite: Vec<usize> = (0..wall.len())
+            .filter(|&i| wall[i].x_mm.is_finite() && wall[i].error_um.is_finite())
+            .collect();
+        if to_mm.partial_cmp(&from_mm) != Some(std::cmp::Ordering::Greater) || finite.len() < 2 {
+            return Err(SimError::InvalidParameter {
+                name: "to_mm",
+                value: to_mm,
+                allowed: "> from_mm, with at least two wall points",
+            });
+        }
+        let n = ((to_mm - from_mm) / self.spacing_mm).floor() as usize + 1;
+        Ok((finite, n))
+    }
+
     /// The profile filter's weights on the sampling grid, unnormalised, and their half-width in
     /// samples: ISO 16610-21's Gaussian s(x) = exp(−π (x/(α λc))²)/(α λc), α = √(ln 2/π),
     /// truncated at ±λc.
@@ -1044,22 +1068,12 @@ impl ContourDevice {
         to_mm: f64,
         seed: u64,
     ) -> Result<Vec<(f64, f64)>, SimError> {
-        check_positive("spacing_mm", self.spacing_mm)?;
-        check_positive("cutoff_mm", self.cutoff_mm)?;
         check_nonneg("noise_um", self.noise_um)?;
-        let pts: Vec<(f64, f64)> = wall
+        let (finite, n) = self.grid(wall, from_mm, to_mm)?;
+        let pts: Vec<(f64, f64)> = finite
             .iter()
-            .filter(|p| p.x_mm.is_finite() && p.error_um.is_finite())
-            .map(|p| (p.x_mm, p.error_um))
+            .map(|&i| (wall[i].x_mm, wall[i].error_um))
             .collect();
-        if to_mm.partial_cmp(&from_mm) != Some(std::cmp::Ordering::Greater) || pts.len() < 2 {
-            return Err(SimError::InvalidParameter {
-                name: "to_mm",
-                value: to_mm,
-                allowed: "> from_mm, with at least two wall points",
-            });
-        }
-        let n = ((to_mm - from_mm) / self.spacing_mm).floor() as usize + 1;
         let mut noise = NoiseSource::new(seed, self.noise_um)?;
         let mut raw = Vec::with_capacity(n);
         let mut j = 0usize;
@@ -1122,22 +1136,8 @@ impl ContourDevice {
         from_mm: f64,
         to_mm: f64,
     ) -> Result<Vec<Vec<(usize, f64)>>, SimError> {
-        check_positive("spacing_mm", self.spacing_mm)?;
-        check_positive("cutoff_mm", self.cutoff_mm)?;
-        let pts: Vec<(usize, f64)> = wall
-            .iter()
-            .enumerate()
-            .filter(|(_, p)| p.x_mm.is_finite() && p.error_um.is_finite())
-            .map(|(i, p)| (i, p.x_mm))
-            .collect();
-        if to_mm.partial_cmp(&from_mm) != Some(std::cmp::Ordering::Greater) || pts.len() < 2 {
-            return Err(SimError::InvalidParameter {
-                name: "to_mm",
-                value: to_mm,
-                allowed: "> from_mm, with at least two wall points",
-            });
-        }
-        let n = ((to_mm - from_mm) / self.spacing_mm).floor() as usize + 1;
+        let (finite, n) = self.grid(wall, from_mm, to_mm)?;
+        let pts: Vec<(usize, f64)> = finite.iter().map(|&i| (i, wall[i].x_mm)).collect();
         // the interpolation of each grid point: (wall index, weight) × 2
         let mut raw: Vec<[(usize, f64); 2]> = Vec::with_capacity(n);
         let mut j = 0usize;
