@@ -149,12 +149,8 @@ impl Shape {
         let pts = sm.points();
         let n = pts.len();
         let f = &sm.facts;
-        let lag = |events: &[(f64, f64)], tau: f64| -> Vec<f64> {
-            pts.iter()
-                .map(|p| first_order_response(events, p.t_s, tau))
-                .collect()
-        };
-        let u = |x: f64| ((x - f.x_start_mm) / f.x_span_mm()).clamp(0.0, 1.0);
+        let lag = |events: &[(f64, f64)], tau: f64| lag_column(pts, events, tau);
+        let u = |x: f64| f.along_x(x);
         match self.kind {
             ShapeKind::CoolantLags(k) => (0..k).map(|j| lag(&f.coolant_events, phi[j])).collect(),
             ShapeKind::CoolantDeadTime => {
@@ -256,6 +252,17 @@ impl Shape {
     }
 }
 
+/// The first-order response to `events` (time, level) with time constant `tau` at every point.
+fn lag_column(
+    pts: &[millcomp_sim::session::PointContext],
+    events: &[(f64, f64)],
+    tau: f64,
+) -> Vec<f64> {
+    pts.iter()
+        .map(|p| first_order_response(events, p.t_s, tau))
+        .collect()
+}
+
 /// sim's flute runout offset at every point with the runout `r(point)` (µm) there.
 fn runout_column(sm: &SessionModel, r: impl Fn(&EffectContext<'_>) -> f64) -> Vec<f64> {
     (0..sm.len())
@@ -343,12 +350,8 @@ impl Family {
     pub fn driver_basis(&self, sm: &SessionModel, runout_um: f64) -> Vec<Vec<f64>> {
         let pts = sm.points();
         let f = &sm.facts;
-        let lag = |events: &[(f64, f64)], tau: f64| -> Vec<f64> {
-            pts.iter()
-                .map(|p| first_order_response(events, p.t_s, tau))
-                .collect()
-        };
-        let u = |x: f64| ((x - f.x_start_mm) / f.x_span_mm()).clamp(0.0, 1.0);
+        let lag = |events: &[(f64, f64)], tau: f64| lag_column(pts, events, tau);
+        let u = |x: f64| f.along_x(x);
         let spline = |v: &dyn Fn(&millcomp_sim::session::PointContext) -> f64,
                       m: usize,
                       scale: &dyn Fn(&millcomp_sim::session::PointContext) -> f64|

@@ -70,6 +70,11 @@ impl SessionFacts {
     pub fn x_span_mm(&self) -> f64 {
         (self.x_end_mm - self.x_start_mm).max(1e-3)
     }
+
+    /// Position `x_mm` as a fraction of the X range, clamped to 0 … 1.
+    pub fn along_x(&self, x_mm: f64) -> f64 {
+        ((x_mm - self.x_start_mm) / self.x_span_mm()).clamp(0.0, 1.0)
+    }
 }
 
 /// A session's nominal model, ready for effect evaluation at every planned point.
