@@ -253,3 +253,34 @@ fn bad_input_is_named_and_nothing_is_written() {
         .collect();
     assert!(leftovers.is_empty(), "{leftovers:?}");
 }
+
+#[test]
+fn a_reader_that_stops_early_ends_the_program_quietly() {
+    // `millcomp doe design … | head -1`: the pipe closes after the first line; before, println!
+    // panicked on the broken pipe ("failed printing to stdout"). The design is 4096 runs (≈ 0.5 MB),
+    // far more than a pipe's buffer, so the program is still writing when the reader goes away.
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    let mut child = std::process::Command::new(assert_cmd::cargo::cargo_bin("millcomp"))
+        .args([
+            "doe",
+            "design",
+            "--design",
+            "full",
+            "--factors",
+            "a=0:1,b=0:1,c=0:1,d=0:1,e=0:1,f=0:1,g=0:1,h=0:1,i=0:1,j=0:1,k=0:1,l=0:1",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut first)
+        .unwrap();
+    // the reader is dropped here: the pipe is closed with most of the design unwritten
+    let out = child.wait_with_output().unwrap();
+    assert!(first.contains("runs: 4096"), "{first}");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
