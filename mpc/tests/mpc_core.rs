@@ -431,7 +431,18 @@ fn cached_phased_plan_equals_the_plan_computed_afresh() {
         let fresh = plan.deflections_phased(&times, rev, tooth, pass);
         let cached = plan.deflections_phased_cached(&mut cache, &times, rev, tooth, pass);
         assert_eq!(fresh, cached, "cycle {c}");
+        // the sliding-window maximum over the window of times against each time's window alone
+        let alone: Vec<f64> = times
+            .iter()
+            .map(|&t| plan.deflections_phased(&[t], rev, tooth, pass)[0])
+            .collect();
+        assert_eq!(fresh, alone, "cycle {c}");
     }
+    // the documented values: the old deflection until the step's pulse, the new one a revolution later
+    let at = |t: f64| plan.deflections_phased(&[t], rev, tooth, 3.0004)[0];
+    let (old, new) = (plan.deflection_at(4.9), plan.deflection_at(5.1));
+    assert!((at(2.9995) - old).abs() < 1e-9);
+    assert!((at(3.0004) - new).abs() < 1e-6 * new);
 }
 
 /// The spindle of [`spindle`] sampled at the 50 µs stage step (ten per 0.5 ms cycle).
