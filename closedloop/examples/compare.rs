@@ -10,6 +10,10 @@
 //! `--changes`: the ablation controllers on the scenarios with process changes only (feed and depth
 //! steps, slowed and at once, and the exit), with the excess at each change (`millcomp_closedloop::changes`).
 //!
+//! `--levels`: as `--changes`, showing only each change's excess, the level change it holds (from the
+//! error's level before the change to its settled error after: in air before the entry) and what the
+//! transient adds to it (`millcomp_closedloop::changes`).
+//!
 //! `--features`: the groove scenarios with the MPC's planning and estimation features switched off one at
 //! a time (`control.groove_mpc`: `stroke_aware`, `adapt_plan_scale`, `spindle_phase`, `flute_phase`,
 //! `gauge_disturbance`, `intersample`), all off, beside `pid-ff` — what each feature buys; and the MPC
@@ -146,6 +150,7 @@ fn mpc_variants(
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut seeds, mut comm, mut ablations, mut changes, mut features, mut rates) =
         (10u64, false, false, false, false, false);
+    let mut levels = false;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -164,6 +169,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 ablations = true;
                 changes = true;
             }
+            "--levels" => {
+                ablations = true;
+                changes = true;
+                levels = true;
+            }
             "--seeds" => {
                 seeds = args
                     .next()
@@ -173,7 +183,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             other => {
                 return Err(format!(
-                    "unknown argument `{other}`: allowed --seeds N, --commissioned, --ablations, --changes, --features, --rates"
+                    "unknown argument `{other}`: allowed --seeds N, --commissioned, --ablations, --changes, --levels, --features, --rates"
                 )
                 .into());
             }
@@ -273,6 +283,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             ", MPC rates"
         } else if features {
             ", MPC features"
+        } else if levels {
+            ", process changes, the excess's level change"
         } else if changes {
             ", process changes"
         } else if ablations {
@@ -289,6 +301,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .map(|r| (r.scenario.clone(), r.metric.clone()))
         .collect();
     keys.dedup();
+    // the level change and what the transient adds to it only with --levels, which shows each change's
+    // excess, its level change and the rest side by side
+    keys.retain(|(_, m)| {
+        if levels {
+            m.starts_with("excess_") && !m.ends_with("_bound_um")
+        } else {
+            !m.ends_with("_level_um")
+        }
+    });
     for (s, m) in keys {
         // the stroke bound only where the stroke does not cover the deflection for some controller
         if m == "stroke_bound_um"

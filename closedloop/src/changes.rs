@@ -8,6 +8,13 @@
 //!   lead of every controller here is shorter: the MPC's horizon is ≈ 17 µm of travel) to
 //!   [`EXCESS_AFTER_MM`] after it.
 //!
+//! Where the error sits at another level before a change than after it — in air before the entry the
+//! error is the actuator's alone, in the cut it carries the deflection the commissioned model misjudges —
+//! the excess holds that *level change* `|level_before − e_settled|` whatever the transient (the window
+//! starts before the change), so a controller that learns its settled error only in the cut cannot
+//! leave less. `level_before_um` is the median error from [`EXCESS_BEFORE_MM`] to [`BOUND_BEFORE_MM`]
+//! before the change; [`ChangeExcess::beyond_level_um`] what the transient adds to the level change.
+//!
 //! The changes are the program's own: the entry when the tool enters at depth (`depth_at(0) > 0`), each
 //! depth change (point-list corners closer than [`MERGE_MM`] are one change, e.g. a 50 µm plunge), each
 //! feed change, and the exit. The exit has no groove after it, so there `e_settled` is taken from 4 to
@@ -90,6 +97,38 @@ pub struct ChangeExcess {
     /// the true actuator, the truth's deflection known in advance), µm; absent where it was not computed.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub bound_um: Option<f64>,
+    /// The controller's median error from [`EXCESS_BEFORE_MM`] to [`BOUND_BEFORE_MM`] before the change
+    /// (µm): the level it leaves (in air before an entry). Absent at an exit, whose settled error is
+    /// taken before it, and where the window holds no sample.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub level_before_um: Option<f64>,
+}
+
+impl ChangeExcess {
+    /// The level change `|level_before − settled|` (µm), part of every excess the window holds.
+    pub fn level_change_um(&self) -> Option<f64> {
+        self.level_before_um.map(|b| (b - self.settled_um).abs())
+    }
+
+    /// What the transient adds to the level change: `excess − |level_before − settled|` (µm, ≥ 0).
+    ///
+    /// ```
+    /// use millcomp_closedloop::changes::{ChangeKind, excess};
+    /// // 0 in air before an entry at 1 mm, −0.4 µm settled in the cut, one −0.7 µm dip after the entry
+    /// let x: Vec<f64> = (0..600).map(|i| i as f64 * 0.01).collect();
+    /// let e: Vec<f64> = x
+    ///     .iter()
+    ///     .map(|&x| if x < 1.0 { 0.0 } else if (x - 1.1).abs() < 0.005 { -0.7 } else { -0.4 })
+    ///     .collect();
+    /// let c = excess(&[(ChangeKind::Entry, 1.0)], &x, &e)[0];
+    /// assert!((c.excess_um - 0.4).abs() < 1e-12); // |0 − (−0.4)| outweighs the dip's 0.3
+    /// assert!((c.level_change_um().unwrap() - 0.4).abs() < 1e-12);
+    /// assert!(c.beyond_level_um().unwrap().abs() < 1e-12);
+    /// ```
+    pub fn beyond_level_um(&self) -> Option<f64> {
+        self.level_change_um()
+            .map(|l| (self.excess_um - l).max(0.0))
+    }
 }
 
 /// The program's process changes, in order of position.
@@ -166,15 +205,31 @@ pub fn excess(changes: &[(ChangeKind, f64)], x_mm: &[f64], error_um: &[f64]) -> 
                 .iter()
                 .map(|e| (e - settled_um).abs())
                 .fold(0.0, f64::max);
+            let level_before_um = level_before(kind, c, x_mm, error_um);
             Some(ChangeExcess {
                 kind,
                 x_mm: c,
                 settled_um,
                 excess_um,
                 bound_um: None,
+                level_before_um,
             })
         })
         .collect()
+}
+
+/// The median error from [`EXCESS_BEFORE_MM`] to [`BOUND_BEFORE_MM`] before a change at `c` (mm), from
+/// samples at `x_mm` (non-decreasing) with errors `error_um`: [`ChangeExcess::level_before_um`]. `None`
+/// at an exit or where no sample lies there. Before the entry the samples are the approach in air
+/// (the groove's own samples start at the edge), which the closed loop passes here.
+pub fn level_before(kind: ChangeKind, c: f64, x_mm: &[f64], error_um: &[f64]) -> Option<f64> {
+    if kind == ChangeKind::Exit {
+        return None;
+    }
+    let lo = x_mm.partition_point(|x| *x < c - EXCESS_BEFORE_MM);
+    let hi = x_mm.partition_point(|x| *x <= c - BOUND_BEFORE_MM);
+    let mut b = error_um.get(lo..hi.max(lo))?.to_vec();
+    (!b.is_empty()).then(|| crate::compare::median(&mut b))
 }
 
 #[cfg(test)]

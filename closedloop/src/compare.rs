@@ -23,7 +23,9 @@ pub struct CompareRow {
     pub scenario: String,
     /// Metric (`pp_error_um`, `stroke_bound_um` and `optimum_pp_um` (grooves, [`crate::optimum`]),
     /// `change_peak_um`, `excess_<kind>_um` (the excess at the entry, a depth or feed change, the exit:
-    /// [`crate::changes`]) and `excess_<kind>_bound_um` (the smallest any controller could leave there),
+    /// [`crate::changes`]), `excess_<kind>_bound_um` (the smallest any controller could leave there),
+    /// `excess_<kind>_level_um` (the level change it holds) and `excess_<kind>_beyond_level_um` (what
+    /// the transient adds to it),
     /// `exit_overcut_um`, `wall_<nominal>um_error_pct`).
     pub metric: String,
     /// Controller name.
@@ -60,7 +62,17 @@ pub fn metrics_of(s: &Scenario, r: &RunReport) -> Vec<(String, f64)> {
                 let bound = c
                     .bound_um
                     .map(|b| (format!("excess_{}_bound_um", c.kind.name()), b));
-                for (name, value) in std::iter::once(excess).chain(bound) {
+                let level = c
+                    .level_change_um()
+                    .map(|l| (format!("excess_{}_level_um", c.kind.name()), l));
+                let beyond = c
+                    .beyond_level_um()
+                    .map(|b| (format!("excess_{}_beyond_level_um", c.kind.name()), b));
+                let all = std::iter::once(excess)
+                    .chain(bound)
+                    .chain(level)
+                    .chain(beyond);
+                for (name, value) in all {
                     match kinds.iter_mut().find(|(n, _)| *n == name) {
                         Some((_, v)) => *v = v.max(value),
                         None => kinds.push((name, value)),

@@ -26,7 +26,7 @@ use millcomp_mpc::identified::{
 use millcomp_mpc::pid::{AntiWindup, PidGains};
 use millcomp_mpc::predictor::ForcePredictor;
 
-use crate::changes::{bound_window, excess, program_changes};
+use crate::changes::{ChangeKind, bound_window, excess, level_before, program_changes};
 use crate::commissioning::{CommissioningPlant, commission};
 use crate::error::{ClosedLoopError, invalid};
 use crate::faults::{SolverFailures, groove_measurement};
@@ -515,6 +515,7 @@ pub fn run_groove_with(
     let mut stuck = None;
     let mut errors = Vec::with_capacity((t.duration_s() / dt) as usize + 2);
     let mut error_x = Vec::with_capacity(errors.capacity());
+    let (mut approach_x, mut approach_errors) = (Vec::new(), Vec::new());
     let mut deflections = Vec::with_capacity(errors.capacity());
     let mut travel = 0.0;
     let mut prev_tip = 0.0;
@@ -552,6 +553,12 @@ pub fn run_groove_with(
         }
         let force_peak = force_log.step(obs.map(|x| x.force_meas_n).unwrap_or(0.0));
         let o = stage.step(v);
+        // the approach in air: where the tool tip is against the programmed depth before it enters
+        // (the entry's level before, `changes::level_before`)
+        if o.engagement == 0.0 && o.x_mm < 0.0 {
+            approach_x.push(o.x_mm);
+            approach_errors.push(o.depth_cut_um - o.depth_cmd_um);
+        }
         // the groove exists only where the tool is engaged (before the workpiece edge)
         if o.engagement > 0.0 {
             let err = o.depth_cut_um - o.depth_cmd_um;
@@ -601,6 +608,9 @@ pub fn run_groove_with(
     let mut changes = excess(&program_changes(&t.program), &error_x, &errors);
     let limits = TruthLimits::of(t, dt)?;
     for c in &mut changes {
+        if c.kind == ChangeKind::Entry {
+            c.level_before_um = level_before(c.kind, c.x_mm, &approach_x, &approach_errors);
+        }
         let w = bound_window(c.kind, c.x_mm, &error_x);
         c.bound_um = excess_lower_bound(
             &deflections[w],

@@ -217,8 +217,13 @@ fn run_scenario(args: &SimulateArgs, json: bool) -> anyhow::Result<()> {
             .bound_um
             .map(|b| format!(" (no controller below {b:.3} um)"))
             .unwrap_or_default();
+        let level = c
+            .level_before_um
+            .zip(c.level_change_um())
+            .map(|(b, l)| format!(", {l:.3} um of it the level change from {b:.3} um before"))
+            .unwrap_or_default();
         println!(
-            "change ({} at {:.2} mm): excess {:.3} um over the settled error {:.3} um{bound}",
+            "change ({} at {:.2} mm): excess {:.3} um over the settled error {:.3} um{level}{bound}",
             c.kind.name(),
             c.x_mm,
             c.excess_um,
