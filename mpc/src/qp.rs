@@ -482,8 +482,10 @@ impl CondensedQp {
         let deadline_ns = Arc::new(AtomicU64::new(u64::MAX));
         let shared = Arc::clone(&deadline_ns);
         solver.set_termination_callback(move |_info: &DefaultInfo<f64>| {
-            let now = epoch.elapsed().as_nanos().min(u64::MAX as u128) as u64;
-            now >= shared.load(Ordering::Relaxed)
+            // no deadline: no clock read (a solve reads it once per iteration otherwise)
+            let deadline = shared.load(Ordering::Relaxed);
+            deadline != u64::MAX
+                && epoch.elapsed().as_nanos().min(u64::MAX as u128) as u64 >= deadline
         });
         if !solver.is_data_update_allowed() {
             return Err(MpcError::SolverSetup {
