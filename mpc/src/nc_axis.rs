@@ -1167,15 +1167,17 @@ impl NcMpcSettings {
     }
 
     /// Horizon 25 cycles (50 ms: three axis delays), moves blocked 1,1,1,2,2,3,3,4,4,4; tracking weight
-    /// 1/µm², 10⁻⁴ per µm² of move; the correction limits of [`CorrectionLimits::default`]; an output
-    /// disturbance on the axis position (what the axis model misses); the encoder's noise 10⁻⁴ µm²;
-    /// the estimator's window 40 cycles (80 ms); planning for the wall instants with a 2-cycle window.
+    /// 1/µm², 10⁻³ per µm² of move (at 10⁻⁴ the command chattered, ≈ 13 µm per cycle, at 133 Hz and
+    /// above, which the axis does not pass: twice the travel for the same wall); the correction
+    /// limits of [`CorrectionLimits::default`]; an output disturbance on the axis position (what the
+    /// axis model misses); the encoder's noise 10⁻⁴ µm²; the estimator's window 40 cycles (80 ms);
+    /// planning for the wall instants with a 2-cycle window.
     pub fn default_nc() -> Self {
         let l = CorrectionLimits::default();
         let mut mpc = MpcConfig::siso(25, -l.range_um, l.range_um, l.slew_um_per_cycle);
         mpc.move_blocking = Some(vec![1, 1, 1, 2, 2, 3, 3, 4, 4, 4]);
         mpc.weights.output = vec![1.0];
-        mpc.weights.input_rate = vec![1e-4];
+        mpc.weights.input_rate = vec![1e-3];
         mpc.disturbance.kind = DisturbanceKind::Output;
         mpc.kalman.input_noise = 1.0;
         mpc.kalman.disturbance_noise = 1e-2;
