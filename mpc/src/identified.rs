@@ -162,6 +162,8 @@ pub struct HysteresisCompensator {
     gain_um_per_v: f64,
     v_max: f64,
     last_v: f64,
+    /// The inverse's corner list, kept between cycles (no allocation in a cycle).
+    corners: Vec<f64>,
 }
 
 impl HysteresisCompensator {
@@ -174,6 +176,7 @@ impl HysteresisCompensator {
             gain_um_per_v: p.gain_um_per_v,
             v_max: p.voltage_max_v,
             last_v: 0.0,
+            corners: Vec::new(),
         }
     }
 
@@ -184,7 +187,7 @@ impl HysteresisCompensator {
         }
         let v = self
             .model
-            .input_for(self.gain_um_per_v * u_v)
+            .input_for_with(self.gain_um_per_v * u_v, &mut self.corners)
             .clamp(0.0, self.v_max);
         self.model.step(v);
         self.last_v = v;

@@ -330,12 +330,19 @@ impl PrandtlIshlinskii {
     /// strictly increasing). The branch is piecewise linear with corners where a play starts or stops
     /// moving (`v = p ± r`); the corner segment holding `y` is found and solved exactly.
     pub fn input_for(&self, y: f64) -> f64 {
-        let mut corners: Vec<f64> = self
-            .plays
-            .iter()
-            .zip(&self.thresholds_v)
-            .flat_map(|(p, r)| [p - r, p + r])
-            .collect();
+        self.input_for_with(y, &mut Vec::new())
+    }
+
+    /// [`Self::input_for`] with the corner list kept in `corners` (cleared and refilled), so a
+    /// compensator that inverts every control cycle does not allocate in the cycle.
+    pub fn input_for_with(&self, y: f64, corners: &mut Vec<f64>) -> f64 {
+        corners.clear();
+        corners.extend(
+            self.plays
+                .iter()
+                .zip(&self.thresholds_v)
+                .flat_map(|(p, r)| [p - r, p + r]),
+        );
         corners.sort_by(f64::total_cmp);
         corners.dedup();
         // below the lowest and above the highest corner every play moves: slope Σw
