@@ -1573,9 +1573,9 @@ mod tests {
         assert_eq!(m.respond(&u, 0.001), ax.respond(&u, 0.001));
     }
 
-    #[test]
-    fn the_wall_instants_learn_the_force_at_the_passes_per_tooth() {
-        // 003's slot at a constant 500 mm/min over a 40 mm blank, a commissioned-like model
+    /// 003's slot at a constant 500 mm/min over a 40 mm blank, planned with a commissioned-like model
+    /// (stiffness 14 N/µm).
+    fn slot_40mm_plan() -> (NcInterpolator, NcPlan) {
         let program = NcProgram {
             feed_changes: vec![],
             blank_end_mm: 40.0,
@@ -1597,25 +1597,47 @@ mod tests {
             IdentifiedFeedAxis::new(&fit(&[("dead_time_s", 0.006), ("lag_s", 0.010)])).unwrap();
         let k = IdentifiedNcStiffness::new(&fit(&[("stiffness_n_per_um", 14.0)])).unwrap();
         let plan = NcPlan::new(&program, &interp, &force, &axis, &k, 1.0).unwrap();
+        (interp, plan)
+    }
+
+    /// Spindle angle at t = 0 and platform sampling interval of the wall-instant tests.
+    const THETA0: f64 = 0.3;
+    const PLATFORM_DT_S: f64 = 1e-4;
+
+    /// Feed `w` the platform's force `platform(t, pass)` at 20 samples per NC cycle for the `cycles`
+    /// first cycles of `plan`.
+    fn learn(
+        w: &mut WallInstants,
+        plan: &NcPlan,
+        cycles: usize,
+        platform: impl Fn(f64, i64) -> f64,
+    ) {
+        let (ts, omega) = (plan.cycle_s(), plan.wall.omega_rad_s);
+        for c in 0..cycles {
+            let t0 = c as f64 * ts;
+            w.start_cycle(plan, c, THETA0 + omega * t0);
+            let range = plan.wall_force_range_n(c.saturating_sub(2), c + 1);
+            for n in 1..=20 {
+                let t = t0 + n as f64 * PLATFORM_DT_S;
+                let p = WallInstants::pass_index(&plan.wall, THETA0 + omega * t);
+                w.sample(plan, platform(t, p), range);
+            }
+        }
+    }
+
+    #[test]
+    fn the_wall_instants_learn_the_force_at_the_passes_per_tooth() {
+        // 003's slot at a constant 500 mm/min over a 40 mm blank, a commissioned-like model
+        let (interp, plan) = slot_40mm_plan();
         // the platform: 4 % above the plan at the passes, plus a per-tooth pattern (zero mean), and
         // something else between the passes (never used)
         let pattern = [60.0, -20.0, -50.0, 30.0, -20.0];
-        let (ts, dt) = (plan.cycle_s(), 1e-4);
-        let omega = plan.wall.omega_rad_s;
-        let theta0 = 0.3;
-        let mut w = WallInstants::new(5, dt, 4.0);
+        let (ts, omega, theta0) = (plan.cycle_s(), plan.wall.omega_rad_s, THETA0);
+        let mut w = WallInstants::new(5, PLATFORM_DT_S, 4.0);
         let n_cycles = interp.cycle_at_x(30.0).unwrap();
-        for c in 0..n_cycles {
-            let t0 = c as f64 * ts;
-            w.start_cycle(&plan, c, theta0 + omega * t0);
-            let range = plan.wall_force_range_n(c.saturating_sub(2), c + 1);
-            for n in 1..=20 {
-                let t = t0 + n as f64 * dt;
-                let p = WallInstants::pass_index(&plan.wall, theta0 + omega * t);
-                let f = 1.04 * plan.wall_force_n_at(t) + pattern[p.rem_euclid(5) as usize];
-                w.sample(&plan, f, range);
-            }
-        }
+        learn(&mut w, &plan, n_cycles, |t, p| {
+            1.04 * plan.wall_force_n_at(t) + pattern[p.rem_euclid(5) as usize]
+        });
         assert!((w.scale.s - 1.04).abs() < 2e-3, "{}", w.scale.s);
         for (a, b) in w.tooth_offsets_n.iter().zip(pattern) {
             assert!((a - b).abs() < 5.0, "{:?}", w.tooth_offsets_n);
@@ -1636,27 +1658,7 @@ mod tests {
         // the runout's force per tooth is the Kienzle force's change with the tooth's chip: it falls
         // with the wall's engagement as the cutter leaves the blank; offsets learnt at full
         // engagement and held constant would plan the full runout into the exit
-        let program = NcProgram {
-            feed_changes: vec![],
-            blank_end_mm: 40.0,
-            end_mm: 50.0,
-            ..NcProgram::brecher_003()
-        };
-        let interp = NcInterpolator::new(&program, 10).unwrap();
-        let force = IdentifiedKienzle::new(
-            &fit(&[
-                ("kc11_n_mm2", 1800.0),
-                ("mc", 0.25),
-                ("kr11_n_mm2", 550.0),
-                ("mr", 0.45),
-            ]),
-            &NominalEndMill::brecher_003(),
-        )
-        .unwrap();
-        let axis =
-            IdentifiedFeedAxis::new(&fit(&[("dead_time_s", 0.006), ("lag_s", 0.010)])).unwrap();
-        let k = IdentifiedNcStiffness::new(&fit(&[("stiffness_n_per_um", 14.0)])).unwrap();
-        let plan = NcPlan::new(&program, &interp, &force, &axis, &k, 1.0).unwrap();
+        let (interp, plan) = slot_40mm_plan();
         let ts = plan.cycle_s();
         // the engagement: 1 inside the blank, 0 beyond it, between 0 and 1 over the exit
         let at_x = |x: f64| interp.cycle_at_x(x).unwrap() as f64 * ts;
@@ -1668,26 +1670,15 @@ mod tests {
         // the platform at the passes: 4 % above the plan plus the runout pattern carried by the
         // engagement
         let pattern = [60.0, -20.0, -50.0, 30.0, -20.0];
-        let dt = 1e-4;
-        let omega = plan.wall.omega_rad_s;
-        let theta0 = 0.3;
+        let (omega, theta0) = (plan.wall.omega_rad_s, THETA0);
         let platform = |t: f64, p: i64| {
             1.04 * plan.wall_force_n_at(t)
                 + pattern[p.rem_euclid(5) as usize] * plan.wall_engagement_at(t)
         };
         for scale_offsets in [true, false] {
-            let mut w = WallInstants::new(5, dt, 4.0);
+            let mut w = WallInstants::new(5, PLATFORM_DT_S, 4.0);
             w.scale_offsets = scale_offsets;
-            for c in 0..interp.cycle_at_x(30.0).unwrap() {
-                let t0 = c as f64 * ts;
-                w.start_cycle(&plan, c, theta0 + omega * t0);
-                let range = plan.wall_force_range_n(c.saturating_sub(2), c + 1);
-                for n in 1..=20 {
-                    let t = t0 + n as f64 * dt;
-                    let p = WallInstants::pass_index(&plan.wall, theta0 + omega * t);
-                    w.sample(&plan, platform(t, p), range);
-                }
-            }
+            learn(&mut w, &plan, interp.cycle_at_x(30.0).unwrap(), platform);
             // the preview over five passes in the exit: each pass' deflection as the platform
             // will generate it
             let c = (exit / ts).round() as usize;
