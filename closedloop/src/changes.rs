@@ -50,9 +50,24 @@ pub fn bound_window(kind: ChangeKind, c: f64, x_mm: &[f64]) -> std::ops::Range<u
     } else {
         c + BOUND_AFTER_MM
     };
-    let lo = x_mm.partition_point(|x| *x < c - BOUND_BEFORE_MM);
-    let hi = x_mm.partition_point(|x| *x <= to);
+    span(x_mm, c - BOUND_BEFORE_MM, to)
+}
+
+/// The index range of the samples at `x_mm` (non-decreasing) with `a ≤ x ≤ b`.
+fn span(x_mm: &[f64], a: f64, b: f64) -> std::ops::Range<usize> {
+    let lo = x_mm.partition_point(|x| *x < a);
+    let hi = x_mm.partition_point(|x| *x <= b);
     lo..hi.max(lo)
+}
+
+/// The errors of the samples with `a ≤ x ≤ b` (see [`span`]).
+fn errors_between<'a>(x_mm: &[f64], error_um: &'a [f64], a: f64, b: f64) -> &'a [f64] {
+    error_um.get(span(x_mm, a, b)).unwrap_or(&[])
+}
+
+/// The median of `v`, `None` when it is empty.
+fn median_of(v: &[f64]) -> Option<f64> {
+    (!v.is_empty()).then(|| crate::compare::median(&mut v.to_vec()))
 }
 
 /// What changes.
@@ -175,11 +190,7 @@ pub fn program_changes(p: &GrooveProgram) -> Vec<(ChangeKind, f64)> {
 /// assert_eq!((r[0].settled_um, r[0].excess_um), (1.0, 3.0));
 /// ```
 pub fn excess(changes: &[(ChangeKind, f64)], x_mm: &[f64], error_um: &[f64]) -> Vec<ChangeExcess> {
-    let window = |a: f64, b: f64| {
-        let lo = x_mm.partition_point(|x| *x < a);
-        let hi = x_mm.partition_point(|x| *x <= b);
-        &error_um[lo..hi.max(lo)]
-    };
+    let window = |a: f64, b: f64| errors_between(x_mm, error_um, a, b);
     changes
         .iter()
         .filter_map(|&(kind, c)| {
@@ -196,11 +207,7 @@ pub fn excess(changes: &[(ChangeKind, f64)], x_mm: &[f64], error_um: &[f64]) -> 
                     c + EXCESS_AFTER_MM,
                 )
             };
-            if settled.is_empty() {
-                return None;
-            }
-            let mut s = settled.to_vec();
-            let settled_um = crate::compare::median(&mut s);
+            let settled_um = median_of(settled)?;
             let excess_um = window(from, to)
                 .iter()
                 .map(|e| (e - settled_um).abs())
@@ -226,10 +233,12 @@ pub fn level_before(kind: ChangeKind, c: f64, x_mm: &[f64], error_um: &[f64]) ->
     if kind == ChangeKind::Exit {
         return None;
     }
-    let lo = x_mm.partition_point(|x| *x < c - EXCESS_BEFORE_MM);
-    let hi = x_mm.partition_point(|x| *x <= c - BOUND_BEFORE_MM);
-    let mut b = error_um.get(lo..hi.max(lo))?.to_vec();
-    (!b.is_empty()).then(|| crate::compare::median(&mut b))
+    median_of(errors_between(
+        x_mm,
+        error_um,
+        c - EXCESS_BEFORE_MM,
+        c - BOUND_BEFORE_MM,
+    ))
 }
 
 #[cfg(test)]
