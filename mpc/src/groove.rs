@@ -465,7 +465,7 @@ impl DeflectionPlan {
         }
         let pulses = cache.pulses.make_contiguous();
         let pulses = &pulses[..((i1 - i0 + 1).max(0) as usize).min(pulses.len())];
-        window_maxima(pulses, times_s, rev_s)
+        window_maxima(pulses, times_s, rev_s, &mut cache.best)
     }
 
     /// The deflection at `t_s` when the larger flute last passed `phi_s` ago.
@@ -588,16 +588,22 @@ fn flute_ratio(
 /// `max(0, max{d : (τ, d) ∈ pulses, t − rev < τ ≤ t})`, `pulses` ascending in τ. A sliding-window
 /// maximum (a deque of the pulses that can still be a window's largest), so each pulse is pushed and
 /// popped once: linear in pulses + times, where searching every window was times × pulses per revolution
-/// (a third of the preview's time at 57 times and 120 pulses per revolution).
-fn window_maxima(pulses: &[(f64, f64)], times_s: &[f64], rev_s: f64) -> Vec<f64> {
+/// (a third of the preview's time at 57 times and 120 pulses per revolution). `best` is the deque's
+/// storage, kept by the caller so a cycle does not allocate it.
+fn window_maxima(
+    pulses: &[(f64, f64)],
+    times_s: &[f64],
+    rev_s: f64,
+    best: &mut std::collections::VecDeque<usize>,
+) -> Vec<f64> {
     if !times_s.is_sorted() {
         return times_s
             .iter()
-            .map(|&t| window_maxima(pulses, &[t], rev_s)[0])
+            .map(|&t| window_maxima(pulses, &[t], rev_s, best)[0])
             .collect();
     }
+    best.clear();
     let mut out = Vec::with_capacity(times_s.len());
-    let mut best: std::collections::VecDeque<usize> = std::collections::VecDeque::new();
     let mut next = 0;
     for &t in times_s {
         while next < pulses.len() && pulses[next].0 <= t {
@@ -625,6 +631,8 @@ pub struct PulseCache {
     first: i64,
     /// (time, planned deflection) of the pulses `first, first + 1, …`.
     pulses: std::collections::VecDeque<(f64, f64)>,
+    /// Storage of [`window_maxima`]'s deque (its content does not outlive a call).
+    best: std::collections::VecDeque<usize>,
 }
 
 /// Angles per revolution of the plan's force waveform: 120, the samples of a revolution at 10 000 rpm
