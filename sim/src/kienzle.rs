@@ -310,8 +310,48 @@ impl KienzleMillingModel {
         cut: &CutState,
         mut jac: Option<&mut [[f64; 4]; 2]>,
     ) -> [f64; 2] {
-        let t = &self.tool;
         let c = &self.coefficients;
+        let (ec, er) = (1.0 - c.mc, 1.0 - c.mr);
+        let mut fx = 0.0;
+        let mut fy = 0.0;
+        if let Some(j) = jac.as_deref_mut() {
+            *j = [[0.0; 4]; 2];
+        }
+        self.engaged_elements(rot_rad, cut, |_, b, sp, cp, h| {
+            let ht = h.powf(ec);
+            let hr = h.powf(er);
+            let ft = c.kc11_n_mm2 * b * ht + self.edge.kte_n_mm * b;
+            let fr = c.kr11_n_mm2 * b * hr + self.edge.kre_n_mm * b;
+            fx += -ft * cp - fr * sp;
+            fy += ft * sp - fr * cp;
+            if let Some(j) = jac.as_deref_mut() {
+                let lh = h.ln();
+                // d ft / d kc11, d ft / d mc; d fr / d kr11, d fr / d mr
+                let dft = [b * ht, -c.kc11_n_mm2 * b * ht * lh];
+                let dfr = [b * hr, -c.kr11_n_mm2 * b * hr * lh];
+                j[0][0] += -dft[0] * cp;
+                j[0][1] += -dft[1] * cp;
+                j[0][2] += -dfr[0] * sp;
+                j[0][3] += -dfr[1] * sp;
+                j[1][0] += dft[0] * sp;
+                j[1][1] += dft[1] * sp;
+                j[1][2] += -dfr[0] * cp;
+                j[1][3] += -dfr[1] * cp;
+            }
+        });
+        [fx, fy]
+    }
+
+    /// Visit every cutting element that cuts at spindle rotation `rot_rad`: `f(tooth, b, sin φ, cos φ,
+    /// h)` with the element's width `b` and its chip `h > 0` (mm) — the geometry of the module doc
+    /// (helix lag, engagement `φ_st ≤ φ ≤ π`, the point cut on the blank, the runout's radius step).
+    fn engaged_elements(
+        &self,
+        rot_rad: f64,
+        cut: &CutState,
+        mut f: impl FnMut(usize, f64, f64, f64, f64),
+    ) {
+        let t = &self.tool;
         let r = t.radius_mm();
         let z_teeth = t.teeth as usize;
         let pitch = 2.0 * PI / z_teeth as f64;
@@ -321,12 +361,6 @@ impl KienzleMillingModel {
         let phi_st = self.entry_angle_rad(cut.ae_mm);
         let rho = t.runout_um * 1e-3;
         let th_rho = t.runout_phase_deg.to_radians();
-        let (ec, er) = (1.0 - c.mc, 1.0 - c.mr);
-        let mut fx = 0.0;
-        let mut fy = 0.0;
-        if let Some(j) = jac.as_deref_mut() {
-            *j = [[0.0; 4]; 2];
-        }
         for tooth in 0..z_teeth {
             let base = rot_rad + tooth as f64 * pitch;
             let dr = if rho > 0.0 {
@@ -351,29 +385,9 @@ impl KienzleMillingModel {
                 if h <= 0.0 {
                     continue;
                 }
-                let ht = h.powf(ec);
-                let hr = h.powf(er);
-                let ft = c.kc11_n_mm2 * b * ht + self.edge.kte_n_mm * b;
-                let fr = c.kr11_n_mm2 * b * hr + self.edge.kre_n_mm * b;
-                fx += -ft * cp - fr * sp;
-                fy += ft * sp - fr * cp;
-                if let Some(j) = jac.as_deref_mut() {
-                    let lh = h.ln();
-                    // d ft / d kc11, d ft / d mc; d fr / d kr11, d fr / d mr
-                    let dft = [b * ht, -c.kc11_n_mm2 * b * ht * lh];
-                    let dfr = [b * hr, -c.kr11_n_mm2 * b * hr * lh];
-                    j[0][0] += -dft[0] * cp;
-                    j[0][1] += -dft[1] * cp;
-                    j[0][2] += -dfr[0] * sp;
-                    j[0][3] += -dfr[1] * sp;
-                    j[1][0] += dft[0] * sp;
-                    j[1][1] += dft[1] * sp;
-                    j[1][2] += -dfr[0] * cp;
-                    j[1][3] += -dfr[1] * cp;
-                }
+                f(tooth, b, sp, cp, h);
             }
         }
-        [fx, fy]
     }
 
     /// Forces on the tool `[Fx, Fy]` (N) at spindle rotation `rot_rad`.
@@ -420,6 +434,39 @@ impl KienzleMillingModel {
             f[1] += fk[1] / z as f64;
         }
         f
+    }
+
+    /// How the orthogonal force at a wall instant depends on each tooth's chip: `∂Fy/∂Δh_i` (N per mm)
+    /// at the instant tooth 0 passes the lower wall (φ = π) at `height_mm` above the tip, for an
+    /// additive increment `Δh_i` of tooth `i`'s chip thickness (the radius difference a runout gives
+    /// it over the tooth before, `h += R_i − R_{i−1}` in [`Self::forces`]), at the model's own runout.
+    /// This is the runout's force to first order: `Σ_i ∂Fy/∂Δh_i · Δh_i` — with the cut's engagement,
+    /// so it falls where the cutter leaves the blank, tooth by tooth. Elements whose chip is not
+    /// positive contribute nothing (as in the force).
+    ///
+    /// ```
+    /// use millcomp_sim::kienzle::{CutState, EndMill, KienzleCoefficients, KienzleMillingModel};
+    /// let mut m = KienzleMillingModel::new(KienzleCoefficients::c45_handbook(), EndMill::brecher_003()).unwrap();
+    /// m.axial_slices = 32;
+    /// let cut = CutState::steady(0.1, 8.0, 16.0);
+    /// let g = m.wall_chip_sensitivity_at(&cut, 1.0);
+    /// assert_eq!(g.len(), 5);
+    /// // a 1 µm thicker chip on every tooth at once: ≈ the force's change from fz to fz + 1 µm at the
+    /// // wall instant (there h = fz·sin φ: the change is not exactly that of a 1 µm larger feed)
+    /// let total: f64 = g.iter().sum::<f64>() * 1e-3;
+    /// assert!(total > 0.0 && total < 0.05 * m.wall_forces_at(&cut, 1.0)[1], "{total}");
+    /// ```
+    pub fn wall_chip_sensitivity_at(&self, cut: &CutState, height_mm: f64) -> Vec<f64> {
+        let t = &self.tool;
+        let c = &self.coefficients;
+        let rot = PI + height_mm * t.helix_deg.to_radians().tan() / t.radius_mm();
+        let mut g = vec![0.0; t.teeth as usize];
+        self.engaged_elements(rot, cut, |tooth, b, sp, cp, h| {
+            let dft = c.kc11_n_mm2 * b * (1.0 - c.mc) * h.powf(-c.mc);
+            let dfr = c.kr11_n_mm2 * b * (1.0 - c.mr) * h.powf(-c.mr);
+            g[tooth] += dft * sp - dfr * cp;
+        });
+        g
     }
 
     /// Revolution means of `[Fx, Fy]` (N) in steady cutting (an endless blank), averaged over
@@ -523,21 +570,53 @@ mod tests {
         }
     }
 
+    /// A full slot at 0.1 mm per tooth with the tool's centre at `x`, the blank ending at 100 mm.
+    fn exit_cut(x: f64) -> CutState {
+        CutState {
+            x_center_mm: x,
+            fz_mm: 0.1,
+            ap_mm: 8.0,
+            ae_mm: 16.0,
+            blank_start_mm: -1e9,
+            blank_end_mm: 100.0,
+        }
+    }
+
+    #[test]
+    fn the_wall_chip_sensitivity_is_the_runouts_force_to_first_order() {
+        // a small runout changes each tooth's chip by R_i − R_{i−1}; the force at the wall instant
+        // changes by Σ ∂Fy/∂Δh_i · Δh_i — in the full slot and one third of the way out of the blank
+        let mut m = c45();
+        m.axial_slices = 32;
+        let pass = PI + 1.0 * m.tool.helix_deg.to_radians().tan() / m.tool.radius_mm();
+        for x in [50.0, 94.5] {
+            let cut = exit_cut(x);
+            let g = m.wall_chip_sensitivity_at(&cut, 1.0);
+            let f0 = m.forces(pass, &cut)[1];
+            let mut mr = m.clone();
+            // 0.2 µm: small against the 100 µm chip, so the change is linear
+            (mr.tool.runout_um, mr.tool.runout_phase_deg) = (0.2, 40.0);
+            let (rho, th, pitch) = (0.2e-3, 40f64.to_radians(), 2.0 * PI / 5.0);
+            let predicted: f64 = (0..5)
+                .map(|i| {
+                    let i = i as f64;
+                    g[i as usize] * rho * ((th + i * pitch).cos() - (th + (i - 1.0) * pitch).cos())
+                })
+                .sum();
+            let got = mr.forces(pass, &cut)[1] - f0;
+            assert!(predicted.abs() > 0.05, "{predicted}");
+            assert!(
+                (got - predicted).abs() < 0.02 * predicted.abs(),
+                "x {x}: {got} vs {predicted}"
+            );
+        }
+    }
+
     #[test]
     fn exit_drops_the_front_first() {
         // 003 §3.3: the cutter leaves first where the largest orthogonal force was made (φ = 90°)
         let m = c45();
-        let mean_fy = |x: f64| {
-            let cut = CutState {
-                x_center_mm: x,
-                fz_mm: 0.1,
-                ap_mm: 8.0,
-                ae_mm: 16.0,
-                blank_start_mm: -1e9,
-                blank_end_mm: 100.0,
-            };
-            m.mean_forces_at(&cut, 360)[1]
-        };
+        let mean_fy = |x: f64| m.mean_forces_at(&exit_cut(x), 360)[1];
         let full = mean_fy(80.0);
         assert!((mean_fy(92.0) - full).abs() < 1e-9 * full);
         // 1 mm into the exit (centre 7 mm before the edge) more than a third of the force is gone
