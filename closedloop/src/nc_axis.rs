@@ -13,8 +13,9 @@
 //! 1. *Force calibration*: full slots and part-width cuts at the plan's feeds per tooth and depths, each
 //!    cut for `revolutions` revolutions on the platform (zeroed before the cut), the revolution means of
 //!    Fx and Fy averaged; `identify kienzle` fits kc1.1, mc, kr1.1, mr starting from the handbook.
-//! 2. *Load–deflection* at the tool tip in y at the middle of the blank: loads read by a dial indicator
-//!    (resolution and noise of the plan); `identify stiffness`.
+//! 2. *Load–deflection* at the tool tip in y at the plan's positions along the blank (its start, middle
+//!    and end): loads read by a dial indicator (resolution and noise of the plan); `identify stiffness`
+//!    at each, the controllers' compliance interpolated between them (003's ΔkM along the axis).
 //! 3. *Axis tests*: a step and a ramp sent to each axis, the NC's trace (reference and encoder at each
 //!    cycle); `identify feed-axis` (dead time + first-order lag — not the truth's structure).
 //! 4. *The platform at rest*: its noise level (σ of `noise_samples` samples).
@@ -212,6 +213,9 @@ pub struct NcCommissioningPlan {
     pub replicates: usize,
     /// Revolutions per cut.
     pub revolutions: usize,
+    /// Where along the blank the load–deflection test is made, as fractions of its length (0 = its
+    /// start, 1 = its end), increasing.
+    pub stiffness_at: Vec<f64>,
     /// Loads of the load–deflection test (N).
     pub loads_n: Vec<f64>,
     /// Trials per load.
@@ -229,7 +233,8 @@ pub struct NcCommissioningPlan {
 impl Default for NcCommissioningPlan {
     /// fz 0.03/0.06/0.09/0.12 mm (around 003's 0.05 and 0.10), full slots and half-width cuts at 4 and
     /// 8 mm, 2 replicates, 20 revolutions; loads 500 … 3000 N three times on a 1 µm indicator (σ
-    /// 0.5 µm); a 100 µm step and ramp per axis; 2000 platform samples at rest.
+    /// 0.5 µm) at the blank's start, middle and end (003's ΔkM: the machine's stiffness changes along
+    /// the axis); a 100 µm step and ramp per axis; 2000 platform samples at rest.
     fn default() -> Self {
         Self {
             fz_mm: vec![0.03, 0.06, 0.09, 0.12],
@@ -237,6 +242,7 @@ impl Default for NcCommissioningPlan {
             ae_mm: vec![8.0, 16.0],
             replicates: 2,
             revolutions: 20,
+            stiffness_at: vec![0.0, 0.5, 1.0],
             loads_n: vec![500.0, 1000.0, 1500.0, 2000.0, 2500.0, 3000.0],
             trials: 3,
             indicator_resolution_um: 1.0,
@@ -439,6 +445,27 @@ impl NcAxisScenario {
                 pos(&format!("{k}[{i}]"), *x)?;
             }
         }
+        if cp.stiffness_at.is_empty() {
+            return Err(invalid(
+                "nc_axis.commissioning.stiffness_at",
+                "[]",
+                "at least one position",
+            ));
+        }
+        for (i, a) in cp.stiffness_at.iter().enumerate() {
+            let before = if i > 0 {
+                cp.stiffness_at[i - 1]
+            } else {
+                f64::NEG_INFINITY
+            };
+            if !(0.0..=1.0).contains(a) || *a <= before {
+                return Err(invalid(
+                    format!("nc_axis.commissioning.stiffness_at[{i}]"),
+                    a,
+                    "increasing fractions of the blank's length in 0 ..= 1",
+                ));
+            }
+        }
         if cp.fz_mm.len() < 2 {
             return Err(invalid(
                 "nc_axis.commissioning.fz_mm",
@@ -587,13 +614,22 @@ pub fn nc_truth(
     Ok((cfg, d))
 }
 
+/// One load–deflection test of the commissioning: where along the blank, and its `identify stiffness`.
+#[derive(Debug, Clone)]
+pub struct NcStiffnessTest {
+    /// The tool's position along x (mm).
+    pub x_mm: f64,
+    /// The fit.
+    pub fit: Identified,
+}
+
 /// The commissioning's four identifications and the platform's noise level.
 #[derive(Debug, Clone)]
 pub struct NcCommissioned {
     /// `identify kienzle` of the force calibration.
     pub kienzle: Identified,
-    /// `identify stiffness` of the load–deflection test.
-    pub stiffness: Identified,
+    /// `identify stiffness` of the load–deflection test at each of the plan's positions.
+    pub stiffness: Vec<NcStiffnessTest>,
     /// `identify feed-axis` of the x axis' trace.
     pub x_axis: Identified,
     /// `identify feed-axis` of the y axis' trace.
@@ -724,34 +760,37 @@ pub fn commission_nc(
         },
     )
     .map_err(experiment("force calibration"))?;
-    // 2. load–deflection at the middle of the blank
-    let x_mid = 0.5 * (program.blank_start_mm + program.blank_end_mm);
-    let k_true = truth
-        .stiffness
-        .system_at(x_mid, program.blank_start_mm, program.blank_end_mm)?;
+    // 2. load–deflection at the plan's positions along the blank
     let ind = Normal::new(0.0, plan.indicator_noise_um.max(1e-12))
         .map_err(|source| ClosedLoopError::CalibrationNoise { source })?;
-    let (mut load, mut defl) = (vec![], vec![]);
-    for _ in 0..plan.trials {
-        for &f in &plan.loads_n {
-            let e = if plan.indicator_noise_um > 0.0 {
-                ind.sample(&mut rng)
-            } else {
-                0.0
-            };
-            load.push(f);
-            defl.push(quantize(f / k_true + e, plan.indicator_resolution_um));
+    let (x0, x1) = (program.blank_start_mm, program.blank_end_mm);
+    let mut stiffness = Vec::with_capacity(plan.stiffness_at.len());
+    for &a in &plan.stiffness_at {
+        let x_mm = x0 + a * (x1 - x0);
+        let k_true = truth.stiffness.system_at(x_mm, x0, x1)?;
+        let (mut load, mut defl) = (vec![], vec![]);
+        for _ in 0..plan.trials {
+            for &f in &plan.loads_n {
+                let e = if plan.indicator_noise_um > 0.0 {
+                    ind.sample(&mut rng)
+                } else {
+                    0.0
+                };
+                load.push(f);
+                defl.push(quantize(f / k_true + e, plan.indicator_resolution_um));
+            }
         }
+        let fit = identify_stiffness(
+            &StiffnessData {
+                load_n: &load,
+                deflection_um: &defl,
+                direction: None,
+            },
+            &StiffnessOptions::default(),
+        )
+        .map_err(experiment("load-deflection test"))?;
+        stiffness.push(NcStiffnessTest { x_mm, fit });
     }
-    let stiffness = identify_stiffness(
-        &StiffnessData {
-            load_n: &load,
-            deflection_um: &defl,
-            direction: None,
-        },
-        &StiffnessOptions::default(),
-    )
-    .map_err(experiment("load-deflection test"))?;
     // 3. axis traces
     let spc = (program.cycle_s / dt).round() as usize;
     let axis_fit = |d: &AxisDynamics, what: &'static str| {
@@ -828,8 +867,13 @@ impl NcModels {
                 .rescaled(1.0 + truth.kienzle_error)?,
             x_axis: axis(&c.x_axis, &c.x_axis_step)?,
             y_axis: axis(&c.y_axis, &c.y_axis_step)?,
-            stiffness: IdentifiedNcStiffness::new(&c.stiffness.model)?
-                .scaled(1.0 + truth.stiffness_error)?,
+            stiffness: IdentifiedNcStiffness::along(
+                &c.stiffness
+                    .iter()
+                    .map(|t| (t.x_mm, &t.fit.model))
+                    .collect::<Vec<_>>(),
+            )?
+            .scaled(1.0 + truth.stiffness_error)?,
             force_noise_n: c.force_noise_n,
         })
     }
@@ -878,6 +922,7 @@ fn drive(
                     index: k,
                     a_cmd_mm_s2: a,
                     y_axis_um: y,
+                    x_axis_mm: x,
                     spindle_angle_rad: theta,
                 })
             })?;
@@ -894,6 +939,7 @@ fn drive(
             rows.push([last_t, x, a, last_f, safe, y]);
             if record {
                 reference.a_cmd_mm_s2.push(a);
+                reference.x_axis_mm.push(x);
             }
         }
         let s = stage.step(setpoint);
@@ -974,8 +1020,8 @@ pub struct NcWallMetrics {
     /// the wall of a controller that cancels, at every tooth pass, the deflection it sees — the
     /// orthogonal force known in advance exactly as the platform measures it, noise-free, over the
     /// commissioned stiffness. The axis allows it (the physical limit is ≈ 0); what is left is what no
-    /// force feedback sees: the machine stiffness' span along the blank, the load–deflection test's
-    /// and the platform gain's errors. Not a lower bound (a controller can be wrong the other way).
+    /// force feedback sees: the load–deflection tests' errors, the machine stiffness between them and
+    /// the platform gain's error. Not a lower bound (a controller can be wrong the other way).
     #[serde(default)]
     pub certainty_equivalent: Option<NcReferenceWall>,
 }
@@ -1325,12 +1371,12 @@ pub fn run_nc_axis(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Clos
     nc_bounds(&setup, p, &mut wm)?;
     // the certainty-equivalent wall: the deflection seen per measured newton through the commissioned
     // stiffness, cancelled exactly at every pass — the error left is δ (1 − g k(x)/k_model)
-    let k_model = models.stiffness.n_per_um();
     let mut ce_wall = Vec::with_capacity(d.wall.len());
     for w in &d.wall {
         let k = truth
             .stiffness
             .system_at(w.x_mm, p.blank_start_mm, p.blank_end_mm)?;
+        let k_model = models.stiffness.n_per_um_at(w.x_mm);
         ce_wall.push(WallPoint {
             error_um: w.deflection_um * (1.0 - truth.platform.gain * k / k_model),
             ..*w
@@ -1372,6 +1418,19 @@ pub fn run_nc_axis(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Clos
     let est = |i: &Identified, n: &str| (i.report.param(n), i.report.se(n));
     let kc = KienzleCoefficients::c45_handbook().scaled(draw.force_factor);
     let mut lines = Vec::new();
+    // one line per load–deflection test, named by its position
+    let mut stiffness_lines = Vec::new();
+    for t in &commissioned.stiffness {
+        let (e, se) = est(&t.fit, "stiffness_n_per_um");
+        stiffness_lines.push(NcModelLine {
+            name: format!("stiffness@{:.1}mm.n_per_um", t.x_mm),
+            estimate: e,
+            std_err: se,
+            truth: truth
+                .stiffness
+                .system_at(t.x_mm, p.blank_start_mm, p.blank_end_mm)?,
+        });
+    }
     for (name, (e, se), t) in [
         (
             "kienzle.kc11_n_mm2",
@@ -1385,11 +1444,6 @@ pub fn run_nc_axis(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Clos
             kc.kr11_n_mm2,
         ),
         ("kienzle.mr", est(&commissioned.kienzle, "mr"), kc.mr),
-        (
-            "stiffness.stiffness_n_per_um",
-            est(&commissioned.stiffness, "stiffness_n_per_um"),
-            k_true,
-        ),
         (
             "x_axis.dead_time_s",
             est(&commissioned.x_axis, "dead_time_s"),
@@ -1410,6 +1464,8 @@ pub fn run_nc_axis(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Clos
             truth: t,
         });
     }
+    lines.splice(4..4, stiffness_lines);
+    let k_model = models.stiffness.n_per_um_at(x_mid);
     let notes = vec![
         format!(
             "truth: C45 Kienzle × {:.4} with edge forces {}/{} N/mm, k_M {} N/µm (±{} % over the blank), tool {} D overhang: k = {:.2} N/µm at the blank's middle; axes {} ms equivalent delay",
@@ -1423,7 +1479,7 @@ pub fn run_nc_axis(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Clos
             1e3 * nc.machine.axis.equivalent_delay_s()
         ),
         format!(
-            "controllers' models (commissioned): k {:.2} N/µm, kc1.1 {:.0} N/mm², mc {:.3}, y axis {:.2} + {:.2} ms, platform σ {:.2} N",
+            "controllers' models (commissioned): k {:.2} N/µm at the blank's middle, kc1.1 {:.0} N/mm², mc {:.3}, y axis {:.2} + {:.2} ms, platform σ {:.2} N",
             k_model,
             models.force.coefficients().kc11_n_mm2,
             models.force.coefficients().mc,

@@ -82,17 +82,37 @@ fn commissioning_identifies_the_plant_through_its_instruments() {
     let c = commission_nc(&truth, &nc.program, &nc.commissioning, 7).unwrap();
     let m = NcModels::of(&c, &nc.truth, NcAxisModel::DeadTimeLag).unwrap();
     let p = &nc.program;
-    let mid = 0.5 * (p.blank_start_mm + p.blank_end_mm);
-    let k = truth
-        .stiffness
-        .system_at(mid, p.blank_start_mm, p.blank_end_mm)
-        .unwrap();
-    // loads to 3000 N read to 1 µm (σ 0.5 µm), 18 readings: the slope within 1 %
-    assert!(
-        (m.stiffness.n_per_um() / k - 1.0).abs() < 0.01,
-        "{}",
-        m.stiffness.n_per_um()
+    // loads to 3000 N read to 1 µm (σ 0.5 µm), 18 readings at each of the blank's start, middle and
+    // end: the stiffness within 1 % there and between them (the machine's stiffness is linear in x,
+    // the series compliance nearly so)
+    for x in [0.0, 0.25, 0.5, 0.8, 1.0]
+        .map(|a| p.blank_start_mm + a * (p.blank_end_mm - p.blank_start_mm))
+    {
+        let k = truth
+            .stiffness
+            .system_at(x, p.blank_start_mm, p.blank_end_mm)
+            .unwrap();
+        let km = m.stiffness.n_per_um_at(x);
+        assert!((km / k - 1.0).abs() < 0.01, "x {x}: {km} vs {k}");
+    }
+    // the span along the blank is seen: the end is stiffer than the start by the truth's ratio
+    let (k0, k1) = (
+        m.stiffness.n_per_um_at(p.blank_start_mm),
+        m.stiffness.n_per_um_at(p.blank_end_mm),
     );
+    let span = |a: f64, b: f64| {
+        truth
+            .stiffness
+            .system_at(b, p.blank_start_mm, p.blank_end_mm)
+            .unwrap()
+            / truth
+                .stiffness
+                .system_at(a, p.blank_start_mm, p.blank_end_mm)
+                .unwrap()
+    };
+    let want = span(p.blank_start_mm, p.blank_end_mm);
+    assert!(want > 1.03, "{want}");
+    assert!((k1 / k0 - want).abs() < 0.015, "{} vs {want}", k1 / k0);
     // dead time + lag describes the truth's dead time + 2nd-order loop: its ramp lag (16 ms, sim's
     // AxisDynamics::brecher_003) within 1 ms
     let d = m.y_axis.equivalent_delay_s();

@@ -383,39 +383,127 @@ impl IdentifiedFeedAxis {
     }
 }
 
-/// The controllers' static stiffness at the tool (load–deflection test, `identify stiffness`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct IdentifiedNcStiffness(f64);
+/// The controllers' static stiffness at the tool: load–deflection tests (`identify stiffness`) at one
+/// or more positions along the feed axis, the compliance interpolated linearly between them and held
+/// beyond the outermost (003 eqs. 1–5: the machine's stiffness changes along the axis by ΔkM; one
+/// test sees none of that).
+#[derive(Debug, Clone, PartialEq)]
+pub struct IdentifiedNcStiffness {
+    /// Test positions (mm), increasing.
+    x_mm: Vec<f64>,
+    /// Compliance at each (µm/N).
+    compliance_um_per_n: Vec<f64>,
+}
 
 impl IdentifiedNcStiffness {
-    /// From a `stiffness` fit (`stiffness_n_per_um`).
+    /// From one `stiffness` fit (`stiffness_n_per_um`): the same stiffness everywhere.
     ///
     /// # Errors
     /// [`MpcError::InvalidConfig`] (`stiffness.stiffness_n_per_um`) for a missing or non-positive value.
     pub fn new(m: &IdentifiedModel) -> Result<Self, MpcError> {
-        let k = param(m, "stiffness", "stiffness_n_per_um")?;
-        if k <= 0.0 {
-            return Err(invalid("stiffness.stiffness_n_per_um", k, "> 0"));
-        }
-        Ok(Self(k))
+        Self::along(&[(0.0, m)])
     }
 
-    /// This stiffness times `factor` (a deliberate error for a study).
+    /// From `stiffness` fits at positions `x_mm` along the feed axis.
+    ///
+    /// ```
+    /// use millcomp_models::{FitStatus, IdentifiedModel, NamedMatrix};
+    /// use millcomp_mpc::nc_axis::IdentifiedNcStiffness;
+    /// let fit = |k: f64| IdentifiedModel {
+    ///     status: FitStatus::Converged,
+    ///     n_obs: 18,
+    ///     dof: 17,
+    ///     rms_residual: 0.3,
+    ///     residual_unit: "um".into(),
+    ///     warnings: vec![],
+    ///     params: [("stiffness_n_per_um".to_string(), k)].into(),
+    ///     std_err: Default::default(),
+    ///     fixed: Default::default(),
+    ///     derived: Default::default(),
+    ///     covariance: NamedMatrix::default(),
+    /// };
+    /// let (a, b) = (fit(10.0), fit(20.0));
+    /// let k = IdentifiedNcStiffness::along(&[(0.0, &a), (100.0, &b)]).unwrap();
+    /// // the compliance is interpolated: 0.075 µm/N half-way, held beyond the ends
+    /// assert!((k.n_per_um_at(50.0) - 1.0 / 0.075).abs() < 1e-9);
+    /// assert_eq!(k.n_per_um_at(-5.0), 10.0);
+    /// assert_eq!(k.n_per_um_at(150.0), 20.0);
+    /// ```
+    ///
+    /// # Errors
+    /// [`MpcError::InvalidConfig`]: no fit, a missing or non-positive stiffness
+    /// (`stiffness.stiffness_n_per_um`), positions not finite and increasing (`stiffness.x_mm`).
+    pub fn along(fits: &[(f64, &IdentifiedModel)]) -> Result<Self, MpcError> {
+        if fits.is_empty() {
+            return Err(invalid(
+                "stiffness",
+                "[]",
+                "at least one load–deflection test",
+            ));
+        }
+        let mut x_mm = Vec::with_capacity(fits.len());
+        let mut compliance_um_per_n = Vec::with_capacity(fits.len());
+        for (x, m) in fits {
+            let k = param(m, "stiffness", "stiffness_n_per_um")?;
+            if !(k > 0.0 && k.is_finite()) {
+                return Err(invalid("stiffness.stiffness_n_per_um", k, "> 0"));
+            }
+            if !x.is_finite() || x_mm.last().is_some_and(|l| x <= l) {
+                return Err(invalid("stiffness.x_mm", x, "finite and increasing"));
+            }
+            x_mm.push(*x);
+            compliance_um_per_n.push(1.0 / k);
+        }
+        Ok(Self {
+            x_mm,
+            compliance_um_per_n,
+        })
+    }
+
+    /// This stiffness times `factor` everywhere (a deliberate error for a study).
     ///
     /// # Errors
     /// [`MpcError::InvalidConfig`] for a product that is not finite and > 0.
     pub fn scaled(&self, factor: f64) -> Result<Self, MpcError> {
-        let k = self.0 * factor;
-        if k.is_finite() && k > 0.0 {
-            Ok(Self(k))
-        } else {
-            Err(invalid("stiffness.scale", factor, "finite, > 0 product"))
+        if !(factor.is_finite() && factor > 0.0) {
+            return Err(invalid("stiffness.scale", factor, "finite, > 0 product"));
         }
+        Ok(Self {
+            x_mm: self.x_mm.clone(),
+            compliance_um_per_n: self
+                .compliance_um_per_n
+                .iter()
+                .map(|c| c / factor)
+                .collect(),
+        })
     }
 
-    /// The stiffness (N/µm).
-    pub fn n_per_um(&self) -> f64 {
-        self.0
+    /// The stiffness (N/µm) at `x_mm` along the feed axis; not finite: at the middle of the tests.
+    pub fn n_per_um_at(&self, x_mm: f64) -> f64 {
+        let (xs, cs) = (&self.x_mm, &self.compliance_um_per_n);
+        let x = if x_mm.is_finite() {
+            x_mm
+        } else {
+            0.5 * (xs[0] + xs[xs.len() - 1])
+        };
+        let i = xs.partition_point(|v| *v <= x);
+        let c = if i == 0 {
+            cs[0]
+        } else if i == xs.len() {
+            cs[xs.len() - 1]
+        } else {
+            let w = (x - xs[i - 1]) / (xs[i] - xs[i - 1]);
+            cs[i - 1] + w * (cs[i] - cs[i - 1])
+        };
+        1.0 / c
+    }
+
+    /// The test positions (mm) and the stiffness identified at each (N/µm).
+    pub fn tests(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
+        self.x_mm
+            .iter()
+            .zip(&self.compliance_um_per_n)
+            .map(|(x, c)| (*x, 1.0 / c))
     }
 }
 
@@ -463,6 +551,8 @@ pub struct NcCycle {
     pub a_cmd_mm_s2: f64,
     /// The y axis' encoder (µm).
     pub y_axis_um: f64,
+    /// The x axis' encoder (mm): where the tool is along the feed. Not finite: unknown.
+    pub x_axis_mm: f64,
     /// The spindle's angle at the cycle's start (rad, accumulated; the NC's spindle encoder — an
     /// NC-internal datum like the reference acceleration). Not finite: unknown.
     pub spindle_angle_rad: f64,
@@ -540,7 +630,7 @@ impl NcController for NoneNc {
 #[derive(Debug, Clone)]
 pub struct ReactiveNc {
     chain: NotchChain,
-    k: f64,
+    k: IdentifiedNcStiffness,
     filtered: f64,
 }
 
@@ -552,7 +642,7 @@ impl ReactiveNc {
     pub fn new(channel: &NcChannel, k: &IdentifiedNcStiffness) -> Result<Self, MpcError> {
         Ok(Self {
             chain: channel.chain()?,
-            k: k.n_per_um(),
+            k: k.clone(),
             filtered: 0.0,
         })
     }
@@ -567,8 +657,8 @@ impl NcController for ReactiveNc {
             self.filtered = self.chain.step(f);
         }
     }
-    fn cycle(&mut self, _: &NcCycle) -> Result<f64, MpcError> {
-        Ok(-self.filtered / self.k)
+    fn cycle(&mut self, c: &NcCycle) -> Result<f64, MpcError> {
+        Ok(-self.filtered / self.k.n_per_um_at(c.x_axis_mm))
     }
 }
 
@@ -592,6 +682,8 @@ pub struct NcReferenceRun {
     pub force_n: Vec<f64>,
     /// Reference acceleration per cycle (mm/s²).
     pub a_cmd_mm_s2: Vec<f64>,
+    /// The x axis' encoder per cycle (mm; empty or not finite: unknown).
+    pub x_axis_mm: Vec<f64>,
     /// Force samples per cycle.
     pub samples_per_cycle: usize,
 }
@@ -657,8 +749,8 @@ impl OffsetCurve {
             }
         }
         let ahead = (axis.equivalent_delay_s() / dt).round() as usize;
-        let kk = k.n_per_um();
-        let desired = |c: usize| -mean_at((c * spc + ahead).min(f.len().saturating_sub(1))) / kk;
+        let kk = |c: usize| k.n_per_um_at(run.x_axis_mm.get(c).copied().unwrap_or(f64::NAN));
+        let desired = |c: usize| -mean_at((c * spc + ahead).min(f.len().saturating_sub(1))) / kk(c);
         let n_cycles = run.a_cmd_mm_s2.len();
         let max_len = (0.5 / cycle_s).ceil() as usize;
         let mut episodes = Vec::new();
@@ -678,7 +770,7 @@ impl OffsetCurve {
                 OffsetWindow::Recorded => max_len.min(n_cycles - start),
             };
             let mut curve: Vec<f64> = (0..len)
-                .map(|j| desired(start + j) - (-lp_at_cycle[start + j] / kk))
+                .map(|j| desired(start + j) - (-lp_at_cycle[start + j] / kk(start + j)))
                 .collect();
             if window == OffsetWindow::Recorded {
                 let peak = curve.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -704,7 +796,7 @@ fn proactive_lowpass(dt_s: f64) -> Result<Biquad, MpcError> {
 pub struct ProactiveNc {
     lp: Biquad,
     filtered: f64,
-    k: f64,
+    k: IdentifiedNcStiffness,
     curve: OffsetCurve,
     window: OffsetWindow,
     episode: usize,
@@ -726,7 +818,7 @@ impl ProactiveNc {
         Ok(Self {
             lp: proactive_lowpass(force_dt_s)?,
             filtered: 0.0,
-            k: k.n_per_um(),
+            k: k.clone(),
             curve,
             window,
             episode: 0,
@@ -754,7 +846,7 @@ impl NcController for ProactiveNc {
             }
         }
         self.last_a = c.a_cmd_mm_s2;
-        let mut u = -self.filtered / self.k;
+        let mut u = -self.filtered / self.k.n_per_um_at(c.x_axis_mm);
         if let Some(j) = self.playing {
             let ep = &self.curve.episodes[self.episode];
             let stop =
@@ -823,7 +915,7 @@ struct WallForcePlan {
     blank_start_mm: f64,
     blank_end_mm: f64,
     radius_mm: f64,
-    k_n_per_um: f64,
+    k: IdentifiedNcStiffness,
     teeth: usize,
     /// The spindle angle at which a tooth generates the wall at the plan's height (rad): π + the
     /// helix' lag over the height (the stage's convention).
@@ -1035,7 +1127,7 @@ impl NcPlan {
             blank_start_mm: program.blank_start_mm,
             blank_end_mm: program.blank_end_mm,
             radius_mm: r,
-            k_n_per_um: k.n_per_um(),
+            k: k.clone(),
             teeth: tool.teeth as usize,
             pass_angle_rad: PI + wall_height_mm * tool.helix_deg.to_radians().tan() / r,
             omega_rad_s: 2.0 * PI * program.speed_rpm / 60.0,
@@ -1049,7 +1141,8 @@ impl NcPlan {
             let (gt, gr) = wall.factors(v * wall.per_mm_s);
             let s4 = wall.sums(0.5 * (xp[i] + x1));
             force_n.push(gt * s4[0] + gr * s4[1]);
-            deflection_um.push((gt * s4[2] + gr * s4[3]) / wall.k_n_per_um);
+            let xm = 0.5 * (xp[i] + x1);
+            deflection_um.push((gt * s4[2] + gr * s4[3]) / wall.k.n_per_um_at(xm));
         }
         Ok(Self {
             force_n,
@@ -1121,9 +1214,10 @@ impl NcPlan {
         self.wall.xp[k.min(self.wall.xp.len() - 1)]
     }
 
-    /// The stiffness the plan's deflections are over (N/µm).
-    pub fn stiffness_n_per_um(&self) -> f64 {
-        self.wall.k_n_per_um
+    /// The stiffness (N/µm) the plan's deflection of cycle `k` is over: the identified stiffness at
+    /// the cycle's predicted position.
+    pub fn stiffness_n_per_um_at(&self, k: usize) -> f64 {
+        self.wall.k.n_per_um_at(self.position_mm(k))
     }
 
     /// The position cycle (s).
@@ -1156,15 +1250,11 @@ impl NcPlan {
     pub fn wall_force_range_n(&self, from: usize, to: usize) -> f64 {
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for k in from..=to {
-            let f = self.deflection_um(k);
+            let f = self.deflection_um(k) * self.stiffness_n_per_um_at(k);
             lo = lo.min(f);
             hi = hi.max(f);
         }
-        if hi >= lo {
-            (hi - lo) * self.wall.k_n_per_um
-        } else {
-            0.0
-        }
+        if hi >= lo { hi - lo } else { 0.0 }
     }
 
     /// The range (max − min) of the planned force over cycles `from ..= to`.
@@ -1375,7 +1465,8 @@ impl WallInstants {
         if h <= 0.0 {
             return 0.0;
         }
-        (self.scale.s * h + self.offset_n(plan, tooth, t)) / plan.wall.k_n_per_um
+        (self.scale.s * h + self.offset_n(plan, tooth, t))
+            / plan.wall.k.n_per_um_at(plan.wall.path_at(t).0)
     }
 
     /// Tooth `tooth`'s additive force (N) at time `t` ([`ToothOffsets`]).
@@ -1946,6 +2037,8 @@ mod tests {
         let run = NcReferenceRun {
             force_n: f,
             a_cmd_mm_s2: a,
+            // the x encoder not recorded: the stiffness of the tests' middle
+            x_axis_mm: vec![],
             samples_per_cycle: spc,
         };
         let k = IdentifiedNcStiffness::new(&fit(&[("stiffness_n_per_um", 10.0)])).unwrap();
