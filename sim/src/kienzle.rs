@@ -318,14 +318,15 @@ impl KienzleMillingModel {
             *j = [[0.0; 4]; 2];
         }
         self.engaged_elements(rot_rad, cut, |_, b, sp, cp, h| {
-            let ht = h.powf(ec);
-            let hr = h.powf(er);
+            // two powers of one chip: one logarithm
+            let lh = h.ln();
+            let ht = (ec * lh).exp();
+            let hr = (er * lh).exp();
             let ft = c.kc11_n_mm2 * b * ht + self.edge.kte_n_mm * b;
             let fr = c.kr11_n_mm2 * b * hr + self.edge.kre_n_mm * b;
             fx += -ft * cp - fr * sp;
             fy += ft * sp - fr * cp;
             if let Some(j) = jac.as_deref_mut() {
-                let lh = h.ln();
                 // d ft / d kc11, d ft / d mc; d fr / d kr11, d fr / d mr
                 let dft = [b * ht, -c.kc11_n_mm2 * b * ht * lh];
                 let dfr = [b * hr, -c.kr11_n_mm2 * b * hr * lh];
@@ -361,8 +362,12 @@ impl KienzleMillingModel {
         let phi_st = self.entry_angle_rad(cut.ae_mm);
         let rho = t.runout_um * 1e-3;
         let th_rho = t.runout_phase_deg.to_radians();
+        // the slices' angles step back by the helix' lag over a slice: their sine and cosine by a
+        // rotation (one sin_cos per tooth), the angle reduced once per tooth (no fmod per element)
+        let step = b * lag_per_mm;
+        let (sin_step, cos_step) = step.sin_cos();
         for tooth in 0..z_teeth {
-            let base = rot_rad + tooth as f64 * pitch;
+            let base = (rot_rad + tooth as f64 * pitch).rem_euclid(2.0 * PI);
             let dr = if rho > 0.0 {
                 let rj = rho * (th_rho + tooth as f64 * pitch).cos();
                 let rp = rho * (th_rho + (tooth as f64 - 1.0) * pitch).cos();
@@ -370,13 +375,19 @@ impl KienzleMillingModel {
             } else {
                 0.0
             };
+            let phi0 = base - 0.5 * step;
+            let (mut sp, mut cp) = phi0.sin_cos();
             for s in 0..n {
-                let z = (s as f64 + 0.5) * b;
-                let phi = (base - z * lag_per_mm).rem_euclid(2.0 * PI);
+                if s > 0 {
+                    (sp, cp) = (sp * cos_step - cp * sin_step, cp * cos_step + sp * sin_step);
+                }
+                let mut phi = phi0 - s as f64 * step;
+                if phi < 0.0 {
+                    phi = phi.rem_euclid(2.0 * PI);
+                }
                 if phi < phi_st || phi > PI {
                     continue;
                 }
-                let (sp, cp) = phi.sin_cos();
                 let x_cut = cut.x_center_mm + r * sp;
                 if x_cut < cut.blank_start_mm || x_cut > cut.blank_end_mm {
                     continue;
