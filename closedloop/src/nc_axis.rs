@@ -107,8 +107,8 @@ pub struct NcTruthSpec {
     pub kienzle_error: f64,
     /// Axial elements of the truth's cutting edge (sim's `KienzleMillingModel::axial_slices`): the
     /// force model's resolution. The elements leave the blank one by one at the exit; against 128
-    /// elements the uncompensated wall there is off by up to 13.3 µm with 8, 4.2 with 16 and 2.3 with
-    /// 32 (≈ 1 % of the deflection; 0.3 µm before the exit) — SCENARIOS.md.
+    /// elements the uncompensated wall there is off by up to 6.0 µm with 8, 3.5 with 16 and 1.4 with
+    /// 32 (≈ 0.6 % of the deflection; 0.1 µm before the exit) — SCENARIOS.md.
     pub axial_slices: usize,
 }
 

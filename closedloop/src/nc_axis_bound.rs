@@ -144,7 +144,14 @@ impl NcBoundSetup<'_> {
             .collect();
         points.sort_unstable();
         points.dedup();
-        let step_of = |p: usize| ((self.wall[p].t_s / self.dt_s).round() as i64 - 1).max(0);
+        // a wall point's instant lies in a stage step: the step `k` whose end is at or after it, and
+        // how far into it (`w` in (0, 1]; the axis' position interpolated between the steps' ends)
+        let step_at = |p: usize| {
+            let q = self.wall[p].t_s / self.dt_s;
+            let k = (q.ceil() as i64 - 1).max(0);
+            (k, (q - k as f64).clamp(0.0, 1.0))
+        };
+        let step_of = |p: usize| step_at(p).0;
         let s_resp = step_response(self.axis, self.dt_s)?;
         let settle_cycles = s_resp.len().div_ceil(l) as i64 + 1;
         let cycle_of = |s: i64| s.div_euclid(l as i64);
@@ -181,17 +188,25 @@ impl NcBoundSetup<'_> {
         // y_p = Σ_m u_m g(s_p − m L) (the corrections held over their cycles through the true axis);
         // before m0 the axis rests at u_{m0}
         for (j, &p) in points.iter().enumerate() {
-            let s = step_of(p);
-            let big_m = cycle_of(s);
+            let (k, w) = step_at(p);
             row.clear();
             row.push((iy(j), 1.0));
-            row.push((iu(m0), -(1.0 - s_at(s - (m0 + 1) * l as i64))));
-            for m in (m0 + 1).max(big_m - settle_cycles - 1)..=big_m {
-                let g = s_at(s - m * l as i64) - s_at(s - (m + 1) * l as i64);
-                if g.abs() > 1e-15 {
-                    row.push((iu(m), -g));
+            // y at the end of step s, times `a`
+            let end_of = |s: i64, a: f64, row: &mut Vec<(usize, f64)>| {
+                if a == 0.0 {
+                    return;
                 }
-            }
+                let big_m = cycle_of(s);
+                row.push((iu(m0), -a * (1.0 - s_at(s - (m0 + 1) * l as i64))));
+                for m in (m0 + 1).max(big_m - settle_cycles - 1)..=big_m {
+                    let g = s_at(s - m * l as i64) - s_at(s - (m + 1) * l as i64);
+                    if g.abs() > 1e-15 {
+                        row.push((iu(m), -a * g));
+                    }
+                }
+            };
+            end_of(k, w, &mut row);
+            end_of((k - 1).max(0), 1.0 - w, &mut row);
             lp.eq(&row, 0.0);
         }
         // the correction's limits
