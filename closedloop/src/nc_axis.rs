@@ -1417,21 +1417,13 @@ pub fn run_nc_axis(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Clos
         .system_at(x_mid, p.blank_start_mm, p.blank_end_mm)?;
     let est = |i: &Identified, n: &str| (i.report.param(n), i.report.se(n));
     let kc = KienzleCoefficients::c45_handbook().scaled(draw.force_factor);
-    let mut lines = Vec::new();
-    // one line per load–deflection test, named by its position
-    let mut stiffness_lines = Vec::new();
-    for t in &commissioned.stiffness {
-        let (e, se) = est(&t.fit, "stiffness_n_per_um");
-        stiffness_lines.push(NcModelLine {
-            name: format!("stiffness@{:.1}mm.n_per_um", t.x_mm),
-            estimate: e,
-            std_err: se,
-            truth: truth
-                .stiffness
-                .system_at(t.x_mm, p.blank_start_mm, p.blank_end_mm)?,
-        });
-    }
-    for (name, (e, se), t) in [
+    let line = |name: &str, (estimate, std_err): (f64, f64), truth: f64| NcModelLine {
+        name: name.into(),
+        estimate,
+        std_err,
+        truth,
+    };
+    let mut lines: Vec<NcModelLine> = [
         (
             "kienzle.kc11_n_mm2",
             est(&commissioned.kienzle, "kc11_n_mm2"),
@@ -1444,27 +1436,38 @@ pub fn run_nc_axis(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Clos
             kc.kr11_n_mm2,
         ),
         ("kienzle.mr", est(&commissioned.kienzle, "mr"), kc.mr),
-        (
-            "x_axis.dead_time_s",
-            est(&commissioned.x_axis, "dead_time_s"),
-            f64::NAN,
-        ),
-        ("x_axis.lag_s", est(&commissioned.x_axis, "lag_s"), f64::NAN),
-        (
-            "y_axis.dead_time_s",
-            est(&commissioned.y_axis, "dead_time_s"),
-            f64::NAN,
-        ),
-        ("y_axis.lag_s", est(&commissioned.y_axis, "lag_s"), f64::NAN),
-    ] {
-        lines.push(NcModelLine {
-            name: name.into(),
-            estimate: e,
-            std_err: se,
-            truth: t,
-        });
+    ]
+    .into_iter()
+    .map(|(n, e, t)| line(n, e, t))
+    .collect();
+    // one line per load–deflection test, named by its position
+    for t in &commissioned.stiffness {
+        lines.push(line(
+            &format!("stiffness@{:.1}mm.n_per_um", t.x_mm),
+            est(&t.fit, "stiffness_n_per_um"),
+            truth
+                .stiffness
+                .system_at(t.x_mm, p.blank_start_mm, p.blank_end_mm)?,
+        ));
     }
-    lines.splice(4..4, stiffness_lines);
+    lines.extend(
+        [
+            (
+                "x_axis.dead_time_s",
+                est(&commissioned.x_axis, "dead_time_s"),
+                f64::NAN,
+            ),
+            ("x_axis.lag_s", est(&commissioned.x_axis, "lag_s"), f64::NAN),
+            (
+                "y_axis.dead_time_s",
+                est(&commissioned.y_axis, "dead_time_s"),
+                f64::NAN,
+            ),
+            ("y_axis.lag_s", est(&commissioned.y_axis, "lag_s"), f64::NAN),
+        ]
+        .into_iter()
+        .map(|(n, e, t)| line(n, e, t)),
+    );
     let k_model = models.stiffness.n_per_um_at(x_mid);
     let notes = vec![
         format!(

@@ -187,24 +187,24 @@ impl NcBoundSetup<'_> {
         let mut row: Vec<(usize, f64)> = Vec::new();
         // y_p = Σ_m u_m g(s_p − m L) (the corrections held over their cycles through the true axis);
         // before m0 the axis rests at u_{m0}
+        // −a × (y at the end of step s) into `row`
+        let end_of = |s: i64, a: f64, row: &mut Vec<(usize, f64)>| {
+            if a == 0.0 {
+                return;
+            }
+            let big_m = cycle_of(s);
+            row.push((iu(m0), -a * (1.0 - s_at(s - (m0 + 1) * l as i64))));
+            for m in (m0 + 1).max(big_m - settle_cycles - 1)..=big_m {
+                let g = s_at(s - m * l as i64) - s_at(s - (m + 1) * l as i64);
+                if g.abs() > 1e-15 {
+                    row.push((iu(m), -a * g));
+                }
+            }
+        };
         for (j, &p) in points.iter().enumerate() {
             let (k, w) = step_at(p);
             row.clear();
             row.push((iy(j), 1.0));
-            // y at the end of step s, times `a`
-            let end_of = |s: i64, a: f64, row: &mut Vec<(usize, f64)>| {
-                if a == 0.0 {
-                    return;
-                }
-                let big_m = cycle_of(s);
-                row.push((iu(m0), -a * (1.0 - s_at(s - (m0 + 1) * l as i64))));
-                for m in (m0 + 1).max(big_m - settle_cycles - 1)..=big_m {
-                    let g = s_at(s - m * l as i64) - s_at(s - (m + 1) * l as i64);
-                    if g.abs() > 1e-15 {
-                        row.push((iu(m), -a * g));
-                    }
-                }
-            };
             end_of(k, w, &mut row);
             end_of((k - 1).max(0), 1.0 - w, &mut row);
             lp.eq(&row, 0.0);

@@ -497,14 +497,6 @@ impl IdentifiedNcStiffness {
         };
         1.0 / c
     }
-
-    /// The test positions (mm) and the stiffness identified at each (N/µm).
-    pub fn tests(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
-        self.x_mm
-            .iter()
-            .zip(&self.compliance_um_per_n)
-            .map(|(x, c)| (*x, 1.0 / c))
-    }
 }
 
 /// The measured-force channel every compensating controller reads through (same for all).
@@ -923,64 +915,83 @@ struct WallForcePlan {
     omega_rad_s: f64,
 }
 
+/// Where a tool centre is against the blank ([`WallForcePlan::zone`]).
+enum Zone {
+    Air,
+    Inside,
+    /// Over the start's tables, which begin at this position (mm).
+    Start(f64),
+    /// Over the end's tables, which begin at this position (mm).
+    End(f64),
+}
+
+/// Row `col` of a table of `stride` pairs per grid point, interpolated linearly at the grid
+/// coordinate `u` (clamped to the table).
+fn lerp_row(tab: &[[f64; 2]], stride: usize, col: usize, u: f64) -> [f64; 2] {
+    let n = tab.len() / stride;
+    let u = u.clamp(0.0, (n - 1) as f64);
+    let k = (u.floor() as usize).min(n - 2);
+    let w = u - k as f64;
+    let (a, b) = (tab[k * stride + col], tab[(k + 1) * stride + col]);
+    std::array::from_fn(|j| a[j] * (1.0 - w) + b[j] * w)
+}
+
 impl WallForcePlan {
-    /// Engagement sums `(S_t, S_r, S_t at the wall, S_r at the wall)` at the tool centre `x`.
-    fn sums(&self, x: f64) -> [f64; 4] {
-        let lookup = |tab: &[[f64; 2]], step: f64, x0: f64| -> [f64; 2] {
-            let n = tab.len();
-            let u = ((x - x0) / step).clamp(0.0, (n - 1) as f64);
-            let i = (u.floor() as usize).min(n - 2);
-            let w = u - i as f64;
-            std::array::from_fn(|j| tab[i][j] * (1.0 - w) + tab[i + 1][j] * w)
-        };
-        let both = |t: &[Vec<[f64; 2]>; 2], x0: f64| -> [f64; 4] {
-            let m = lookup(&t[0], ENGAGEMENT_STEP_MM, x0);
-            let w = lookup(&t[1], WALL_STEP_MM, x0);
-            [m[0], m[1], w[0], w[1]]
-        };
+    /// Where the tool centre `x` is against the blank: in air, over the start's or the end's
+    /// engagement tables (with the tables' first position), or inside (the full engagement).
+    fn zone(&self, x: f64) -> Zone {
         let r = self.radius_mm;
         if x <= self.blank_start_mm - r || x >= self.blank_end_mm {
-            [0.0; 4]
+            Zone::Air
         } else if x < self.blank_start_mm {
-            both(&self.start_tab, self.blank_start_mm - r)
+            Zone::Start(self.blank_start_mm - r)
         } else if x > self.blank_end_mm - r {
-            both(&self.end_tab, self.blank_end_mm - r)
+            Zone::End(self.blank_end_mm - r)
         } else {
-            let (m, w) = (&self.start_tab[0], &self.start_tab[1]);
-            let (m, w) = (m[m.len() - 1], w[w.len() - 1]);
+            Zone::Inside
+        }
+    }
+
+    /// Engagement sums `(S_t, S_r, S_t at the wall, S_r at the wall)` at the tool centre `x`.
+    fn sums(&self, x: f64) -> [f64; 4] {
+        let both = |t: &[Vec<[f64; 2]>; 2], x0: f64| -> [f64; 4] {
+            let m = lerp_row(&t[0], 1, 0, (x - x0) / ENGAGEMENT_STEP_MM);
+            let w = lerp_row(&t[1], 1, 0, (x - x0) / WALL_STEP_MM);
             [m[0], m[1], w[0], w[1]]
+        };
+        match self.zone(x) {
+            Zone::Air => [0.0; 4],
+            Zone::Start(x0) => both(&self.start_tab, x0),
+            Zone::End(x0) => both(&self.end_tab, x0),
+            Zone::Inside => {
+                let (m, w) = (&self.start_tab[0], &self.start_tab[1]);
+                let (m, w) = (m[m.len() - 1], w[w.len() - 1]);
+                [m[0], m[1], w[0], w[1]]
+            }
         }
     }
 
     /// Tooth `i`'s `(G_t, G_r)` chip sensitivity at the tool centre `x` (see `chip_start`).
     fn chip_sums(&self, x: f64, i: usize) -> [f64; 2] {
         let z = self.teeth;
-        let lookup = |tab: &[[f64; 2]], x0: f64| -> [f64; 2] {
-            let n = tab.len() / z;
-            let u = ((x - x0) / WALL_STEP_MM).clamp(0.0, (n - 1) as f64);
-            let k = (u.floor() as usize).min(n - 2);
-            let w = u - k as f64;
-            let (a, b) = (tab[k * z + i], tab[(k + 1) * z + i]);
-            [a[0] * (1.0 - w) + b[0] * w, a[1] * (1.0 - w) + b[1] * w]
-        };
-        let r = self.radius_mm;
-        if x <= self.blank_start_mm - r || x >= self.blank_end_mm {
-            [0.0; 2]
-        } else if x < self.blank_start_mm {
-            lookup(&self.chip_start, self.blank_start_mm - r)
-        } else if x > self.blank_end_mm - r {
-            lookup(&self.chip_end, self.blank_end_mm - r)
-        } else {
-            self.chip_start[self.chip_start.len() - z + i]
+        match self.zone(x) {
+            Zone::Air => [0.0; 2],
+            Zone::Start(x0) => lerp_row(&self.chip_start, z, i, (x - x0) / WALL_STEP_MM),
+            Zone::End(x0) => lerp_row(&self.chip_end, z, i, (x - x0) / WALL_STEP_MM),
+            Zone::Inside => self.chip_start[self.chip_start.len() - z + i],
         }
     }
 
-    /// The chip sensitivities' two factors at feed per tooth `fz` (mm): `kc1.1·fz^(−mc)`,
-    /// `kr1.1·fz^(−mr)` (the derivative of Kienzle's law, `h = fz·sin φ`); 0 without a chip.
-    fn chip_factors(&self, fz: f64) -> (f64, f64) {
+    /// Kienzle's two factors at feed per tooth `fz` (mm), `kc1.1·fz^(order−mc)` and
+    /// `kr1.1·fz^(order−mr)`: order 1 the law's (the force), order 0 its derivative in the chip
+    /// (`h = fz·sin φ`: the chip sensitivities'); 0 without a chip.
+    fn law_factors(&self, fz: f64, order: f64) -> (f64, f64) {
         let c = &self.coefficients;
         if fz > 0.0 {
-            (c.kc11_n_mm2 * fz.powf(-c.mc), c.kr11_n_mm2 * fz.powf(-c.mr))
+            (
+                c.kc11_n_mm2 * fz.powf(order - c.mc),
+                c.kr11_n_mm2 * fz.powf(order - c.mr),
+            )
         } else {
             (0.0, 0.0)
         }
@@ -988,15 +999,12 @@ impl WallForcePlan {
 
     /// Kienzle's two factors at feed per tooth `fz` (mm).
     fn factors(&self, fz: f64) -> (f64, f64) {
-        let c = &self.coefficients;
-        if fz > 0.0 {
-            (
-                c.kc11_n_mm2 * fz.powf(1.0 - c.mc),
-                c.kr11_n_mm2 * fz.powf(1.0 - c.mr),
-            )
-        } else {
-            (0.0, 0.0)
-        }
+        self.law_factors(fz, 1.0)
+    }
+
+    /// The chip sensitivities' two factors at feed per tooth `fz` (mm).
+    fn chip_factors(&self, fz: f64) -> (f64, f64) {
+        self.law_factors(fz, 0.0)
     }
 
     /// The path at time `t_s` from the program's start: position (mm) and feed per tooth (mm),
@@ -1139,9 +1147,9 @@ impl NcPlan {
             let x1 = xp[(i + 1).min(xp.len() - 1)];
             let v = ((x1 - xp[i]) / ts).max(0.0);
             let (gt, gr) = wall.factors(v * wall.per_mm_s);
-            let s4 = wall.sums(0.5 * (xp[i] + x1));
-            force_n.push(gt * s4[0] + gr * s4[1]);
             let xm = 0.5 * (xp[i] + x1);
+            let s4 = wall.sums(xm);
+            force_n.push(gt * s4[0] + gr * s4[1]);
             deflection_um.push((gt * s4[2] + gr * s4[3]) / wall.k.n_per_um_at(xm));
         }
         Ok(Self {

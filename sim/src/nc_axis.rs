@@ -920,6 +920,17 @@ impl NcAxisStage {
         (self.x_axis.position(), self.y_axis.position())
     }
 
+    /// The machine and the tool in series at `x_mm` (N/µm): [`NcStiffness::system_at`] with the tool's
+    /// stiffness computed once.
+    fn system_stiffness_at(&self, x_mm: f64) -> f64 {
+        let km = self.cfg.stiffness.machine_at(
+            x_mm,
+            self.program.blank_start_mm,
+            self.program.blank_end_mm,
+        );
+        km * self.k_tool / (km + self.k_tool)
+    }
+
     /// One stage step. At the start of an NC cycle the x reference of that cycle and the y set-point
     /// `y_setpoint_um` (the programmed 0 plus the controller's correction) are latched; between cycle
     /// starts the argument is ignored. A non-finite set-point keeps the previous one.
@@ -952,8 +963,7 @@ impl NcAxisStage {
         };
         let fy = self.cfg.force.forces(self.theta, &cut)[1];
         let (x0, x1) = (self.program.blank_start_mm, self.program.blank_end_mm);
-        let km = self.cfg.stiffness.machine_at(x, x0, x1);
-        let k = km * self.k_tool / (km + self.k_tool);
+        let k = self.system_stiffness_at(x);
         let delta = fy / k;
         let p = &self.cfg.platform;
         let measured = quantize(p.gain * fy + self.noise.sample(), p.resolution_n);
@@ -976,11 +986,7 @@ impl NcAxisStage {
                         ..cut
                     },
                 )[1];
-                let kp = {
-                    let km = self.cfg.stiffness.machine_at(xp, x0, x1);
-                    km * self.k_tool / (km + self.k_tool)
-                };
-                let dp = fp / kp;
+                let dp = fp / self.system_stiffness_at(xp);
                 self.wall.push(WallPoint {
                     x_mm: xp,
                     error_um: yp + dp,
@@ -1238,6 +1244,16 @@ mod tests {
         }
     }
 
+    /// A short program: constant 500 mm/min over a 30 mm blank.
+    fn short_program() -> NcProgram {
+        NcProgram {
+            feed_changes: vec![],
+            blank_end_mm: 30.0,
+            end_mm: 40.0,
+            ..NcProgram::brecher_003()
+        }
+    }
+
     #[test]
     fn the_axis_lags_a_ramp_by_16_ms() {
         let d = AxisDynamics::brecher_003();
@@ -1254,13 +1270,7 @@ mod tests {
 
     #[test]
     fn uncompensated_wall_follows_force_over_stiffness() {
-        // a short program: constant 500 mm/min over a 30 mm blank
-        let p = NcProgram {
-            feed_changes: vec![],
-            blank_end_mm: 30.0,
-            end_mm: 40.0,
-            ..NcProgram::brecher_003()
-        };
+        let p = short_program();
         let mut st = NcAxisStage::new(truth(), p).unwrap();
         let mut s = Vec::new();
         while !st.finished() {
@@ -1290,12 +1300,7 @@ mod tests {
         // the spindle at the pass angle, the force there over the stiffness there — not at the step
         // after it (at the exit the wall force falls by a third within 0.05 mm, 3 ms: a step late
         // was 1–2 µm)
-        let p = NcProgram {
-            feed_changes: vec![],
-            blank_end_mm: 30.0,
-            end_mm: 40.0,
-            ..NcProgram::brecher_003()
-        };
+        let p = short_program();
         let cfg = truth();
         let mut st = NcAxisStage::new(cfg.clone(), p.clone()).unwrap();
         while !st.finished() {
