@@ -13,22 +13,29 @@
 //! — the fresh study seeds (5 000 000 + k …, the honest estimate), `dev` — the development seeds
 //! (9 000 000 + k …; `--dev` is the same); `--out` writes `sessions.jsonl` (one line per session,
 //! with every round's tests) and `summary.md`. Rates come with their one-sided 95 %
-//! Clopper–Pearson lower bounds. The results of the recorded runs are in `diagnose/STUDY.md`.
+//! Clopper–Pearson lower bounds. Every session is also given to the ideal observer
+//! (`real_data_study/ideal_observer.rs`): the hidden offsets' exact shape, the true noise and
+//! scatter — its detection rate is the ceiling of every "named" rate, what the data could tell at
+//! all. The results of the recorded runs are in `diagnose/STUDY.md`.
 //! `RAYON_NUM_THREADS` sets the threads.
+
+#[path = "real_data_study/ideal_observer.rs"]
+mod ideal_observer;
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
 
+use ideal_observer::{CRITICAL_CHI2_1, IdealObserver};
 use indicatif::{ProgressBar, ProgressStyle};
 use millcomp_diagnose::{DiagnoseOptions, DiagnoseReport, Diagnoser, Measured};
 use millcomp_synthetic::variants::{
-    EFFECTS, Outcome, Row, SPEC_VERSION, SeedBlock, Variant, draw, row_specs, score,
+    EFFECTS, Outcome, Row, SPEC_VERSION, SeedBlock, Variant, VariantSpec, draw, row_specs, score,
 };
 use rayon::prelude::*;
 use serde_json::json;
-use statrs::distribution::{Beta, ContinuousCDF};
+use statrs::distribution::{Beta, ChiSquared, ContinuousCDF};
 
 /// One-sided 95 % Clopper–Pearson lower bound of a binomial rate k/n.
 fn lower_bound(k: usize, n: usize) -> f64 {
@@ -66,11 +73,43 @@ struct Done {
     variant: Variant,
     report: Result<DiagnoseReport, String>,
     seconds: f64,
+    /// The ideal observer's likelihood-ratio statistic of each hidden effect (`ideal_observer`).
+    ideal_lr: Vec<f64>,
 }
 
 impl Done {
     fn hidden(&self) -> Vec<&'static str> {
         self.variant.hidden.iter().map(|h| h.effect).collect()
+    }
+
+    /// Whether the ideal observer detects hidden effect `j` at α = 0.01 (shape given).
+    fn detects(&self, j: usize) -> bool {
+        self.ideal_lr.get(j).is_some_and(|&s| s > CRITICAL_CHI2_1)
+    }
+
+    /// Whether the ideal observer detects hidden effect `j` at the significance level `diagnose`
+    /// tested its first round at (α = 0.01 over the shapes it tried, Bonferroni): the ceiling for
+    /// a method that must search for the shape.
+    fn detects_searching(&self, j: usize, r: &DiagnoseReport) -> bool {
+        self.detects_at(j, r, DiagnoseOptions::default().alpha)
+    }
+
+    /// As [`Self::detects_searching`] at the family-wise level `alpha` over the same number of
+    /// shapes.
+    fn detects_at(&self, j: usize, r: &DiagnoseReport, alpha: f64) -> bool {
+        let shapes = r
+            .rounds
+            .first()
+            .map_or(1.0, |rd| DiagnoseOptions::default().alpha / rd.threshold);
+        let critical = ChiSquared::new(1.0)
+            .map(|c| c.inverse_cdf(1.0 - alpha / shapes))
+            .unwrap_or(f64::INFINITY);
+        self.ideal_lr.get(j).is_some_and(|&s| s > critical)
+    }
+
+    /// The index of `effect` among the hidden effects.
+    fn index_of(&self, effect: &str) -> Option<usize> {
+        self.variant.hidden.iter().position(|h| h.effect == effect)
     }
 }
 
@@ -162,11 +201,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     // one prepared diagnosis per nominal session (the measured-stiffness row states other priors)
-    let mut diagnosers: Vec<(Row, millcomp_sim::session::Session, Diagnoser)> = Vec::new();
+    type Prepared = (
+        Row,
+        millcomp_sim::session::Session,
+        Diagnoser,
+        IdealObserver,
+    );
+    let mut diagnosers: Vec<Prepared> = Vec::new();
     for &row in &rows {
         let session = row.nominal_session();
         let d = Diagnoser::new(&session, &DiagnoseOptions::default())?;
-        diagnosers.push((row, session, d));
+        let ideal = IdealObserver::new(d.session_model());
+        diagnosers.push((row, session, d, ideal));
     }
     let mut specs = Vec::new();
     for &row in &rows {
@@ -184,9 +230,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .par_iter()
         .map(|spec| {
             let t = Instant::now();
-            let (_, session, diagnoser) = diagnosers
+            let (_, session, diagnoser, ideal) = diagnosers
                 .iter()
-                .find(|(r, _, _)| *r == spec.row)
+                .find(|(r, _, _, _)| *r == spec.row)
                 .expect("a diagnoser per row");
             let variant = draw(session, spec).expect("the study's variants are valid");
             let report = diagnoser
@@ -195,11 +241,27 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     variant.points.clone(),
                 ))
                 .map_err(|e| e.to_string());
+            let seconds = t.elapsed().as_secs_f64();
+            // the ideal observer: each hidden effect's evidence; where nothing is hidden, the
+            // evidence for a shape drawn for another session (its calibration: χ²₁ under the null)
+            let ideal_lr = if variant.hidden.is_empty() {
+                let decoy = VariantSpec {
+                    row: Row::Single,
+                    effects: vec![EFFECTS[(spec.seed % EFFECTS.len() as u64) as usize]],
+                    seed: spec.seed,
+                };
+                draw(session, &decoy)
+                    .map(|d| ideal.statistics(&variant, &d.hidden_offsets_um))
+                    .unwrap_or_default()
+            } else {
+                ideal.statistics(&variant, &variant.hidden_offsets_um)
+            };
             bar.inc(1);
             Done {
                 variant,
                 report,
-                seconds: t.elapsed().as_secs_f64(),
+                seconds,
+                ideal_lr,
             }
         })
         .collect();
@@ -269,7 +331,7 @@ fn record(d: &Done) -> serde_json::Value {
             "named": r.named, "verdict": r.verdict, "shapes": r.shapes,
             "within_indicated": r.within_nominal_uncertainty.iter().filter(|w| w.indicated).map(|w| w.effect.clone()).collect::<Vec<_>>(),
             "initial_rms_um": r.initial_rms_um, "nuisance_rms_um": r.nuisance_rms_um, "final_rms_um": r.final_rms_um,
-            "groove_sd_um": r.scatter.groove_sd_um, "seconds": d.seconds,
+            "groove_sd_um": r.scatter.groove_sd_um, "seconds": d.seconds, "ideal_lr": d.ideal_lr,
             "p_values": r.steps.iter().map(|s| s.p_value).collect::<Vec<_>>(),
             "rounds": r.rounds.iter().map(|rd| json!({
                 "threshold": rd.threshold,
@@ -328,6 +390,38 @@ fn single_row(md: &mut String, of_row: &Of<'_>, row: Row) {
         "| *counting \"within the nominal model's uncertainty, indicated\" as naming:* named alone | {} |",
         rate(alone_c, total)
     );
+    let detected = count(of_row, |d, _| d.detects(0));
+    let searchable: Of<'_> = of_row
+        .iter()
+        .filter(|(d, r)| d.detects_searching(0, r))
+        .copied()
+        .collect();
+    let _ = writeln!(
+        md,
+        "| the ideal observer (shape given) detects the hidden effect at α = 0.01 | {} |",
+        rate(detected, total)
+    );
+    let _ = writeln!(
+        md,
+        "| … at the level of `diagnose`'s first round (α = 0.01 over the shapes it tries) | {} |",
+        rate(searchable.len(), total)
+    );
+    let _ = writeln!(
+        md,
+        "| where the ideal observer detects it at that level: named first | {} |",
+        rate(
+            count(&searchable, |d, r| literal(d, r).first_right),
+            searchable.len()
+        )
+    );
+    let _ = writeln!(
+        md,
+        "| where the ideal observer detects it at that level: named alone | {} |",
+        rate(
+            count(&searchable, |d, r| literal(d, r).exact),
+            searchable.len()
+        )
+    );
     let ns = separable.len();
     let _ = writeln!(
         md,
@@ -355,7 +449,7 @@ fn single_row(md: &mut String, of_row: &Of<'_>, row: Row) {
     let _ = writeln!(md);
     let _ = writeln!(
         md,
-        "| hidden | sessions | named first | named alone | within uncertainty, indicated | shrink ≥ 50 % | median RMS after nuisance → final (µm) |\n|---|---|---|---|---|---|---|"
+        "| hidden | sessions | ideal observer detects: α = 0.01 / first round's level | named first | named alone | within uncertainty, indicated | shrink ≥ 50 % | median RMS after nuisance → final (µm) |\n|---|---|---|---|---|---|---|---|"
     );
     for e in EFFECTS {
         let sub: Of<'_> = of_row
@@ -372,9 +466,11 @@ fn single_row(md: &mut String, of_row: &Of<'_>, row: Row) {
                 .any(|w| w.effect == e && w.indicated)
         });
         let sh = count(&sub, |_, r| shrink(r) >= 0.5);
+        let ideal = count(&sub, |d, _| d.detects(0));
+        let ideal_s = count(&sub, |d, r| d.detects_searching(0, r));
         let _ = writeln!(
             md,
-            "| {e} | {k} | {f} | {a} | {} | {sh} | {:.2} → {:.2} |",
+            "| {e} | {k} | {ideal} / {ideal_s} | {f} | {a} | {} | {sh} | {:.2} → {:.2} |",
             if ALIASED.contains(&e) {
                 ind.to_string()
             } else {
@@ -384,33 +480,52 @@ fn single_row(md: &mut String, of_row: &Of<'_>, row: Row) {
             median(sub.iter().map(|(_, r)| r.final_rms_um).collect())
         );
     }
+    ceilings(md, of_row);
     confusion(md, of_row);
     // shapes: which shape was hidden, what was named first
-    let mut by_shape: BTreeMap<(String, String), (usize, usize, usize)> = BTreeMap::new();
+    let mut by_shape: BTreeMap<(String, String), [usize; 4]> = BTreeMap::new();
     for (d, r) in of_row {
         let h = &d.variant.hidden[0];
         let e = by_shape
             .entry((h.effect.to_string(), h.shape.to_string()))
             .or_default();
-        e.0 += 1;
         let o = literal(d, r);
-        e.1 += usize::from(o.first_right);
-        e.2 += usize::from(o.exact);
+        e[0] += 1;
+        e[1] += usize::from(d.detects_searching(0, r));
+        e[2] += usize::from(o.first_right);
+        e[3] += usize::from(o.exact);
     }
     let _ = writeln!(
         md,
-        "\n| hidden effect | hidden shape | a family shape | sessions | named first | named alone |\n|---|---|---|---|---|---|"
+        "\n| hidden effect | hidden shape | a family shape | sessions | ideal observer detects (first round's level) | named first | named alone |\n|---|---|---|---|---|---|---|"
     );
-    for ((e, s), (k, f, a)) in &by_shape {
+    for ((e, s), [k, i, f, a]) in &by_shape {
         let member = row == Row::Matched || NOW_FAMILY_SHAPES.contains(&(e.as_str(), s.as_str()));
         let _ = writeln!(
             md,
-            "| {e} | {s} | {} | {k} | {f} | {a} |",
+            "| {e} | {s} | {} | {k} | {i} | {f} | {a} |",
             if member { "yes" } else { "no" }
         );
     }
     if row == Row::Matched {
         coverage(md, of_row);
+    }
+}
+
+/// The ideal observer's ceiling on a row's "every hidden effect named" rate at family-wise levels
+/// other than `diagnose`'s: a laxer level names more, and costs false names in the `none` row
+/// (about the level itself).
+fn ceilings(md: &mut String, of_row: &Of<'_>) {
+    let total = of_row.len();
+    let _ = writeln!(
+        md,
+        "\n| family-wise level over the shapes tried | the ideal observer detects every hidden effect |\n|---|---|"
+    );
+    for alpha in [0.01, 0.02, 0.05] {
+        let k = count(of_row, |d, r| {
+            (0..d.variant.hidden.len()).all(|j| d.detects_at(j, r, alpha))
+        });
+        let _ = writeln!(md, "| {alpha} | {} |", rate(k, total));
     }
 }
 
@@ -494,24 +609,54 @@ fn two_row(md: &mut String, of_row: &Of<'_>) {
     );
     let _ = writeln!(
         md,
-        "| the ten pairs of separable effects: nothing else | {} |\n",
+        "| the ten pairs of separable effects: nothing else | {} |",
         rate(count(&sep, |d, r| literal(d, r).nothing_else), sep.len())
     );
     let _ = writeln!(
         md,
-        "| effect | sessions hiding it | it is named | sessions not hiding it | it is named anyway |\n|---|---|---|---|---|"
+        "| the ideal observer (shapes given) detects both, each beyond the other, at α = 0.01 | {} |",
+        rate(count(of_row, |d, _| d.detects(0) && d.detects(1)), total)
+    );
+    let both_searchable: Of<'_> = of_row
+        .iter()
+        .filter(|(d, r)| d.detects_searching(0, r) && d.detects_searching(1, r))
+        .copied()
+        .collect();
+    let _ = writeln!(
+        md,
+        "| … at the level of `diagnose`'s first round | {} |",
+        rate(both_searchable.len(), total)
+    );
+    let _ = writeln!(
+        md,
+        "| where the ideal observer detects both at that level: both named | {} |\n",
+        rate(
+            count(&both_searchable, |d, r| literal(d, r).all_named),
+            both_searchable.len()
+        )
+    );
+    let _ = writeln!(
+        md,
+        "| effect | sessions hiding it | the ideal observer detects it at the first round's level | it is named | sessions not hiding it | it is named anyway |\n|---|---|---|---|---|---|"
     );
     for e in EFFECTS {
         let with = count(of_row, |d, _| d.hidden().contains(&e));
         let named = count(of_row, |d, r| {
             d.hidden().contains(&e) && r.named.iter().any(|n| n == e)
         });
+        let ideal = count(of_row, |d, r| {
+            d.index_of(e).is_some_and(|j| d.detects_searching(j, r))
+        });
         let without = total - with;
         let spurious = count(of_row, |d, r| {
             !d.hidden().contains(&e) && r.named.iter().any(|n| n == e)
         });
-        let _ = writeln!(md, "| {e} | {with} | {named} | {without} | {spurious} |");
+        let _ = writeln!(
+            md,
+            "| {e} | {with} | {ideal} | {named} | {without} | {spurious} |"
+        );
     }
+    ceilings(md, of_row);
 }
 
 fn none_row(md: &mut String, of_row: &Of<'_>) {
@@ -522,8 +667,20 @@ fn none_row(md: &mut String, of_row: &Of<'_>) {
     let _ = writeln!(md, "| `none` named | {} |", rate(none, total));
     let _ = writeln!(
         md,
-        "| *counting \"within the nominal model's uncertainty, indicated\" as naming:* nothing named or indicated | {} |\n",
+        "| *counting \"within the nominal model's uncertainty, indicated\" as naming:* nothing named or indicated | {} |",
         rate(none_c, total)
+    );
+    // the ideal observer's calibration: a shape drawn for another session, tested where nothing
+    // is hidden, should give χ²₁ (mean 1, 1 % above the critical value)
+    let lr: Vec<f64> = of_row
+        .iter()
+        .filter_map(|(d, _)| d.ideal_lr.first().copied())
+        .collect();
+    let _ = writeln!(
+        md,
+        "| the ideal observer on a shape not hidden (its calibration; χ²₁: mean 1, 1 % detected): detected at α = 0.01 | {} (mean statistic {:.2}) |\n",
+        rate(count(of_row, |d, _| d.detects(0)), total),
+        lr.iter().sum::<f64>() / lr.len().max(1) as f64
     );
     let mut wrong: BTreeMap<String, usize> = BTreeMap::new();
     for (_, r) in of_row {
@@ -561,6 +718,25 @@ fn measured_row(md: &mut String, of_row: &Of<'_>) {
         "| machine_compliance hidden: named alone | {} |",
         rate(count(&mc, |d, r| literal(d, r).exact), mc.len())
     );
+    let mc_searchable: Of<'_> = mc
+        .iter()
+        .filter(|(d, r)| d.detects_searching(0, r))
+        .copied()
+        .collect();
+    let _ = writeln!(
+        md,
+        "| machine_compliance hidden: the ideal observer detects it at α = 0.01 / at the first round's level | {} / {} |",
+        rate(count(&mc, |d, _| d.detects(0)), mc.len()),
+        rate(mc_searchable.len(), mc.len())
+    );
+    let _ = writeln!(
+        md,
+        "| machine_compliance hidden, the ideal observer detects it at that level: named first | {} |",
+        rate(
+            count(&mc_searchable, |d, r| literal(d, r).first_right),
+            mc_searchable.len()
+        )
+    );
     let _ = writeln!(
         md,
         "| machine_compliance hidden: RMS after the nuisance step shrinks ≥ 50 % | {} |",
@@ -571,21 +747,22 @@ fn measured_row(md: &mut String, of_row: &Of<'_>) {
         "| nothing hidden: `none` | {} |\n",
         rate(count(&nothing, |_, r| r.named == ["none"]), nothing.len())
     );
-    let mut by_shape: BTreeMap<String, (usize, usize, usize)> = BTreeMap::new();
+    let mut by_shape: BTreeMap<String, [usize; 4]> = BTreeMap::new();
     for (d, r) in &mc {
         let e = by_shape
             .entry(d.variant.hidden[0].shape.to_string())
             .or_default();
-        e.0 += 1;
-        e.1 += usize::from(literal(d, r).first_right);
-        e.2 += usize::from(literal(d, r).exact);
+        e[0] += 1;
+        e[1] += usize::from(d.detects_searching(0, r));
+        e[2] += usize::from(literal(d, r).first_right);
+        e[3] += usize::from(literal(d, r).exact);
     }
     let _ = writeln!(
         md,
-        "| hidden shape | sessions | named first | named alone |\n|---|---|---|---|"
+        "| hidden shape | sessions | ideal observer detects (first round's level) | named first | named alone |\n|---|---|---|---|---|"
     );
-    for (s, (k, f, a)) in &by_shape {
-        let _ = writeln!(md, "| {s} | {k} | {f} | {a} |");
+    for (s, [k, i, f, a]) in &by_shape {
+        let _ = writeln!(md, "| {s} | {k} | {i} | {f} | {a} |");
     }
     let mut wrong: BTreeMap<String, usize> = BTreeMap::new();
     for (d, r) in of_row {

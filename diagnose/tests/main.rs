@@ -9,10 +9,14 @@
 //! * `nominal`: the nominal model reproduces `simulate_session`, the nuisance model sim's truth.
 //! * `families`: the families' reference shapes are sim's effect forms.
 //! * `record`: measured records (issue 17) — the real thermal record and PHM 2010 per-cut forces.
+//! * `ideal_observer`: the study's ideal observer (its ceiling on every named rate) is calibrated.
 
 mod bad_input;
 mod common;
 mod families;
+mod ideal_observer;
+#[path = "../examples/real_data_study/ideal_observer.rs"]
+mod ideal_observer_impl;
 mod named;
 mod nominal;
 mod record;
