@@ -326,9 +326,12 @@ impl DeflectionPlan {
         let teeth = ((rev_s / tooth_s).round() as usize).max(1);
         let phases = 8 * teeth;
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        // the look-backs of all phases lie within one revolution: each table search starts where
+        // the last one ended
+        let mut hint = self.xs_mm.partition_point(|x| *x <= self.x_at(t_s));
         for j in 0..phases {
             let phi = (j as f64 + 0.5) / phases as f64 * rev_s;
-            let d = self.at_phase(t_s, rev_s, tooth_s, phi);
+            let d = self.at_phase_from(t_s, rev_s, tooth_s, phi, &mut hint);
             lo = lo.min(d);
             hi = hi.max(d);
         }
@@ -362,7 +365,14 @@ impl DeflectionPlan {
         tooth_s: f64,
         pass_s: f64,
     ) -> f64 {
-        self.at_phase(t_s, rev_s, tooth_s, (t_s - pass_s).rem_euclid(rev_s))
+        let mut hint = 0;
+        self.at_phase_from(
+            t_s,
+            rev_s,
+            tooth_s,
+            (t_s - pass_s).rem_euclid(rev_s),
+            &mut hint,
+        )
     }
 
     /// The planned deflection (µm) at each of `times_s` (ascending) with the spindle's angle known (the
@@ -469,14 +479,23 @@ impl DeflectionPlan {
     }
 
     /// The deflection at `t_s` when the larger flute last passed `phi_s` ago.
-    fn at_phase(&self, t_s: f64, rev_s: f64, tooth_s: f64, phi_s: f64) -> f64 {
+    /// The deflection at `t_s` with the larger flute's pass `phi_s` ago ([`Self::deflection_at_time`]);
+    /// `hint` is where the table search starts and is left where it ended.
+    fn at_phase_from(
+        &self,
+        t_s: f64,
+        rev_s: f64,
+        tooth_s: f64,
+        phi_s: f64,
+        hint: &mut usize,
+    ) -> f64 {
         let teeth = ((rev_s / tooth_s).round() as usize).max(1);
         (0..teeth)
             .map(|m| {
                 // flute m passes m tooth periods after the larger one
                 let ago = (phi_s - m as f64 * tooth_s).rem_euclid(rev_s);
                 let r = if m == 0 { 1.0 } else { self.flute_ratio };
-                r * self.deflection_at(self.x_at((t_s - ago).max(0.0)))
+                r * self.deflection_from(self.x_at((t_s - ago).max(0.0)), hint)
             })
             .fold(0.0, f64::max)
     }
@@ -486,7 +505,31 @@ impl DeflectionPlan {
         if x_mm < 0.0 {
             return 0.0;
         }
-        let i = self.xs_mm.partition_point(|x| *x <= x_mm);
+        self.interpolate(x_mm, self.xs_mm.partition_point(|x| *x <= x_mm))
+    }
+
+    /// [`Self::deflection_at`], the table searched from `hint` (the same index as the binary
+    /// search: the first tabulated x beyond `x_mm`) — a few steps where successive look-ups are
+    /// close, as over one revolution; `hint` is left at the index found.
+    fn deflection_from(&self, x_mm: f64, hint: &mut usize) -> f64 {
+        if x_mm < 0.0 {
+            return 0.0;
+        }
+        let xs = &self.xs_mm;
+        let mut i = (*hint).min(xs.len());
+        while i > 0 && xs[i - 1] > x_mm {
+            i -= 1;
+        }
+        while i < xs.len() && xs[i] <= x_mm {
+            i += 1;
+        }
+        *hint = i;
+        self.interpolate(x_mm, i)
+    }
+
+    /// The linear interpolation at `x_mm` between table entries `i − 1` and `i` (`i` the first
+    /// tabulated x beyond `x_mm`).
+    fn interpolate(&self, x_mm: f64, i: usize) -> f64 {
         if i >= self.xs_mm.len() {
             return *self.values_um.last().unwrap_or(&0.0);
         }
@@ -1664,5 +1707,35 @@ impl GrooveController for MpcGrooveController {
 
     fn inject_solver_failures(&mut self, cycles: usize) {
         self.mpc.inject_solver_failures(cycles);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use millcomp_sim::groove::{DepthProfile, GrooveProgram};
+
+    /// The table search from a hint finds what the binary search finds, whatever the hint — on a
+    /// plan with steps made at once (tabulated at their corners), at the corners and off both ends.
+    #[test]
+    fn the_search_from_a_hint_equals_the_binary_search() {
+        let mut program = GrooveProgram::thesis(20.0);
+        program.depth_profile = DepthProfile::Steps {
+            steps: vec![(0.0, 40.0), (5.0, 60.0), (12.0, 30.0)],
+        };
+        let plan = DeflectionPlan::reference(&program, 400.0, 0.01, 0.5, |c| Ok(0.1 * c.depth_um))
+            .unwrap();
+        let n = plan.xs_mm.len();
+        let xs: Vec<f64> = (0..4000)
+            .map(|k| -0.5 + 21.0 * ((k * 7919) % 4000) as f64 / 4000.0)
+            .chain([0.0, 5.0, 12.0, 20.0, 25.0])
+            .collect();
+        for hint0 in [0, 1, n / 3, n - 1, n, n + 5] {
+            let mut hint = hint0;
+            for &x in &xs {
+                let (a, b) = (plan.deflection_at(x), plan.deflection_from(x, &mut hint));
+                assert_eq!(a.to_bits(), b.to_bits(), "x = {x}, start {hint0}");
+            }
+        }
     }
 }
