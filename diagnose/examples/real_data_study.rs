@@ -172,11 +172,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--seeds" => {
                 block = match args
                     .next()
-                    .ok_or("--seeds needs study, fresh or dev")?
+                    .ok_or("--seeds needs study, fresh, third or dev")?
                     .as_str()
                 {
                     "study" => SeedBlock::Study,
                     "fresh" => SeedBlock::Fresh,
+                    "third" => SeedBlock::Third,
                     "dev" => SeedBlock::Dev,
                     other => return Err(format!("unknown seed block `{other}`").into()),
                 }

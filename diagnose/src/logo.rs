@@ -15,9 +15,11 @@ use crate::scatter::Whitening;
 /// Sum over grooves of the whitened leave-one-groove-out prediction error of the model with
 /// whitened Jacobian `x` and residual `r` (n data rows first) at its estimate.
 ///
-/// A parameter that only the held-out groove informs (the time constant of a drift that starts
-/// inside that groove) is not moved: the step is the minimum-norm one, directions of the
-/// column-scaled `XᵀX − X_gᵀX_g` with eigenvalues below 1e-9 of the largest are left out.
+/// A direction of the parameters that the held-out groove informs almost alone (the time constant
+/// of a drift that starts inside that groove, a spline coefficient whose interval only that groove
+/// covers) is not moved: in the metric of the full data's information `XᵀX`, the directions that
+/// keep less than [`KEPT_INFORMATION`] of their information without the groove are left out (a
+/// one-step refit along them would be extrapolation from almost nothing — a step of arbitrary size).
 pub(crate) fn score(w: &Whitening, x: &DMatrix<f64>, r: &DVector<f64>) -> f64 {
     let p = x.ncols();
     // scale the columns to unit norm so the threshold is unit-free
@@ -37,31 +39,48 @@ pub(crate) fn score(w: &Whitening, x: &DMatrix<f64>, r: &DVector<f64>) -> f64 {
         let rg = r.rows(s, e - s);
         let ag = &a - xg.transpose() * xg;
         let bg = &b - xg.transpose() * rg;
-        let delta = min_norm_step(&ag, &bg);
+        let delta = kept_step(&a, &ag, &bg);
         let pred = rg + xg * delta;
         total += pred.norm_squared();
     }
     total
 }
 
-/// `−A⁺b` for a symmetric positive semi-definite A: its eigen-decomposition without the
-/// directions whose eigenvalue is below 1e-9 of the largest (those are not moved).
-fn min_norm_step(a: &DMatrix<f64>, b: &DVector<f64>) -> DVector<f64> {
+/// The share of a direction's information that must remain without the held-out groove for the
+/// leave-one-groove-out refit to move along it (see [`score`]).
+pub const KEPT_INFORMATION: f64 = 0.1;
+
+/// `−A_g⁺b_g` along the directions that keep at least [`KEPT_INFORMATION`] of their information
+/// `A` without the held-out groove: with `A = U S Uᵀ` (directions with `s` below 1e-12 of the
+/// largest are not informed at all and not moved), `M = S^{-1/2}UᵀA_gUS^{-1/2} = V Λ Vᵀ`, λ the share
+/// kept, and the step `U S^{-1/2} Σ_{λ ≥ kept} v (vᵀ S^{-1/2} Uᵀ b_g)/λ`, negated.
+fn kept_step(a: &DMatrix<f64>, ag: &DMatrix<f64>, bg: &DVector<f64>) -> DVector<f64> {
     let p = a.ncols();
     if p == 0 {
         return DVector::zeros(0);
     }
-    let eig = a.clone().symmetric_eigen();
-    let lmax = eig.eigenvalues.iter().fold(0.0f64, |m, v| m.max(*v));
-    let mut step = DVector::zeros(p);
-    for k in 0..p {
-        let l = eig.eigenvalues[k];
-        if l > 1e-9 * lmax && l > 0.0 {
-            let v = eig.eigenvectors.column(k);
-            step -= v * (v.dot(b) / l);
+    let full = a.clone().symmetric_eigen();
+    let smax = full.eigenvalues.iter().fold(0.0f64, |m, v| m.max(*v));
+    let informed: Vec<usize> = (0..p)
+        .filter(|&k| full.eigenvalues[k] > 1e-12 * smax && full.eigenvalues[k] > 0.0)
+        .collect();
+    // T = U S^{-1/2} on the informed directions: Tᵀ A T = I
+    let t = DMatrix::from_fn(p, informed.len(), |i, j| {
+        let k = informed[j];
+        full.eigenvectors[(i, k)] / full.eigenvalues[k].sqrt()
+    });
+    let m = t.transpose() * ag * &t;
+    let kept = ((&m + m.transpose()) * 0.5).symmetric_eigen();
+    let rhs = t.transpose() * bg;
+    let mut z = DVector::zeros(informed.len());
+    for k in 0..informed.len() {
+        let l = kept.eigenvalues[k];
+        if l >= KEPT_INFORMATION {
+            let v = kept.eigenvectors.column(k);
+            z -= v * (v.dot(&rhs) / l);
         }
     }
-    step
+    t * z
 }
 
 #[cfg(test)]
@@ -99,5 +118,36 @@ mod tests {
             }
         }
         assert!((s - direct).abs() < 1e-9 * direct, "{s} vs {direct}");
+    }
+
+    #[test]
+    fn a_direction_only_the_held_out_groove_informs_is_not_moved() {
+        // a constant and a column that is large on the middle groove only (the onset of a drift
+        // inside that groove): leaving that groove out must not extrapolate along the column
+        let groups = [(0usize, 4usize), (4, 8), (8, 12)];
+        let w = Whitening::new(&groups, 1.0, 0.0);
+        let col = |i: usize| {
+            if (4..8).contains(&i) {
+                1.0
+            } else {
+                1e-4 * (i as f64 - 5.5)
+            }
+        };
+        let y: Vec<f64> = (0..12)
+            .map(|i| 2.0 + 0.3 * (i as f64 * 2.1).sin())
+            .collect();
+        let yv = DVector::from_vec(y);
+        let fit = |x: &DMatrix<f64>| {
+            let th = (x.transpose() * x)
+                .cholesky()
+                .unwrap()
+                .solve(&(x.transpose() * &yv));
+            x * th - &yv
+        };
+        let x1 = DMatrix::from_fn(12, 1, |_, _| 1.0);
+        let x2 = DMatrix::from_fn(12, 2, |i, j| if j == 0 { 1.0 } else { col(i) });
+        let without = score(&w, &x1, &fit(&x1));
+        let with = score(&w, &x2, &fit(&x2));
+        assert!(with < 2.0 * without, "{with} vs {without}");
     }
 }

@@ -108,8 +108,11 @@ pub enum SeedBlock {
     /// looked at since — kept for comparison with it.
     Study,
     /// Fresh study seeds (5 000 000 + k … 8 000 000 + k), first run after the second round of
-    /// development: the honest estimate of that version of `diagnose`.
+    /// development: the honest estimate of that version of `diagnose` (looked at since).
     Fresh,
+    /// The third round's fresh seeds (11 000 000 + k … 14 500 000 + k), first run after the third
+    /// round of development (the leave-one-groove-out step): the honest estimate of that version.
+    Third,
     /// Development seeds (9 000 000 + 100 000·row + k): tuning and tests.
     Dev,
 }
@@ -119,7 +122,8 @@ impl SeedBlock {
     pub fn name(self) -> &'static str {
         match self {
             SeedBlock::Study => "study (version 1's, looked at)",
-            SeedBlock::Fresh => "fresh study",
+            SeedBlock::Fresh => "fresh study (second round's)",
+            SeedBlock::Third => "third round's fresh study",
             SeedBlock::Dev => "development",
         }
     }
@@ -145,6 +149,7 @@ impl Row {
             // the added row has no version-1 seeds: its block continues after `matched`'s
             SeedBlock::Study => 1_000_000 * (k + 1) - u64::from(k == 4) * 500_000,
             SeedBlock::Fresh => 5_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
+            SeedBlock::Third => 11_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
             SeedBlock::Dev => DEV_SEED_BASE + 100_000 * k,
         }
     }

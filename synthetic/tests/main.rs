@@ -194,12 +194,19 @@ mod variants {
         let mut starts: Vec<u64> = rows
             .iter()
             .flat_map(|r| {
-                [SeedBlock::Study, SeedBlock::Fresh, SeedBlock::Dev].map(|b| r.seed_base(b))
+                [
+                    SeedBlock::Study,
+                    SeedBlock::Fresh,
+                    SeedBlock::Third,
+                    SeedBlock::Dev,
+                ]
+                .map(|b| r.seed_base(b))
             })
             .collect();
         assert_eq!(Row::Single.study_seed_base(), 1_000_000);
         assert_eq!(Row::Matched.seed_base(SeedBlock::Study), 4_000_000);
         assert_eq!(Row::Single.seed_base(SeedBlock::Fresh), 5_000_000);
+        assert_eq!(Row::Single.seed_base(SeedBlock::Third), 11_000_000);
         starts.sort_unstable();
         for w in starts.windows(2) {
             assert!(w[1] - w[0] >= 100_000, "{starts:?}");
