@@ -47,6 +47,11 @@ fn lower_bound(k: usize, n: usize) -> f64 {
         .unwrap_or(f64::NAN)
 }
 
+/// One row of a two-column Markdown table.
+fn line(md: &mut String, label: &str, value: impl std::fmt::Display) {
+    let _ = writeln!(md, "| {label} | {value} |");
+}
+
 fn rate(k: usize, n: usize) -> String {
     format!(
         "{k}/{n} = {:.1} % (95 % lower bound {:.1} %)",
@@ -381,15 +386,15 @@ fn single_row(md: &mut String, of_row: &Of<'_>, row: Row) {
         rate(shrunk, total),
         100.0 * med
     );
-    let _ = writeln!(
+    line(
         md,
-        "| *counting \"within the nominal model's uncertainty, indicated\" as naming:* named first | {} |",
-        rate(first_c, total)
+        "*counting \"within the nominal model's uncertainty, indicated\" as naming:* named first",
+        rate(first_c, total),
     );
-    let _ = writeln!(
+    line(
         md,
-        "| *counting \"within the nominal model's uncertainty, indicated\" as naming:* named alone | {} |",
-        rate(alone_c, total)
+        "*counting \"within the nominal model's uncertainty, indicated\" as naming:* named alone",
+        rate(alone_c, total),
     );
     let detected = count(of_row, |d, _| d.detects(0));
     let searchable: Of<'_> = of_row
@@ -397,54 +402,54 @@ fn single_row(md: &mut String, of_row: &Of<'_>, row: Row) {
         .filter(|(d, r)| d.detects_searching(0, r))
         .copied()
         .collect();
-    let _ = writeln!(
+    line(
         md,
-        "| the ideal observer (shape given) detects the hidden effect at α = 0.01 | {} |",
-        rate(detected, total)
+        "the ideal observer (shape given) detects the hidden effect at α = 0.01",
+        rate(detected, total),
     );
-    let _ = writeln!(
+    line(
         md,
-        "| … at the level of `diagnose`'s first round (α = 0.01 over the shapes it tries) | {} |",
-        rate(searchable.len(), total)
+        "… at the level of `diagnose`'s first round (α = 0.01 over the shapes it tries)",
+        rate(searchable.len(), total),
     );
-    let _ = writeln!(
+    line(
         md,
-        "| where the ideal observer detects it at that level: named first | {} |",
+        "where the ideal observer detects it at that level: named first",
         rate(
             count(&searchable, |d, r| literal(d, r).first_right),
-            searchable.len()
-        )
+            searchable.len(),
+        ),
     );
-    let _ = writeln!(
+    line(
         md,
-        "| where the ideal observer detects it at that level: named alone | {} |",
+        "where the ideal observer detects it at that level: named alone",
         rate(
             count(&searchable, |d, r| literal(d, r).exact),
-            searchable.len()
-        )
+            searchable.len(),
+        ),
     );
     let ns = separable.len();
-    let _ = writeln!(
+    line(
         md,
-        "| the five effects the plan separates from the nominal model: named first | {} |",
-        rate(count(&separable, |d, r| literal(d, r).first_right), ns)
+        "the five effects the plan separates from the nominal model: named first",
+        rate(count(&separable, |d, r| literal(d, r).first_right), ns),
     );
-    let _ = writeln!(
+    line(
         md,
-        "| the five effects the plan separates: named alone | {} |",
-        rate(count(&separable, |d, r| literal(d, r).exact), ns)
+        "the five effects the plan separates: named alone",
+        rate(count(&separable, |d, r| literal(d, r).exact), ns),
     );
     if row == Row::Single {
         let nf = still_foreign.len();
-        let _ = writeln!(
+        line(
             md,
-            "| the five, only shapes no family contains: named first | {} |",
-            rate(count(&still_foreign, |d, r| literal(d, r).first_right), nf)
+            "the five, only shapes no family contains: named first",
+            rate(count(&still_foreign, |d, r| literal(d, r).first_right), nf),
         );
-        let _ = writeln!(
+        line(
             md,
-            "| the five, only shapes no family contains: named alone | {} |",
-            rate(count(&still_foreign, |d, r| literal(d, r).exact), nf)
+            "the five, only shapes no family contains: named alone",
+            rate(count(&still_foreign, |d, r| literal(d, r).exact), nf),
         );
     }
     let _ = writeln!(md);
@@ -583,50 +588,50 @@ fn two_row(md: &mut String, of_row: &Of<'_>) {
     let _ = writeln!(md, "| both hidden effects named | {} |", rate(both, total));
     let _ = writeln!(md, "| nothing else named | {} |", rate(clean, total));
     let _ = writeln!(md, "| exactly the two | {} |", rate(exact, total));
-    let _ = writeln!(
+    line(
         md,
-        "| RMS after the nuisance step shrinks ≥ 50 % | {} |",
-        rate(shrunk, total)
+        "RMS after the nuisance step shrinks ≥ 50 %",
+        rate(shrunk, total),
     );
-    let _ = writeln!(
+    line(
         md,
-        "| *counting \"within the nominal model's uncertainty, indicated\" as naming:* both named | {} |",
-        rate(count(of_row, |d, r| counted(d, r).all_named), total)
+        "*counting \"within the nominal model's uncertainty, indicated\" as naming:* both named",
+        rate(count(of_row, |d, r| counted(d, r).all_named), total),
     );
-    let _ = writeln!(
+    line(
         md,
-        "| *counting \"within the nominal model's uncertainty, indicated\" as naming:* nothing else | {} |",
-        rate(count(of_row, |d, r| counted(d, r).nothing_else), total)
+        "*counting \"within the nominal model's uncertainty, indicated\" as naming:* nothing else",
+        rate(count(of_row, |d, r| counted(d, r).nothing_else), total),
     );
     let sep: Of<'_> = of_row
         .iter()
         .filter(|(d, _)| d.hidden().iter().all(|h| !ALIASED.contains(h)))
         .copied()
         .collect();
-    let _ = writeln!(
+    line(
         md,
-        "| the ten pairs of separable effects: both named | {} |",
-        rate(count(&sep, |d, r| literal(d, r).all_named), sep.len())
+        "the ten pairs of separable effects: both named",
+        rate(count(&sep, |d, r| literal(d, r).all_named), sep.len()),
     );
-    let _ = writeln!(
+    line(
         md,
-        "| the ten pairs of separable effects: nothing else | {} |",
-        rate(count(&sep, |d, r| literal(d, r).nothing_else), sep.len())
+        "the ten pairs of separable effects: nothing else",
+        rate(count(&sep, |d, r| literal(d, r).nothing_else), sep.len()),
     );
-    let _ = writeln!(
+    line(
         md,
-        "| the ideal observer (shapes given) detects both, each beyond the other, at α = 0.01 | {} |",
-        rate(count(of_row, |d, _| d.detects(0) && d.detects(1)), total)
+        "the ideal observer (shapes given) detects both, each beyond the other, at α = 0.01",
+        rate(count(of_row, |d, _| d.detects(0) && d.detects(1)), total),
     );
     let both_searchable: Of<'_> = of_row
         .iter()
         .filter(|(d, r)| d.detects_searching(0, r) && d.detects_searching(1, r))
         .copied()
         .collect();
-    let _ = writeln!(
+    line(
         md,
-        "| … at the level of `diagnose`'s first round | {} |",
-        rate(both_searchable.len(), total)
+        "… at the level of `diagnose`'s first round",
+        rate(both_searchable.len(), total),
     );
     let _ = writeln!(
         md,
@@ -666,10 +671,10 @@ fn none_row(md: &mut String, of_row: &Of<'_>) {
     let none_c = count(of_row, |_, r| names_with_indicated(r) == ["none"]);
     let _ = writeln!(md, "| measure | rate |\n|---|---|");
     let _ = writeln!(md, "| `none` named | {} |", rate(none, total));
-    let _ = writeln!(
+    line(
         md,
-        "| *counting \"within the nominal model's uncertainty, indicated\" as naming:* nothing named or indicated | {} |",
-        rate(none_c, total)
+        "*counting \"within the nominal model's uncertainty, indicated\" as naming:* nothing named or indicated",
+        rate(none_c, total),
     );
     // the ideal observer's calibration: a shape drawn for another session, tested where nothing
     // is hidden, should give χ²₁ (mean 1, 1 % above the critical value)
@@ -709,15 +714,15 @@ fn measured_row(md: &mut String, of_row: &Of<'_>) {
         .copied()
         .collect();
     let _ = writeln!(md, "| measure | rate |\n|---|---|");
-    let _ = writeln!(
+    line(
         md,
-        "| machine_compliance hidden: named first | {} |",
-        rate(count(&mc, |d, r| literal(d, r).first_right), mc.len())
+        "machine_compliance hidden: named first",
+        rate(count(&mc, |d, r| literal(d, r).first_right), mc.len()),
     );
-    let _ = writeln!(
+    line(
         md,
-        "| machine_compliance hidden: named alone | {} |",
-        rate(count(&mc, |d, r| literal(d, r).exact), mc.len())
+        "machine_compliance hidden: named alone",
+        rate(count(&mc, |d, r| literal(d, r).exact), mc.len()),
     );
     let mc_searchable: Of<'_> = mc
         .iter()
@@ -730,18 +735,18 @@ fn measured_row(md: &mut String, of_row: &Of<'_>) {
         rate(count(&mc, |d, _| d.detects(0)), mc.len()),
         rate(mc_searchable.len(), mc.len())
     );
-    let _ = writeln!(
+    line(
         md,
-        "| machine_compliance hidden, the ideal observer detects it at that level: named first | {} |",
+        "machine_compliance hidden, the ideal observer detects it at that level: named first",
         rate(
             count(&mc_searchable, |d, r| literal(d, r).first_right),
-            mc_searchable.len()
-        )
+            mc_searchable.len(),
+        ),
     );
-    let _ = writeln!(
+    line(
         md,
-        "| machine_compliance hidden: RMS after the nuisance step shrinks ≥ 50 % | {} |",
-        rate(count(&mc, |_, r| shrink(r) >= 0.5), mc.len())
+        "machine_compliance hidden: RMS after the nuisance step shrinks ≥ 50 %",
+        rate(count(&mc, |_, r| shrink(r) >= 0.5), mc.len()),
     );
     let _ = writeln!(
         md,
