@@ -328,7 +328,7 @@ impl DeflectionPlan {
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         // the look-backs of all phases lie within one revolution: each table search starts where
         // the last one ended
-        let mut hint = self.xs_mm.partition_point(|x| *x <= self.x_at(t_s));
+        let mut hint = self.table_index_at(t_s);
         for j in 0..phases {
             let phi = (j as f64 + 0.5) / phases as f64 * rev_s;
             let d = self.at_phase_from(t_s, rev_s, tooth_s, phi, &mut hint);
@@ -365,7 +365,7 @@ impl DeflectionPlan {
         tooth_s: f64,
         pass_s: f64,
     ) -> f64 {
-        let mut hint = 0;
+        let mut hint = self.table_index_at(t_s);
         self.at_phase_from(
             t_s,
             rev_s,
@@ -478,9 +478,8 @@ impl DeflectionPlan {
         window_maxima(pulses, times_s, rev_s, &mut cache.best)
     }
 
-    /// The deflection at `t_s` when the larger flute last passed `phi_s` ago.
-    /// The deflection at `t_s` with the larger flute's pass `phi_s` ago ([`Self::deflection_at_time`]);
-    /// `hint` is where the table search starts and is left where it ended.
+    /// The deflection at `t_s` when the larger flute last passed `phi_s` ago; `hint` is where the
+    /// table search starts (from [`Self::table_index_at`]) and is left where it ended.
     fn at_phase_from(
         &self,
         t_s: f64,
@@ -506,6 +505,13 @@ impl DeflectionPlan {
             return 0.0;
         }
         self.interpolate(x_mm, self.xs_mm.partition_point(|x| *x <= x_mm))
+    }
+
+    /// The index in the table of the first tabulated x beyond where the tool is at `t_s` (a binary
+    /// search; where look-ups near that time start).
+    fn table_index_at(&self, t_s: f64) -> usize {
+        let x = self.x_at(t_s);
+        self.xs_mm.partition_point(|v| *v <= x)
     }
 
     /// [`Self::deflection_at`], the table searched from `hint` (the same index as the binary
