@@ -7,6 +7,12 @@
 //! i.e. `e_gᵀV_g⁻¹e_g` with the random-groove-offset covariance: the held-out groove's own offset
 //! is unknown to every model alike. The sum over grooves is compared between the model with and
 //! without the candidate, in the same whitening.
+//!
+//! The step does not move along a direction that the held-out groove informs almost alone (the time
+//! constant of a drift that starts inside it, a spline coefficient whose interval only it covers):
+//! in the metric of the full data's information, directions that keep less than
+//! [`KEPT_INFORMATION`] of their information without the groove are left out — a refit along them
+//! would extrapolate from almost nothing, by a step of arbitrary size.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -47,7 +53,7 @@ pub(crate) fn score(w: &Whitening, x: &DMatrix<f64>, r: &DVector<f64>) -> f64 {
 }
 
 /// The share of a direction's information that must remain without the held-out groove for the
-/// leave-one-groove-out refit to move along it (see [`score`]).
+/// leave-one-groove-out refit to move along it (module documentation).
 pub const KEPT_INFORMATION: f64 = 0.1;
 
 /// `−A_g⁺b_g` along the directions that keep at least [`KEPT_INFORMATION`] of their information
