@@ -39,13 +39,14 @@ pub(crate) fn score(w: &Whitening, x: &DMatrix<f64>, r: &DVector<f64>) -> f64 {
     let xs = DMatrix::from_fn(x.nrows(), p, |i, j| x[(i, j)] * d[j]);
     let a = xs.transpose() * &xs;
     let b = xs.transpose() * r;
+    let t = information_basis(&a);
     let mut total = 0.0;
     for &(s, e) in &w.groups {
         let xg = xs.rows(s, e - s);
         let rg = r.rows(s, e - s);
         let ag = &a - xg.transpose() * xg;
         let bg = &b - xg.transpose() * rg;
-        let delta = kept_step(&a, &ag, &bg);
+        let delta = kept_step(&t, &ag, &bg);
         let pred = rg + xg * delta;
         total += pred.norm_squared();
     }
@@ -56,30 +57,38 @@ pub(crate) fn score(w: &Whitening, x: &DMatrix<f64>, r: &DVector<f64>) -> f64 {
 /// leave-one-groove-out refit to move along it (module documentation).
 pub const KEPT_INFORMATION: f64 = 0.1;
 
-/// `−A_g⁺b_g` along the directions that keep at least [`KEPT_INFORMATION`] of their information
-/// `A` without the held-out groove: with `A = U S Uᵀ` (directions with `s` below 1e-12 of the
-/// largest are not informed at all and not moved), `M = S^{-1/2}UᵀA_gUS^{-1/2} = V Λ Vᵀ`, λ the share
-/// kept, and the step `U S^{-1/2} Σ_{λ ≥ kept} v (vᵀ S^{-1/2} Uᵀ b_g)/λ`, negated.
-fn kept_step(a: &DMatrix<f64>, ag: &DMatrix<f64>, bg: &DVector<f64>) -> DVector<f64> {
+/// `T = U S^{-1/2}` over the informed directions of the full data's information `A = U S Uᵀ`
+/// (those with `s` above 1e-12 of the largest): `TᵀAT = I`, the metric in which [`kept_step`]
+/// measures the share of information a direction keeps. The same for every held-out groove.
+fn information_basis(a: &DMatrix<f64>) -> DMatrix<f64> {
     let p = a.ncols();
     if p == 0 {
-        return DVector::zeros(0);
+        return DMatrix::zeros(0, 0);
     }
     let full = a.clone().symmetric_eigen();
     let smax = full.eigenvalues.iter().fold(0.0f64, |m, v| m.max(*v));
     let informed: Vec<usize> = (0..p)
         .filter(|&k| full.eigenvalues[k] > 1e-12 * smax && full.eigenvalues[k] > 0.0)
         .collect();
-    // T = U S^{-1/2} on the informed directions: Tᵀ A T = I
-    let t = DMatrix::from_fn(p, informed.len(), |i, j| {
+    DMatrix::from_fn(p, informed.len(), |i, j| {
         let k = informed[j];
         full.eigenvectors[(i, k)] / full.eigenvalues[k].sqrt()
-    });
-    let m = t.transpose() * ag * &t;
+    })
+}
+
+/// `−A_g⁺b_g` along the directions that keep at least [`KEPT_INFORMATION`] of their information
+/// without the held-out groove: with `T` from [`information_basis`] (directions not informed at all
+/// are not moved), `M = TᵀA_gT = V Λ Vᵀ`, λ the share kept, and the step
+/// `T Σ_{λ ≥ kept} v (vᵀTᵀb_g)/λ`, negated.
+fn kept_step(t: &DMatrix<f64>, ag: &DMatrix<f64>, bg: &DVector<f64>) -> DVector<f64> {
+    if t.ncols() == 0 {
+        return DVector::zeros(t.nrows());
+    }
+    let m = t.transpose() * ag * t;
     let kept = ((&m + m.transpose()) * 0.5).symmetric_eigen();
     let rhs = t.transpose() * bg;
-    let mut z = DVector::zeros(informed.len());
-    for k in 0..informed.len() {
+    let mut z = DVector::zeros(t.ncols());
+    for k in 0..t.ncols() {
         let l = kept.eigenvalues[k];
         if l >= KEPT_INFORMATION {
             let v = kept.eigenvectors.column(k);

@@ -111,9 +111,10 @@ impl IdealObserver {
         for _ in 0..30 {
             let mut j = DMatrix::zeros(rows, p);
             let mut col = vec![0.0; n];
+            let grad: Vec<[f64; 5]> = (0..n).map(|i| self.nuisance.gradient(i, &nu)).collect();
             for (fc, &k) in free.iter().enumerate() {
-                for (i, x) in col.iter_mut().enumerate() {
-                    *x = self.nuisance.gradient(i, &nu)[k];
+                for (x, g) in col.iter_mut().zip(&grad) {
+                    *x = g[k];
                 }
                 self.whitening.apply(&mut col);
                 j.view_mut((0, fc), (n, 1)).copy_from_slice(&col);
