@@ -118,6 +118,65 @@ impl Done {
     }
 }
 
+/// Whether `effect` is named, or listed as a look-alike of a named effect (`LookAlike`: the data do
+/// not exclude it in the named one's place).
+fn named_or_look_alike(r: &DiagnoseReport, effect: &str) -> bool {
+    r.named.iter().any(|n| n == effect) || r.look_alikes.iter().any(|l| l.other == effect)
+}
+
+/// Whether the first name carries a look-alike.
+fn first_has_look_alike(r: &DiagnoseReport) -> bool {
+    r.named
+        .first()
+        .is_some_and(|f| r.look_alikes.iter().any(|l| &l.effect == f))
+}
+
+/// The look-alike measures of a row: right names that carry one (the price: the data do not
+/// exclude another family), and hidden effects not named but listed as a look-alike of a named
+/// one (what it buys).
+fn look_alike_lines(md: &mut String, of_row: &Of<'_>) {
+    let total = of_row.len();
+    let right: Of<'_> = of_row
+        .iter()
+        .filter(|(d, r)| {
+            r.named
+                .first()
+                .is_some_and(|f| d.hidden().contains(&f.as_str()))
+        })
+        .copied()
+        .collect();
+    line(
+        md,
+        "*look-alikes:* the first name is right and carries a look-alike",
+        rate(count(&right, |_, r| first_has_look_alike(r)), right.len()),
+    );
+    let missed: Of<'_> = of_row
+        .iter()
+        .filter(|(d, r)| d.hidden().iter().any(|h| !r.named.iter().any(|n| n == h)))
+        .copied()
+        .collect();
+    line(
+        md,
+        "*look-alikes:* of the sessions with a hidden effect not named, every such effect is a look-alike of a named one",
+        rate(
+            count(&missed, |d, r| {
+                d.hidden().iter().all(|h| named_or_look_alike(r, h))
+            }),
+            missed.len(),
+        ),
+    );
+    line(
+        md,
+        "*look-alikes counted as naming:* every hidden effect named or a look-alike of a named one",
+        rate(
+            count(of_row, |d, r| {
+                d.hidden().iter().all(|h| named_or_look_alike(r, h))
+            }),
+            total,
+        ),
+    );
+}
+
 fn first_named(r: &DiagnoseReport) -> String {
     if r.verdict == "plan_cannot_separate" {
         "cannot_separate".into()
@@ -336,6 +395,7 @@ fn record(d: &Done) -> serde_json::Value {
             "errors": {"force_scale": v.errors.force_scale_factor, "axial": v.errors.axial_stiffness_factor, "radial": v.errors.radial_stiffness_factor, "wearland_um": v.errors.wearland_delta_um, "touch_off_um": v.errors.touch_off_um},
             "named": r.named, "verdict": r.verdict, "shapes": r.shapes,
             "within_indicated": r.within_nominal_uncertainty.iter().filter(|w| w.indicated).map(|w| w.effect.clone()).collect::<Vec<_>>(),
+            "look_alikes": r.look_alikes.iter().map(|l| json!({"effect": l.effect, "other": l.other, "p_beyond": l.p_beyond, "unique_sd": l.unique_sd, "proposal": l.proposal.as_ref().map(|p| json!({"change": p.change, "after": p.after}))})).collect::<Vec<_>>(),
             "initial_rms_um": r.initial_rms_um, "nuisance_rms_um": r.nuisance_rms_um, "final_rms_um": r.final_rms_um,
             "groove_sd_um": r.scatter.groove_sd_um, "seconds": d.seconds, "ideal_lr": d.ideal_lr,
             "p_values": r.steps.iter().map(|s| s.p_value).collect::<Vec<_>>(),
@@ -428,6 +488,7 @@ fn single_row(md: &mut String, of_row: &Of<'_>, row: Row) {
             searchable.len(),
         ),
     );
+    look_alike_lines(md, of_row);
     let ns = separable.len();
     line(
         md,
@@ -603,6 +664,7 @@ fn two_row(md: &mut String, of_row: &Of<'_>) {
         "*counting \"within the nominal model's uncertainty, indicated\" as naming:* nothing else",
         rate(count(of_row, |d, r| counted(d, r).nothing_else), total),
     );
+    look_alike_lines(md, of_row);
     let sep: Of<'_> = of_row
         .iter()
         .filter(|(d, _)| d.hidden().iter().all(|h| !ALIASED.contains(h)))

@@ -475,6 +475,51 @@ fn beyond_prior(cols: &Columns, b: &DMatrix<f64>, nuis: &NuisanceSet) -> f64 {
     project_out(&q, &bb).norm()
 }
 
+/// The session with each standard change that applies and that sim can play out: the change in
+/// words and the changed plan's nominal model.
+pub(crate) fn changed_plans(sm: &SessionModel) -> Vec<(String, SessionModel)> {
+    CHANGES
+        .iter()
+        .filter_map(|c| {
+            let (s, what) = c.apply(&sm.session)?;
+            SessionModel::new(&s).ok().map(|m| (what, m))
+        })
+        .collect()
+}
+
+/// How far `offsets` (an effect as fitted, µm at every point of `sm`) lies from the span of
+/// `basis` (another family's flexible shape, raw columns) and the nominal model within its
+/// prior: the whitened norm of the part they leave, in noise SDs, with the nuisance's prior
+/// rows as in [`beyond_prior`] (the plan alone; no data).
+pub(crate) fn unique_beyond(
+    sm: &SessionModel,
+    nuis: &NuisanceSet,
+    offsets: &[f64],
+    basis: &[Vec<f64>],
+) -> f64 {
+    let w = whitening(sm);
+    let n = sm.len();
+    let nc = nuisance_columns(sm, nuis, &w);
+    let prior = nuis.prior_rows();
+    let p = nc.ncols();
+    let mut x = DMatrix::zeros(n + prior.len(), p + basis.len());
+    x.view_mut((0, 0), (n, p)).copy_from(&nc);
+    for (r, k) in prior.iter().enumerate() {
+        let j = nuis.free.iter().position(|f| f == k).unwrap_or(0);
+        x[(n + r, j)] = 1.0 / nuis.sd[*k];
+    }
+    for (j, b) in basis.iter().enumerate() {
+        let mut c = b.clone();
+        w.apply(&mut c);
+        x.view_mut((0, p + j), (n, 1)).copy_from_slice(&c);
+    }
+    let mut e = DMatrix::zeros(n + prior.len(), 1);
+    let mut off = offsets.to_vec();
+    w.apply(&mut off);
+    e.view_mut((0, 0), (n, 1)).copy_from_slice(&off);
+    project_out(&orthonormal_basis(&x), &e).norm()
+}
+
 fn propose(
     sm: &SessionModel,
     families: &[Family],
@@ -482,17 +527,13 @@ fn propose(
     pairs: &mut [AliasPair],
     plan: &[FamilyPlan],
 ) {
-    let mut changed: Vec<(String, Columns)> = Vec::new();
-    for c in CHANGES {
-        let Some((s, what)) = c.apply(&sm.session) else {
-            continue;
-        };
-        let Ok(m) = SessionModel::new(&s) else {
-            continue;
-        };
-        let w = whitening(&m);
-        changed.push((what, columns(&m, families, nuis, &w)));
-    }
+    let changed: Vec<(String, Columns)> = changed_plans(sm)
+        .into_iter()
+        .map(|(what, m)| {
+            let w = whitening(&m);
+            (what, columns(&m, families, nuis, &w))
+        })
+        .collect();
     let index = |name: &str| families.iter().position(|f| f.name == name);
     for pair in pairs.iter_mut() {
         let Some(a) = index(&pair.a) else { continue };

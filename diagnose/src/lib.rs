@@ -42,9 +42,15 @@
 //!    constant offset and the touch-off, a tilt-independent compliance and the stiffnesses) are
 //!    named only beyond the nuisance's prior and are otherwise reported as "within the nominal
 //!    model's uncertainty" ([`report::WithinNominal`], with whether the data point to it);
-//!    aliased pairs get a proposed session change. A session that states a tighter prior (a
-//!    stiffness measured by a load–deflection test) separates what the default priors cannot. A plan that separates no
-//!    candidate from the nuisance names none (`verdict = plan_cannot_separate`).
+//!    aliased pairs get a proposed session change. Where the data, not only the plan, fail to
+//!    tell a named effect from another family — the named effect is not significant beyond a
+//!    flexible shape of the other in its own driver, at the level it was named at (a dead-band
+//!    machine compliance and a flute runout growing with depth; a coolant step and a spindle lag
+//!    that start together) — the other is listed as its look-alike
+//!    ([`DiagnoseReport::look_alikes`]) with the standard session change that separates them
+//!    most. A session that states a tighter prior (a stiffness measured by a load–deflection
+//!    test) separates what the default priors cannot. A plan that separates no candidate from
+//!    the nuisance names none (`verdict = plan_cannot_separate`).
 //! 7. With a force trace ([`ForceTrace`]), `flute_runout` is also tested on the flute-to-flute
 //!    force asymmetry ([`force_channel`]).
 //!

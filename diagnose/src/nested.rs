@@ -134,6 +134,22 @@ pub(crate) fn strata_test(drop: f64, q: usize, shares: [f64; 3], v: &StrataVaria
     }
 }
 
+/// The F statistic at which the upper tail of F(d1, d2) is `alpha` (bisection in ln f on
+/// [`ln_sf_f`], which is monotone; statrs' inverse CDF does not return for very large dof).
+pub(crate) fn f_critical(d1: f64, d2: f64, alpha: f64) -> f64 {
+    let target = alpha.ln();
+    let (mut lo, mut hi) = (-20.0f64, 20.0f64);
+    for _ in 0..100 {
+        let mid = 0.5 * (lo + hi);
+        if ln_sf_f(mid.exp(), d1, d2) > target {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    (0.5 * (lo + hi)).exp()
+}
+
 /// The 97.5 % point of Student's t with `df` degrees of freedom; the normal's 1.959964 beyond
 /// 10⁴ dof (statrs' inverse CDF does not return for df ~ 1e9, and the two differ by < 2e-4 there).
 pub(crate) fn t975(df: f64) -> f64 {
@@ -183,6 +199,16 @@ pub fn ln_sf_f(f: f64, d1: f64, d2: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn f_critical_inverts_the_upper_tail() {
+        // F(1, 10) at its 1 % point: 10.044 (tables, e.g. NIST/SEMATECH e-Handbook §1.3.6.7.3)
+        assert!((f_critical(1.0, 10.0, 0.01) - 10.044).abs() < 1e-3);
+        for (d1, d2, a) in [(2.0, 19.3, 5.56e-4), (3.0, 1e6, 1e-3), (1.0, 4.0, 0.05)] {
+            let f = f_critical(d1, d2, a);
+            assert!((ln_sf_f(f, d1, d2) - a.ln()).abs() < 1e-9, "{d1} {d2} {a}");
+        }
+    }
 
     #[test]
     fn ln_sf_matches_statrs_and_continues_below_underflow() {

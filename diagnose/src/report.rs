@@ -163,6 +163,32 @@ pub struct Unexplained {
     pub stratum: String,
 }
 
+/// A named effect that another family could also be, on this session's data: the named effect is
+/// not significant beyond a flexible shape of the other family in its own driver
+/// ([`crate::families::Family::driver_basis`]) at the level it was named at. The name stands (its
+/// shape fits best), but the data do not exclude the other; `proposal` is the standard session
+/// change that would separate them best (issue 15: "say what the plan cannot separate … and
+/// propose the session change").
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LookAlike {
+    /// The named effect.
+    pub effect: String,
+    /// The family whose flexible shape explains what the named effect explains.
+    pub other: String,
+    /// p-value of the named effect beyond the other family's flexible shape.
+    pub p_beyond: f64,
+    /// The level the effect was named at (α / shapes tried in its round).
+    pub threshold: f64,
+    /// How far the named effect, as fitted, lies from the other family's flexible shape and the
+    /// nominal model (whitened norm of the part they do not explain, noise SDs; the plan alone,
+    /// priors left out).
+    pub unique_sd: f64,
+    /// The standard session change that separates them most, with `unique_sd` after it.
+    pub proposal: Option<Proposal>,
+    /// One sentence for people.
+    pub note: String,
+}
+
 /// A candidate the plan cannot separate from the nominal model's uncertainty, not named (issue
 /// 15: "named only when it lies beyond the nuisance's prior; otherwise it is reported as within
 /// the nominal model's uncertainty").
@@ -251,6 +277,8 @@ pub struct DiagnoseReport {
     pub unexplained: Vec<Unexplained>,
     /// Candidates within the nominal model's uncertainty (aliased with the nuisance, not named).
     pub within_nominal_uncertainty: Vec<WithinNominal>,
+    /// Named effects another family could also be on these data ([`LookAlike`]).
+    pub look_alikes: Vec<LookAlike>,
     /// What the plan cannot separate, with the proposed session change.
     pub aliasing: Vec<AliasPair>,
     /// The plan analysis per family.

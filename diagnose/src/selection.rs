@@ -3,6 +3,7 @@
 //! better at predicting held-out grooves and larger than the measurement resolves.
 
 use std::collections::BTreeMap;
+use std::sync::OnceLock;
 
 use nalgebra::{DMatrix, DVector};
 
@@ -17,12 +18,12 @@ use crate::model::{
     Fitted, NuisanceSet, Problem, Term, evaluate, fit, fit_held, orthonormal_basis, project_out,
     strata_of_columns, strata_of_residual,
 };
-use crate::nested::{StrataTest, StrataVariance, strata_test, t975};
+use crate::nested::{StrataTest, StrataVariance, f_critical, strata_test, t975};
 use crate::nominal::SessionModel;
 use crate::nuisance::{self, NuisanceEstimate, NuisanceModel};
 use crate::report::{
-    DiagnoseReport, Logo, NuisanceStep, Round, ScatterReport, Series, Skipped, Step,
-    StructureReport, Tested, Unexplained, WithinNominal,
+    DiagnoseReport, Logo, LookAlike, NuisanceStep, Proposal, Round, ScatterReport, Series, Skipped,
+    Step, StructureReport, Tested, Unexplained, WithinNominal,
 };
 use crate::scatter::{self, Components, PRIOR_SCATTER_DOF, Whitening};
 use crate::{force_channel, structure, thresholds};
@@ -87,6 +88,9 @@ pub struct Diagnoser {
     opts: DiagnoseOptions,
     nuis: NuisanceSet,
     plan: PlanAnalysis,
+    /// The plan with each standard change appended ([`aliasing::changed_plans`]), for the
+    /// look-alikes' proposals: played out by sim the first time a look-alike needs it.
+    changed: OnceLock<Vec<(String, SessionModel)>>,
 }
 
 /// The leave-one-groove-out criterion: the held-out grooves are predicted better with the
@@ -253,6 +257,7 @@ impl Diagnoser {
             opts: opts.clone(),
             nuis,
             plan,
+            changed: OnceLock::new(),
         })
     }
 
@@ -1282,6 +1287,7 @@ impl Diagnoser {
         let structure_final =
             structure::residual_structure(sm, &resid(&y, &pred), spindle_temp_c.as_deref());
         let unexplained = self.unexplained(&w, &cur);
+        let look_alikes = self.look_alikes(&y, &terms, &cur, &w, &steps);
         let mut named: Vec<String> = steps
             .iter()
             .filter(|s| s.kept)
@@ -1353,6 +1359,7 @@ impl Diagnoser {
             skipped,
             unexplained,
             within_nominal_uncertainty: within,
+            look_alikes,
             aliasing: self.plan.aliasing.clone(),
             plan: self.plan.families.clone(),
             residual_structure: StructureReport {
@@ -1430,6 +1437,130 @@ impl Diagnoser {
     }
 
     /// Residual correlations with the session's variables beyond the final model.
+    /// The named effects another family could also be ([`LookAlike`]): each named term is tested
+    /// beyond the flexible driver basis of every family not named ([`Self::test_beyond`], the
+    /// other named effects kept as fitted), at the level it was named at; where it is not
+    /// significant, the standard session change that separates the two most is proposed.
+    fn look_alikes(
+        &self,
+        y: &[f64],
+        terms: &[Term],
+        cur: &Fitted,
+        w: &Whitening,
+        steps: &[Step],
+    ) -> Vec<LookAlike> {
+        let mut out = Vec::new();
+        for (k, term) in terms.iter().enumerate() {
+            let Some(threshold) = steps
+                .iter()
+                .find(|s| s.effect == term.family)
+                .map(|s| s.threshold)
+            else {
+                continue;
+            };
+            let Some((others, theta_wo, base)) = self.without(y, terms, cur, w, k) else {
+                continue;
+            };
+            // the model with the term last (its columns the candidate's), at the joint fit
+            let p = self.problem(y, terms, w);
+            let a = p.term_start(k);
+            let q = term.shape.n_params();
+            let own = &cur.theta[a..a + q];
+            let mut theta = theta_wo.clone();
+            theta.extend_from_slice(own);
+            let mut last = others.clone();
+            last.push(term.clone());
+            let alt = evaluate(&self.problem(y, &last, w), &theta, cur.converged);
+            let offsets = term.shape.offsets(&self.sm, own);
+            for fam in &self.families {
+                if terms.iter().any(|t| t.family == fam.name)
+                    || !self
+                        .plan
+                        .families
+                        .iter()
+                        .any(|f| f.effect == fam.name && f.testable)
+                {
+                    continue;
+                }
+                // the other family's flexible shape (a runout's at the driver basis's 3 µm: the
+                // runout is not known when the family is not named)
+                let raw = |m: &SessionModel| fam.driver_basis(m, 3.0);
+                let cols = raw(&self.sm)
+                    .into_iter()
+                    .map(|mut c| {
+                        w.apply(&mut c);
+                        c
+                    })
+                    .collect();
+                let Some(e) = self.stack(cols, cur.r.len()) else {
+                    continue;
+                };
+                let t = self.test_beyond(w, &base, &alt, q, &e);
+                if t.p_value < threshold {
+                    continue;
+                }
+                let unique_sd =
+                    aliasing::unique_beyond(&self.sm, &self.nuis, &offsets, &raw(&self.sm));
+                // how much the effect's evidence beyond the other must grow for the test to
+                // pass at its level, the effect and the residual variance staying as fitted: its
+                // χ² beyond the other (∝ unique_sd²) must grow by F_crit / F
+                let need = f_critical(t.df1 as f64, t.df2, threshold) / t.f_statistic.max(1e-300);
+                let best = self
+                    .changed
+                    .get_or_init(|| aliasing::changed_plans(&self.sm))
+                    .iter()
+                    .map(|(what, m)| {
+                        let off = term.shape.offsets(m, own);
+                        (what, aliasing::unique_beyond(m, &self.nuis, &off, &raw(m)))
+                    })
+                    .max_by(|a, b| a.1.total_cmp(&b.1))
+                    .filter(|b| {
+                        b.1 >= thresholds::MIN_UNIQUE_SD && (b.1 / unique_sd).powi(2) >= need
+                    })
+                    .map(|(what, after)| Proposal {
+                        change: what.clone(),
+                        after,
+                    });
+                let p = if t.p_value < 0.01 {
+                    format!("{:.1e}", t.p_value)
+                } else {
+                    format!("{:.2}", t.p_value)
+                };
+                let head = format!(
+                    "{} is named (its shape fits best), but a {} in a flexible shape of its own driver ({}) explains the same offsets on this plan: {} is not significant beyond it (p = {p}; named at p < {:.2e})",
+                    term.family, fam.name, fam.driver, term.family, threshold
+                );
+                let note = match &best {
+                    Some(b) => format!(
+                        "{head}; add {}: it would make the part of {} that no such {} explains {:.1}× larger, enough for the test to pass if the effect is as fitted",
+                        b.change,
+                        term.family,
+                        fam.name,
+                        b.after / unique_sd.max(1e-12)
+                    ),
+                    None => format!(
+                        "{head}; none of the standard session changes would make the test pass: run a session in which their drivers vary independently{}",
+                        if term.family == "flute_runout" || fam.name == "flute_runout" {
+                            ", or measure the per-flute peak forces (`--forces`: a runout shows as the asymmetry between the two flutes)"
+                        } else {
+                            ""
+                        }
+                    ),
+                };
+                out.push(LookAlike {
+                    effect: term.family.into(),
+                    other: fam.name.into(),
+                    p_beyond: t.p_value,
+                    threshold,
+                    unique_sd,
+                    proposal: best,
+                    note,
+                });
+            }
+        }
+        out
+    }
+
     fn unexplained(&self, w: &Whitening, f: &Fitted) -> Vec<Unexplained> {
         let n = self.sm.len();
         let rows = f.r.len();

@@ -276,3 +276,40 @@ fn a_stated_stiffness_prior_separates_the_machine_compliance() {
             .any(|w| w.effect == "machine_compliance")
     );
 }
+
+/// A machine compliance with a dead band (no deflection below a preload force, `VARIANTS.md`) is,
+/// on this plan's points, nearly the function of a flute runout whose chip force grows with the
+/// depth: the runout's constant shape fits it best and is named (p = 2e-5). The report must not
+/// leave it there: the compliance, in a flexible shape of the force, explains the same offsets
+/// (the runout is not significant beyond it), so it is listed as the runout's look-alike, with
+/// the force trace that would separate them. Development seed.
+#[test]
+fn a_dead_band_compliance_is_named_or_listed_as_a_look_alike() {
+    let spec = VariantSpec {
+        row: Row::Single,
+        effects: vec!["machine_compliance"],
+        seed: DEV_SEED_BASE + 124,
+    };
+    let v = draw(&study_session(), &spec).unwrap();
+    assert_eq!(v.hidden[0].shape, "deadband");
+    let rep = run(&Measured::new("deadband", v.points));
+    let named = rep.named.iter().any(|n| n == "machine_compliance");
+    let look_alike = rep
+        .look_alikes
+        .iter()
+        .find(|l| l.other == "machine_compliance");
+    assert!(named || look_alike.is_some(), "{}", show(&rep));
+    if let Some(l) = look_alike {
+        assert!(rep.named.contains(&l.effect));
+        assert!(l.p_beyond >= l.threshold, "{l:?}");
+        assert!(l.note.contains("--forces"), "{}", l.note);
+    }
+}
+
+/// A straightness bump is named with no look-alike: nothing else's flexible shape explains a
+/// function of machine X on this plan. Development seed.
+#[test]
+fn a_straightness_bump_has_no_look_alike() {
+    let rep = named_first(vec!["slideway_straightness"], 4);
+    assert!(rep.look_alikes.is_empty(), "{:?}", rep.look_alikes);
+}

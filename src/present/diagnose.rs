@@ -181,6 +181,9 @@ pub fn text(rep: &DiagnoseReport) -> String {
     for x in &rep.within_nominal_uncertainty {
         w(&mut s, format!("{}: {}", x.effect, x.note));
     }
+    for l in &rep.look_alikes {
+        w(&mut s, format!("look-alike: {}", l.note));
+    }
     for a in &rep.aliasing {
         w(&mut s, format!("plan: {}", a.note));
     }
