@@ -14,7 +14,8 @@
 //!   have |cos| ≥ [`thresholds::ALIAS_CORR`] (the correlation of their estimates).
 //! * **Proposed change**: for each aliased pair or nuisance-aliased family, a few standard changes
 //!   are appended to the plan ([`Change`]: a pause with the spindle stopped or running, the coolant
-//!   switched, a groove at a second X position, upfeed, speed or tilt), the plan is played out
+//!   switched with the spindle stopped or running, a groove at a second X position, upfeed, speed or
+//!   tilt), the plan is played out
 //!   again by sim, and the change that lowers the aliasing most is proposed, with the value it
 //!   would reach.
 //! * When every family is untestable or aliased with the nuisance, the plan cannot separate any
@@ -100,6 +101,9 @@ pub enum Change {
     PauseRunning,
     /// The coolant switched (off if it is on at the end, else on) for 45 min, then the first groove.
     CoolantSwitch,
+    /// The coolant switched for 45 min with the spindle running at the last groove's speed (so the
+    /// switch is not also a speed change), then the first groove.
+    CoolantSwitchRunning,
     /// The first groove again at a second machine X position.
     SecondX,
     /// The first groove again at half its upfeed.
@@ -111,10 +115,11 @@ pub enum Change {
 }
 
 /// All standard changes.
-pub const CHANGES: [Change; 7] = [
+pub const CHANGES: [Change; 8] = [
     Change::PauseStopped,
     Change::PauseRunning,
     Change::CoolantSwitch,
+    Change::CoolantSwitchRunning,
     Change::SecondX,
     Change::SecondUpfeed,
     Change::SecondSpeed,
@@ -169,6 +174,18 @@ impl Change {
                 }));
                 format!(
                     "the coolant switched {} for 45 min, {repeat}",
+                    if coolant_end { "off" } else { "on" }
+                )
+            }
+            Change::CoolantSwitchRunning => {
+                let last = grooves.last().map_or(first.speed_rpm, |g| g.speed_rpm);
+                out.plan.push(PlanItem::Pause(PauseSpec {
+                    duration_s: 2700.0,
+                    speed_rpm: last,
+                    coolant: Some(!coolant_end),
+                }));
+                format!(
+                    "the coolant switched {} for 45 min with the spindle running at {last:.0} rpm, {repeat}",
                     if coolant_end { "off" } else { "on" }
                 )
             }
