@@ -16,9 +16,8 @@ struct ExitFigures {
     settled: f64,
     /// Largest error over the drop (9.79 mm to the edge at 10 mm).
     after: f64,
-    /// Mean tip over the first samples of the drop with the command below 1 V.
+    /// The run's `exit_floor_tip_um`, exit excess and overcut (its report).
     tip_at_floor: f64,
-    /// The run's exit excess and overcut (its report).
     excess: f64,
     overcut: f64,
 }
@@ -39,52 +38,28 @@ fn exit_figures(
             .position(|c| c == name)
             .ok_or(format!("no trace column {name}"))
     };
-    let (x, e, v, tip, cut) = (
-        col("x_mm")?,
-        col("error_um")?,
-        col("command_v")?,
-        col("pzt_tip_um")?,
-        col("depth_cut_um")?,
-    );
-    let mut settled: Vec<f64> = out
-        .trace
-        .rows
-        .iter()
-        .filter(|r| r[x] > 7.5 && r[x] < 9.5)
-        .map(|r| r[e])
-        .collect();
-    settled.sort_by(f64::total_cmp);
-    let settled = settled.get(settled.len() / 2).copied().unwrap_or(f64::NAN);
-    let past: Vec<&Vec<f64>> = out
-        .trace
-        .rows
-        .iter()
-        .filter(|r| r[x] >= DROP_MM && r[x] < EDGE_MM && r[cut] > 0.0)
-        .collect();
-    let after = past.iter().map(|r| r[e]).fold(f64::NEG_INFINITY, f64::max);
-    let floor: Vec<f64> = past
-        .iter()
-        .filter(|r| r[v] < 1.0)
-        .take(5)
-        .map(|r| r[tip])
-        .collect();
-    let tip0 = if floor.is_empty() {
-        f64::NAN
-    } else {
-        floor.iter().sum::<f64>() / floor.len() as f64
+    let (x, e) = (col("x_mm")?, col("error_um")?);
+    let between = |a: f64, b: f64| {
+        out.trace
+            .rows
+            .iter()
+            .filter(move |r| r[x] >= a && r[x] < b)
+            .map(move |r| r[e])
     };
-    let excess = out
-        .report
-        .changes
-        .iter()
-        .find(|c| c.kind == ChangeKind::Exit)
-        .map_or(f64::NAN, |c| c.excess_um);
+    let mut settled: Vec<f64> = between(7.5, 9.5).collect();
+    settled.sort_by(f64::total_cmp);
+    let m = &out.report.metrics;
     Ok(ExitFigures {
-        settled,
-        after,
-        tip_at_floor: tip0,
-        excess,
-        overcut: out.report.metrics.exit_overcut_um.unwrap_or(f64::NAN),
+        settled: settled.get(settled.len() / 2).copied().unwrap_or(f64::NAN),
+        after: between(DROP_MM, EDGE_MM).fold(f64::NEG_INFINITY, f64::max),
+        tip_at_floor: m.exit_floor_tip_um.unwrap_or(f64::NAN),
+        excess: out
+            .report
+            .changes
+            .iter()
+            .find(|c| c.kind == ChangeKind::Exit)
+            .map_or(f64::NAN, |c| c.excess_um),
+        overcut: m.exit_overcut_um.unwrap_or(f64::NAN),
     })
 }
 

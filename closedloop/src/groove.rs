@@ -305,6 +305,9 @@ pub fn change_windows(t: &GrooveConfig) -> Vec<(f64, f64)> {
 }
 
 /// The exit zone (mm): from [`CHANGE_WINDOW_BEFORE_MM`] before the engagement starts to drop to the edge.
+/// A command below this (V) sits at the amplifier's floor (`Metrics::exit_floor_tip_um`).
+const EXIT_FLOOR_V: f64 = 1.0;
+
 fn exit_window(t: &GrooveConfig) -> Option<(f64, f64)> {
     t.program
         .exit
@@ -497,6 +500,9 @@ pub fn run_groove_with(
     let exit_window = exit_window(t);
     let mut change_peak: f64 = 0.0;
     let mut exit_overcut: f64 = 0.0;
+    // the tip while the command sits at the amplifier's floor during the engagement drop
+    let drop_from = t.program.exit.map(|e| e.x_mm - e.length_mm);
+    let mut floor_tip = f64::INFINITY;
     if plan.extrapolated_points > 0 {
         notes.push(format!(
             "force predictor extrapolated at {} of {} planned points (outside the response surface's fitted ranges)",
@@ -573,6 +579,9 @@ pub fn run_groove_with(
                 && o.x_mm <= b
             {
                 exit_overcut = exit_overcut.max(err);
+                if drop_from.is_some_and(|d| o.x_mm >= d) && v < EXIT_FLOOR_V {
+                    floor_tip = floor_tip.min(o.pzt_tip_um);
+                }
             }
         }
         travel += (o.pzt_tip_um - prev_tip).abs();
@@ -632,6 +641,7 @@ pub fn run_groove_with(
         controller: kind.name().into(),
         metrics: Metrics {
             exit_overcut_um: exit_window.map(|_| exit_overcut),
+            exit_floor_tip_um: floor_tip.is_finite().then_some(floor_tip),
             stroke_bound_um: (defl_max >= defl_min)
                 .then(|| (defl_max - defl_min - limits.reach_z_um).max(0.0)),
             optimum_pp_um: (!deflections.is_empty())

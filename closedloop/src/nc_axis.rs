@@ -1505,6 +1505,7 @@ pub fn run_nc_axis(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Clos
         controller: kind.name().into(),
         metrics: Metrics {
             exit_overcut_um: None,
+            exit_floor_tip_um: None,
             // the NC meaning of the whole cut's optimum: the certainty-equivalent wall's
             // peak-to-peak (the deflection seen through the commissioned stiffness, cancelled)
             optimum_pp_um: wm.certainty_equivalent.map(|c| c.pp_um),

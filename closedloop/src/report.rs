@@ -27,6 +27,12 @@ pub struct Metrics {
     /// "undersize") from the start of the engagement drop to the edge.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub exit_overcut_um: Option<f64>,
+    /// Groove with a workpiece exit: where the PZT tip was (µm along the stack, the smallest value) while
+    /// the command sat at the amplifier's floor (below 1 V) during the engagement drop — what the
+    /// stack's remanence leaves out that no command can retract (absent when the command never reached
+    /// the floor there). Its z-part, `sin α ·` it, is cut deeper than planned.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub exit_floor_tip_um: Option<f64>,
     /// Groove: the smallest peak-to-peak error any controller could reach against the deflection this run
     /// met, with the PZT's tip range (µm): `max(0, δ_max − δ_min − range · sin α)` — static (no dynamics),
     /// so a lower bound; 0 where the stroke covers the deflection.
@@ -64,6 +70,7 @@ impl Metrics {
             thickness_um: None,
             thickness_error_pct: None,
             exit_overcut_um: None,
+            exit_floor_tip_um: None,
             stroke_bound_um: None,
             optimum_pp_um: None,
             change_excess_um: None,

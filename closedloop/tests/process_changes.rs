@@ -222,61 +222,39 @@ fn open_loop_does_not_step_ahead_of_a_step_made_at_once() {
 
 /// Why the commissioned exit's overcut exceeds 1 µm for every controller (issue 14's bound): after
 /// the deep cut held the hysteretic stack near 800 V, the stack at the amplifier's floor (0 V) still
-/// holds its tip ≈ 4.5–5 µm out (Bouc–Wen remanence, `sim::actuator`), ≈ 1.6 µm of depth at 20°.
-/// As the cutter leaves (the engagement falls over the last 0.21 mm) the MPC reaches 0 V and the
-/// part of the ball still engaged cuts that much deeper than the settled level before the exit; on a
-/// linear stack with the same drawn instruments and tool the jump is a fraction of it. Seed 1
+/// holds its tip ≈ 4.7–5.4 µm out (Bouc–Wen remanence, `sim::actuator`), ≈ 1.6–1.9 µm of depth at
+/// 20°. As the cutter leaves (the engagement falls over the last 0.21 mm) the MPC reaches 0 V and the
+/// part of the ball still engaged cuts that much deeper than the settled level: the exit's excess. On
+/// a linear stack with the same drawn instruments and tool the excess is a fraction of it. Seed 1
 /// (seeds 1–10: `examples/exit_remanence.rs`, in the README).
 #[test]
 fn the_commissioned_exit_overcut_is_the_stacks_remanence_at_zero_volts() {
+    use millcomp_closedloop::changes::ChangeKind;
     use millcomp_closedloop::compare::commissioned;
-    use millcomp_closedloop::run_scenario_with_trace;
 
     let mut s = commissioned(&scenario("groove_s7_20deg_exit.toml"));
     s.seed = 1;
-    // (settled error 7.5–9.5 mm, largest error over the drop 9.79–10 mm where the cutter leaves, tip
-    // where the command is at 0 V there)
-    let jump = |s: &millcomp_closedloop::Scenario| {
-        let out = run_scenario_with_trace(s, ControllerKind::Mpc).unwrap();
-        let col = |name: &str| out.trace.columns.iter().position(|c| c == name).unwrap();
-        let (x, e, v, tip, cut) = (
-            col("x_mm"),
-            col("error_um"),
-            col("command_v"),
-            col("pzt_tip_um"),
-            col("depth_cut_um"),
-        );
-        let mut settled: Vec<f64> = out
-            .trace
-            .rows
+    let exit_excess = |r: &RunReport| {
+        r.changes
             .iter()
-            .filter(|r| r[x] > 7.5 && r[x] < 9.5)
-            .map(|r| r[e])
-            .collect();
-        settled.sort_by(f64::total_cmp);
-        let settled = settled[settled.len() / 2];
-        let past: Vec<&Vec<f64>> = out
-            .trace
-            .rows
-            .iter()
-            .filter(|r| r[x] >= 9.79 && r[x] < 10.0 && r[cut] > 0.0)
-            .collect();
-        let after = past.iter().map(|r| r[e]).fold(f64::NEG_INFINITY, f64::max);
-        let at_floor: Vec<f64> = past.iter().filter(|r| r[v] < 1.0).map(|r| r[tip]).collect();
-        (after - settled, at_floor)
+            .find(|c| c.kind == ChangeKind::Exit)
+            .unwrap()
+            .excess_um
     };
-    let (hysteretic, floor) = jump(&s);
+    let hysteretic = run(&s, ControllerKind::Mpc);
+    let tip = hysteretic.metrics.exit_floor_tip_um;
+    assert!(tip.is_some_and(|t| t > 4.0), "tip at the floor {tip:?}");
     assert!(
-        !floor.is_empty(),
-        "the command reaches the 0 V floor before the edge"
+        exit_excess(&hysteretic) > 1.0,
+        "{}",
+        exit_excess(&hysteretic)
     );
-    assert!(
-        floor.iter().all(|&t| t > 4.0),
-        "tip at 0 V: {:?}",
-        &floor[..5.min(floor.len())]
-    );
-    assert!(hysteretic > 1.0, "jump over the drop {hysteretic}");
     s.truth.pzt_nonlinear = false;
-    let (linear, _) = jump(&s);
-    assert!(linear < 0.5, "linear stack: jump {linear}");
+    let linear = run(&s, ControllerKind::Mpc);
+    assert!(
+        linear.metrics.exit_floor_tip_um.is_none_or(|t| t < 0.5),
+        "{:?}",
+        linear.metrics.exit_floor_tip_um
+    );
+    assert!(exit_excess(&linear) < 0.5, "{}", exit_excess(&linear));
 }

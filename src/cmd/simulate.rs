@@ -245,6 +245,12 @@ fn run_scenario(args: &SimulateArgs, json: bool) -> anyhow::Result<()> {
     if let Some(o) = m.exit_overcut_um {
         println!("workpiece exit: largest overcut {o:.3} um (+ = deeper than programmed)");
     }
+    if let (Some(tip), Some(g)) = (m.exit_floor_tip_um, scenario.groove.as_ref()) {
+        let z = tip * g.tilt_deg.to_radians().sin();
+        println!(
+            "workpiece exit: the command reached the amplifier's floor with the PZT tip still {tip:.2} um out ({z:.2} um of depth no command can retract)"
+        );
+    }
     if let Some(nc) = &out.report.nc_axis {
         crate::present::nc_axis::print_wall(nc);
     }
