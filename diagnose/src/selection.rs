@@ -1532,11 +1532,15 @@ impl Diagnoser {
                 );
                 let note = match &best {
                     Some(b) => format!(
-                        "{head}; add {}: it would make the part of {} that no such {} explains {:.1}× larger, enough for the test to pass if the effect is as fitted",
+                        "{head}; add {}: it would make the part of {} that no such {} explains {}, enough for the test to pass if the effect is as fitted",
                         b.change,
                         term.family,
                         fam.name,
-                        b.after / unique_sd.max(1e-12)
+                        if unique_sd >= 0.1 {
+                            format!("{:.1}× larger", b.after / unique_sd)
+                        } else {
+                            format!("grow from ≈ 0 to {:.1} noise SDs", b.after)
+                        }
                     ),
                     None => format!(
                         "{head}; none of the standard session changes would make the test pass: run a session in which their drivers vary independently{}",
