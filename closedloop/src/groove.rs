@@ -304,10 +304,10 @@ pub fn change_windows(t: &GrooveConfig) -> Vec<(f64, f64)> {
     w
 }
 
-/// The exit zone (mm): from [`CHANGE_WINDOW_BEFORE_MM`] before the engagement starts to drop to the edge.
 /// A command below this (V) sits at the amplifier's floor (`Metrics::exit_floor_tip_um`).
 const EXIT_FLOOR_V: f64 = 1.0;
 
+/// The exit zone (mm): from [`CHANGE_WINDOW_BEFORE_MM`] before the engagement starts to drop to the edge.
 fn exit_window(t: &GrooveConfig) -> Option<(f64, f64)> {
     t.program
         .exit

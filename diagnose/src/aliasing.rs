@@ -15,9 +15,8 @@
 //! * **Proposed change**: for each aliased pair or nuisance-aliased family, a few standard changes
 //!   are appended to the plan ([`Change`]: a pause with the spindle stopped or running, the coolant
 //!   switched with the spindle stopped or running, a groove at a second X position, upfeed, speed or
-//!   tilt), the plan is played out
-//!   again by sim, and the change that lowers the aliasing most is proposed, with the value it
-//!   would reach.
+//!   tilt), the plan is played out again by sim, and the change that lowers the aliasing most is
+//!   proposed, with the value it would reach.
 //! * When every family is untestable or aliased with the nuisance, the plan cannot separate any
 //!   candidate from the nominal model's uncertainty: the diagnosis says so instead of naming one.
 
@@ -477,19 +476,25 @@ pub(crate) fn analyse(sm: &SessionModel, families: &[Family], nuis: &NuisanceSet
 fn beyond_prior(cols: &Columns, b: &DMatrix<f64>, nuis: &NuisanceSet) -> f64 {
     // [N; P] with P the prior rows, b with zeros there: ‖(I − Q Qᵀ) b‖² is the χ² of the
     // reference-size effect once the nuisance has moved as far as its prior lets it
+    let x = with_prior_rows(&cols.n, nuis, 0);
+    let mut bb = DMatrix::zeros(x.nrows(), 1);
+    bb.rows_mut(0, cols.n.nrows()).copy_from(b);
+    let q = orthonormal_basis(&x);
+    project_out(&q, &bb).norm()
+}
+
+/// The whitened nuisance columns `nc` (data rows) with their prior rows below (`1/SD` where a free
+/// parameter has a finite prior) and `extra` zero columns after them.
+fn with_prior_rows(nc: &DMatrix<f64>, nuis: &NuisanceSet, extra: usize) -> DMatrix<f64> {
     let prior = nuis.prior_rows();
-    let n = cols.n.nrows();
-    let p = cols.n.ncols();
-    let mut x = DMatrix::zeros(n + prior.len(), p);
-    x.rows_mut(0, n).copy_from(&cols.n);
+    let (n, p) = (nc.nrows(), nc.ncols());
+    let mut x = DMatrix::zeros(n + prior.len(), p + extra);
+    x.view_mut((0, 0), (n, p)).copy_from(nc);
     for (r, k) in prior.iter().enumerate() {
         let j = nuis.free.iter().position(|f| f == k).unwrap_or(0);
         x[(n + r, j)] = 1.0 / nuis.sd[*k];
     }
-    let mut bb = DMatrix::zeros(n + prior.len(), 1);
-    bb.rows_mut(0, n).copy_from(b);
-    let q = orthonormal_basis(&x);
-    project_out(&q, &bb).norm()
+    x
 }
 
 /// The session with each standard change that applies and that sim can play out: the change in
@@ -517,20 +522,14 @@ pub(crate) fn unique_beyond(
     let w = whitening(sm);
     let n = sm.len();
     let nc = nuisance_columns(sm, nuis, &w);
-    let prior = nuis.prior_rows();
     let p = nc.ncols();
-    let mut x = DMatrix::zeros(n + prior.len(), p + basis.len());
-    x.view_mut((0, 0), (n, p)).copy_from(&nc);
-    for (r, k) in prior.iter().enumerate() {
-        let j = nuis.free.iter().position(|f| f == k).unwrap_or(0);
-        x[(n + r, j)] = 1.0 / nuis.sd[*k];
-    }
+    let mut x = with_prior_rows(&nc, nuis, basis.len());
     for (j, b) in basis.iter().enumerate() {
         let mut c = b.clone();
         w.apply(&mut c);
         x.view_mut((0, p + j), (n, 1)).copy_from_slice(&c);
     }
-    let mut e = DMatrix::zeros(n + prior.len(), 1);
+    let mut e = DMatrix::zeros(x.nrows(), 1);
     let mut off = offsets.to_vec();
     w.apply(&mut off);
     e.view_mut((0, 0), (n, 1)).copy_from_slice(&off);

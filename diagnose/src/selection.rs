@@ -1436,7 +1436,6 @@ impl Diagnoser {
         }
     }
 
-    /// Residual correlations with the session's variables beyond the final model.
     /// The named effects another family could also be ([`LookAlike`]): each named term is tested
     /// beyond the flexible driver basis of every family not named ([`Self::test_beyond`], the
     /// other named effects kept as fitted), at the level it was named at; where it is not
@@ -1485,9 +1484,11 @@ impl Diagnoser {
                 // the other family's flexible shape (a runout's at the driver basis's 3 µm: the
                 // runout is not known when the family is not named)
                 let raw = |m: &SessionModel| fam.driver_basis(m, 3.0);
-                let cols = raw(&self.sm)
-                    .into_iter()
-                    .map(|mut c| {
+                let basis = raw(&self.sm);
+                let cols = basis
+                    .iter()
+                    .map(|c| {
+                        let mut c = c.clone();
                         w.apply(&mut c);
                         c
                     })
@@ -1499,8 +1500,7 @@ impl Diagnoser {
                 if t.p_value < threshold {
                     continue;
                 }
-                let unique_sd =
-                    aliasing::unique_beyond(&self.sm, &self.nuis, &offsets, &raw(&self.sm));
+                let unique_sd = aliasing::unique_beyond(&self.sm, &self.nuis, &offsets, &basis);
                 // how much the effect's evidence beyond the other must grow for the test to
                 // pass at its level, the effect and the residual variance staying as fitted: its
                 // χ² beyond the other (∝ unique_sd²) must grow by F_crit / F
@@ -1565,6 +1565,7 @@ impl Diagnoser {
         out
     }
 
+    /// Residual correlations with the session's variables beyond the final model.
     fn unexplained(&self, w: &Whitening, f: &Fitted) -> Vec<Unexplained> {
         let n = self.sm.len();
         let rows = f.r.len();
