@@ -2,12 +2,15 @@
 //! `groove_s7_20deg_exit` with its hysteretic stack and with a linear stack (the same drawn instruments
 //! and tool) — the settled error before the exit, the largest error over the drop (where the cutter
 //! leaves, 9.79–10 mm), their difference, where the tip stays when the command is at the amplifier's
-//! 0 V floor, and the run's exit excess and overcut.
+//! 0 V floor, and the run's exit excess and overcut; beside it, what the controllers' identified
+//! hysteresis model (the Prandtl–Ishlinskii fit of the commissioning sweep) predicts the tip to be at
+//! 0 V after a rise to 800 V and back.
 //!
 //! `cargo run --release -p millcomp-closedloop --example exit_remanence -- [--seeds N] [--controller NAME]`
 
 use millcomp_closedloop::changes::ChangeKind;
 use millcomp_closedloop::compare::commissioned;
+use millcomp_closedloop::groove::groove_setup;
 use millcomp_closedloop::{ControllerKind, Scenario, run_scenario_with_trace};
 
 /// The exit's figures of one run (µm).
@@ -63,6 +66,20 @@ fn exit_figures(
     })
 }
 
+/// The tip (µm) the controllers' identified hysteresis model predicts at 0 V after the stack rose to
+/// 800 V (about the deep cut's command) and came back, in 1 V steps (`NaN` without a model).
+fn predicted_remanence_um(s: &Scenario) -> Result<f64, Box<dyn std::error::Error>> {
+    let setup = groove_setup(s)?;
+    let Some(h) = setup.model_hysteresis.as_ref() else {
+        return Ok(f64::NAN);
+    };
+    let mut op = h.operator().clone();
+    for v in (0..=800).chain((0..800).rev()) {
+        op.step(f64::from(v));
+    }
+    Ok(op.output())
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut seeds = 10u64;
     let mut kind = ControllerKind::Mpc;
@@ -80,22 +97,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let sin_a = 20f64.to_radians().sin();
     println!("controller {kind}\n");
     println!(
-        "| seed | settled before the exit (µm) | largest in the drop | jump | tip at 0 V (µm) | of depth | exit excess | exit overcut | linear stack: jump | excess | overcut |"
+        "| seed | settled before the exit (µm) | largest in the drop | jump | tip at 0 V (µm) | of depth | identified model's tip at 0 V | exit excess | exit overcut | linear stack: jump | excess | overcut |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     for seed in 1..=seeds {
         let mut s = base.clone();
         s.seed = seed;
         let h = exit_figures(&s, kind)?;
+        let predicted = predicted_remanence_um(&s)?;
         s.truth.pzt_nonlinear = false;
         let l = exit_figures(&s, kind)?;
         println!(
-            "| {seed} | {:+.2} | {:+.2} | {:+.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:+.2} | {:.2} | {:.2} |",
+            "| {seed} | {:+.2} | {:+.2} | {:+.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:+.2} | {:.2} | {:.2} |",
             h.settled,
             h.after,
             h.after - h.settled,
             h.tip_at_floor,
             h.tip_at_floor * sin_a,
+            predicted,
             h.excess,
             h.overcut,
             l.after - l.settled,
