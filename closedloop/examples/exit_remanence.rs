@@ -1,68 +1,40 @@
-//! What sets the commissioned exit's overcut (issue 14): for each seed, the MPC (or `--controller`) on the commissioned
-//! `groove_s7_20deg_exit` with its hysteretic stack and with a linear stack (the same drawn instruments
-//! and tool) — the settled error before the exit, the largest error over the drop (where the cutter
-//! leaves, 9.79–10 mm), their difference, where the tip stays when the command is at the amplifier's
-//! 0 V floor, and the run's exit excess and overcut; beside it, what the controllers' identified
-//! hysteresis model (the Prandtl–Ishlinskii fit of the commissioning sweep) predicts the tip to be at
-//! 0 V after a rise to 800 V and back.
+//! What sets the commissioned exit's overcut (issue 14): for each seed, the MPC (or `--controller`) on
+//! the commissioned `groove_s7_20deg_exit` with its hysteretic stack and with a linear stack (the same
+//! drawn instruments and tool) — from each run's report: the settled error before the exit, the exit's
+//! excess over it (the largest |error − settled| from 1 mm before the engagement drops), the overcut,
+//! and where the tip stayed while the command sat at the amplifier's 0 V floor during the drop
+//! (`exit_floor_tip_um`); beside it, what the controllers' identified hysteresis model (the
+//! Prandtl–Ishlinskii fit of the commissioning sweep) predicts the tip to be at 0 V after a rise to
+//! 800 V and back.
 //!
 //! `cargo run --release -p millcomp-closedloop --example exit_remanence -- [--seeds N] [--controller NAME]`
 
 use millcomp_closedloop::changes::ChangeKind;
 use millcomp_closedloop::compare::commissioned;
 use millcomp_closedloop::groove::groove_setup;
-use millcomp_closedloop::{ControllerKind, Scenario, run_scenario_with_trace};
+use millcomp_closedloop::{ControllerKind, Scenario, run_scenario};
 
-/// The exit's figures of one run (µm).
+/// The exit's figures of one run, from its report (µm; `NaN` where the report has none).
 struct ExitFigures {
-    /// Median error 7.5–9.5 mm (before the drop at 9.79 mm).
+    /// The exit's settled error and its excess over it (`changes`).
     settled: f64,
-    /// Largest error over the drop (9.79 mm to the edge at 10 mm).
-    after: f64,
-    /// The run's `exit_floor_tip_um`, exit excess and overcut (its report).
-    tip_at_floor: f64,
     excess: f64,
+    /// `exit_overcut_um` and `exit_floor_tip_um`.
     overcut: f64,
+    tip_at_floor: f64,
 }
-
-/// Where the engagement starts to fall and the workpiece edge (mm): the scenario's exit.
-const DROP_MM: f64 = 9.79;
-const EDGE_MM: f64 = 10.0;
 
 fn exit_figures(
     s: &Scenario,
     kind: ControllerKind,
 ) -> Result<ExitFigures, Box<dyn std::error::Error>> {
-    let out = run_scenario_with_trace(s, kind)?;
-    let col = |name: &str| {
-        out.trace
-            .columns
-            .iter()
-            .position(|c| c == name)
-            .ok_or(format!("no trace column {name}"))
-    };
-    let (x, e) = (col("x_mm")?, col("error_um")?);
-    let between = |a: f64, b: f64| {
-        out.trace
-            .rows
-            .iter()
-            .filter(move |r| r[x] >= a && r[x] < b)
-            .map(move |r| r[e])
-    };
-    let mut settled: Vec<f64> = between(7.5, 9.5).collect();
-    settled.sort_by(f64::total_cmp);
-    let m = &out.report.metrics;
+    let r = run_scenario(s, kind)?;
+    let exit = r.changes.iter().find(|c| c.kind == ChangeKind::Exit);
     Ok(ExitFigures {
-        settled: settled.get(settled.len() / 2).copied().unwrap_or(f64::NAN),
-        after: between(DROP_MM, EDGE_MM).fold(f64::NEG_INFINITY, f64::max),
-        tip_at_floor: m.exit_floor_tip_um.unwrap_or(f64::NAN),
-        excess: out
-            .report
-            .changes
-            .iter()
-            .find(|c| c.kind == ChangeKind::Exit)
-            .map_or(f64::NAN, |c| c.excess_um),
-        overcut: m.exit_overcut_um.unwrap_or(f64::NAN),
+        settled: exit.map_or(f64::NAN, |c| c.settled_um),
+        excess: exit.map_or(f64::NAN, |c| c.excess_um),
+        overcut: r.metrics.exit_overcut_um.unwrap_or(f64::NAN),
+        tip_at_floor: r.metrics.exit_floor_tip_um.unwrap_or(f64::NAN),
     })
 }
 
@@ -97,9 +69,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let sin_a = 20f64.to_radians().sin();
     println!("controller {kind}\n");
     println!(
-        "| seed | settled before the exit (µm) | largest in the drop | jump | tip at 0 V (µm) | of depth | identified model's tip at 0 V | exit excess | exit overcut | linear stack: jump | excess | overcut |"
+        "| seed | settled before the exit (µm) | exit excess over it | exit overcut | tip at 0 V (µm) | of depth | identified model's tip at 0 V | linear stack: excess | overcut |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|");
     for seed in 1..=seeds {
         let mut s = base.clone();
         s.seed = seed;
@@ -108,16 +80,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         s.truth.pzt_nonlinear = false;
         let l = exit_figures(&s, kind)?;
         println!(
-            "| {seed} | {:+.2} | {:+.2} | {:+.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:+.2} | {:.2} | {:.2} |",
+            "| {seed} | {:+.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
             h.settled,
-            h.after,
-            h.after - h.settled,
+            h.excess,
+            h.overcut,
             h.tip_at_floor,
             h.tip_at_floor * sin_a,
             predicted,
-            h.excess,
-            h.overcut,
-            l.after - l.settled,
             l.excess,
             l.overcut
         );

@@ -357,6 +357,26 @@ impl Diagnoser {
         Some((others, theta_wo, base))
     }
 
+    /// The model without term `k` ([`Self::without`]) and the full model with term `k` moved last,
+    /// at the joint estimate `cur` — its columns are then the candidate's, as [`Self::test`] and
+    /// [`Self::test_beyond`] expect. `None` when the fit without it fails.
+    fn without_and_last(
+        &self,
+        y: &[f64],
+        terms: &[Term],
+        cur: &Fitted,
+        w: &Whitening,
+        k: usize,
+    ) -> Option<(Fitted, Fitted)> {
+        let a = self.problem(y, terms, w).term_start(k);
+        let q = terms[k].shape.n_params();
+        let (mut last, mut theta, base) = self.without(y, terms, cur, w, k)?;
+        last.push(terms[k].clone());
+        theta.extend_from_slice(&cur.theta[a..a + q]);
+        let full = evaluate(&self.problem(y, &last, w), &theta, cur.converged);
+        Some((base, full))
+    }
+
     /// Backward elimination: after an effect is added, every effect in the model is tested for
     /// removal (the GLS test of the model without it, at the round's threshold, its amplitude and
     /// the held-out grooves); the least needed one that fails is removed, and the check repeats.
@@ -375,17 +395,10 @@ impl Diagnoser {
             let mut worst: Option<(f64, usize, Fitted, String)> = None;
             for k in 0..terms.len() {
                 let p_all = self.problem(y, terms, w);
-                let a = p_all.term_start(k);
                 let q = terms[k].shape.n_params();
-                let Some((others, theta_wo, base)) = self.without(y, terms, &cur, w, k) else {
+                let Some((base, full)) = self.without_and_last(y, terms, &cur, w, k) else {
                     continue;
                 };
-                // the full model with term k last, as the test expects
-                let mut reordered = others.clone();
-                reordered.push(terms[k].clone());
-                let mut theta_re = theta_wo.clone();
-                theta_re.extend_from_slice(&cur.theta[a..a + q]);
-                let full = evaluate(&self.problem(y, &reordered, w), &theta_re, true);
                 let test = self.test(w, &base, &full, q);
                 let offsets = p_all.term_offsets(&cur.theta, k);
                 let amp = offsets.iter().fold(0.0f64, |m, v| m.max(*v))
@@ -1457,19 +1470,12 @@ impl Diagnoser {
             else {
                 continue;
             };
-            let Some((others, theta_wo, base)) = self.without(y, terms, cur, w, k) else {
+            let Some((base, alt)) = self.without_and_last(y, terms, cur, w, k) else {
                 continue;
             };
-            // the model with the term last (its columns the candidate's), at the joint fit
-            let p = self.problem(y, terms, w);
-            let a = p.term_start(k);
             let q = term.shape.n_params();
+            let a = self.problem(y, terms, w).term_start(k);
             let own = &cur.theta[a..a + q];
-            let mut theta = theta_wo.clone();
-            theta.extend_from_slice(own);
-            let mut last = others.clone();
-            last.push(term.clone());
-            let alt = evaluate(&self.problem(y, &last, w), &theta, cur.converged);
             let offsets = term.shape.offsets(&self.sm, own);
             for fam in &self.families {
                 if terms.iter().any(|t| t.family == fam.name)
