@@ -7,12 +7,21 @@
 //! Prandtl–Ishlinskii fit of the commissioning sweep) predicts the tip to be at 0 V after a rise to
 //! 800 V and back.
 //!
-//! `cargo run --release -p millcomp-closedloop --example exit_remanence -- [--seeds N] [--controller NAME]`
+//!
+//! `--touch-off rest|auto|VOLTS` (default `rest`) touches the tool off with the stack at rest, at the
+//! bias `touch_off::auto_bias` chooses, or at a given voltage; `--allowance F` runs `auto` with another
+//! remanence allowance than [`REMANENCE_ALLOWANCE`] (the bias it gives is printed per seed).
+//!
+//! `cargo run --release -p millcomp-closedloop --example exit_remanence -- [--seeds N] [--controller NAME] [--touch-off rest|auto|VOLTS] [--allowance F]`
 
 use millcomp_closedloop::changes::ChangeKind;
 use millcomp_closedloop::compare::commissioned;
-use millcomp_closedloop::groove::groove_setup;
+use millcomp_closedloop::groove::{deflection_plan, groove_setup};
+use millcomp_closedloop::touch_off::{
+    REMANENCE_ALLOWANCE, TouchOffBias, auto_bias, model_remanence_um,
+};
 use millcomp_closedloop::{ControllerKind, Scenario, run_scenario};
+use millcomp_sim::sensors::CapacitanceGauge;
 
 /// The exit's figures of one run, from its report (µm; `NaN` where the report has none).
 struct ExitFigures {
@@ -39,27 +48,54 @@ fn exit_figures(
 }
 
 /// The tip (µm) the controllers' identified hysteresis model predicts at 0 V after the stack rose to
-/// 800 V (about the deep cut's command) and came back, in 1 V steps (`NaN` without a model).
+/// 800 V (about the deep cut's command) and came back (`NaN` without a model).
 fn predicted_remanence_um(s: &Scenario) -> Result<f64, Box<dyn std::error::Error>> {
     let setup = groove_setup(s)?;
-    let Some(h) = setup.model_hysteresis.as_ref() else {
-        return Ok(f64::NAN);
-    };
-    let mut op = h.operator().clone();
-    for v in (0..=800).chain((0..800).rev()) {
-        op.step(f64::from(v));
-    }
-    Ok(op.output())
+    Ok(setup
+        .model_hysteresis
+        .as_ref()
+        .map_or(f64::NAN, |h| model_remanence_um(h, 800.0)))
+}
+
+/// The touch-off `auto_bias` chooses with `allowance` for this seed's commissioned models, as volts
+/// (rest without a hysteresis model).
+fn auto_with(s: &Scenario, allowance: f64) -> Result<TouchOffBias, Box<dyn std::error::Error>> {
+    let setup = groove_setup(s)?;
+    let plan = deflection_plan(&setup, 0.01)?;
+    let sin_a = setup.truth.program.tilt_deg.to_radians().sin();
+    Ok(auto_bias(
+        &plan,
+        sin_a,
+        &setup.model_spindle,
+        setup.model_hysteresis.as_ref(),
+        CapacitanceGauge::rd20().range_um,
+        allowance,
+    )
+    .map_or(TouchOffBias::Rest, |c| TouchOffBias::Volts(c.bias_v)))
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut seeds = 10u64;
     let mut kind = ControllerKind::Mpc;
+    let mut touch = TouchOffBias::Rest;
+    let mut allowance = REMANENCE_ALLOWANCE;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
             "--seeds" => seeds = args.next().ok_or("--seeds needs a value")?.parse()?,
             "--controller" => kind = args.next().ok_or("--controller needs a name")?.parse()?,
+            "--touch-off" => {
+                touch = match args
+                    .next()
+                    .ok_or("--touch-off needs rest, auto or volts")?
+                    .as_str()
+                {
+                    "rest" => TouchOffBias::Rest,
+                    "auto" => TouchOffBias::Auto,
+                    v => TouchOffBias::Volts(v.parse()?),
+                }
+            }
+            "--allowance" => allowance = args.next().ok_or("--allowance needs a value")?.parse()?,
             other => return Err(format!("unknown argument {other}").into()),
         }
     }
@@ -67,20 +103,32 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "datasets/scenarios/groove_s7_20deg_exit.toml",
     )?);
     let sin_a = 20f64.to_radians().sin();
-    println!("controller {kind}\n");
+    println!("controller {kind}, touch-off {touch:?}, allowance {allowance}\n");
     println!(
-        "| seed | settled before the exit (µm) | exit excess over it | exit overcut | tip at 0 V (µm) | of depth | identified model's tip at 0 V | linear stack: excess | overcut |"
+        "| seed | bias (V) | settled before the exit (µm) | exit excess over it | exit overcut | tip at 0 V (µm) | of depth | identified model's tip at 0 V | linear stack: excess | overcut |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     for seed in 1..=seeds {
         let mut s = base.clone();
         s.seed = seed;
+        s.control.touch_off_bias = match touch {
+            TouchOffBias::Auto if allowance != REMANENCE_ALLOWANCE => auto_with(&s, allowance)?,
+            other => other,
+        };
+        let bias = match s.control.touch_off_bias {
+            TouchOffBias::Volts(v) => format!("{v:.0}"),
+            TouchOffBias::Auto => match auto_with(&s, allowance)? {
+                TouchOffBias::Volts(v) => format!("{v:.0}"),
+                _ => "0".into(),
+            },
+            TouchOffBias::Rest => "0".into(),
+        };
         let h = exit_figures(&s, kind)?;
         let predicted = predicted_remanence_um(&s)?;
         s.truth.pzt_nonlinear = false;
         let l = exit_figures(&s, kind)?;
         println!(
-            "| {seed} | {:+.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
+            "| {seed} | {bias} | {:+.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
             h.settled,
             h.excess,
             h.overcut,

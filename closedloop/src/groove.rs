@@ -11,13 +11,13 @@ use std::time::Instant;
 use millcomp_sim::actuator::{BoucWenParams, LogCreepParams};
 use millcomp_sim::groove::{GrooveConfig, GrooveStage, GrooveStepOutput};
 use millcomp_sim::material::Material;
-use millcomp_sim::sensors::{InstrumentErrors, NoiseSpec};
+use millcomp_sim::sensors::{CapacitanceGauge, InstrumentErrors, NoiseSpec};
 
 use millcomp_models::SensorNoise;
 use millcomp_mpc::groove::{
     Compensated, DeflectionPlan, FeedforwardPidController, ForcePeakChain, GrooveController,
     GrooveMpcSettings, MpcGrooveController, NoneController, OpenLoopController, PidController,
-    TunedPidController,
+    TouchOff, TunedPidController,
 };
 use millcomp_mpc::identified::{
     HysteresisCompensator, IdentifiedForceModel, IdentifiedHysteresis, IdentifiedSpindle,
@@ -35,6 +35,7 @@ use crate::model_files::{load_bundle, load_force_params, load_response_surface, 
 use crate::optimum::{certainty_equivalent_pp, excess_lower_bound};
 use crate::report::{Metrics, ModelSummary, RunOutput, RunReport, Trace};
 use crate::scenario::{ControllerKind, GrooveScenario, Scenario};
+use crate::touch_off::{REMANENCE_ALLOWANCE, TouchOffBias, auto_bias};
 
 /// Window around a process change in which its peak error is taken: from 0.5 mm before (preview, early
 /// moves) to 2 mm after (≈ 1.2 s: many filter time constants of the PID chain).
@@ -343,6 +344,70 @@ impl TruthLimits {
     }
 }
 
+/// How long the stack is held at the bias before the touch-off's gauge reading (s). Its creep goes as
+/// the logarithm of time, so its rate falls as 1/t: after 0.5 s it creeps at a fiftieth of its rate 10 ms
+/// after the rise.
+const TOUCH_OFF_HOLD_S: f64 = 0.5;
+
+/// Touch the tool off as the scenario says (`control.touch_off_bias`): at rest nothing happens; with a
+/// bias the stage's stack is raised and held there, the gauge read, and the choice noted.
+fn touch_off(
+    s: &Scenario,
+    setup: &GrooveSetup,
+    plan: &DeflectionPlan,
+    stage: &mut GrooveStage,
+    notes: &mut Vec<String>,
+) -> Result<TouchOff, ClosedLoopError> {
+    let bias_v = match s.control.touch_off_bias {
+        TouchOffBias::Rest => return Ok(TouchOff::default()),
+        TouchOffBias::Volts(v) => {
+            let v_max = setup.model_spindle.plant().voltage_max_v;
+            if !(0.0..=v_max).contains(&v) {
+                return Err(invalid(
+                    "control.touch_off_bias.volts",
+                    v,
+                    format!("0 ..= {v_max} (the amplifier's range)"),
+                ));
+            }
+            v
+        }
+        TouchOffBias::Auto => {
+            let sin_a = setup.truth.program.tilt_deg.to_radians().sin();
+            match auto_bias(
+                plan,
+                sin_a,
+                &setup.model_spindle,
+                setup.model_hysteresis.as_ref(),
+                CapacitanceGauge::rd20().range_um,
+                REMANENCE_ALLOWANCE,
+            ) {
+                None => {
+                    notes.push(
+                        "touch-off at rest: no hysteresis model, so no remanence to make room for"
+                            .into(),
+                    );
+                    return Ok(TouchOff::default());
+                }
+                Some(c) => {
+                    notes.push(format!(
+                        "touch-off bias (auto): {:.0} V for {:.2} um of tip below the touch-off = min({REMANENCE_ALLOWANCE} x the hysteresis model's remanence {:.2} um after the planned peak {:.1} um at {:.0} V, the stroke's slack above it {:.2} um)",
+                        c.bias_v, c.tip_um, c.remanence_um, c.peak_tip_um, c.peak_v, c.slack_um
+                    ));
+                    c.bias_v
+                }
+            }
+        }
+    };
+    if bias_v <= 0.0 {
+        return Ok(TouchOff::default());
+    }
+    let gauge_um = stage.touch_off_at(bias_v, TOUCH_OFF_HOLD_S)?;
+    notes.push(format!(
+        "touched off with the stack at {bias_v:.0} V (gauge {gauge_um:.2} um)"
+    ));
+    Ok(TouchOff { bias_v, gauge_um })
+}
+
 /// Run a groove scenario with one controller.
 ///
 /// # Errors
@@ -377,7 +442,7 @@ pub fn run_groove_with(
     let v_max = setup.model_spindle.plant().voltage_max_v;
     let mut notes = vec![format!("controllers' models from {}", setup.models_from)];
     let mut ctl: Box<dyn GrooveController> = match kind {
-        ControllerKind::None => Box::new(NoneController),
+        ControllerKind::None => Box::new(NoneController::default()),
         ControllerKind::OpenLoop => {
             notes.push(
                 "open-loop pre-shift applied through the PZT (sim's stage has no path table yet)"
@@ -517,6 +582,8 @@ pub fn run_groove_with(
         ));
     }
     let mut stage = GrooveStage::new(t.clone(), dt)?;
+    let touch_off = touch_off(s, setup, plan, &mut stage, &mut notes)?;
+    ctl.touched_off(touch_off);
     let mut last: Option<GrooveStepOutput> = None;
     let mut stuck = None;
     let mut errors = Vec::with_capacity((t.duration_s() / dt) as usize + 2);

@@ -18,6 +18,8 @@
 //!   commissioning of the NC plant, the `none | reactive | proactive | mpc` runs and the wall's metrics;
 //!   [`nc_axis_bound`]: its physical limits (the smallest wall error any controller could leave);
 //! - [`changes`]: the transient a controller adds at a process change (entry, depth, feed, exit);
+//! - [`touch_off`]: the tool touched off at rest or with the stack at a bias, and the bias a program
+//!   and the commissioned models leave room for;
 //! - [`faults`]: force spikes, stuck sensors and solver failures injected into what the controllers see;
 //! - [`recording`]: the spindle MPC's QPs recorded in closed loop (`bench/mpc-vs-casadi`,
 //!   `benches/solve.rs`);
@@ -62,6 +64,7 @@ pub mod report;
 pub mod runner;
 pub mod scenario;
 pub mod thin_wall;
+pub mod touch_off;
 
 pub use error::{ClosedLoopError, error_chain};
 pub use report::{Metrics, RunOutput, RunReport, WallReport};

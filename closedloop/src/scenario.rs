@@ -19,6 +19,7 @@ use crate::calibration::StiffnessCalibration;
 use crate::commissioning::CommissioningPlan;
 use crate::error::{ClosedLoopError, invalid};
 use crate::model_errors::ForceErrors;
+use crate::touch_off::TouchOffBias;
 
 /// The controllers the runner knows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -450,6 +451,16 @@ pub struct ControlSpec {
     /// disturbance estimate follows already.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub compensate_hysteresis: bool,
+    /// How the tool is touched off (groove stage): `"rest"` (0 V, the default), `"auto"` (a bias chosen
+    /// from the program and the bundle's hysteresis model, so the tip can retract below the depth's zero
+    /// where the cutter leaves the workpiece) or `{ volts = … }`. Every controller, `none` included,
+    /// starts from it and holds the bias for no correction ([`crate::touch_off`]).
+    #[serde(default, skip_serializing_if = "is_rest")]
+    pub touch_off_bias: TouchOffBias,
+}
+
+fn is_rest(b: &TouchOffBias) -> bool {
+    *b == TouchOffBias::Rest
 }
 
 fn default_dt() -> f64 {
@@ -492,6 +503,7 @@ impl Default for ControlSpec {
             commission: false,
             groove_mpc: Default::default(),
             compensate_hysteresis: false,
+            touch_off_bias: TouchOffBias::Rest,
         }
     }
 }
@@ -844,6 +856,9 @@ impl Scenario {
             ));
         }
         finite_pos("control.slew_v_per_cycle", c.slew_v_per_cycle)?;
+        if let TouchOffBias::Volts(v) = c.touch_off_bias {
+            finite_nonneg("control.touch_off_bias.volts", v)?;
+        }
         if let Some(m) = &c.mpc {
             m.validate_keys().map_err(|e| match e {
                 MpcError::InvalidConfig {

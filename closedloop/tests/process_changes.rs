@@ -231,9 +231,11 @@ fn open_loop_does_not_step_ahead_of_a_step_made_at_once() {
 fn the_commissioned_exit_overcut_is_the_stacks_remanence_at_zero_volts() {
     use millcomp_closedloop::changes::ChangeKind;
     use millcomp_closedloop::compare::commissioned;
+    use millcomp_closedloop::touch_off::TouchOffBias;
 
     let mut s = commissioned(&scenario("groove_s7_20deg_exit.toml"));
     s.seed = 1;
+    s.control.touch_off_bias = TouchOffBias::Rest;
     let exit_excess = |r: &RunReport| {
         r.changes
             .iter()
@@ -257,4 +259,52 @@ fn the_commissioned_exit_overcut_is_the_stacks_remanence_at_zero_volts() {
         linear.metrics.exit_floor_tip_um
     );
     assert!(exit_excess(&linear) < 0.5, "{}", exit_excess(&linear));
+}
+
+/// A touch-off at a bias gives the stack the travel below the depth's zero that the exit needs: on the
+/// commissioned exit of seed 8 the program leaves room above its planned peak, `auto` touches off at a
+/// bias, the MPC's command never reaches the amplifier's 0 V floor as the cutter leaves, and the exit's
+/// excess falls to well under half of the touch-off at rest's (seeds 1–10: `examples/exit_remanence.rs
+/// --touch-off auto`, in the README). The shipped exit (a linear stack, no hysteresis model) is touched
+/// off at rest whatever the key says.
+#[test]
+fn a_touch_off_at_a_bias_leaves_the_stack_room_to_retract_at_the_exit() {
+    use millcomp_closedloop::compare::commissioned;
+    use millcomp_closedloop::touch_off::TouchOffBias;
+
+    let exit_excess = |r: &RunReport| {
+        r.changes
+            .iter()
+            .find(|c| c.kind == ChangeKind::Exit)
+            .unwrap()
+            .excess_um
+    };
+    let mut s = commissioned(&scenario("groove_s7_20deg_exit.toml"));
+    assert_eq!(s.control.touch_off_bias, TouchOffBias::Auto);
+    s.seed = 8;
+    let biased = run(&s, ControllerKind::Mpc);
+    assert!(
+        biased
+            .notes
+            .iter()
+            .any(|n| n.starts_with("touched off with the stack at")),
+        "{:?}",
+        biased.notes
+    );
+    assert!(
+        biased.metrics.exit_floor_tip_um.is_none(),
+        "the command reached 0 V: tip {:?}",
+        biased.metrics.exit_floor_tip_um
+    );
+    s.control.touch_off_bias = TouchOffBias::Rest;
+    let rest = run(&s, ControllerKind::Mpc);
+    let (b, r) = (exit_excess(&biased), exit_excess(&rest));
+    assert!(b < 0.5 * r, "exit excess {b} at the bias, {r} at rest");
+
+    let shipped = run(&scenario("groove_s7_20deg_exit.toml"), ControllerKind::None);
+    assert!(
+        !shipped.notes.iter().any(|n| n.starts_with("touched off")),
+        "{:?}",
+        shipped.notes
+    );
 }

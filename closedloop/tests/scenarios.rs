@@ -63,6 +63,31 @@ fn bad_input_names_the_key() {
         key_of(Scenario::from_toml_str(&bad, "t").unwrap_err()),
         "control.mpc.weights.output[1]"
     );
+    // a touch-off bias below 0 V, and one that is neither rest, auto nor volts
+    let bias = |v: &str| {
+        base.replace(
+            "horizon = 20",
+            &format!("horizon = 20\ntouch_off_bias = {v}"),
+        )
+    };
+    assert!(Scenario::from_toml_str(&bias("{ volts = 120.0 }"), "t").is_ok());
+    assert_eq!(
+        key_of(Scenario::from_toml_str(&bias("{ volts = -5.0 }"), "t").unwrap_err()),
+        "control.touch_off_bias.volts"
+    );
+    // above the amplifier: refused when the run starts (the amplifier's range is the bundle's)
+    let high = Scenario::from_toml_str(&bias("{ volts = 1200.0 }"), "t").unwrap();
+    assert_eq!(
+        key_of(millcomp_closedloop::run_scenario(&high, ControllerKind::None).unwrap_err()),
+        "control.touch_off_bias.volts"
+    );
+    let e = Scenario::from_toml_str(&bias("\"sometimes\""), "t")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("touch_off_bias") && e.contains("sometimes"),
+        "{e}"
+    );
     // unknown key → parser error naming it
     let bad = base.replace("tilt_deg = 20.0", "tilt_deg = 20.0\ntilt = 3");
     assert!(

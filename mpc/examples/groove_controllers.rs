@@ -108,7 +108,7 @@ fn run() -> Result<(), MpcError> {
         budget: Default::default(),
     };
     let mut controllers: Vec<(&str, Box<dyn GrooveController>)> = vec![
-        ("none", Box::new(NoneController)),
+        ("none", Box::new(NoneController::default())),
         (
             "open-loop",
             Box::new(OpenLoopController::new(

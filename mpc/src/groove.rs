@@ -8,7 +8,7 @@
 //! Sign conventions (sim's stage): depth cut `d = d_cmd − δz + tip·sin α`, + = deeper; the PZT moves the
 //! tip radially, so a z-correction δz needs a tip travel δz / sin α (eq. 26).
 //!
-//! - [`NoneController`]: 0 V;
+//! - [`NoneController`]: 0 V (the touch-off's bias, [`TouchOff`]);
 //! - [`OpenLoopController`] (ch. 6): predicted per-revolution peak z-force of the planned cut × the
 //!   controllers' z-compliance = predicted deflection; the tip is driven to it open loop through the
 //!   spindle's static gain. The thesis pre-shifted the machine path; sim's groove stage has no
@@ -726,10 +726,27 @@ fn deepest_um(program: &GrooveProgram, tool_radius_um: f64) -> f64 {
         .clamp(0.0, tool_radius_um)
 }
 
+/// Where the tool was touched off: the stack held at `bias_v` and the gauge reading `gauge_um` there
+/// (scenario key `control.touch_off_bias`). The depth's zero is that tip. A controller then holds
+/// `bias_v` for no correction, wants the tip at `gauge_um` plus the correction's travel, and can
+/// retract the tip below the touch-off by as much as the stack goes down from the bias — the headroom a
+/// 0–1000 V amplifier otherwise lacks where the cutter leaves the workpiece after a deep cut and the
+/// stack's remanence holds the tip out at 0 V. The default (0 V, 0 µm) is a touch-off with the stack at
+/// rest and the gauge taken as read.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct TouchOff {
+    /// The stack's voltage at the touch-off (V).
+    pub bias_v: f64,
+    /// The gauge's reading there (µm): the tip the depth's zero corresponds to.
+    pub gauge_um: f64,
+}
+
 /// A groove controller stepped at the stage rate.
 pub trait GrooveController {
     /// Command (V) for the step starting at `t_s`, given the last measurement (None at the start).
     fn command(&mut self, last: Option<&GrooveMeasurement>, t_s: f64) -> f64;
+    /// The tool was touched off at `at` (before the first [`Self::command`]).
+    fn touched_off(&mut self, at: TouchOff);
     /// QP statistics (MPC only).
     fn solver_stats(&self) -> Option<SolverStats> {
         None
@@ -741,6 +758,10 @@ pub trait GrooveController {
 impl<C: GrooveController + ?Sized> GrooveController for Box<C> {
     fn command(&mut self, last: Option<&GrooveMeasurement>, t_s: f64) -> f64 {
         (**self).command(last, t_s)
+    }
+
+    fn touched_off(&mut self, at: TouchOff) {
+        (**self).touched_off(at);
     }
 
     fn solver_stats(&self) -> Option<SolverStats> {
@@ -774,6 +795,12 @@ impl<C: GrooveController> GrooveController for Compensated<C> {
         self.compensator.drive_v(u)
     }
 
+    /// The inner controller holds the bias in its linear model's volts.
+    fn touched_off(&mut self, at: TouchOff) {
+        let bias_v = self.compensator.hold_at(at.bias_v);
+        self.inner.touched_off(TouchOff { bias_v, ..at });
+    }
+
     fn solver_stats(&self) -> Option<SolverStats> {
         self.inner.solver_stats()
     }
@@ -783,13 +810,19 @@ impl<C: GrooveController> GrooveController for Compensated<C> {
     }
 }
 
-/// No compensation: 0 V.
+/// No compensation: the stack stays where the tool was touched off (0 V, or the touch-off's bias).
 #[derive(Debug, Clone, Copy, Default)]
-pub struct NoneController;
+pub struct NoneController {
+    hold_v: f64,
+}
 
 impl GrooveController for NoneController {
     fn command(&mut self, _: Option<&GrooveMeasurement>, _: f64) -> f64 {
-        0.0
+        self.hold_v
+    }
+
+    fn touched_off(&mut self, at: TouchOff) {
+        self.hold_v = at.bias_v;
     }
 }
 
@@ -807,6 +840,8 @@ pub struct OpenLoopController {
     v_max: f64,
     /// (revolution, tooth period) in s, when the plan is followed in time.
     timing: Option<(f64, f64)>,
+    /// The touch-off's bias (V): the command for no correction.
+    bias_v: f64,
 }
 
 impl OpenLoopController {
@@ -824,6 +859,7 @@ impl OpenLoopController {
             v_per_um: 1.0 / model_spindle.plant().gain_um_per_v,
             v_max: voltage_max_v,
             timing: None,
+            bias_v: 0.0,
         }
     }
 
@@ -854,7 +890,11 @@ impl OpenLoopController {
 
 impl GrooveController for OpenLoopController {
     fn command(&mut self, _: Option<&GrooveMeasurement>, t_s: f64) -> f64 {
-        self.volts_at(t_s).clamp(0.0, self.v_max)
+        (self.bias_v + self.volts_at(t_s)).clamp(0.0, self.v_max)
+    }
+
+    fn touched_off(&mut self, at: TouchOff) {
+        self.bias_v = at.bias_v;
     }
 }
 
@@ -868,6 +908,7 @@ pub struct PidController {
     pid: Pid,
     tip_per_n: f64,
     dt_s: f64,
+    touch_off: TouchOff,
 }
 
 impl PidController {
@@ -903,19 +944,27 @@ impl PidController {
                 .stiffness()
                 .pzt_compliance_um_per_n(program.tilt_deg)?,
             dt_s,
+            touch_off: TouchOff::default(),
         })
     }
 }
 
 impl GrooveController for PidController {
+    fn touched_off(&mut self, at: TouchOff) {
+        self.touch_off = at;
+        self.pid.start_at(at.bias_v);
+    }
+
     fn command(&mut self, last: Option<&GrooveMeasurement>, _: f64) -> f64 {
-        let Some(o) = last else { return 0.0 };
+        let Some(o) = last else {
+            return self.touch_off.bias_v;
+        };
         let f = self.force_lp.step(o.force_meas_n);
         let p = self.peak.step(f, self.dt_s);
         let p = if p.is_finite() { p } else { 0.0 };
         let fs = self.smooth.step(p);
         let g = self.gauge_lp.step(o.gauge_um);
-        let e = fs * self.tip_per_n - g;
+        let e = fs * self.tip_per_n + self.touch_off.gauge_um - g;
         self.pid.step(e)
     }
 }
@@ -932,6 +981,8 @@ pub struct TunedPidController {
     tip_per_n: f64,
     design: crate::tuning::PiDesign,
     dt_s: f64,
+    /// The gauge's reading at the touch-off (µm).
+    tip_zero_um: f64,
 }
 
 impl TunedPidController {
@@ -968,6 +1019,7 @@ impl TunedPidController {
                 .pzt_compliance_um_per_n(program.tilt_deg)?,
             design,
             dt_s,
+            tip_zero_um: 0.0,
         })
     }
 
@@ -993,7 +1045,7 @@ impl TunedPidController {
         };
         let v = self
             .pid
-            .step_with_feedforward(wanted_tip - o.gauge_um, v_ff);
+            .step_with_feedforward(wanted_tip + self.tip_zero_um - o.gauge_um, v_ff);
         (v, wanted_tip)
     }
 }
@@ -1001,6 +1053,11 @@ impl TunedPidController {
 impl GrooveController for TunedPidController {
     fn command(&mut self, last: Option<&GrooveMeasurement>, _: f64) -> f64 {
         self.step_with_feedforward(last, 0.0).0
+    }
+
+    fn touched_off(&mut self, at: TouchOff) {
+        self.tip_zero_um = at.gauge_um;
+        self.pid.start_at(at.bias_v);
     }
 }
 
@@ -1091,12 +1148,19 @@ impl GrooveController for FeedforwardPidController {
                 ),
                 None => self.plan.volts_at(t_ff),
             };
+        let v_ff = v_ff + self.plan.bias_v;
         let (v, wanted_tip) = self.feedback.step_with_feedforward(last, v_ff);
         if let Some(s) = &mut self.scale {
             let planned = self.plan.plan.deflection_at(self.plan.plan.x_at(t_s));
             s.update(planned, wanted_tip * self.sin_a);
         }
         v
+    }
+
+    /// The bias goes with the feedforward; the PI's integrator starts at 0 as without one.
+    fn touched_off(&mut self, at: TouchOff) {
+        self.plan.bias_v = at.bias_v;
+        self.feedback.tip_zero_um = at.gauge_um;
     }
 }
 
@@ -1519,6 +1583,8 @@ pub struct MpcGrooveController {
     /// spindle model (µm), for the stroke band.
     plan_range_um: (f64, f64),
     reach_z_um: f64,
+    /// The touch-off's tip in z (µm): sin α × the gauge's reading there.
+    z_zero_um: f64,
 }
 
 impl MpcGrooveController {
@@ -1575,6 +1641,7 @@ impl MpcGrooveController {
             pulses: PulseCache::default(),
             plan_range_um,
             reach_z_um: sp.gain_um_per_v * sp.voltage_max_v * sin_a,
+            z_zero_um: 0.0,
         })
     }
 
@@ -1663,10 +1730,12 @@ impl GrooveController for MpcGrooveController {
             self.scale.update(planned_now, self.compliance * fpk);
         }
         let rho = self.plan_scale();
+        // the z the stack must stand at for a deflection is the deflection above the touch-off's tip
+        let z0 = self.z_zero_um;
         let band = if self.features.stroke_aware {
             StrokeBand::from_range(
-                rho * self.plan_range_um.0,
-                rho * self.plan_range_um.1,
+                rho * self.plan_range_um.0 + z0,
+                rho * self.plan_range_um.1 + z0,
                 self.reach_z_um,
             )
         } else {
@@ -1674,21 +1743,21 @@ impl GrooveController for MpcGrooveController {
         };
         // the error channel's disturbance carries the deflection the plan misses now; the scale applies
         // to what the plan says will change over the horizon
-        self.window.offset_now[OUT_ERROR] = -planned_now;
+        self.window.offset_now[OUT_ERROR] = -(planned_now + z0);
         let preview = self.preview;
         let ahead = |i: usize| if preview { planned[i] } else { planned_now };
         for j in 0..n {
             let a = ahead(at_cycle(j + 1));
-            self.window.offsets[j * 2 + OUT_ERROR] = -(planned_now + rho * (a - planned_now));
-            self.window.reference[j * 2 + OUT_ERROR] = band.target_error_um(rho * a);
+            self.window.offsets[j * 2 + OUT_ERROR] = -(planned_now + z0 + rho * (a - planned_now));
+            self.window.reference[j * 2 + OUT_ERROR] = band.target_error_um(rho * a + z0);
         }
         // between the cycles: sub-step s after cycle k (0-based)
         for k in 0..between {
             for s in 1..m {
                 let a = ahead(k * m + s);
                 let r = (k * (m - 1) + s - 1) * 2 + OUT_ERROR;
-                self.window.intersample_offsets[r] = -(planned_now + rho * (a - planned_now));
-                self.window.intersample_reference[r] = band.target_error_um(rho * a);
+                self.window.intersample_offsets[r] = -(planned_now + z0 + rho * (a - planned_now));
+                self.window.intersample_reference[r] = band.target_error_um(rho * a + z0);
             }
         }
         // a stale sensor is left out of the measurement update (prediction from the model and the plan)
@@ -1697,7 +1766,7 @@ impl GrooveController for MpcGrooveController {
             if gauge_stale || force_stale {
                 f64::NAN
             } else {
-                self.sin_a * gauge - self.compliance * fpk
+                self.sin_a * gauge - z0 - self.compliance * fpk
             },
         ];
         // dimension errors cannot happen here (window built for this controller); on one, hold
@@ -1709,6 +1778,16 @@ impl GrooveController for MpcGrooveController {
 
     fn solver_stats(&self) -> Option<SolverStats> {
         Some(self.mpc.stats())
+    }
+
+    /// The touch-off's tip becomes the error channel's zero; the stack is at the bias, so the first
+    /// move's slew limit counts from there.
+    fn touched_off(&mut self, at: TouchOff) {
+        self.z_zero_um = self.sin_a * at.gauge_um;
+        self.v_hold = at.bias_v;
+        if at.bias_v > 0.0 {
+            self.mpc.set_previous_input(&[at.bias_v]);
+        }
     }
 
     fn inject_solver_failures(&mut self, cycles: usize) {

@@ -193,6 +193,19 @@ impl HysteresisCompensator {
         self.last_v = v;
         v
     }
+
+    /// The stack was raised to `bias_v` (a touch-off at a bias): the model follows, and the request in
+    /// linear-model volts that holds it there is returned (its tip over the static gain).
+    pub fn hold_at(&mut self, bias_v: f64) -> f64 {
+        let v = if bias_v.is_finite() {
+            bias_v.clamp(0.0, self.v_max)
+        } else {
+            self.last_v
+        };
+        let tip = self.model.step(v);
+        self.last_v = v;
+        tip / self.gain_um_per_v
+    }
 }
 
 /// The controllers' tool/spindle stiffness: identified axial and radial stiffness (a load–deflection

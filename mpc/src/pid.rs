@@ -173,6 +173,21 @@ impl Pid {
         v_sat
     }
 
+    /// Start bumplessly at `v_v` volts: the integrator is set so that a zero error holds `v_v` (a
+    /// controller taking over a stack held at a bias). A non-finite `v_v` leaves the integrator alone.
+    ///
+    /// ```
+    /// use millcomp_mpc::pid::{AntiWindup, Pid, PidGains};
+    /// let mut pid = Pid::new(PidGains::tuned(), AntiWindup::Clamping, 0.18, 0.0, 1000.0, 5e-5);
+    /// pid.start_at(120.0);
+    /// assert!((pid.step(0.0) - 120.0).abs() < 1e-9);
+    /// ```
+    pub fn start_at(&mut self, v_v: f64) {
+        if v_v.is_finite() && self.v_per_unit != 0.0 {
+            self.integral = v_v / self.v_per_unit;
+        }
+    }
+
     /// Current integrator state (controller units).
     pub fn integral(&self) -> f64 {
         self.integral

@@ -18,7 +18,7 @@
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
-use crate::error::{SimError, check_positive, check_range};
+use crate::error::{SimError, check_finite, check_positive, check_range};
 use crate::feed::{FeedChange, FeedProfile, WorkpieceExit};
 use crate::filters::SlidingMax;
 use crate::force::{
@@ -534,6 +534,8 @@ pub struct GrooveStage {
     prepared_depth: f64,
     prepared_upfeed: f64,
     last_tip_um: f64,
+    /// The tip (µm) at which the tool was touched off: 0 for a touch-off at 0 V.
+    tip_zero_um: f64,
 }
 
 impl GrooveStage {
@@ -578,7 +580,47 @@ impl GrooveStage {
             prepared_depth: d0,
             prepared_upfeed: p.upfeed_um,
             last_tip_um: 0.0,
+            tip_zero_um: 0.0,
             cfg,
+        })
+    }
+
+    /// Touch the tool off with the stack held at `bias_v` (V) for `hold_s` (s) before the cut: the
+    /// stack rises to the bias and settles there, and the depth's zero is the tip where it stands at the
+    /// end of the hold, so the controllers can later retract the tip below it. Returns the mean gauge
+    /// reading (µm) over the hold's last tenth — what the operator reads at the touch-off. Call before the
+    /// first [`Self::step`]; the cut's time does not advance.
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] for a bias outside the amplifier's 0–`voltage_max_v` or a
+    /// negative or non-finite hold.
+    pub fn touch_off_at(&mut self, bias_v: f64, hold_s: f64) -> Result<f64, SimError> {
+        let v_max = self.cfg.spindle.voltage_max_v;
+        if !(bias_v.is_finite() && (0.0..=v_max).contains(&bias_v)) {
+            return Err(SimError::InvalidParameter {
+                name: "touch_off_bias_v",
+                value: bias_v,
+                allowed: "within the amplifier's 0 V to voltage_max_v",
+            });
+        }
+        check_finite("touch_off_hold_s", hold_s)?;
+        let n = (hold_s.max(0.0) / self.dt_s).ceil() as usize;
+        let tail = (n / 10).max(1);
+        let (mut sum, mut k) = (0.0, 0usize);
+        let mut tip = self.last_tip_um;
+        for i in 0..n {
+            tip = self.spindle.step(bias_v).tip_um;
+            if i + tail >= n {
+                sum += self.gauge.measure_um(tip) + self.cfg.instruments.gauge_offset_um;
+                k += 1;
+            }
+        }
+        self.last_tip_um = tip;
+        self.tip_zero_um = tip;
+        Ok(if k > 0 {
+            sum / k as f64
+        } else {
+            self.cfg.instruments.gauge_offset_um
         })
     }
 
@@ -631,7 +673,7 @@ impl GrooveStage {
         let upfeed = self.feed.upfeed_at(self.t_s);
         let engagement = self.cfg.engagement(x);
         let d_cmd = self.cfg.program.depth_at(x);
-        let pzt_z = tip_um * self.sin_a;
+        let pzt_z = (tip_um - self.tip_zero_um) * self.sin_a;
         let d_cut = (d_cmd + self.cfg.instruments.touch_off_um - self.deflection_um + pzt_z)
             .clamp(0.0, self.cfg.force_model.tool.radius_um);
         if (d_cut - self.prepared_depth).abs() > 1e-3
@@ -814,5 +856,36 @@ mod tests {
         // halfway through the exit zone the peak force is about half
         let mid = at(2.4);
         assert!((mid.engagement - 0.5).abs() < 0.01);
+    }
+
+    /// Touched off with a hysteretic stack held at 300 V, the depth's zero is the tip there: holding the
+    /// bias corrects nothing, and dropping to 0 V retracts the tip below the zero (the travel a touch-off
+    /// at rest cannot have: at 0 V from rest the correction is exactly 0). The returned reading is the
+    /// (ideal) gauge's at the end of the hold; a bias beyond the amplifier is refused by name.
+    #[test]
+    fn a_touch_off_at_a_bias_puts_the_depths_zero_at_the_biased_tip() {
+        let mut cfg = GrooveConfig::thesis(20.0, 8.0).unwrap();
+        cfg.program.depth_profile = DepthProfile::Constant { depth_um: 40.0 };
+        cfg.spindle.hysteresis = Some(crate::actuator::BoucWenParams::DEFAULT);
+        let mut rest = GrooveStage::new(cfg.clone(), 5e-5).unwrap();
+        assert_eq!(rest.step(0.0).pzt_z_um, 0.0);
+        let mut biased = GrooveStage::new(cfg, 5e-5).unwrap();
+        let gauge = biased.touch_off_at(300.0, 0.2).unwrap();
+        assert!(gauge > 5.0, "tip at 300 V {gauge}");
+        assert!((gauge - biased.tip_zero_um).abs() < 1e-12);
+        let held = biased.step(300.0).pzt_z_um;
+        assert!(
+            held.abs() < 0.01,
+            "holding the bias moved the tip {held} µm in z"
+        );
+        let mut z = 0.0;
+        for _ in 0..2000 {
+            z = biased.step(0.0).pzt_z_um;
+        }
+        assert!(z < -0.3 * gauge * 20f64.to_radians().sin(), "z at 0 V {z}");
+        match biased.touch_off_at(1200.0, 0.1) {
+            Err(SimError::InvalidParameter { name, .. }) => assert_eq!(name, "touch_off_bias_v"),
+            other => panic!("{other:?}"),
+        }
     }
 }
