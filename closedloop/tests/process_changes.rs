@@ -13,6 +13,15 @@ fn run(s: &millcomp_closedloop::Scenario, k: ControllerKind) -> RunReport {
     r
 }
 
+/// The run's excess over the settled error at its change of `kind` (µm).
+fn excess_at(r: &RunReport, kind: ChangeKind) -> f64 {
+    r.changes
+        .iter()
+        .find(|c| c.kind == kind)
+        .unwrap_or_else(|| panic!("{kind:?} in {:?}", r.changes))
+        .excess_um
+}
+
 /// Shorten a scenario around its change at x = 10 mm to keep the debug test fast: the cut from 7 mm on
 /// is what the change window (9.5–12 mm) needs after the MPC/PID transients of the start (< 1 s) decay.
 fn around_change(mut s: millcomp_closedloop::Scenario) -> millcomp_closedloop::Scenario {
@@ -173,28 +182,21 @@ fn response_surface_predictor_drives_the_preview() {
 #[test]
 fn depth_at_once_and_the_entry_after_an_approach() {
     let s = scenario("groove_s7_20deg_depth_at_once.toml");
-    let excess = |r: &RunReport, kind: ChangeKind| {
-        r.changes
-            .iter()
-            .find(|c| c.kind == kind)
-            .unwrap_or_else(|| panic!("{kind:?} in {:?}", r.changes))
-            .excess_um
-    };
     let pid = run(&s, ControllerKind::PidTuned);
     let mpc = run(&s, ControllerKind::Mpc);
     let (p, m) = (
-        excess(&pid, ChangeKind::Depth),
-        excess(&mpc, ChangeKind::Depth),
+        excess_at(&pid, ChangeKind::Depth),
+        excess_at(&mpc, ChangeKind::Depth),
     );
     assert!(m < 0.75 * p, "depth at once: mpc {m} pid-tuned {p}");
     for r in [&pid, &mpc] {
-        let e = excess(r, ChangeKind::Entry);
+        let e = excess_at(r, ChangeKind::Entry);
         assert!(e < 1.0, "{}: entry excess {e}", r.controller);
     }
     // the metric is the largest excess over the changes
     assert_eq!(
         mpc.metrics.change_excess_um,
-        Some(excess(&mpc, ChangeKind::Depth).max(excess(&mpc, ChangeKind::Entry)))
+        Some(excess_at(&mpc, ChangeKind::Depth).max(excess_at(&mpc, ChangeKind::Entry)))
     );
 }
 
@@ -208,13 +210,7 @@ fn open_loop_does_not_step_ahead_of_a_step_made_at_once() {
     if let Some(g) = s.groove.as_mut() {
         g.length_mm = g.length_mm.min(10.5);
     }
-    let excess = |r: &RunReport| {
-        r.changes
-            .iter()
-            .find(|c| c.kind == ChangeKind::Depth)
-            .map(|c| c.excess_um)
-            .unwrap()
-    };
+    let excess = |r: &RunReport| excess_at(r, ChangeKind::Depth);
     let none = excess(&run(&s, ControllerKind::None));
     let ol = excess(&run(&s, ControllerKind::OpenLoop));
     assert!(ol < none, "open-loop {ol} uncompensated {none}");
@@ -229,20 +225,13 @@ fn open_loop_does_not_step_ahead_of_a_step_made_at_once() {
 /// (seeds 1–10: `examples/exit_remanence.rs`, in the README).
 #[test]
 fn the_commissioned_exit_overcut_is_the_stacks_remanence_at_zero_volts() {
-    use millcomp_closedloop::changes::ChangeKind;
     use millcomp_closedloop::compare::commissioned;
     use millcomp_closedloop::touch_off::TouchOffBias;
 
     let mut s = commissioned(&scenario("groove_s7_20deg_exit.toml"));
     s.seed = 1;
     s.control.touch_off_bias = TouchOffBias::Rest;
-    let exit_excess = |r: &RunReport| {
-        r.changes
-            .iter()
-            .find(|c| c.kind == ChangeKind::Exit)
-            .unwrap()
-            .excess_um
-    };
+    let exit_excess = |r: &RunReport| excess_at(r, ChangeKind::Exit);
     let hysteretic = run(&s, ControllerKind::Mpc);
     let tip = hysteretic.metrics.exit_floor_tip_um;
     assert!(tip.is_some_and(|t| t > 4.0), "tip at the floor {tip:?}");
@@ -272,13 +261,7 @@ fn a_touch_off_at_a_bias_leaves_the_stack_room_to_retract_at_the_exit() {
     use millcomp_closedloop::compare::commissioned;
     use millcomp_closedloop::touch_off::TouchOffBias;
 
-    let exit_excess = |r: &RunReport| {
-        r.changes
-            .iter()
-            .find(|c| c.kind == ChangeKind::Exit)
-            .unwrap()
-            .excess_um
-    };
+    let exit_excess = |r: &RunReport| excess_at(r, ChangeKind::Exit);
     let mut s = commissioned(&scenario("groove_s7_20deg_exit.toml"));
     assert_eq!(s.control.touch_off_bias, TouchOffBias::Auto);
     s.seed = 8;
