@@ -859,6 +859,13 @@ impl Scenario {
         if let TouchOffBias::Volts(v) = c.touch_off_bias {
             finite_nonneg("control.touch_off_bias.volts", v)?;
         }
+        if c.touch_off_bias != TouchOffBias::Rest && self.stage != StageKind::Groove {
+            return Err(invalid(
+                "control.touch_off_bias",
+                format!("{:?}", c.touch_off_bias),
+                "rest (only the groove stage's PZT spindle is touched off at a bias)",
+            ));
+        }
         if let Some(m) = &c.mpc {
             m.validate_keys().map_err(|e| match e {
                 MpcError::InvalidConfig {

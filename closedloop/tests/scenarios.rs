@@ -81,6 +81,17 @@ fn bad_input_names_the_key() {
         key_of(millcomp_closedloop::run_scenario(&high, ControllerKind::None).unwrap_err()),
         "control.touch_off_bias.volts"
     );
+    // the thin wall has no PZT touch-off
+    let wall = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../datasets/scenarios/thin_wall_h59.toml"),
+    )
+    .unwrap()
+    .replace("[control]", "[control]\ntouch_off_bias = \"auto\"");
+    assert_eq!(
+        key_of(Scenario::from_toml_str(&wall, "t").unwrap_err()),
+        "control.touch_off_bias"
+    );
     let e = Scenario::from_toml_str(&bias("\"sometimes\""), "t")
         .unwrap_err()
         .to_string();
