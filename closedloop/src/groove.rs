@@ -729,6 +729,7 @@ pub fn run_groove_with(
             force_error_max_rel: setup.force_errors.max_abs(),
             truth_force_scale: setup.truth_force_scale,
         },
+        touch_off: (touch_off.bias_v > 0.0).then_some(touch_off),
         nc_axis: None,
         simulated_s: k as f64 * dt,
         realtime: false,

@@ -1525,6 +1525,7 @@ pub fn run_nc_axis(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Clos
             force_error_max_rel: nc.truth.kienzle_error.abs(),
             truth_force_scale: draw.force_factor,
         },
+        touch_off: None,
         nc_axis: Some(NcAxisReport {
             wall: wm,
             models: lines,

@@ -134,6 +134,10 @@ pub struct RunReport {
     pub changes: Vec<crate::changes::ChangeExcess>,
     /// Model vs truth.
     pub model: ModelSummary,
+    /// Groove touched off at a bias (`control.touch_off_bias`): the bias (V) and the gauge's reading
+    /// there (µm); absent for a touch-off at rest.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub touch_off: Option<millcomp_mpc::groove::TouchOff>,
     /// NC stage: the wall's metrics, the commissioned models against the truth, the seed's draw.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub nc_axis: Option<crate::nc_axis::NcAxisReport>,

@@ -293,6 +293,7 @@ pub fn run_thin_wall(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Cl
                 force_error_max_rel: force_errors.w_mpa.abs(),
                 truth_force_scale: 1.0,
             },
+            touch_off: None,
             nc_axis: None,
             simulated_s: simulated,
             realtime: false,

@@ -266,14 +266,8 @@ fn a_touch_off_at_a_bias_leaves_the_stack_room_to_retract_at_the_exit() {
     assert_eq!(s.control.touch_off_bias, TouchOffBias::Auto);
     s.seed = 8;
     let biased = run(&s, ControllerKind::Mpc);
-    assert!(
-        biased
-            .notes
-            .iter()
-            .any(|n| n.starts_with("touched off with the stack at")),
-        "{:?}",
-        biased.notes
-    );
+    let t = biased.touch_off.expect("touched off at a bias");
+    assert!(t.bias_v > 0.0 && t.gauge_um > 0.0, "{t:?}");
     assert!(
         biased.metrics.exit_floor_tip_um.is_none(),
         "the command reached 0 V: tip {:?}",
@@ -285,9 +279,5 @@ fn a_touch_off_at_a_bias_leaves_the_stack_room_to_retract_at_the_exit() {
     assert!(b < 0.5 * r, "exit excess {b} at the bias, {r} at rest");
 
     let shipped = run(&scenario("groove_s7_20deg_exit.toml"), ControllerKind::None);
-    assert!(
-        !shipped.notes.iter().any(|n| n.starts_with("touched off")),
-        "{:?}",
-        shipped.notes
-    );
+    assert_eq!(shipped.touch_off, None);
 }

@@ -733,7 +733,7 @@ fn deepest_um(program: &GrooveProgram, tool_radius_um: f64) -> f64 {
 /// 0–1000 V amplifier otherwise lacks where the cutter leaves the workpiece after a deep cut and the
 /// stack's remanence holds the tip out at 0 V. The default (0 V, 0 µm) is a touch-off with the stack at
 /// rest and the gauge taken as read.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TouchOff {
     /// The stack's voltage at the touch-off (V).
     pub bias_v: f64,

@@ -242,6 +242,12 @@ fn run_scenario(args: &SimulateArgs, json: bool) -> anyhow::Result<()> {
             "optimum: {o:.3} um peak-to-peak (the best static plan within the stroke, deflection seen through the commissioned model; noise-free)"
         );
     }
+    if let Some(t) = &out.report.touch_off {
+        println!(
+            "touch-off: with the stack held at {:.0} V (gauge {:.2} um), so the tip can retract below the depth's zero",
+            t.bias_v, t.gauge_um
+        );
+    }
     if let Some(o) = m.exit_overcut_um {
         println!("workpiece exit: largest overcut {o:.3} um (+ = deeper than programmed)");
     }
