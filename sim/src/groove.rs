@@ -493,7 +493,8 @@ pub struct GrooveStepOutput {
     pub deflection_um: f64,
     /// PZT tool-tip (radial) displacement (µm).
     pub pzt_tip_um: f64,
-    /// z-component of the PZT displacement (µm, + = deeper).
+    /// z-component of the PZT displacement from where the tool was touched off (µm, + = deeper; below
+    /// 0 only after a touch-off at a bias, [`GrooveStage::touch_off_at`]).
     pub pzt_z_um: f64,
     /// Applied actuator voltage (V).
     pub applied_v: f64,
@@ -593,7 +594,7 @@ impl GrooveStage {
     ///
     /// # Errors
     /// [`SimError::InvalidParameter`] for a bias outside the amplifier's 0–`voltage_max_v` or a
-    /// negative or non-finite hold.
+    /// non-finite hold (a negative one holds for no time).
     pub fn touch_off_at(&mut self, bias_v: f64, hold_s: f64) -> Result<f64, SimError> {
         let v_max = self.cfg.spindle.voltage_max_v;
         if !(bias_v.is_finite() && (0.0..=v_max).contains(&bias_v)) {
