@@ -8,7 +8,7 @@ use std::sync::OnceLock;
 use millcomp_diagnose::{DiagnoseReport, Diagnoser, Measured, SessionModel};
 use millcomp_sim::session::Session;
 use millcomp_synthetic::variants::{
-    DEV_SEED_BASE, Row, VariantSpec, draw, normal_draws, score, study_session,
+    DEV_SEED_BASE, Row, Variant, VariantSpec, draw, normal_draws, score, study_session,
 };
 
 use crate::common::{opts, show};
@@ -99,13 +99,14 @@ fn groove_scatter_is_not_taken_for_an_effect() {
     );
 }
 
-/// A variant of the study's distribution (development seeds): what it hides is named first.
-fn named_first(effects: Vec<&'static str>, k: u64) -> DiagnoseReport {
+/// A variant of the study's distribution hiding `effects` (development seed `DEV_SEED_BASE + k`)
+/// and the report on it.
+fn diagnose_variant(effects: Vec<&'static str>, k: u64) -> (Variant, DiagnoseReport) {
     let spec = VariantSpec {
-        row: if effects.len() == 1 {
-            Row::Single
-        } else {
-            Row::Two
+        row: match effects.len() {
+            0 => Row::None,
+            1 => Row::Single,
+            _ => Row::Two,
         },
         effects,
         seed: DEV_SEED_BASE + k,
@@ -115,6 +116,12 @@ fn named_first(effects: Vec<&'static str>, k: u64) -> DiagnoseReport {
         format!("seed {}", spec.seed),
         v.points.clone(),
     ));
+    (v, rep)
+}
+
+/// A variant of the study's distribution (development seeds): what it hides is named first.
+fn named_first(effects: Vec<&'static str>, k: u64) -> DiagnoseReport {
+    let (v, rep) = diagnose_variant(effects, k);
     let hidden: Vec<&str> = v.hidden.iter().map(|h| h.effect).collect();
     let o = score(&hidden, &rep.named);
     assert!(
@@ -164,13 +171,7 @@ fn two_effects_of_other_shapes_are_both_named() {
 
 #[test]
 fn nothing_hidden_names_none_after_recalibration() {
-    let spec = VariantSpec {
-        row: Row::None,
-        effects: vec![],
-        seed: DEV_SEED_BASE + 16,
-    };
-    let v = draw(&study_session(), &spec).unwrap();
-    let rep = run(&Measured::new("none", v.points));
+    let (_, rep) = diagnose_variant(vec![], 16);
     assert_eq!(rep.named, vec!["none"], "{}", show(&rep));
     assert!(rep.nuisance_rms_um < rep.initial_rms_um);
 }
@@ -184,14 +185,8 @@ fn nothing_hidden_names_none_after_recalibration() {
 /// Development seed found in the development runs (diagnose/STUDY.md).
 #[test]
 fn the_misfit_of_a_named_effect_is_not_named_as_another() {
-    let spec = VariantSpec {
-        row: Row::Single,
-        effects: vec!["tool_wear"],
-        seed: DEV_SEED_BASE + 31,
-    };
-    let v = draw(&study_session(), &spec).unwrap();
+    let (v, rep) = diagnose_variant(vec!["tool_wear"], 31);
     assert_eq!(v.hidden[0].shape, "logistic");
-    let rep = run(&Measured::new("wear", v.points));
     assert_eq!(rep.named, vec!["tool_wear"], "{}", show(&rep));
     let rejected: Vec<_> = rep
         .rounds
@@ -213,13 +208,7 @@ fn the_misfit_of_a_named_effect_is_not_named_as_another() {
 /// uncertainty, and the data point to it (p < α). Development seed.
 #[test]
 fn a_probe_tilt_within_the_touch_off_prior_is_reported_within_the_nominal_uncertainty() {
-    let spec = VariantSpec {
-        row: Row::Single,
-        effects: vec!["probe_tilt_offset"],
-        seed: DEV_SEED_BASE + 30,
-    };
-    let v = draw(&study_session(), &spec).unwrap();
-    let rep = run(&Measured::new("probe", v.points));
+    let (v, rep) = diagnose_variant(vec!["probe_tilt_offset"], 30);
     assert_eq!(rep.named, vec!["none"], "{}", show(&rep));
     let w = rep
         .within_nominal_uncertainty
@@ -285,14 +274,8 @@ fn a_stated_stiffness_prior_separates_the_machine_compliance() {
 /// the force trace that would separate them. Development seed.
 #[test]
 fn a_dead_band_compliance_is_named_or_listed_as_a_look_alike() {
-    let spec = VariantSpec {
-        row: Row::Single,
-        effects: vec!["machine_compliance"],
-        seed: DEV_SEED_BASE + 124,
-    };
-    let v = draw(&study_session(), &spec).unwrap();
+    let (v, rep) = diagnose_variant(vec!["machine_compliance"], 124);
     assert_eq!(v.hidden[0].shape, "deadband");
-    let rep = run(&Measured::new("deadband", v.points));
     let named = rep.named.iter().any(|n| n == "machine_compliance");
     let look_alike = rep
         .look_alikes
