@@ -660,13 +660,7 @@ impl Diagnoser {
         } else {
             runout_um.unwrap_or(3.0)
         };
-        fam.driver_basis(&self.sm, runout)
-            .into_iter()
-            .map(|mut c| {
-                w.apply(&mut c);
-                c
-            })
-            .collect()
+        whitened(w, fam.driver_basis(&self.sm, runout))
     }
 
     /// Columns (data rows) as a matrix with `rows` rows (prior rows zero), `None` when empty.
@@ -1491,15 +1485,7 @@ impl Diagnoser {
                 // runout is not known when the family is not named)
                 let raw = |m: &SessionModel| fam.driver_basis(m, 3.0);
                 let basis = raw(&self.sm);
-                let cols = basis
-                    .iter()
-                    .map(|c| {
-                        let mut c = c.clone();
-                        w.apply(&mut c);
-                        c
-                    })
-                    .collect();
-                let Some(e) = self.stack(cols, cur.r.len()) else {
+                let Some(e) = self.stack(whitened(w, basis.clone()), cur.r.len()) else {
                     continue;
                 };
                 let t = self.test_beyond(w, &base, &alt, q, &e);
@@ -1624,4 +1610,12 @@ impl Diagnoser {
         }
         out
     }
+}
+
+/// Columns (data rows) in the whitening `w`.
+fn whitened(w: &Whitening, mut cols: Vec<Vec<f64>>) -> Vec<Vec<f64>> {
+    for c in &mut cols {
+        w.apply(c);
+    }
+    cols
 }
