@@ -16,62 +16,63 @@
 
 use millcomp_closedloop::changes::ChangeKind;
 use millcomp_closedloop::compare::commissioned;
-use millcomp_closedloop::groove::{deflection_plan, groove_setup};
+use millcomp_closedloop::groove::{deflection_plan, groove_setup, run_groove_with};
 use millcomp_closedloop::touch_off::{
     REMANENCE_ALLOWANCE, TouchOffBias, auto_bias, model_remanence_um,
 };
-use millcomp_closedloop::{ControllerKind, Scenario, run_scenario};
+use millcomp_closedloop::{ControllerKind, Scenario};
 use millcomp_sim::sensors::CapacitanceGauge;
 
 /// The exit's figures of one run, from its report (µm; `NaN` where the report has none).
 struct ExitFigures {
+    /// The touch-off's bias (V; 0 at rest).
+    bias_v: f64,
     /// The exit's settled error and its excess over it (`changes`).
     settled: f64,
     excess: f64,
     /// `exit_overcut_um` and `exit_floor_tip_um`.
     overcut: f64,
     tip_at_floor: f64,
+    /// The tip the controllers' identified hysteresis model predicts at 0 V after the stack rose to
+    /// 800 V (about the deep cut's command) and came back (`NaN` without a model).
+    predicted_remanence: f64,
 }
 
+/// One run of `s` with `kind` on its commissioned set-up; with `allowance`, an `auto` touch-off is
+/// made at the bias `auto_bias` chooses with that allowance instead of the shipped one.
 fn exit_figures(
     s: &Scenario,
     kind: ControllerKind,
+    allowance: Option<f64>,
 ) -> Result<ExitFigures, Box<dyn std::error::Error>> {
-    let r = run_scenario(s, kind)?;
+    let setup = groove_setup(s)?;
+    let plan = deflection_plan(&setup, 0.01)?;
+    let mut s = s.clone();
+    if let (TouchOffBias::Auto, Some(allowance)) = (s.control.touch_off_bias, allowance) {
+        let sin_a = setup.truth.program.tilt_deg.to_radians().sin();
+        s.control.touch_off_bias = auto_bias(
+            &plan,
+            sin_a,
+            &setup.model_spindle,
+            setup.model_hysteresis.as_ref(),
+            CapacitanceGauge::rd20().range_um,
+            allowance,
+        )
+        .map_or(TouchOffBias::Rest, |c| TouchOffBias::Volts(c.bias_v));
+    }
+    let r = run_groove_with(&s, &setup, &plan, kind)?.report;
     let exit = r.changes.iter().find(|c| c.kind == ChangeKind::Exit);
     Ok(ExitFigures {
+        bias_v: r.touch_off.map_or(0.0, |t| t.bias_v),
         settled: exit.map_or(f64::NAN, |c| c.settled_um),
         excess: exit.map_or(f64::NAN, |c| c.excess_um),
         overcut: r.metrics.exit_overcut_um.unwrap_or(f64::NAN),
         tip_at_floor: r.metrics.exit_floor_tip_um.unwrap_or(f64::NAN),
+        predicted_remanence: setup
+            .model_hysteresis
+            .as_ref()
+            .map_or(f64::NAN, |h| model_remanence_um(h, 800.0)),
     })
-}
-
-/// The tip (µm) the controllers' identified hysteresis model predicts at 0 V after the stack rose to
-/// 800 V (about the deep cut's command) and came back (`NaN` without a model).
-fn predicted_remanence_um(s: &Scenario) -> Result<f64, Box<dyn std::error::Error>> {
-    let setup = groove_setup(s)?;
-    Ok(setup
-        .model_hysteresis
-        .as_ref()
-        .map_or(f64::NAN, |h| model_remanence_um(h, 800.0)))
-}
-
-/// The touch-off `auto_bias` chooses with `allowance` for this seed's commissioned models, as volts
-/// (rest without a hysteresis model).
-fn auto_with(s: &Scenario, allowance: f64) -> Result<TouchOffBias, Box<dyn std::error::Error>> {
-    let setup = groove_setup(s)?;
-    let plan = deflection_plan(&setup, 0.01)?;
-    let sin_a = setup.truth.program.tilt_deg.to_radians().sin();
-    Ok(auto_bias(
-        &plan,
-        sin_a,
-        &setup.model_spindle,
-        setup.model_hysteresis.as_ref(),
-        CapacitanceGauge::rd20().range_um,
-        allowance,
-    )
-    .map_or(TouchOffBias::Rest, |c| TouchOffBias::Volts(c.bias_v)))
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -108,33 +109,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "| seed | bias (V) | settled before the exit (µm) | exit excess over it | exit overcut | tip at 0 V (µm) | of depth | identified model's tip at 0 V | linear stack: excess | overcut |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|");
+    // the shipped allowance is the scenario's own `auto`
+    let allowance = (allowance != REMANENCE_ALLOWANCE).then_some(allowance);
     for seed in 1..=seeds {
         let mut s = base.clone();
         s.seed = seed;
-        s.control.touch_off_bias = match touch {
-            TouchOffBias::Auto if allowance != REMANENCE_ALLOWANCE => auto_with(&s, allowance)?,
-            other => other,
-        };
-        let bias = match s.control.touch_off_bias {
-            TouchOffBias::Volts(v) => format!("{v:.0}"),
-            TouchOffBias::Auto => match auto_with(&s, allowance)? {
-                TouchOffBias::Volts(v) => format!("{v:.0}"),
-                _ => "0".into(),
-            },
-            TouchOffBias::Rest => "0".into(),
-        };
-        let h = exit_figures(&s, kind)?;
-        let predicted = predicted_remanence_um(&s)?;
+        s.control.touch_off_bias = touch;
+        let h = exit_figures(&s, kind, allowance)?;
         s.truth.pzt_nonlinear = false;
-        let l = exit_figures(&s, kind)?;
+        let l = exit_figures(&s, kind, allowance)?;
         println!(
-            "| {seed} | {bias} | {:+.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
+            "| {seed} | {:.0} | {:+.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
+            h.bias_v,
             h.settled,
             h.excess,
             h.overcut,
             h.tip_at_floor,
             h.tip_at_floor * sin_a,
-            predicted,
+            h.predicted_remanence,
             l.excess,
             l.overcut
         );
