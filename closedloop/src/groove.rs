@@ -350,7 +350,8 @@ impl TruthLimits {
 const TOUCH_OFF_HOLD_S: f64 = 0.5;
 
 /// Touch the tool off as the scenario says (`control.touch_off_bias`): at rest nothing happens; with a
-/// bias the stage's stack is raised and held there, the gauge read, and the choice noted.
+/// bias the stage's stack is raised and held there and the gauge read (the report's `touch_off`);
+/// an `auto` choice is explained in the notes.
 fn touch_off(
     s: &Scenario,
     setup: &GrooveSetup,
@@ -402,9 +403,6 @@ fn touch_off(
         return Ok(TouchOff::default());
     }
     let gauge_um = stage.touch_off_at(bias_v, TOUCH_OFF_HOLD_S)?;
-    notes.push(format!(
-        "touched off with the stack at {bias_v:.0} V (gauge {gauge_um:.2} um)"
-    ));
     Ok(TouchOff { bias_v, gauge_um })
 }
 
