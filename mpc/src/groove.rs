@@ -76,6 +76,112 @@ impl ForcePeakChain {
     }
 }
 
+/// The force chain's noise bias, calibrated: the mean reading of a [`ForcePeakChain`] against the true
+/// per-revolution peak `A` of a force `A·w(angle)` seen with Gaussian noise of the commissioned σ, and
+/// its inverse ([`GrooveMpcFeatures::unbiased_peak`]).
+///
+/// The largest of a revolution's noisy samples is biased up: with no force the chain reads the noise's
+/// own maximum, and the bias falls as the force's peak rises above the noise. The table is built once
+/// by running the chain itself on the waveform `w` (the force model's; flat without one) with noise from
+/// a fixed seed, at peaks 0, σ/2, … 40σ, [`PeakNoiseBias::REVOLUTIONS`] revolutions each; above 40σ the
+/// last offset is kept.
+///
+/// ```
+/// use millcomp_mpc::groove::PeakNoiseBias;
+/// // 10 000 rpm at 20 kHz, σ 0.04 N, a flat force
+/// let b = PeakNoiseBias::calibrate(10_000.0, 5e-5, 0.04, &[]).unwrap();
+/// // no force: the 2 kHz-filtered noise's largest of a revolution's 120 samples, 0.044 N (≈ 2.2 of the
+/// // filtered noise's σ of ≈ 0.02 N)
+/// assert!((0.040..0.048).contains(&b.floor_n()), "{}", b.floor_n());
+/// assert_eq!(b.unbiased(b.floor_n()), 0.0);
+/// // a flat 1 N reads ≈ 1 N plus the same maximum; the inverse takes it off
+/// assert!((b.unbiased(1.0 + b.floor_n()) - 1.0).abs() < 0.01);
+/// // no noise: nothing to take off
+/// let exact = PeakNoiseBias::calibrate(10_000.0, 5e-5, 0.0, &[]).unwrap();
+/// assert_eq!(exact.unbiased(0.7), 0.7);
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct PeakNoiseBias {
+    peaks_n: Vec<f64>,
+    means_n: Vec<f64>,
+}
+
+impl PeakNoiseBias {
+    /// Revolutions averaged per tabulated peak.
+    pub const REVOLUTIONS: usize = 100;
+
+    /// Calibrate the chain of [`ForcePeakChain::new`]`(speed_rpm, dt_s)` against noise σ
+    /// `noise_sigma_n` (N) on the per-revolution `waveform` (relative to its peak, starting anywhere;
+    /// empty: flat).
+    ///
+    /// # Errors
+    /// [`MpcError::Sim`] for a negative or non-finite σ or a pre-filter above Nyquist.
+    pub fn calibrate(
+        speed_rpm: f64,
+        dt_s: f64,
+        noise_sigma_n: f64,
+        waveform: &[f64],
+    ) -> Result<Self, MpcError> {
+        let steps = ((60.0 / speed_rpm / dt_s).round() as usize).max(1);
+        let w: Vec<f64> = (0..steps)
+            .map(|k| match waveform.len() {
+                0 => 1.0,
+                n => waveform[k * n / steps % n],
+            })
+            .collect();
+        let grid = if noise_sigma_n > 0.0 { 81 } else { 1 };
+        let (mut peaks_n, mut means_n) = (Vec::with_capacity(grid), Vec::with_capacity(grid));
+        for j in 0..grid {
+            let a = j as f64 * 0.5 * noise_sigma_n;
+            let mut chain = ForcePeakChain::new(speed_rpm, dt_s)?;
+            // the same draws at every peak: the table is smooth in it
+            let mut noise = millcomp_sim::sensors::NoiseSource::new(0x5eed_b1a5, noise_sigma_n)?;
+            let (mut sum, mut n) = (0.0, 0usize);
+            for r in 0..Self::REVOLUTIONS + 2 {
+                for &wk in &w {
+                    let y = chain.step(a * wk + noise.sample());
+                    // two revolutions to fill the filter and the window
+                    if r >= 2 {
+                        sum += y;
+                        n += 1;
+                    }
+                }
+            }
+            peaks_n.push(a);
+            means_n.push(sum / n as f64);
+        }
+        // the mean reading rises with the peak; keep it strictly so against the draws' residual noise
+        for j in 1..means_n.len() {
+            means_n[j] = means_n[j].max(means_n[j - 1] + 1e-12);
+        }
+        Ok(Self { peaks_n, means_n })
+    }
+
+    /// The chain's mean reading with no force (N): the noise's per-revolution maximum.
+    pub fn floor_n(&self) -> f64 {
+        self.means_n[0]
+    }
+
+    /// The per-revolution peak (N) whose mean reading is `reading_n`: 0 at or below the noise's floor,
+    /// interpolated in the table, the last offset taken off above it.
+    pub fn unbiased(&self, reading_n: f64) -> f64 {
+        let (p, m) = (&self.peaks_n, &self.means_n);
+        let last = m.len() - 1;
+        if last == 0 {
+            return (reading_n - (m[0] - p[0])).max(0.0);
+        }
+        if reading_n <= m[0] {
+            return 0.0;
+        }
+        if reading_n >= m[last] {
+            return reading_n - (m[last] - p[last]);
+        }
+        let j = m.partition_point(|&v| v <= reading_n).max(1);
+        let t = (reading_n - m[j - 1]) / (m[j] - m[j - 1]);
+        p[j - 1] + t * (p[j] - p[j - 1])
+    }
+}
+
 /// What the groove controllers measure at each stage step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GrooveMeasurement {
@@ -92,6 +198,10 @@ pub struct GrooveMeasurement {
 pub struct DeflectionPlan {
     xs_mm: Vec<f64>,
     values_um: Vec<f64>,
+    /// The planned deflection without the cap at the depth (µm), at the same points.
+    flank_um: Vec<f64>,
+    /// The loop gain `c·∂F/∂d` where the deflection exceeds the depth, 0 elsewhere, at the same points.
+    loop_gain: Vec<f64>,
     feed: FeedProfile,
     /// The smaller flute's peak z-force over the larger's (1 without runout; one flute per revolution
     /// sets the deflection where it is well below 1).
@@ -217,9 +327,10 @@ impl DeflectionPlan {
     ) -> Result<Self, MpcError> {
         let feed = program.feed_profile()?;
         let xs = plan_nodes(program, &feed, dx_mm);
-        let mut values = Vec::with_capacity(xs.len());
+        let (mut values, mut flank) = (Vec::with_capacity(xs.len()), Vec::with_capacity(xs.len()));
+        let mut gains = Vec::with_capacity(xs.len());
         for &x in &xs {
-            values.push(point(
+            let p = point(
                 program,
                 &feed,
                 tool_radius_um,
@@ -227,11 +338,16 @@ impl DeflectionPlan {
                 x,
                 program.depth_at(x),
                 &mut force,
-            )?);
+            )?;
+            values.push(p.capped_um);
+            flank.push(p.full_um);
+            gains.push(p.loop_gain);
         }
         Ok(Self {
             xs_mm: xs,
             values_um: values,
+            flank_um: flank,
+            loop_gain: gains,
             feed,
             flute_ratio: 1.0,
             waveform: Vec::new(),
@@ -266,6 +382,54 @@ impl DeflectionPlan {
             depth_um,
             &mut |cond| force.peak_z_force_n(cond),
         )
+        .map(|p| p.capped_um)
+    }
+
+    /// Where the tool rides on its wear land (the first micrometres of a ramp): the spans `[x₀, x₁)` (mm)
+    /// between tabulated points at which the planned deflection exceeds the depth *and* the tool–workpiece
+    /// loop gain `c·∂F/∂d` exceeds 1 — a push of the stack there turns mostly into deflection, not depth,
+    /// so feedback on the measured force cannot take the tool into the cut. (For the flank force's
+    /// `F ∝ √d` the gain is `c·F/(2d)`: the first quarter of the depths whose deflection exceeds them.)
+    ///
+    /// ```
+    /// use millcomp_mpc::groove::DeflectionPlan;
+    /// use millcomp_sim::groove::GrooveProgram;
+    /// // a force ∝ √depth on a 40 µm-per-mm ramp (0 → 80 µm over 2 mm), 2 µm of deflection per √µm:
+    /// // above the depth below 4 µm, a loop gain 1/√d above 1 below 1 µm of depth (0.025 mm)
+    /// let mut program = GrooveProgram::thesis(40.0);
+    /// program.length_mm = 2.0;
+    /// let plan = DeflectionPlan::reference(&program, 400.0, 0.005, 1.0, |c| Ok(2.0 * c.depth_um.sqrt()))
+    ///     .unwrap();
+    /// let spans = plan.rubbing_spans_mm();
+    /// assert_eq!(spans.len(), 1);
+    /// // from the first point with a depth (0.005 mm) to the first past 1 µm, on the 0.005 mm grid
+    /// assert!((spans[0].0 - 0.005).abs() < 1e-9 && (spans[0].1 - 0.025).abs() < 1e-9, "{spans:?}");
+    /// ```
+    pub fn rubbing_spans_mm(&self) -> Vec<(f64, f64)> {
+        let mut spans: Vec<(f64, f64)> = Vec::new();
+        for i in 0..self.xs_mm.len() {
+            // (a NaN gain is not above 1)
+            if self.loop_gain[i].is_nan() || self.loop_gain[i] <= 1.0 {
+                continue;
+            }
+            let (x0, x1) = (
+                self.xs_mm[i],
+                self.xs_mm.get(i + 1).copied().unwrap_or(self.xs_mm[i]),
+            );
+            match spans.last_mut() {
+                Some(last) if last.1 >= x0 => last.1 = x1,
+                _ => spans.push((x0, x1)),
+            }
+        }
+        spans
+    }
+
+    /// The plan with the deflection not capped at the depth: where the flank force would push the tool
+    /// out of a shallow cut, the full planned deflection, which is what a compensating push must give
+    /// for the tool to cut at the depth ([`GrooveMpcFeatures::flank_rubbing`]).
+    pub fn with_flank_push(mut self) -> Self {
+        self.values_um.clone_from(&self.flank_um);
+        self
     }
 
     /// Number of tabulated points.
@@ -594,7 +758,8 @@ fn plan_nodes(program: &GrooveProgram, feed: &FeedProfile, dx_mm: f64) -> Vec<f6
 }
 
 /// One planned deflection (µm): the peak z-force at depth `depth_um` (clamped to the ball) and the planned
-/// upfeed at `x_mm`, times the engagement there and the compliance `c`.
+/// upfeed at `x_mm`, times the engagement there and the compliance `c` — capped at the depth, and
+/// without the cap.
 fn point(
     program: &GrooveProgram,
     feed: &FeedProfile,
@@ -603,17 +768,41 @@ fn point(
     x_mm: f64,
     depth_um: f64,
     force: &mut impl FnMut(&CutConditions) -> Result<f64, MpcError>,
-) -> Result<f64, MpcError> {
+) -> Result<PlanPoint, MpcError> {
     let d = depth_um.clamp(0.0, tool_radius_um);
     let e = program.engagement(x_mm);
+    let upfeed = feed.upfeed_at_x(x_mm);
     let f = if d > 0.0 && e > 0.0 {
-        force(&program.conditions_at(d, feed.upfeed_at_x(x_mm)))? * e
+        force(&program.conditions_at(d, upfeed))? * e
+    } else {
+        0.0
+    };
+    // where the deflection exceeds the depth, how much of a push turns into deflection: c·∂F/∂d by a
+    // forward difference of 1 % of the depth
+    let loop_gain = if f * c > d {
+        let step = (0.01 * d).max(1e-4);
+        let f2 = force(&program.conditions_at(d + step, upfeed))? * e;
+        c * (f2 - f) / step
     } else {
         0.0
     };
     // a tool cannot be pushed out of the cut by more than it is engaged: at the first few µm of a ramp
     // the flank force alone would predict more deflection than depth
-    Ok((f * c).min(d))
+    Ok(PlanPoint {
+        capped_um: (f * c).min(d),
+        full_um: f * c,
+        loop_gain,
+    })
+}
+
+/// One tabulated point of a [`DeflectionPlan`].
+struct PlanPoint {
+    /// The planned deflection capped at the depth (µm).
+    capped_um: f64,
+    /// The planned deflection (µm).
+    full_um: f64,
+    /// The tool–workpiece loop gain `c·∂F/∂d` where the deflection exceeds the depth (0 elsewhere).
+    loop_gain: f64,
 }
 
 /// The smaller flute's peak z-force over the larger's at the program's deepest point (clamped to the
@@ -1230,6 +1419,22 @@ pub struct GrooveMpcFeatures {
     /// made at once) is then met where it rises; off: the error at the cycles only. Only with the
     /// default configuration (`control.mpc` unset).
     pub intersample: bool,
+    /// Read the per-revolution force peak with its noise bias taken off ([`PeakNoiseBias`], calibrated
+    /// on the commissioned force noise σ and the force model's waveform). With no force the sliding
+    /// peak reads the noise's own maximum (0.044 N at σ 0.04 N), which the error channel takes for a
+    /// deflection. **Off by default**, as is [`Self::flank_rubbing`]: on its own it leaves the ramp's
+    /// rubbing start uncut, which the noise's bias got the MPC through; with both on a quieter force
+    /// channel no longer makes the MPC worse, and nothing else moves outside its interval (README, `bash
+    /// bench/ramp-start-noise` and `compare --start`) — they wait for the README's MPC figures to be
+    /// re-recorded with them on.
+    pub unbiased_peak: bool,
+    /// Know the ramp's rubbing start: where the planned deflection exceeds the depth the preview pushes
+    /// by the full planned deflection ([`DeflectionPlan::with_flank_push`]) instead of capping it at the
+    /// depth, and where moreover a push turns mostly into deflection ([`DeflectionPlan::
+    /// rubbing_spans_mm`]: loop gain above 1) the force channel is not read as a deflection — the tool
+    /// rides on its wear land, the force is the rubbing's, and the feedback would take the push back.
+    /// The gauge is still read. **Off by default** (see [`Self::unbiased_peak`]).
+    pub flank_rubbing: bool,
 }
 
 /// The stretch at the start of the groove MPC's horizon whose error is weighed at every stage step
@@ -1259,6 +1464,8 @@ impl Default for GrooveMpcFeatures {
             spindle_phase: true,
             gauge_disturbance: true,
             intersample: true,
+            unbiased_peak: false,
+            flank_rubbing: false,
         }
     }
 }
@@ -1563,6 +1770,10 @@ pub struct MpcGrooveController {
     mpc: MpcController,
     plan: DeflectionPlan,
     force: ForcePeakChain,
+    /// The peak's noise bias ([`GrooveMpcFeatures::unbiased_peak`]).
+    peak_bias: Option<PeakNoiseBias>,
+    /// Where the tool rides on its wear land ([`GrooveMpcFeatures::flank_rubbing`]; empty off).
+    rubbing_mm: Vec<(f64, f64)>,
     compliance: f64,
     sin_a: f64,
     every: usize,
@@ -1606,6 +1817,21 @@ impl MpcGrooveController {
         if !settings.features.flute_phase {
             plan.flute_ratio = 1.0;
         }
+        let mut rubbing_mm = Vec::new();
+        if settings.features.flank_rubbing {
+            rubbing_mm = plan.rubbing_spans_mm();
+            plan = plan.with_flank_push();
+        }
+        let peak_bias = if settings.features.unbiased_peak {
+            Some(PeakNoiseBias::calibrate(
+                program.speed_rpm,
+                settings.dt_s,
+                settings.force_noise_n,
+                &plan.waveform,
+            )?)
+        } else {
+            None
+        };
         let mpc = groove_mpc(model_spindle, model_stiffness, program.tilt_deg, settings)?;
         let dt = settings.dt_s;
         let n = mpc.config().horizon;
@@ -1617,6 +1843,8 @@ impl MpcGrooveController {
             mpc,
             plan,
             force: ForcePeakChain::new(program.speed_rpm, dt)?,
+            peak_bias,
+            rubbing_mm,
             compliance: model_stiffness
                 .stiffness()
                 .z_compliance_um_per_n(program.tilt_deg)?,
@@ -1678,6 +1906,7 @@ impl GrooveController for MpcGrooveController {
         let force_stale = self.stale[0].stale(force);
         let gauge_stale = self.stale[1].stale(gauge);
         let fpk = self.force.step(force);
+        let fpk = self.peak_bias.as_ref().map_or(fpk, |b| b.unbiased(fpk));
         // the sample of the last step: the stage's deflection holds its force peak from now on
         if last.is_some() && !force_stale {
             self.phase.update(t_s, force);
@@ -1760,10 +1989,16 @@ impl GrooveController for MpcGrooveController {
                 self.window.intersample_reference[r] = band.target_error_um(rho * a + z0);
             }
         }
-        // a stale sensor is left out of the measurement update (prediction from the model and the plan)
+        // a stale sensor is left out of the measurement update (prediction from the model and the plan),
+        // and so is the force where the tool rides on its wear land
+        let x_now = self.plan.x_at(t_s);
+        let rubbing = self
+            .rubbing_mm
+            .iter()
+            .any(|&(a, b)| (a..b).contains(&x_now));
         let y = [
             if gauge_stale { f64::NAN } else { gauge },
-            if gauge_stale || force_stale {
+            if gauge_stale || force_stale || rubbing {
                 f64::NAN
             } else {
                 self.sin_a * gauge - z0 - self.compliance * fpk
