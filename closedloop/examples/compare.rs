@@ -24,6 +24,10 @@
 //! 5 kHz with the same 20 steps (4 ms) and at 5 kHz with 50 steps (10 ms), beside `pid-ff` — what the
 //! faster cycle buys (issue 18).
 //!
+//! `--start`: the groove scenarios with `pid-ff`, the shipped `mpc` and `mpc +start` — the MPC with the
+//! ramp's rubbing start known (`control.groove_mpc`: `unbiased_peak` and `flank_rubbing`, off by default):
+//! what the two features do beyond the ramps' start (`bash bench/ramp-start-noise`).
+//!
 //! `--commissioned`: the hard form (`millcomp_closedloop::compare::commissioned`) — each groove scenario
 //! with instrument errors and a tool drawn from the seed and controllers built only from its own
 //! commissioning; each thin wall a part drawn from the seed; no deliberate force-model errors.
@@ -97,6 +101,8 @@ fn feature_variants() -> Vec<(&'static str, GrooveMpcFeatures)> {
                 flute_phase: false,
                 gauge_disturbance: false,
                 intersample: false,
+                unbiased_peak: false,
+                flank_rubbing: false,
             },
         ),
     ]
@@ -150,7 +156,7 @@ fn mpc_variants(
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut seeds, mut comm, mut ablations, mut changes, mut features, mut rates) =
         (10u64, false, false, false, false, false);
-    let mut levels = false;
+    let (mut levels, mut start) = (false, false);
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -160,6 +166,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 features = true;
             }
             "--ablations" => ablations = true,
+            "--start" => start = true,
             "--rates" => {
                 ablations = true;
                 changes = true;
@@ -183,7 +190,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             other => {
                 return Err(format!(
-                    "unknown argument `{other}`: allowed --seeds N, --commissioned, --ablations, --changes, --levels, --features, --rates"
+                    "unknown argument `{other}`: allowed --seeds N, --commissioned, --ablations, --changes, --levels, --features, --rates, --start"
                 )
                 .into());
             }
@@ -203,7 +210,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         if s.stage == StageKind::NcAxis {
             continue;
         }
-        if ablations && !ControllerKind::PidFeedforward.runs_on(s.stage) {
+        if (ablations || start) && !ControllerKind::PidFeedforward.runs_on(s.stage) {
             continue;
         }
         let has_changes = s.groove.as_ref().is_some_and(|g| {
@@ -269,6 +276,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             )
             .collect();
         mpc_variants(&scenarios, seeds, &|| bar.inc(1), &variants)?
+    } else if start {
+        let shipped: Setter = Box::new(|_: &mut Scenario| {});
+        let known: Setter = Box::new(|s: &mut Scenario| {
+            s.control.groove_mpc.unbiased_peak = true;
+            s.control.groove_mpc.flank_rubbing = true;
+        });
+        let variants: Vec<Variant> = vec![
+            ("mpc".into(), ControllerKind::Mpc, shipped),
+            ("mpc +start".into(), ControllerKind::Mpc, known),
+        ];
+        mpc_variants(&scenarios, seeds, &|| bar.inc(1), &variants)?
     } else {
         let rows = compare(&scenarios, &controllers, 1..1 + seeds, &|| bar.inc(1))?;
         let cols = controllers.iter().map(|c| c.name().to_string()).collect();
@@ -281,6 +299,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         if comm { ", commissioned" } else { "" },
         if rates {
             ", MPC rates"
+        } else if start {
+            ", the ramp's rubbing start known"
         } else if features {
             ", MPC features"
         } else if levels {
