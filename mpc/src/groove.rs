@@ -45,6 +45,11 @@ use crate::stroke::StrokeBand;
 /// peak is kept, low enough to take the 0.04 N sensor noise down by ~2×.
 pub const MPC_FORCE_PREFILTER_HZ: f64 = 2000.0;
 
+/// Cut-off of the critically damped force pre-filter of [`ForcePeakChain::critically_damped`] (Hz): the
+/// same noise reduction as the [`MPC_FORCE_PREFILTER_HZ`] Butterworth (the filtered noise's σ is 0.475
+/// of the sensor's against 0.463), without its overshoot.
+pub const MPC_FORCE_PREFILTER_CD_HZ: f64 = 3000.0;
+
 /// The force chain the MPC and `pid-tuned` read through: the measured force through the
 /// [`MPC_FORCE_PREFILTER_HZ`] 2nd-order low-pass, then the one-revolution sliding peak ([`SlidingMax`]).
 #[derive(Debug, Clone)]
@@ -70,6 +75,47 @@ impl ForcePeakChain {
         })
     }
 
+    /// The chain with a critically damped pre-filter (damping 1 at [`MPC_FORCE_PREFILTER_CD_HZ`]) instead
+    /// of the Butterworth ([`GrooveMpcFeatures::unbiased_peak`]). At 40° the z-force of a tooth pass ends
+    /// abruptly at its peak; the Butterworth's 4 % overshoot rings off that edge, so its peak reads up to
+    /// 1.7 % above the force's, by an amount that jumps whenever the edge crosses a sample (on the 40°
+    /// ramp at ≈ 20 and ≈ 60 µm of depth: the revolution's samples fall at the same angles every
+    /// revolution). A filter that does not overshoot reads the peak within 0.1 % of it.
+    ///
+    /// # Errors
+    /// As [`Self::new`].
+    ///
+    /// ```
+    /// use millcomp_mpc::groove::ForcePeakChain;
+    /// use millcomp_sim::force::BallEndForceModel;
+    /// use millcomp_sim::groove::GrooveProgram;
+    /// // the z-force of the 40° ramp's tool at 19.50 and 19.75 µm of depth, 120 samples a revolution
+    /// // (10 000 rpm, 20 kHz); each chain's reading over the largest sample
+    /// let (model, program) = (BallEndForceModel::default(), GrooveProgram::thesis(40.0));
+    /// let ratio = |mut chain: ForcePeakChain, depth_um: f64| {
+    ///     let rev = model.revolution(&program.conditions_at(depth_um, 10.0), 120).unwrap();
+    ///     let top = rev.iter().map(|f| f[2]).fold(f64::MIN, f64::max);
+    ///     let mut y = 0.0;
+    ///     for _ in 0..8 {
+    ///         for f in &rev {
+    ///             y = chain.step(f[2]);
+    ///         }
+    ///     }
+    ///     y / top
+    /// };
+    /// let (rpm, dt) = (10_000.0, 5e-5);
+    /// let jump = |make: &dyn Fn() -> ForcePeakChain| ratio(make(), 19.75) - ratio(make(), 19.5);
+    /// let butterworth = jump(&|| ForcePeakChain::new(rpm, dt).unwrap());
+    /// let damped = jump(&|| ForcePeakChain::critically_damped(rpm, dt).unwrap());
+    /// // the Butterworth's reading drops by 1.2 % of the peak there; the damped one's moves by 0.01 %
+    /// assert!(butterworth < -0.01 && damped.abs() < 0.001, "{butterworth} {damped}");
+    /// ```
+    pub fn critically_damped(speed_rpm: f64, dt_s: f64) -> Result<Self, MpcError> {
+        let mut c = Self::new(speed_rpm, dt_s)?;
+        c.low_pass = Biquad::low_pass(MPC_FORCE_PREFILTER_CD_HZ, 1.0, dt_s)?;
+        Ok(c)
+    }
+
     /// One force sample (N) in, the filtered per-revolution peak (N) out.
     pub fn step(&mut self, force_n: f64) -> f64 {
         self.peak.step(self.low_pass.step(force_n))
@@ -90,9 +136,9 @@ impl ForcePeakChain {
 /// use millcomp_mpc::groove::PeakNoiseBias;
 /// // 10 000 rpm at 20 kHz, σ 0.04 N, a flat force
 /// let b = PeakNoiseBias::calibrate(10_000.0, 5e-5, 0.04, &[]).unwrap();
-/// // no force: the 2 kHz-filtered noise's largest of a revolution's 120 samples, 0.044 N (≈ 2.2 of the
-/// // filtered noise's σ of ≈ 0.02 N)
-/// assert!((0.040..0.048).contains(&b.floor_n()), "{}", b.floor_n());
+/// // no force: the filtered noise's largest of a revolution's 120 samples, 0.046 N (≈ 2.4 of the
+/// // filtered noise's σ of 0.019 N)
+/// assert!((0.042..0.050).contains(&b.floor_n()), "{}", b.floor_n());
 /// assert_eq!(b.unbiased(b.floor_n()), 0.0);
 /// // a flat 1 N reads ≈ 1 N plus the same maximum; the inverse takes it off
 /// assert!((b.unbiased(1.0 + b.floor_n()) - 1.0).abs() < 0.01);
@@ -110,7 +156,7 @@ impl PeakNoiseBias {
     /// Revolutions averaged per tabulated peak.
     pub const REVOLUTIONS: usize = 100;
 
-    /// Calibrate the chain of [`ForcePeakChain::new`]`(speed_rpm, dt_s)` against noise σ
+    /// Calibrate the chain of [`ForcePeakChain::critically_damped`]`(speed_rpm, dt_s)` against noise σ
     /// `noise_sigma_n` (N) on the per-revolution `waveform` (relative to its peak, starting anywhere;
     /// empty: flat).
     ///
@@ -133,7 +179,7 @@ impl PeakNoiseBias {
         let (mut peaks_n, mut means_n) = (Vec::with_capacity(grid), Vec::with_capacity(grid));
         for j in 0..grid {
             let a = j as f64 * 0.5 * noise_sigma_n;
-            let mut chain = ForcePeakChain::new(speed_rpm, dt_s)?;
+            let mut chain = ForcePeakChain::critically_damped(speed_rpm, dt_s)?;
             // the same draws at every peak: the table is smooth in it
             let mut noise = millcomp_sim::sensors::NoiseSource::new(0x5eed_b1a5, noise_sigma_n)?;
             let (mut sum, mut n) = (0.0, 0usize);
@@ -1419,10 +1465,12 @@ pub struct GrooveMpcFeatures {
     /// made at once) is then met where it rises; off: the error at the cycles only. Only with the
     /// default configuration (`control.mpc` unset).
     pub intersample: bool,
-    /// Read the per-revolution force peak with its noise bias taken off ([`PeakNoiseBias`], calibrated
-    /// on the commissioned force noise σ and the force model's waveform). With no force the sliding
-    /// peak reads the noise's own maximum (0.044 N at σ 0.04 N), which the error channel takes for a
-    /// deflection. **Off by default**, as is [`Self::flank_rubbing`]: on its own it leaves the ramp's
+    /// Read the per-revolution force peak as it is: through a pre-filter that does not overshoot
+    /// ([`ForcePeakChain::critically_damped`]: the Butterworth's reading of the 40° ramp's peak wanders by
+    /// 1.7 %, a saw-tooth of ≈ 0.1 µm in its error), with its noise bias taken off ([`PeakNoiseBias`],
+    /// calibrated on the commissioned force noise σ and the force model's waveform). With no force the
+    /// sliding peak reads the noise's own maximum (0.046 N at σ 0.04 N), which the error channel takes
+    /// for a deflection. **Off by default**, as is [`Self::flank_rubbing`]: on its own it leaves the ramp's
     /// rubbing start uncut, which the noise's bias got the MPC through; with both on a quieter force
     /// channel no longer makes the MPC worse, and nothing else moves outside its interval (README, `bash
     /// bench/ramp-start-noise` and `compare --start`) — they wait for the README's MPC figures to be
@@ -1842,7 +1890,11 @@ impl MpcGrooveController {
         Ok(Self {
             mpc,
             plan,
-            force: ForcePeakChain::new(program.speed_rpm, dt)?,
+            force: if settings.features.unbiased_peak {
+                ForcePeakChain::critically_damped(program.speed_rpm, dt)?
+            } else {
+                ForcePeakChain::new(program.speed_rpm, dt)?
+            },
             peak_bias,
             rubbing_mm,
             compliance: model_stiffness
