@@ -24,9 +24,10 @@
 //! 5 kHz with the same 20 steps (4 ms) and at 5 kHz with 50 steps (10 ms), beside `pid-ff` — what the
 //! faster cycle buys (issue 18).
 //!
-//! `--start`: the groove scenarios with `pid-ff`, the shipped `mpc` and `mpc +start` — the MPC with the
-//! ramp's rubbing start known (`control.groove_mpc`: `unbiased_peak` and `flank_rubbing`, off by default):
-//! what the two features do beyond the ramps' start (`bash bench/ramp-start-noise`).
+//! `--start`: the groove scenarios with `pid-ff`, the shipped `mpc`, `mpc +start` — the MPC with the
+//! ramp's rubbing start known (`control.groove_mpc`: `unbiased_peak` and `flank_rubbing`, off by default)
+//! — and `mpc +start +quiet` (and `quiet_revolutions`): what the features do beyond the ramps' start
+//! (`bash bench/ramp-start-noise`).
 //!
 //! `--commissioned`: the hard form (`millcomp_closedloop::compare::commissioned`) — each groove scenario
 //! with instrument errors and a tool drawn from the seed and controllers built only from its own
@@ -103,6 +104,7 @@ fn feature_variants() -> Vec<(&'static str, GrooveMpcFeatures)> {
                 intersample: false,
                 unbiased_peak: false,
                 flank_rubbing: false,
+                quiet_revolutions: false,
             },
         ),
     ]
@@ -282,9 +284,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             s.control.groove_mpc.unbiased_peak = true;
             s.control.groove_mpc.flank_rubbing = true;
         });
+        let quiet: Setter = Box::new(|s: &mut Scenario| {
+            s.control.groove_mpc.unbiased_peak = true;
+            s.control.groove_mpc.flank_rubbing = true;
+            s.control.groove_mpc.quiet_revolutions = true;
+        });
         let variants: Vec<Variant> = vec![
             ("mpc".into(), ControllerKind::Mpc, shipped),
             ("mpc +start".into(), ControllerKind::Mpc, known),
+            ("mpc +start +quiet".into(), ControllerKind::Mpc, quiet),
         ];
         mpc_variants(&scenarios, seeds, &|| bar.inc(1), &variants)?
     } else {

@@ -1483,7 +1483,25 @@ pub struct GrooveMpcFeatures {
     /// rides on its wear land, the force is the rubbing's, and the feedback would take the push back.
     /// The gauge is still read. **Off by default** (see [`Self::unbiased_peak`]).
     pub flank_rubbing: bool,
+    /// Away from the changes the preview sees, read the force once per revolution. The error channel's
+    /// force reading is a one-revolution sliding peak — the same value for up to a revolution's cycles
+    /// (12 at 2 kHz and 10 000 rpm) — and the disturbance estimate takes every cycle's reading as a new
+    /// measurement, which lets the force noise through at the estimate's full speed. Where the planned
+    /// deflection stays within [`QUIET_CHANGE_UM`] of now over the whole horizon, and has for
+    /// [`QUIET_AFTER_REVOLUTIONS`] revolutions, the force is read at one cycle a revolution; around every
+    /// change the preview sees (an entry, a step, an exit) it is read every cycle, as before. The gauge is
+    /// read every cycle. **Off by default** (see [`Self::unbiased_peak`]).
+    pub quiet_revolutions: bool,
 }
+
+/// The change in the planned deflection over the horizon (µm) below which the preview sees no change
+/// ([`GrooveMpcFeatures::quiet_revolutions`]): three times what a 10 ms horizon adds on the 40° ramp
+/// (0.017 µm), well below any step. Chosen before the runs, the first value tried.
+pub const QUIET_CHANGE_UM: f64 = 0.05;
+
+/// Revolutions after the preview last saw a change before the force is read once a revolution
+/// ([`GrooveMpcFeatures::quiet_revolutions`]): the disturbance estimate's settling after a change.
+pub const QUIET_AFTER_REVOLUTIONS: f64 = 2.0;
 
 /// The stretch at the start of the groove MPC's horizon whose error is weighed at every stage step
 /// (with [`GrooveMpcFeatures::intersample`]), in seconds: the time a tooth's force takes to rise and
@@ -1514,6 +1532,7 @@ impl Default for GrooveMpcFeatures {
             intersample: true,
             unbiased_peak: false,
             flank_rubbing: false,
+            quiet_revolutions: false,
         }
     }
 }
@@ -1844,6 +1863,8 @@ pub struct MpcGrooveController {
     reach_z_um: f64,
     /// The touch-off's tip in z (µm): sin α × the gauge's reading there.
     z_zero_um: f64,
+    /// The last cycle at which the preview saw a change ([`GrooveMpcFeatures::quiet_revolutions`]).
+    last_change_s: f64,
 }
 
 impl MpcGrooveController {
@@ -1922,6 +1943,7 @@ impl MpcGrooveController {
             plan_range_um,
             reach_z_um: sp.gain_um_per_v * sp.voltage_max_v * sin_a,
             z_zero_um: 0.0,
+            last_change_s: f64::NEG_INFINITY,
         })
     }
 
@@ -2007,6 +2029,19 @@ impl GrooveController for MpcGrooveController {
                 .collect(),
         };
         let planned_now = planned[0];
+        // away from the changes the preview sees, the force once per revolution
+        let mut skip_force = false;
+        if self.features.quiet_revolutions {
+            if planned
+                .iter()
+                .any(|&p| (p - planned_now).abs() > QUIET_CHANGE_UM)
+            {
+                self.last_change_s = t_s;
+            }
+            let quiet = t_s - self.last_change_s > QUIET_AFTER_REVOLUTIONS * self.rev_s;
+            let per_rev = (self.rev_s / self.tc_s).round().max(1.0) as usize;
+            skip_force = quiet && (self.k / self.every) % per_rev != 0;
+        }
         if !force_stale && fpk.is_finite() {
             self.scale.update(planned_now, self.compliance * fpk);
         }
@@ -2050,7 +2085,7 @@ impl GrooveController for MpcGrooveController {
             .any(|&(a, b)| (a..b).contains(&x_now));
         let y = [
             if gauge_stale { f64::NAN } else { gauge },
-            if gauge_stale || force_stale || rubbing {
+            if gauge_stale || force_stale || rubbing || skip_force {
                 f64::NAN
             } else {
                 self.sin_a * gauge - z0 - self.compliance * fpk
