@@ -203,19 +203,34 @@ fn the_mpc_does_not_limit_cycle_on_a_hysteretic_stack_and_its_ablations_run() {
     );
 }
 
+/// The MPC on the 40° ramp at `seed`, with the force channel's σ `force_noise_n` (N) and the groove MPC's
+/// shipped features changed by `set`.
+fn forty_degree_ramp(
+    seed: u64,
+    force_noise_n: f64,
+    set: impl Fn(&mut millcomp_mpc::groove::GrooveMpcFeatures),
+) -> RunReport {
+    let mut s = scenario("groove_s7_40deg.toml");
+    s.seed = seed;
+    s.truth.force_noise_n = force_noise_n;
+    set(&mut s.control.groove_mpc);
+    run(&s, ControllerKind::Mpc)
+}
+
+/// The ramp's rubbing start known: the groove MPC's `unbiased_peak` and `flank_rubbing` on.
+fn start_known(f: &mut millcomp_mpc::groove::GrooveMpcFeatures) {
+    f.unbiased_peak = true;
+    f.flank_rubbing = true;
+}
+
 #[test]
 fn a_quieter_force_channel_does_not_leave_the_ramp_start_uncut_with_the_rubbing_start_known() {
     // the 40° ramp with a 4× quieter force channel (σ 0.01 N), seed 4. The shipped MPC takes the
     // noise's per-revolution maximum for a deflection, and without it the first 0.2 mm, where the
     // tool rides on its wear land, stay uncut (`bash bench/ramp-start-noise`: pp 1.06 µm at this seed).
     // With the peak's noise bias taken off and the rubbing start known, the preview pushes the tool in.
-    let mut s = scenario("groove_s7_40deg.toml");
-    s.seed = 4;
-    s.truth.force_noise_n = 0.01;
-    let shipped = run(&s, ControllerKind::Mpc);
-    s.control.groove_mpc.unbiased_peak = true;
-    s.control.groove_mpc.flank_rubbing = true;
-    let known = run(&s, ControllerKind::Mpc);
+    let shipped = forty_degree_ramp(4, 0.01, |_| {});
+    let known = forty_degree_ramp(4, 0.01, start_known);
     assert!(
         shipped.metrics.min_error_um < -0.6,
         "shipped: min {}",
@@ -235,13 +250,8 @@ fn the_forty_degree_ramps_peak_read_without_the_pre_filters_overshoot_leaves_no_
     // peak, and the Butterworth pre-filter's overshoot off that edge made the shipped MPC's error a
     // saw-tooth (resets at ≈ 20 and ≈ 60 µm of depth; pp 0.33 µm against an optimum of 0.02 µm). With
     // the peak read through the critically damped pre-filter (and the rubbing start known): 0.13 µm.
-    let mut s = scenario("groove_s7_40deg.toml");
-    s.seed = 3;
-    s.truth.force_noise_n = 0.0;
-    let shipped = run(&s, ControllerKind::Mpc);
-    s.control.groove_mpc.unbiased_peak = true;
-    s.control.groove_mpc.flank_rubbing = true;
-    let read = run(&s, ControllerKind::Mpc);
+    let shipped = forty_degree_ramp(3, 0.0, |_| {});
+    let read = forty_degree_ramp(3, 0.0, start_known);
     assert!(
         shipped.metrics.pp_error_um > 0.25 && read.metrics.pp_error_um < 0.18,
         "shipped {} read as it is {}",
@@ -252,17 +262,15 @@ fn the_forty_degree_ramps_peak_read_without_the_pre_filters_overshoot_leaves_no_
 
 #[test]
 fn reading_the_force_once_a_revolution_away_from_the_changes_lets_less_noise_through() {
-    // the 40° ramp at the shipped force noise, seed 8: the error channel's reading is a one-revolution
-    // sliding peak, and taking it as a new measurement every cycle lets the noise through at the
-    // disturbance estimate's full speed (pp 0.29 µm with the start known); read once a revolution where
-    // the preview sees no change, 0.15 µm.
-    let mut s = scenario("groove_s7_40deg.toml");
-    s.seed = 8;
-    s.control.groove_mpc.unbiased_peak = true;
-    s.control.groove_mpc.flank_rubbing = true;
-    let every_cycle = run(&s, ControllerKind::Mpc);
-    s.control.groove_mpc.quiet_revolutions = true;
-    let once = run(&s, ControllerKind::Mpc);
+    // the 40° ramp at the shipped force noise (σ 0.04 N), seed 8: the error channel's reading is a
+    // one-revolution sliding peak, and taking it as a new measurement every cycle lets the noise through
+    // at the disturbance estimate's full speed (pp 0.29 µm with the start known); read once a revolution
+    // where the preview sees no change, 0.15 µm.
+    let every_cycle = forty_degree_ramp(8, 0.04, start_known);
+    let once = forty_degree_ramp(8, 0.04, |f| {
+        start_known(f);
+        f.quiet_revolutions = true;
+    });
     assert!(
         every_cycle.metrics.pp_error_um > 0.25 && once.metrics.pp_error_um < 0.2,
         "every cycle {} once a revolution {}",
