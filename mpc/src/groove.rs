@@ -50,6 +50,11 @@ pub const MPC_FORCE_PREFILTER_HZ: f64 = 2000.0;
 /// of the sensor's against 0.463), without its overshoot.
 pub const MPC_FORCE_PREFILTER_CD_HZ: f64 = 3000.0;
 
+/// Samples of `dt_s` in a revolution at `speed_rpm` (at least 1).
+fn samples_per_rev(speed_rpm: f64, dt_s: f64) -> usize {
+    ((60.0 / speed_rpm / dt_s).round() as usize).max(1)
+}
+
 /// The force chain the MPC and `pid-tuned` read through: the measured force through the
 /// [`MPC_FORCE_PREFILTER_HZ`] 2nd-order low-pass, then the one-revolution sliding peak ([`SlidingMax`]).
 #[derive(Debug, Clone)]
@@ -64,14 +69,14 @@ impl ForcePeakChain {
     /// # Errors
     /// [`MpcError::Sim`] for a pre-filter above Nyquist.
     pub fn new(speed_rpm: f64, dt_s: f64) -> Result<Self, MpcError> {
-        let steps_per_rev = (60.0 / speed_rpm / dt_s).round() as usize;
+        let steps_per_rev = samples_per_rev(speed_rpm, dt_s);
         Ok(Self {
             low_pass: Biquad::low_pass(
                 MPC_FORCE_PREFILTER_HZ,
                 std::f64::consts::FRAC_1_SQRT_2,
                 dt_s,
             )?,
-            peak: SlidingMax::new(steps_per_rev.max(1)),
+            peak: SlidingMax::new(steps_per_rev),
         })
     }
 
@@ -168,7 +173,7 @@ impl PeakNoiseBias {
         noise_sigma_n: f64,
         waveform: &[f64],
     ) -> Result<Self, MpcError> {
-        let steps = ((60.0 / speed_rpm / dt_s).round() as usize).max(1);
+        let steps = samples_per_rev(speed_rpm, dt_s);
         let w: Vec<f64> = (0..steps)
             .map(|k| match waveform.len() {
                 0 => 1.0,
@@ -376,18 +381,21 @@ impl DeflectionPlan {
         let (mut values, mut flank) = (Vec::with_capacity(xs.len()), Vec::with_capacity(xs.len()));
         let mut gains = Vec::with_capacity(xs.len());
         for &x in &xs {
-            let p = point(
-                program,
-                &feed,
-                tool_radius_um,
-                c,
-                x,
-                program.depth_at(x),
-                &mut force,
-            )?;
+            let depth_um = program.depth_at(x);
+            let p = point(program, &feed, tool_radius_um, c, x, depth_um, &mut force)?;
+            // where the deflection exceeds the depth, how much of a push turns into deflection:
+            // c·∂F/∂d by a forward difference of 1 % of the depth
+            let d = depth_um.clamp(0.0, tool_radius_um);
+            let gain = if p.full_um > d {
+                let step = (0.01 * d).max(1e-4);
+                let ahead = point(program, &feed, tool_radius_um, c, x, d + step, &mut force)?;
+                (ahead.full_um - p.full_um) / step
+            } else {
+                0.0
+            };
             values.push(p.capped_um);
             flank.push(p.full_um);
-            gains.push(p.loop_gain);
+            gains.push(gain);
         }
         Ok(Self {
             xs_mm: xs,
@@ -817,18 +825,8 @@ fn point(
 ) -> Result<PlanPoint, MpcError> {
     let d = depth_um.clamp(0.0, tool_radius_um);
     let e = program.engagement(x_mm);
-    let upfeed = feed.upfeed_at_x(x_mm);
     let f = if d > 0.0 && e > 0.0 {
-        force(&program.conditions_at(d, upfeed))? * e
-    } else {
-        0.0
-    };
-    // where the deflection exceeds the depth, how much of a push turns into deflection: c·∂F/∂d by a
-    // forward difference of 1 % of the depth
-    let loop_gain = if f * c > d {
-        let step = (0.01 * d).max(1e-4);
-        let f2 = force(&program.conditions_at(d + step, upfeed))? * e;
-        c * (f2 - f) / step
+        force(&program.conditions_at(d, feed.upfeed_at_x(x_mm)))? * e
     } else {
         0.0
     };
@@ -837,7 +835,6 @@ fn point(
     Ok(PlanPoint {
         capped_um: (f * c).min(d),
         full_um: f * c,
-        loop_gain,
     })
 }
 
@@ -847,8 +844,6 @@ struct PlanPoint {
     capped_um: f64,
     /// The planned deflection (µm).
     full_um: f64,
-    /// The tool–workpiece loop gain `c·∂F/∂d` where the deflection exceeds the depth (0 elsewhere).
-    loop_gain: f64,
 }
 
 /// The smaller flute's peak z-force over the larger's at the program's deepest point (clamped to the
@@ -2078,11 +2073,12 @@ impl GrooveController for MpcGrooveController {
         }
         // a stale sensor is left out of the measurement update (prediction from the model and the plan),
         // and so is the force where the tool rides on its wear land
-        let x_now = self.plan.x_at(t_s);
-        let rubbing = self
-            .rubbing_mm
-            .iter()
-            .any(|&(a, b)| (a..b).contains(&x_now));
+        let rubbing = !self.rubbing_mm.is_empty() && {
+            let x_now = self.plan.x_at(t_s);
+            self.rubbing_mm
+                .iter()
+                .any(|&(a, b)| (a..b).contains(&x_now))
+        };
         let y = [
             if gauge_stale { f64::NAN } else { gauge },
             if gauge_stale || force_stale || rubbing || skip_force {
