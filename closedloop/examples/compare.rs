@@ -24,10 +24,10 @@
 //! 5 kHz with the same 20 steps (4 ms) and at 5 kHz with 50 steps (10 ms), beside `pid-ff` — what the
 //! faster cycle buys (issue 18).
 //!
-//! `--start`: the groove scenarios with `pid-ff`, the shipped `mpc`, `mpc +start` — the MPC with the
-//! ramp's rubbing start known (`control.groove_mpc`: `unbiased_peak` and `flank_rubbing`, off by default)
-//! — and `mpc +start +quiet` (and `quiet_revolutions`): what the features do beyond the ramps' start
-//! (`bash bench/ramp-start-noise`).
+//! `--start`: the groove scenarios with `pid-ff`, the shipped `mpc`, `mpc -quiet` (`control.groove_mpc.
+//! quiet_revolutions` off) and `mpc -start -quiet` (and `unbiased_peak` and `flank_rubbing` off: the
+//! ramp's rubbing start not known) — what the three features do beyond the ramps' start (`bash
+//! bench/ramp-start-noise`).
 //!
 //! `--commissioned`: the hard form (`millcomp_closedloop::compare::commissioned`) — each groove scenario
 //! with instrument errors and a tool drawn from the seed and controllers built only from its own
@@ -280,19 +280,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         mpc_variants(&scenarios, seeds, &|| bar.inc(1), &variants)?
     } else if start {
         let shipped: Setter = Box::new(|_: &mut Scenario| {});
-        let known: Setter = Box::new(|s: &mut Scenario| {
-            s.control.groove_mpc.unbiased_peak = true;
-            s.control.groove_mpc.flank_rubbing = true;
+        let loud: Setter = Box::new(|s: &mut Scenario| {
+            s.control.groove_mpc.quiet_revolutions = false;
         });
-        let quiet: Setter = Box::new(|s: &mut Scenario| {
-            s.control.groove_mpc.unbiased_peak = true;
-            s.control.groove_mpc.flank_rubbing = true;
-            s.control.groove_mpc.quiet_revolutions = true;
+        let unknown: Setter = Box::new(|s: &mut Scenario| {
+            s.control.groove_mpc.unbiased_peak = false;
+            s.control.groove_mpc.flank_rubbing = false;
+            s.control.groove_mpc.quiet_revolutions = false;
         });
         let variants: Vec<Variant> = vec![
             ("mpc".into(), ControllerKind::Mpc, shipped),
-            ("mpc +start".into(), ControllerKind::Mpc, known),
-            ("mpc +start +quiet".into(), ControllerKind::Mpc, quiet),
+            ("mpc -quiet".into(), ControllerKind::Mpc, loud),
+            ("mpc -start -quiet".into(), ControllerKind::Mpc, unknown),
         ];
         mpc_variants(&scenarios, seeds, &|| bar.inc(1), &variants)?
     } else {

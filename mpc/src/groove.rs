@@ -41,22 +41,25 @@ use crate::spindle_mpc::{OUT_ERROR, OUT_GAUGE, default_spindle_config};
 use crate::stats::SolverStats;
 use crate::stroke::StrokeBand;
 
-/// Cut-off of the MPC's force pre-filter (Hz): well above the 333 Hz flute frequency so the per-revolution
-/// peak is kept, low enough to take the 0.04 N sensor noise down by ~2×.
-pub const MPC_FORCE_PREFILTER_HZ: f64 = 2000.0;
+/// Cut-off of the force pre-filter every force-fed controller reads through (Hz): a critically damped
+/// 2nd-order low-pass, well above the 333 Hz flute frequency so the per-revolution peak is kept, low
+/// enough to take the 0.04 N sensor noise down by ~2× (the filtered noise's σ is 0.475 of the sensor's).
+/// It does not overshoot, unlike the [`BUTTERWORTH_PREFILTER_HZ`] Butterworth it replaced
+/// ([`ForcePeakChain::butterworth`]).
+pub const MPC_FORCE_PREFILTER_HZ: f64 = 3000.0;
 
-/// Cut-off of the critically damped force pre-filter of [`ForcePeakChain::critically_damped`] (Hz): the
-/// same noise reduction as the [`MPC_FORCE_PREFILTER_HZ`] Butterworth (the filtered noise's σ is 0.475
-/// of the sensor's against 0.463), without its overshoot.
-pub const MPC_FORCE_PREFILTER_CD_HZ: f64 = 3000.0;
+/// Cut-off of the Butterworth force pre-filter of [`ForcePeakChain::butterworth`] (Hz), the chain the
+/// controllers read through before the critically damped one: the same noise reduction (σ × 0.463).
+pub const BUTTERWORTH_PREFILTER_HZ: f64 = 2000.0;
 
 /// Samples of `dt_s` in a revolution at `speed_rpm` (at least 1).
 fn samples_per_rev(speed_rpm: f64, dt_s: f64) -> usize {
     ((60.0 / speed_rpm / dt_s).round() as usize).max(1)
 }
 
-/// The force chain the MPC and `pid-tuned` read through: the measured force through the
-/// [`MPC_FORCE_PREFILTER_HZ`] 2nd-order low-pass, then the one-revolution sliding peak ([`SlidingMax`]).
+/// The force chain the MPC, `pid-tuned` and `pid-ff` read through: the measured force through the
+/// critically damped [`MPC_FORCE_PREFILTER_HZ`] 2nd-order low-pass, then the one-revolution sliding peak
+/// ([`SlidingMax`]).
 #[derive(Debug, Clone)]
 pub struct ForcePeakChain {
     low_pass: Biquad,
@@ -69,23 +72,19 @@ impl ForcePeakChain {
     /// # Errors
     /// [`MpcError::Sim`] for a pre-filter above Nyquist.
     pub fn new(speed_rpm: f64, dt_s: f64) -> Result<Self, MpcError> {
-        let steps_per_rev = samples_per_rev(speed_rpm, dt_s);
         Ok(Self {
-            low_pass: Biquad::low_pass(
-                MPC_FORCE_PREFILTER_HZ,
-                std::f64::consts::FRAC_1_SQRT_2,
-                dt_s,
-            )?,
-            peak: SlidingMax::new(steps_per_rev),
+            low_pass: Biquad::low_pass(MPC_FORCE_PREFILTER_HZ, 1.0, dt_s)?,
+            peak: SlidingMax::new(samples_per_rev(speed_rpm, dt_s)),
         })
     }
 
-    /// The chain with a critically damped pre-filter (damping 1 at [`MPC_FORCE_PREFILTER_CD_HZ`]) instead
-    /// of the Butterworth ([`GrooveMpcFeatures::unbiased_peak`]). At 40° the z-force of a tooth pass ends
-    /// abruptly at its peak; the Butterworth's 4 % overshoot rings off that edge, so its peak reads up to
-    /// 1.7 % above the force's, by an amount that jumps whenever the edge crosses a sample (on the 40°
-    /// ramp at ≈ 20 and ≈ 60 µm of depth: the revolution's samples fall at the same angles every
-    /// revolution). A filter that does not overshoot reads the peak within 0.1 % of it.
+    /// The chain with the [`BUTTERWORTH_PREFILTER_HZ`] Butterworth (damping 0.707) instead of the
+    /// critically damped pre-filter — the chain before. At 40° the z-force of a tooth pass ends abruptly
+    /// at its peak; the Butterworth's 4 % overshoot rings off that edge, so its peak reads up to 1.7 %
+    /// above the force's, by an amount that jumps whenever the edge crosses a sample (on the 40° ramp at
+    /// ≈ 20 and ≈ 60 µm of depth: the revolution's samples fall at the same angles every revolution), a
+    /// saw-tooth of ≈ 0.1 µm in every force-fed controller's error. The critically damped filter reads
+    /// the peak within 0.1 % of it.
     ///
     /// # Errors
     /// As [`Self::new`].
@@ -110,14 +109,18 @@ impl ForcePeakChain {
     /// };
     /// let (rpm, dt) = (10_000.0, 5e-5);
     /// let jump = |make: &dyn Fn() -> ForcePeakChain| ratio(make(), 19.75) - ratio(make(), 19.5);
-    /// let butterworth = jump(&|| ForcePeakChain::new(rpm, dt).unwrap());
-    /// let damped = jump(&|| ForcePeakChain::critically_damped(rpm, dt).unwrap());
+    /// let butterworth = jump(&|| ForcePeakChain::butterworth(rpm, dt).unwrap());
+    /// let damped = jump(&|| ForcePeakChain::new(rpm, dt).unwrap());
     /// // the Butterworth's reading drops by 1.2 % of the peak there; the damped one's moves by 0.01 %
     /// assert!(butterworth < -0.01 && damped.abs() < 0.001, "{butterworth} {damped}");
     /// ```
-    pub fn critically_damped(speed_rpm: f64, dt_s: f64) -> Result<Self, MpcError> {
+    pub fn butterworth(speed_rpm: f64, dt_s: f64) -> Result<Self, MpcError> {
         let mut c = Self::new(speed_rpm, dt_s)?;
-        c.low_pass = Biquad::low_pass(MPC_FORCE_PREFILTER_CD_HZ, 1.0, dt_s)?;
+        c.low_pass = Biquad::low_pass(
+            BUTTERWORTH_PREFILTER_HZ,
+            std::f64::consts::FRAC_1_SQRT_2,
+            dt_s,
+        )?;
         Ok(c)
     }
 
@@ -161,7 +164,7 @@ impl PeakNoiseBias {
     /// Revolutions averaged per tabulated peak.
     pub const REVOLUTIONS: usize = 100;
 
-    /// Calibrate the chain of [`ForcePeakChain::critically_damped`]`(speed_rpm, dt_s)` against noise σ
+    /// Calibrate the chain of [`ForcePeakChain::new`]`(speed_rpm, dt_s)` against noise σ
     /// `noise_sigma_n` (N) on the per-revolution `waveform` (relative to its peak, starting anywhere;
     /// empty: flat).
     ///
@@ -184,7 +187,7 @@ impl PeakNoiseBias {
         let (mut peaks_n, mut means_n) = (Vec::with_capacity(grid), Vec::with_capacity(grid));
         for j in 0..grid {
             let a = j as f64 * 0.5 * noise_sigma_n;
-            let mut chain = ForcePeakChain::critically_damped(speed_rpm, dt_s)?;
+            let mut chain = ForcePeakChain::new(speed_rpm, dt_s)?;
             // the same draws at every peak: the table is smooth in it
             let mut noise = millcomp_sim::sensors::NoiseSource::new(0x5eed_b1a5, noise_sigma_n)?;
             let (mut sum, mut n) = (0.0, 0usize);
@@ -1200,7 +1203,7 @@ impl GrooveController for PidController {
 }
 
 /// `pid-tuned`: the strongest feedback PID a control engineer would build today on the commissioned plant,
-/// reading exactly what the MPC reads — force through the [`MPC_FORCE_PREFILTER_HZ`] low-pass and the
+/// reading exactly what the MPC reads — force through the [`ForcePeakChain`]'s low-pass and the
 /// one-revolution sliding peak, times the controllers' tip compliance = wanted tip; the raw gauge — with
 /// PI gains from the fixed rule of [`crate::tuning`] (largest integral gain with `Ms ≤ 1.6` on the
 /// controllers' spindle model) and conditional-integration anti-windup, at the stage rate.
@@ -1460,23 +1463,19 @@ pub struct GrooveMpcFeatures {
     /// made at once) is then met where it rises; off: the error at the cycles only. Only with the
     /// default configuration (`control.mpc` unset).
     pub intersample: bool,
-    /// Read the per-revolution force peak as it is: through a pre-filter that does not overshoot
-    /// ([`ForcePeakChain::critically_damped`]: the Butterworth's reading of the 40° ramp's peak wanders by
-    /// 1.7 %, a saw-tooth of ≈ 0.1 µm in its error), with its noise bias taken off ([`PeakNoiseBias`],
-    /// calibrated on the commissioned force noise σ and the force model's waveform). With no force the
-    /// sliding peak reads the noise's own maximum (0.046 N at σ 0.04 N), which the error channel takes
-    /// for a deflection. **Off by default**, as is [`Self::flank_rubbing`]: on its own it leaves the ramp's
-    /// rubbing start uncut, which the noise's bias got the MPC through; with both on a quieter force
-    /// channel no longer makes the MPC worse, and nothing else moves outside its interval (README, `bash
-    /// bench/ramp-start-noise` and `compare --start`) — they wait for the README's MPC figures to be
-    /// re-recorded with them on.
+    /// Take the per-revolution force peak's noise bias off ([`PeakNoiseBias`], calibrated on the
+    /// commissioned force noise σ and the force model's waveform, through the controllers' own
+    /// [`ForcePeakChain`]). With no force the sliding peak reads the noise's own maximum (0.046 N at
+    /// σ 0.04 N), which the error channel takes for a deflection. On its own it leaves the ramp's rubbing
+    /// start uncut, which the noise's bias got the MPC through, so it goes with [`Self::flank_rubbing`]
+    /// (README, `bash bench/ramp-start-noise`).
     pub unbiased_peak: bool,
     /// Know the ramp's rubbing start: where the planned deflection exceeds the depth the preview pushes
     /// by the full planned deflection ([`DeflectionPlan::with_flank_push`]) instead of capping it at the
     /// depth, and where moreover a push turns mostly into deflection ([`DeflectionPlan::
     /// rubbing_spans_mm`]: loop gain above 1) the force channel is not read as a deflection — the tool
     /// rides on its wear land, the force is the rubbing's, and the feedback would take the push back.
-    /// The gauge is still read. **Off by default** (see [`Self::unbiased_peak`]).
+    /// The gauge is still read.
     pub flank_rubbing: bool,
     /// Away from the changes the preview sees, read the force once per revolution. The error channel's
     /// force reading is a one-revolution sliding peak — the same value for up to a revolution's cycles
@@ -1485,7 +1484,7 @@ pub struct GrooveMpcFeatures {
     /// deflection stays within [`QUIET_CHANGE_UM`] of now over the whole horizon, and has for
     /// [`QUIET_AFTER_REVOLUTIONS`] revolutions, the force is read at one cycle a revolution; around every
     /// change the preview sees (an entry, a step, an exit) it is read every cycle, as before. The gauge is
-    /// read every cycle. **Off by default** (see [`Self::unbiased_peak`]).
+    /// read every cycle.
     pub quiet_revolutions: bool,
 }
 
@@ -1525,9 +1524,9 @@ impl Default for GrooveMpcFeatures {
             spindle_phase: true,
             gauge_disturbance: true,
             intersample: true,
-            unbiased_peak: false,
-            flank_rubbing: false,
-            quiet_revolutions: false,
+            unbiased_peak: true,
+            flank_rubbing: true,
+            quiet_revolutions: true,
         }
     }
 }
@@ -1906,11 +1905,7 @@ impl MpcGrooveController {
         Ok(Self {
             mpc,
             plan,
-            force: if settings.features.unbiased_peak {
-                ForcePeakChain::critically_damped(program.speed_rpm, dt)?
-            } else {
-                ForcePeakChain::new(program.speed_rpm, dt)?
-            },
+            force: ForcePeakChain::new(program.speed_rpm, dt)?,
             peak_bias,
             rubbing_mm,
             compliance: model_stiffness
