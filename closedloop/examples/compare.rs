@@ -307,7 +307,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         if rates {
             ", MPC rates"
         } else if start {
-            ", the ramp's rubbing start known"
+            ", the MPC's read features"
         } else if features {
             ", MPC features"
         } else if levels {
