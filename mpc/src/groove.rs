@@ -46,7 +46,7 @@ use crate::stroke::StrokeBand;
 /// enough to take the 0.04 N sensor noise down by ~2× (the filtered noise's σ is 0.475 of the sensor's).
 /// It does not overshoot, unlike the [`BUTTERWORTH_PREFILTER_HZ`] Butterworth it replaced
 /// ([`ForcePeakChain::butterworth`]).
-pub const MPC_FORCE_PREFILTER_HZ: f64 = 3000.0;
+pub const FORCE_PREFILTER_HZ: f64 = 3000.0;
 
 /// Cut-off of the Butterworth force pre-filter of [`ForcePeakChain::butterworth`] (Hz), the chain the
 /// controllers read through before the critically damped one: the same noise reduction (σ × 0.463).
@@ -58,7 +58,7 @@ fn samples_per_rev(speed_rpm: f64, dt_s: f64) -> usize {
 }
 
 /// The force chain the MPC, `pid-tuned` and `pid-ff` read through: the measured force through the
-/// critically damped [`MPC_FORCE_PREFILTER_HZ`] 2nd-order low-pass, then the one-revolution sliding peak
+/// critically damped [`FORCE_PREFILTER_HZ`] 2nd-order low-pass, then the one-revolution sliding peak
 /// ([`SlidingMax`]).
 #[derive(Debug, Clone)]
 pub struct ForcePeakChain {
@@ -72,10 +72,16 @@ impl ForcePeakChain {
     /// # Errors
     /// [`MpcError::Sim`] for a pre-filter above Nyquist.
     pub fn new(speed_rpm: f64, dt_s: f64) -> Result<Self, MpcError> {
-        Ok(Self {
-            low_pass: Biquad::low_pass(MPC_FORCE_PREFILTER_HZ, 1.0, dt_s)?,
+        let low_pass = Biquad::low_pass(FORCE_PREFILTER_HZ, 1.0, dt_s)?;
+        Ok(Self::with_low_pass(low_pass, speed_rpm, dt_s))
+    }
+
+    /// `low_pass`, then the one-revolution sliding peak at `speed_rpm`, sampled every `dt_s`.
+    fn with_low_pass(low_pass: Biquad, speed_rpm: f64, dt_s: f64) -> Self {
+        Self {
+            low_pass,
             peak: SlidingMax::new(samples_per_rev(speed_rpm, dt_s)),
-        })
+        }
     }
 
     /// The chain with the [`BUTTERWORTH_PREFILTER_HZ`] Butterworth (damping 0.707) instead of the
@@ -115,13 +121,12 @@ impl ForcePeakChain {
     /// assert!(butterworth < -0.01 && damped.abs() < 0.001, "{butterworth} {damped}");
     /// ```
     pub fn butterworth(speed_rpm: f64, dt_s: f64) -> Result<Self, MpcError> {
-        let mut c = Self::new(speed_rpm, dt_s)?;
-        c.low_pass = Biquad::low_pass(
+        let low_pass = Biquad::low_pass(
             BUTTERWORTH_PREFILTER_HZ,
             std::f64::consts::FRAC_1_SQRT_2,
             dt_s,
         )?;
-        Ok(c)
+        Ok(Self::with_low_pass(low_pass, speed_rpm, dt_s))
     }
 
     /// One force sample (N) in, the filtered per-revolution peak (N) out.
