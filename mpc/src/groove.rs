@@ -1864,6 +1864,8 @@ pub struct MpcGrooveController {
     z_zero_um: f64,
     /// The last cycle at which the preview saw a change ([`GrooveMpcFeatures::quiet_revolutions`]).
     last_change_s: f64,
+    /// MPC cycles in a spindle revolution ([`GrooveMpcFeatures::quiet_revolutions`]).
+    cycles_per_rev: usize,
 }
 
 impl MpcGrooveController {
@@ -1939,6 +1941,7 @@ impl MpcGrooveController {
             reach_z_um: sp.gain_um_per_v * sp.voltage_max_v * sin_a,
             z_zero_um: 0.0,
             last_change_s: f64::NEG_INFINITY,
+            cycles_per_rev: samples_per_rev(program.speed_rpm, dt * settings.mpc_every as f64),
         })
     }
 
@@ -2034,8 +2037,7 @@ impl GrooveController for MpcGrooveController {
                 self.last_change_s = t_s;
             }
             let quiet = t_s - self.last_change_s > QUIET_AFTER_REVOLUTIONS * self.rev_s;
-            let per_rev = (self.rev_s / self.tc_s).round().max(1.0) as usize;
-            skip_force = quiet && (self.k / self.every) % per_rev != 0;
+            skip_force = quiet && (self.k / self.every) % self.cycles_per_rev != 0;
         }
         if !force_stale && fpk.is_finite() {
             self.scale.update(planned_now, self.compliance * fpk);
