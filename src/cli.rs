@@ -359,7 +359,8 @@ pub struct SimulateArgs {
     /// Session file (TOML) or closed-loop scenario file.
     pub file: PathBuf,
     /// Controller for scenarios: none | open-loop | pid | pid-aw | pid-design | pid-tuned | pid-ff |
-    /// threshold | mpc | mpc-nopreview; on nc_axis scenarios (003): none | reactive | proactive | mpc.
+    /// pid-ff-read | threshold | mpc | mpc-nopreview; on nc_axis scenarios (003): none | reactive |
+    /// proactive | mpc.
     #[arg(long)]
     pub controller: Option<String>,
     /// Output CSV (default: stdout for sessions).
@@ -399,8 +400,8 @@ pub struct BatchArgs {
     /// "--design fractional --factors tilt_deg=20:40,depth_um=60:100,upfeed_um=8:12 --resolution 3 --seed 1".
     #[arg(long, allow_hyphen_values = true)]
     pub doe: Option<String>,
-    /// Controllers to compare: none, open-loop, pid, pid-aw, pid-design, pid-tuned, pid-ff, threshold,
-    /// mpc, mpc-nopreview; on stage = nc_axis rows: none, reactive, proactive, mpc.
+    /// Controllers to compare: none, open-loop, pid, pid-aw, pid-design, pid-tuned, pid-ff, pid-ff-read,
+    /// threshold, mpc, mpc-nopreview; on stage = nc_axis rows: none, reactive, proactive, mpc.
     #[arg(long, default_value = "pid,mpc")]
     pub controllers: String,
     /// Output directory (results.csv/.parquet, summary.json, plots/, runs/ for resuming).

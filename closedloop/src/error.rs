@@ -411,7 +411,7 @@ pub(crate) fn invalid(
 /// assert_eq!(
 ///     error_chain(&e),
 ///     "--controllers: unknown controller `lqr`: allowed none, open-loop, pid, pid-aw, pid-design, pid-tuned, \
-///      pid-ff, threshold, mpc, mpc-nopreview, reactive, proactive"
+///      pid-ff, pid-ff-read, threshold, mpc, mpc-nopreview, reactive, proactive"
 /// );
 /// ```
 pub fn error_chain(e: &(dyn std::error::Error + 'static)) -> String {

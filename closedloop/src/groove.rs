@@ -472,7 +472,9 @@ pub fn run_groove_with(
                 dt,
             )?)
         }
-        ControllerKind::PidTuned | ControllerKind::PidFeedforward => {
+        ControllerKind::PidTuned
+        | ControllerKind::PidFeedforward
+        | ControllerKind::PidFeedforwardRead => {
             let c = TunedPidController::new(
                 &t.program,
                 &setup.model_spindle,
@@ -485,7 +487,7 @@ pub fn run_groove_with(
                 "pid-tuned: kp {:.3} V/um, ki {:.1} V/(um s) (Ms {:.2}, crossover {:.0} rad/s) on the controllers' spindle model",
                 d.kp_v_per_um, d.ki_v_per_um_s, d.ms, d.crossover_rad_s
             ));
-            if kind == ControllerKind::PidFeedforward {
+            if kind != ControllerKind::PidTuned {
                 let ff = FeedforwardPidController::new(
                     c,
                     plan.clone(),
@@ -498,6 +500,15 @@ pub fn run_groove_with(
                     "pid-ff: pid-tuned's PI plus the plan fed forward {:.2} ms ahead (the spindle model's mean delay)",
                     1e3 * ff.lead_s()
                 ));
+                let ff = if kind == ControllerKind::PidFeedforwardRead {
+                    let sigma = mpc_settings(setup, s)?.force_noise_n;
+                    notes.push(format!(
+                        "pid-ff-read: the peak's noise bias taken off (σ {sigma:.3} N) and the ramp's rubbing start known, as the MPC reads"
+                    ));
+                    ff.with_read_features(t.program.speed_rpm, sigma)?
+                } else {
+                    ff
+                };
                 Box::new(ff)
             } else {
                 Box::new(c)

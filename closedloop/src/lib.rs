@@ -4,7 +4,7 @@
 //! that sees both:
 //! - [`scenario`]: scenario files (TOML in `datasets/scenarios/`, schema and truth-vs-model in
 //!   `closedloop/SCENARIOS.md`), [`Scenario::load`], [`ControllerKind`] (`"none" | "open-loop" | "pid" |
-//!   "pid-aw" | "pid-design" | "pid-tuned" | "pid-ff" | "threshold" | "mpc" | "mpc-nopreview" |
+//!   "pid-aw" | "pid-design" | "pid-tuned" | "pid-ff" | "pid-ff-read" | "threshold" | "mpc" | "mpc-nopreview" |
 //!   "reactive" | "proactive"`,
 //!   `FromStr`);
 //! - the truth-vs-model set-up: [`calibration`] (the controllers' stiffness identified from a simulated

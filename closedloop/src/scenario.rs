@@ -48,6 +48,12 @@ pub enum ControllerKind {
     /// engineer holding the NC program would build; `millcomp_mpc::groove::FeedforwardPidController`).
     #[serde(rename = "pid-ff")]
     PidFeedforward,
+    /// `pid-ff` reading what the MPC's read features read (`GrooveMpcFeatures::unbiased_peak` and
+    /// `flank_rubbing`): the per-revolution peak's noise bias taken off, the ramp's rubbing start known
+    /// (the flank push fed forward, the plan's tip wanted where the tool rides on its wear land) — the
+    /// fairness ablation (`FeedforwardPidController::with_read_features`).
+    #[serde(rename = "pid-ff-read")]
+    PidFeedforwardRead,
     /// Thin-wall iterative compensation with a 0.5 µm threshold (`004_…txt` §3.2).
     #[serde(rename = "threshold")]
     Threshold,
@@ -66,7 +72,7 @@ pub enum ControllerKind {
 }
 
 /// All controller names, in CLI order.
-pub const CONTROLLER_NAMES: [&str; 12] = [
+pub const CONTROLLER_NAMES: [&str; 13] = [
     "none",
     "open-loop",
     "pid",
@@ -74,6 +80,7 @@ pub const CONTROLLER_NAMES: [&str; 12] = [
     "pid-design",
     "pid-tuned",
     "pid-ff",
+    "pid-ff-read",
     "threshold",
     "mpc",
     "mpc-nopreview",
@@ -83,7 +90,7 @@ pub const CONTROLLER_NAMES: [&str; 12] = [
 
 impl ControllerKind {
     /// All kinds, in [`CONTROLLER_NAMES`] order.
-    pub const ALL: [ControllerKind; 12] = [
+    pub const ALL: [ControllerKind; 13] = [
         ControllerKind::None,
         ControllerKind::OpenLoop,
         ControllerKind::Pid,
@@ -91,6 +98,7 @@ impl ControllerKind {
         ControllerKind::PidDesign,
         ControllerKind::PidTuned,
         ControllerKind::PidFeedforward,
+        ControllerKind::PidFeedforwardRead,
         ControllerKind::Threshold,
         ControllerKind::Mpc,
         ControllerKind::MpcNoPreview,
@@ -99,7 +107,8 @@ impl ControllerKind {
     ];
 
     /// Whether the stage has this controller: `threshold` is the thin wall's (004) baseline only;
-    /// `pid-aw`, `pid-design`, `pid-tuned`, `pid-ff` and `mpc-nopreview` are the PZT spindle's only;
+    /// `pid-aw`, `pid-design`, `pid-tuned`, `pid-ff`, `pid-ff-read` and `mpc-nopreview` are the PZT
+    /// spindle's only;
     /// the NC stage (003) has `none`, `reactive`, `proactive` and `mpc`, and only it has the first two.
     pub fn runs_on(self, stage: StageKind) -> bool {
         if matches!(self, ControllerKind::Reactive | ControllerKind::Proactive) {
@@ -114,6 +123,7 @@ impl ControllerKind {
                     | ControllerKind::PidDesign
                     | ControllerKind::PidTuned
                     | ControllerKind::PidFeedforward
+                    | ControllerKind::PidFeedforwardRead
                     | ControllerKind::MpcNoPreview
             ),
         }
@@ -443,7 +453,7 @@ pub struct ControlSpec {
     pub groove_mpc: millcomp_mpc::groove::GrooveMpcFeatures,
     /// Drive the PZT stack through the inverse of the bundle's hysteresis model (a commissioning's sweep
     /// in air; `mpc::identified::HysteresisCompensator`) for every controller built from the bundle —
-    /// `open-loop`, `pid-tuned`, `pid-ff`, `mpc`, `mpc-nopreview` — when the bundle has one. The
+    /// `open-loop`, `pid-tuned`, `pid-ff`, `pid-ff-read`, `mpc`, `mpc-nopreview` — when the bundle has one. The
     /// published `pid` (and `pid-aw`, `pid-design`) stay as published. Off by default: on the
     /// commissioned grooves it bought nothing (README, `compare --ablations --commissioned`): the
     /// identified Prandtl–Ishlinskii model takes the stack's static error from 3.5–5 µm to about 1 µm

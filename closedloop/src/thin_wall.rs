@@ -109,6 +109,7 @@ fn thin_wall_controller(
         | ControllerKind::PidDesign
         | ControllerKind::PidTuned
         | ControllerKind::PidFeedforward
+        | ControllerKind::PidFeedforwardRead
         | ControllerKind::MpcNoPreview
         | ControllerKind::Reactive
         | ControllerKind::Proactive => {

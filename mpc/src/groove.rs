@@ -1272,19 +1272,34 @@ impl TunedPidController {
     /// error is 0: the output is `v_ff` clamped (0 without feedforward). Returns the command and the
     /// wanted tip (µm) the measured force asked for (NaN before the first measurement).
     fn step_with_feedforward(&mut self, last: Option<&GrooveMeasurement>, v_ff: f64) -> (f64, f64) {
+        self.step_reading(last, v_ff, None, None)
+    }
+
+    /// [`Self::step_with_feedforward`] with the peak's noise bias taken off (`bias`) and, where
+    /// `wanted_tip_um` is given, that tip wanted instead of the measured force's (the chain still
+    /// steps, so its window stays current; the tip returned is still the measured force's).
+    fn step_reading(
+        &mut self,
+        last: Option<&GrooveMeasurement>,
+        v_ff: f64,
+        bias: Option<&PeakNoiseBias>,
+        wanted_tip_um: Option<f64>,
+    ) -> (f64, f64) {
         let Some(o) = last else {
             return (self.pid.step_with_feedforward(0.0, v_ff), f64::NAN);
         };
         let fpk = self.force.step(o.force_meas_n);
-        let wanted_tip = if fpk.is_finite() {
+        let fpk = bias.map_or(fpk, |b| b.unbiased(fpk));
+        let measured_tip = if fpk.is_finite() {
             fpk * self.tip_per_n
         } else {
             0.0
         };
+        let wanted_tip = wanted_tip_um.unwrap_or(measured_tip);
         let v = self
             .pid
             .step_with_feedforward(wanted_tip + self.tip_zero_um - o.gauge_um, v_ff);
-        (v, wanted_tip)
+        (v, measured_tip)
     }
 }
 
@@ -1323,6 +1338,10 @@ pub struct FeedforwardPidController {
     sin_a: f64,
     rev_s: f64,
     tooth_s: f64,
+    /// The peak's noise bias ([`Self::with_read_features`]).
+    peak_bias: Option<PeakNoiseBias>,
+    /// Where the tool rides on its wear land ([`Self::with_read_features`]; empty otherwise).
+    rubbing_mm: Vec<(f64, f64)>,
 }
 
 impl FeedforwardPidController {
@@ -1346,7 +1365,33 @@ impl FeedforwardPidController {
             sin_a: program.tilt_deg.to_radians().sin(),
             rev_s: 60.0 / program.speed_rpm,
             tooth_s: 60.0 / program.speed_rpm / flutes.max(1) as f64,
+            peak_bias: None,
+            rubbing_mm: Vec::new(),
         }
+    }
+
+    /// The same controller reading what the MPC's read features read: the peak's noise bias taken off
+    /// ([`GrooveMpcFeatures::unbiased_peak`], calibrated on the force noise σ `force_noise_n` and the
+    /// plan's waveform through the same chain) and the ramp's rubbing start known
+    /// ([`GrooveMpcFeatures::flank_rubbing`]: the flank push fed forward, and where a push turns mostly
+    /// into deflection the PI wants the plan's tip instead of the measured force's).
+    ///
+    /// # Errors
+    /// Those of [`PeakNoiseBias::calibrate`].
+    pub fn with_read_features(
+        mut self,
+        speed_rpm: f64,
+        force_noise_n: f64,
+    ) -> Result<Self, MpcError> {
+        self.peak_bias = Some(PeakNoiseBias::calibrate(
+            speed_rpm,
+            self.feedback.dt_s,
+            force_noise_n,
+            &self.plan.plan.waveform,
+        )?);
+        self.rubbing_mm = self.plan.plan.rubbing_spans_mm();
+        self.plan.plan = self.plan.plan.clone().with_flank_push();
+        Ok(self)
     }
 
     /// The same controller with the plan as commissioned (no online scale): the ablation.
@@ -1387,10 +1432,19 @@ impl GrooveController for FeedforwardPidController {
                 None => self.plan.volts_at(t_ff),
             };
         let v_ff = v_ff + self.plan.bias_v;
-        let (v, wanted_tip) = self.feedback.step_with_feedforward(last, v_ff);
+        let x_now = self.plan.plan.x_at(t_s);
+        let rubbing = self
+            .rubbing_mm
+            .iter()
+            .any(|&(a, b)| (a..b).contains(&x_now));
+        let plan_tip = rubbing.then(|| rho * self.plan.plan.deflection_at(x_now) / self.sin_a);
+        // the scale learns from the measured force everywhere, as the MPC's does
+        let (v, measured_tip) =
+            self.feedback
+                .step_reading(last, v_ff, self.peak_bias.as_ref(), plan_tip);
         if let Some(s) = &mut self.scale {
-            let planned = self.plan.plan.deflection_at(self.plan.plan.x_at(t_s));
-            s.update(planned, wanted_tip * self.sin_a);
+            let planned = self.plan.plan.deflection_at(x_now);
+            s.update(planned, measured_tip * self.sin_a);
         }
         v
     }
