@@ -24,7 +24,8 @@
 //! 5 kHz with the same 20 steps (4 ms) and at 5 kHz with 50 steps (10 ms), beside `pid-ff` — what the
 //! faster cycle buys (issue 18).
 //!
-//! `--start`: the groove scenarios with `pid-ff`, the shipped `mpc`, `mpc -quiet` (`control.groove_mpc.
+//! `--start`: the groove scenarios with `pid-ff`, `pid-ff-read` (`pid-ff` given the MPC's
+//! `unbiased_peak` and `flank_rubbing`: the fairness ablation), the shipped `mpc`, `mpc -quiet` (`control.groove_mpc.
 //! quiet_revolutions` off) and `mpc -start -quiet` (and `unbiased_peak` and `flank_rubbing` off: the
 //! ramp's rubbing start not known) — what the three features do beyond the ramps' start (`bash
 //! bench/ramp-start-noise`).
@@ -288,7 +289,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             s.control.groove_mpc.flank_rubbing = false;
             s.control.groove_mpc.quiet_revolutions = false;
         });
+        let as_is: Setter = Box::new(|_: &mut Scenario| {});
         let variants: Vec<Variant> = vec![
+            // pid-ff given the two read features: the fairness ablation
+            (
+                "pid-ff-read".into(),
+                ControllerKind::PidFeedforwardRead,
+                as_is,
+            ),
             ("mpc".into(), ControllerKind::Mpc, shipped),
             ("mpc -quiet".into(), ControllerKind::Mpc, loud),
             ("mpc -start -quiet".into(), ControllerKind::Mpc, unknown),
