@@ -280,7 +280,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .collect();
         mpc_variants(&scenarios, seeds, &|| bar.inc(1), &variants)?
     } else if start {
-        let shipped: Setter = Box::new(|_: &mut Scenario| {});
+        let as_shipped = || -> Setter { Box::new(|_: &mut Scenario| {}) };
         let loud: Setter = Box::new(|s: &mut Scenario| {
             s.control.groove_mpc.quiet_revolutions = false;
         });
@@ -289,15 +289,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             s.control.groove_mpc.flank_rubbing = false;
             s.control.groove_mpc.quiet_revolutions = false;
         });
-        let as_is: Setter = Box::new(|_: &mut Scenario| {});
         let variants: Vec<Variant> = vec![
             // pid-ff given the two read features: the fairness ablation
             (
                 "pid-ff-read".into(),
                 ControllerKind::PidFeedforwardRead,
-                as_is,
+                as_shipped(),
             ),
-            ("mpc".into(), ControllerKind::Mpc, shipped),
+            ("mpc".into(), ControllerKind::Mpc, as_shipped()),
             ("mpc -quiet".into(), ControllerKind::Mpc, loud),
             ("mpc -start -quiet".into(), ControllerKind::Mpc, unknown),
         ];

@@ -57,6 +57,12 @@ fn samples_per_rev(speed_rpm: f64, dt_s: f64) -> usize {
     ((60.0 / speed_rpm / dt_s).round() as usize).max(1)
 }
 
+/// Whether `x_mm` lies in one of the spans `[x₀, x₁)` (mm) — e.g. the plan's rubbing spans
+/// ([`DeflectionPlan::rubbing_spans_mm`]).
+fn within_spans(spans: &[(f64, f64)], x_mm: f64) -> bool {
+    spans.iter().any(|&(a, b)| (a..b).contains(&x_mm))
+}
+
 /// The force chain the MPC, `pid-tuned` and `pid-ff` read through: the measured force through the
 /// critically damped [`FORCE_PREFILTER_HZ`] 2nd-order low-pass, then the one-revolution sliding peak
 /// ([`SlidingMax`]).
@@ -1433,10 +1439,7 @@ impl GrooveController for FeedforwardPidController {
             };
         let v_ff = v_ff + self.plan.bias_v;
         let x_now = self.plan.plan.x_at(t_s);
-        let rubbing = self
-            .rubbing_mm
-            .iter()
-            .any(|&(a, b)| (a..b).contains(&x_now));
+        let rubbing = within_spans(&self.rubbing_mm, x_now);
         let plan_tip = rubbing.then(|| rho * self.plan.plan.deflection_at(x_now) / self.sin_a);
         // the scale learns from the measured force everywhere, as the MPC's does
         let (v, measured_tip) =
@@ -2129,12 +2132,8 @@ impl GrooveController for MpcGrooveController {
         }
         // a stale sensor is left out of the measurement update (prediction from the model and the plan),
         // and so is the force where the tool rides on its wear land
-        let rubbing = !self.rubbing_mm.is_empty() && {
-            let x_now = self.plan.x_at(t_s);
-            self.rubbing_mm
-                .iter()
-                .any(|&(a, b)| (a..b).contains(&x_now))
-        };
+        let rubbing =
+            !self.rubbing_mm.is_empty() && within_spans(&self.rubbing_mm, self.plan.x_at(t_s));
         let y = [
             if gauge_stale { f64::NAN } else { gauge },
             if gauge_stale || force_stale || rubbing || skip_force {

@@ -512,14 +512,14 @@ fn batch_stage(
             Data::new(v).median()
         }
     };
+    let (pid_above, mpc_above) = (above("pid"), above("mpc"));
     let _ = writeln!(
         md,
         "\nAbove each run's optimum (`optimum_pp_um`: the smallest peak-to-peak any controller could reach \
          on that run's truth with the controllers' stiffness error), median: PID {:+.3} µm, MPC {:+.3} µm. \
          A controller that under-compensates can land below it where the stiffness error makes the \
          model over-compensate (the published PID at −10 %).",
-        above("pid"),
-        above("mpc")
+        pid_above, mpc_above
     );
     if let Some(a) = s.anova.get("pp_error_um") {
         let _ = writeln!(
@@ -574,8 +574,8 @@ fn batch_stage(
         s.n_runs,
         med("pid", "pp_error_um"),
         med("mpc", "pp_error_um"),
-        above("pid"),
-        above("mpc")
+        pid_above,
+        mpc_above
     );
     Ok(Stage {
         name: "4 MPC vs PID batch".into(),
