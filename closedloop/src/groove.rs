@@ -488,6 +488,7 @@ pub fn run_groove_with(
                 d.kp_v_per_um, d.ki_v_per_um_s, d.ms, d.crossover_rad_s
             ));
             if kind != ControllerKind::PidTuned {
+                let sigma = mpc_settings(setup, s)?.force_noise_n;
                 let ff = FeedforwardPidController::new(
                     c,
                     plan.clone(),
@@ -495,13 +496,13 @@ pub fn run_groove_with(
                     &setup.model_spindle,
                     v_max,
                     setup.nominal_tool.flutes,
+                    sigma,
                 );
                 notes.push(format!(
                     "pid-ff: pid-tuned's PI plus the plan fed forward {:.2} ms ahead (the spindle model's mean delay)",
                     1e3 * ff.lead_s()
                 ));
                 let ff = if kind == ControllerKind::PidFeedforwardRead {
-                    let sigma = mpc_settings(setup, s)?.force_noise_n;
                     notes.push(format!(
                         "pid-ff-read: the peak's noise bias taken off (σ {sigma:.3} N) and the ramp's rubbing start known, as the MPC reads"
                     ));

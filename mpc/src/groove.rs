@@ -1352,7 +1352,9 @@ pub struct FeedforwardPidController {
 
 impl FeedforwardPidController {
     /// `feedback` (a [`TunedPidController`], not retuned) plus `plan` turned into volts as the
-    /// open-loop controller does, [`spindle_mean_delay_s`] of `model_spindle` ahead.
+    /// open-loop controller does, [`spindle_mean_delay_s`] of `model_spindle` ahead, timed by the
+    /// spindle's angle as the MPC's plan is ([`SpindlePhase`] on a force channel with noise σ
+    /// `force_noise_n`, N).
     pub fn new(
         feedback: TunedPidController,
         plan: DeflectionPlan,
@@ -1360,14 +1362,16 @@ impl FeedforwardPidController {
         model_spindle: &IdentifiedSpindle,
         voltage_max_v: f64,
         flutes: u32,
+        force_noise_n: f64,
     ) -> Self {
         let dt_s = feedback.dt_s;
+        let phase = SpindlePhase::new(program.speed_rpm, &plan.waveform, force_noise_n);
         Self {
             feedback,
             plan: OpenLoopController::new(plan, program, model_spindle, voltage_max_v),
             lead_s: spindle_mean_delay_s(model_spindle),
             scale: Some(PlanScale::new(dt_s, PLAN_SCALE_TIME_CONSTANT_S)),
-            phase: SpindlePhase::new(program.speed_rpm),
+            phase,
             sin_a: program.tilt_deg.to_radians().sin(),
             rev_s: 60.0 / program.speed_rpm,
             tooth_s: 60.0 / program.speed_rpm / flutes.max(1) as f64,
@@ -1747,31 +1751,51 @@ pub fn groove_mpc(
 /// The spindle's angle from the measured force, as a time at which the larger flute passed.
 ///
 /// The force of a milling tool peaks once per tooth; with runout one flute cuts more and its peak is the
-/// revolution's. Every revolution (the programmed speed) the time of the largest force sample is taken
-/// as that flute's pass; the passes are averaged on the circle with a memory of
-/// [`SpindlePhase::MEMORY_REVOLUTIONS`] revolutions. The phase is *known* once at least
-/// [`SpindlePhase::MIN_REVOLUTIONS`] revolutions with a cut in them agree (mean resultant length ≥
-/// [`SpindlePhase::MIN_AGREEMENT`]): in air, or with flutes cutting alike, it is not, and the plan
-/// stays the midpoint over the unknown phase. The one sensor is the force channel every controller
-/// reads.
+/// revolution's. Every revolution (the programmed speed) whose largest force sample stands
+/// [`SpindlePhase::CUT_SIGMAS`] noise σ above zero had a cut in it, and that flute's pass is taken
+/// from it: with the plan's force waveform, the time at which the waveform laid over the revolution's
+/// samples matches them best (a matched filter searched within [`SpindlePhase::MATCH_HALF_WIDTH_REV`]
+/// of a revolution around the largest sample, refined between its grid points by a parabola); without
+/// one, the largest sample's time. The passes are averaged on the circle with a memory of
+/// [`SpindlePhase::MEMORY_REVOLUTIONS`] revolutions. The phase is *known* once
+/// [`SpindlePhase::MATCHED_REVOLUTIONS`] such revolutions (with a waveform) or
+/// [`SpindlePhase::MIN_REVOLUTIONS`] (without: the largest sample of a small pulse jitters by a tenth
+/// of a tooth period) agree (mean resultant length ≥ [`SpindlePhase::MIN_AGREEMENT`]): in air, or with
+/// flutes cutting alike, it is not, and the plan stays the midpoint over the unknown phase. The one
+/// sensor is the force channel every controller reads; σ is the bundle's.
 ///
 /// # Examples
 /// ```
 /// use millcomp_mpc::groove::SpindlePhase;
 /// // 10 000 rpm sampled every 50 µs; a force peaking at 1.2 ms into every revolution
 /// let (rev, dt) = (6e-3, 5e-5);
-/// let mut p = SpindlePhase::new(10_000.0);
-/// assert_eq!(p.pass_s(), None);
+/// let pulse = |phase: f64| 5.0 * (-((phase - 1.2e-3) / 2e-4).powi(2)).exp(); // one flute's pulse
+/// // the same pulse shape, from its peak, over a revolution of 120 angles
+/// let waveform: Vec<f64> =
+///     (0..120).map(|k| pulse((1.2e-3 + k as f64 * rev / 120.0) % rev) / 5.0).collect();
+/// let mut with = SpindlePhase::new(10_000.0, &waveform, 0.04);
+/// let mut without = SpindlePhase::new(10_000.0, &[], 0.04);
+/// assert_eq!(with.pass_s(), None);
+/// let mut known_after = [None, None];
 /// for k in 0..1200 {
 ///     let t = k as f64 * dt;
-///     let phase = (t / rev).fract() * rev;
-///     let f = 5.0 * (-((phase - 1.2e-3) / 2e-4).powi(2)).exp(); // one flute's pulse
-///     p.update(t, f);
+///     let f = pulse((t / rev).fract() * rev);
+///     with.update(t, f);
+///     without.update(t, f);
+///     for (i, p) in [&with, &without].into_iter().enumerate() {
+///         if known_after[i].is_none() && p.pass_s().is_some() {
+///             known_after[i] = Some((t / rev).round() as usize);
+///         }
+///     }
 /// }
-/// let pass = p.pass_s().unwrap();
-/// assert!(((pass / rev).fract() * rev - 1.2e-3).abs() < 1e-9, "{pass}");
+/// // known from the first revolution's close with the waveform, after three without
+/// assert_eq!(known_after, [Some(1), Some(3)]);
+/// for p in [with, without] {
+///     let pass = p.pass_s().unwrap();
+///     assert!(((pass / rev).fract() * rev - 1.2e-3).abs() < 1e-9, "{pass}");
+/// }
 /// ```
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct SpindlePhase {
     rev_s: f64,
     rev_index: i64,
@@ -1782,20 +1806,34 @@ pub struct SpindlePhase {
     weight: f64,
     revolutions: usize,
     lambda: f64,
+    /// A revolution whose largest force sample is not above this (N) had no cut in it.
+    cut_n: f64,
+    /// The plan's force waveform from its peak (empty: the largest sample is the pass).
+    waveform: Vec<f64>,
+    /// The revolution's (time, force) samples, for the matched filter.
+    samples: Vec<(f64, f64)>,
 }
 
 impl SpindlePhase {
     /// Revolutions the circular mean remembers (1/e).
     pub const MEMORY_REVOLUTIONS: f64 = 20.0;
-    /// Revolutions with a cut before the phase is taken as known.
+    /// Revolutions with a cut before the phase is taken as known, without a waveform.
     pub const MIN_REVOLUTIONS: usize = 3;
+    /// Revolutions with a cut before the phase is taken as known, with the matched filter.
+    pub const MATCHED_REVOLUTIONS: usize = 1;
     /// Mean resultant length of the passes (1 = identical) needed.
     pub const MIN_AGREEMENT: f64 = 0.9;
-    /// A revolution whose largest force is below this (N) had no cut in it.
-    pub const MIN_PEAK_N: f64 = 0.5;
+    /// A revolution had a cut when its largest sample exceeds this many noise σ: the largest of a
+    /// revolution's 120 samples of white noise does so with probability ≈ 120 · 10⁻⁹.
+    pub const CUT_SIGMAS: f64 = 6.0;
+    /// Half-width of the matched filter's search around the largest sample (revolutions): well inside
+    /// the half tooth period of a two-flute tool, so it cannot lock on the other flute.
+    pub const MATCH_HALF_WIDTH_REV: f64 = 0.125;
 
-    /// The estimator for a spindle at `speed_rpm`.
-    pub fn new(speed_rpm: f64) -> Self {
+    /// The estimator for a spindle at `speed_rpm`, matching the plan's force `waveform` (from its peak
+    /// over a revolution, [`DeflectionPlan`]'s; empty for none) on a force channel with noise σ
+    /// `force_noise_n` (N).
+    pub fn new(speed_rpm: f64, waveform: &[f64], force_noise_n: f64) -> Self {
         Self {
             rev_s: 60.0 / speed_rpm,
             rev_index: i64::MIN,
@@ -1806,6 +1844,9 @@ impl SpindlePhase {
             weight: 0.0,
             revolutions: 0,
             lambda: (-1.0 / Self::MEMORY_REVOLUTIONS).exp(),
+            cut_n: Self::CUT_SIGMAS * force_noise_n.max(0.0),
+            waveform: waveform.to_vec(),
+            samples: Vec::new(),
         }
     }
 
@@ -1823,22 +1864,72 @@ impl SpindlePhase {
             self.best_force = force_n;
             self.best_t = t_s;
         }
+        if !self.waveform.is_empty() {
+            self.samples.push((t_s, force_n));
+        }
     }
 
     fn close_revolution(&mut self) {
-        if self.rev_index != i64::MIN && self.best_force >= Self::MIN_PEAK_N {
-            let theta = std::f64::consts::TAU * (self.best_t / self.rev_s).fract();
+        if self.rev_index != i64::MIN && self.best_force > self.cut_n && self.best_force > 0.0 {
+            let pass = self.matched_pass().unwrap_or(self.best_t);
+            let theta = std::f64::consts::TAU * (pass / self.rev_s).rem_euclid(1.0);
             self.sum_cos = self.lambda * self.sum_cos + theta.cos();
             self.sum_sin = self.lambda * self.sum_sin + theta.sin();
             self.weight = self.lambda * self.weight + 1.0;
             self.revolutions += 1;
         }
+        self.samples.clear();
         self.best_force = f64::NEG_INFINITY;
+    }
+
+    /// The pass at which the waveform matches the revolution's samples best (`None` without a
+    /// waveform): the correlation on the waveform's grid within [`Self::MATCH_HALF_WIDTH_REV`] of the
+    /// largest sample, its peak refined by a parabola through the best grid point and its neighbours.
+    fn matched_pass(&self) -> Option<f64> {
+        let n = self.waveform.len();
+        if n == 0 || self.samples.is_empty() {
+            return None;
+        }
+        let step = self.rev_s / n as f64;
+        let half = (n as f64 * Self::MATCH_HALF_WIDTH_REV).round() as i64;
+        let score = |pass: f64| -> f64 {
+            self.samples
+                .iter()
+                .map(|&(t, f)| {
+                    let k = ((t - pass) / step).round() as i64;
+                    f * self.waveform[k.rem_euclid(n as i64) as usize]
+                })
+                .sum()
+        };
+        let scores: Vec<f64> = (-half..=half)
+            .map(|j| score(self.best_t + j as f64 * step))
+            .collect();
+        let (jb, _) = scores
+            .iter()
+            .enumerate()
+            .fold(
+                (0, f64::NEG_INFINITY),
+                |a, (j, &v)| if v > a.1 { (j, v) } else { a },
+            );
+        let mut offset = jb as f64 - half as f64;
+        if jb > 0 && jb + 1 < scores.len() {
+            let (a, b, c) = (scores[jb - 1], scores[jb], scores[jb + 1]);
+            let curvature = a - 2.0 * b + c;
+            if curvature < 0.0 {
+                offset += 0.5 * (a - c) / curvature;
+            }
+        }
+        Some(self.best_t + offset * step)
     }
 
     /// A time (s) at which the larger flute passed, when the phase is known.
     pub fn pass_s(&self) -> Option<f64> {
-        if self.revolutions < Self::MIN_REVOLUTIONS || self.weight <= 0.0 {
+        let needed = if self.waveform.is_empty() {
+            Self::MIN_REVOLUTIONS
+        } else {
+            Self::MATCHED_REVOLUTIONS
+        };
+        if self.revolutions < needed || self.weight <= 0.0 {
             return None;
         }
         let r = self.sum_cos.hypot(self.sum_sin) / self.weight;
@@ -1966,6 +2057,7 @@ impl MpcGrooveController {
         let sp = model_spindle.plant();
         let sin_a = program.tilt_deg.to_radians().sin();
         let plan_range_um = plan.range_um();
+        let phase = SpindlePhase::new(program.speed_rpm, &plan.waveform, settings.force_noise_n);
         Ok(Self {
             mpc,
             plan,
@@ -1991,7 +2083,7 @@ impl MpcGrooveController {
             preview: true,
             features: settings.features,
             scale: PlanScale::new(dt * settings.mpc_every as f64, PLAN_SCALE_TIME_CONSTANT_S),
-            phase: SpindlePhase::new(program.speed_rpm),
+            phase,
             times_buf: Vec::with_capacity(n + 1),
             pulses: PulseCache::default(),
             plan_range_um,
