@@ -1901,19 +1901,19 @@ impl SpindlePhase {
                 })
                 .sum()
         };
-        let scores: Vec<f64> = (-half..=half)
-            .map(|j| score(self.best_t + j as f64 * step))
-            .collect();
-        let (jb, _) = scores
-            .iter()
-            .enumerate()
-            .fold(
-                (0, f64::NEG_INFINITY),
-                |a, (j, &v)| if v > a.1 { (j, v) } else { a },
-            );
-        let mut offset = jb as f64 - half as f64;
-        if jb > 0 && jb + 1 < scores.len() {
-            let (a, b, c) = (scores[jb - 1], scores[jb], scores[jb + 1]);
+        // the best trial pass, then its neighbours again: no buffer in the control cycle
+        let mut best = (0_i64, f64::NEG_INFINITY);
+        for j in -half..=half {
+            let v = score(self.best_t + j as f64 * step);
+            if v > best.1 {
+                best = (j, v);
+            }
+        }
+        let (jb, b) = best;
+        let mut offset = jb as f64;
+        if jb > -half && jb < half {
+            let a = score(self.best_t + (jb - 1) as f64 * step);
+            let c = score(self.best_t + (jb + 1) as f64 * step);
             let curvature = a - 2.0 * b + c;
             if curvature < 0.0 {
                 offset += 0.5 * (a - c) / curvature;
