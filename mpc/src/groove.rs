@@ -1806,7 +1806,7 @@ pub struct SpindlePhase {
     weight: f64,
     revolutions: usize,
     lambda: f64,
-    /// A revolution whose largest force sample is not above this (N) had no cut in it.
+    /// A revolution whose largest force sample is not above this (N, ≥ 0) had no cut in it.
     cut_n: f64,
     /// The plan's force waveform from its peak (empty: the largest sample is the pass).
     waveform: Vec<f64>,
@@ -1870,7 +1870,7 @@ impl SpindlePhase {
     }
 
     fn close_revolution(&mut self) {
-        if self.rev_index != i64::MIN && self.best_force > self.cut_n && self.best_force > 0.0 {
+        if self.rev_index != i64::MIN && self.best_force > self.cut_n {
             let pass = self.matched_pass().unwrap_or(self.best_t);
             let theta = std::f64::consts::TAU * (pass / self.rev_s).rem_euclid(1.0);
             self.sum_cos = self.lambda * self.sum_cos + theta.cos();
