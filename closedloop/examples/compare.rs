@@ -16,7 +16,7 @@
 //!
 //! `--features`: the groove scenarios with the MPC's planning and estimation features switched off one at
 //! a time (`control.groove_mpc`: `stroke_aware`, `adapt_plan_scale`, `spindle_phase`, `flute_phase`,
-//! `gauge_disturbance`, `intersample`), all off, beside `pid-ff` — what each feature buys; and the MPC
+//! `gauge_disturbance`, `stack_disturbance`, `intersample`), all off, beside `pid-ff` — what each feature buys; and the MPC
 //! and `pid-ff` driving the stack through the inverse of its identified hysteresis
 //! (`control.compensate_hysteresis`, off by default).
 //!
@@ -88,6 +88,13 @@ fn feature_variants() -> Vec<(&'static str, GrooveMpcFeatures)> {
             },
         ),
         (
+            "-stack_dist",
+            GrooveMpcFeatures {
+                stack_disturbance: false,
+                ..all
+            },
+        ),
+        (
             "-intersample",
             GrooveMpcFeatures {
                 intersample: false,
@@ -102,6 +109,7 @@ fn feature_variants() -> Vec<(&'static str, GrooveMpcFeatures)> {
                 spindle_phase: false,
                 flute_phase: false,
                 gauge_disturbance: false,
+                stack_disturbance: false,
                 intersample: false,
                 unbiased_peak: false,
                 flank_rubbing: false,

@@ -180,6 +180,24 @@ pub struct DisturbanceConfig {
     /// Default: all outputs / inputs.
     #[serde(default)]
     pub channels: Option<Vec<usize>>,
+    /// Output disturbances only: where a disturbance state enters another output as well, with a gain
+    /// — a disturbance that is a physical displacement seen by two sensors (the groove MPC's stack
+    /// disturbance, on the gauge and, through the tilt, on the depth error). Default: none (each state
+    /// enters its own channel only).
+    #[serde(default)]
+    pub coupling: Vec<DisturbanceCoupling>,
+}
+
+/// An output disturbance state entering one more output ([`DisturbanceConfig::coupling`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DisturbanceCoupling {
+    /// Index of the disturbance state (its position in `channels`).
+    pub state: usize,
+    /// The other output it enters.
+    pub output: usize,
+    /// Its gain there (finite), in that output's units per the state's.
+    pub gain: f64,
 }
 
 impl Default for DisturbanceConfig {
@@ -187,6 +205,7 @@ impl Default for DisturbanceConfig {
         Self {
             kind: DisturbanceKind::Output,
             channels: None,
+            coupling: Vec::new(),
         }
     }
 }
@@ -664,6 +683,42 @@ impl MpcConfig {
                         format!("disturbance.channels[{i}]"),
                         c,
                         format!("0 ..= {}", n.saturating_sub(1)),
+                    ));
+                }
+            }
+        }
+        if !self.disturbance.coupling.is_empty() {
+            let n_states = match (self.disturbance.kind, &self.disturbance.channels) {
+                (DisturbanceKind::Output, Some(ch)) => ch.len(),
+                (DisturbanceKind::Output, None) => n_outputs,
+                _ => {
+                    return Err(invalid(
+                        "disturbance.coupling",
+                        format!("{:?}", self.disturbance.coupling),
+                        "empty unless disturbance.kind = \"output\"",
+                    ));
+                }
+            };
+            for (i, c) in self.disturbance.coupling.iter().enumerate() {
+                if c.state >= n_states {
+                    return Err(invalid(
+                        format!("disturbance.coupling[{i}].state"),
+                        c.state,
+                        format!("0 ..= {}", n_states.saturating_sub(1)),
+                    ));
+                }
+                if c.output >= n_outputs {
+                    return Err(invalid(
+                        format!("disturbance.coupling[{i}].output"),
+                        c.output,
+                        format!("0 ..= {}", n_outputs.saturating_sub(1)),
+                    ));
+                }
+                if !c.gain.is_finite() {
+                    return Err(invalid(
+                        format!("disturbance.coupling[{i}].gain"),
+                        c.gain,
+                        "finite",
                     ));
                 }
             }

@@ -32,7 +32,7 @@ use millcomp_sim::groove::GrooveProgram;
 use nalgebra::DMatrix;
 
 use crate::config::CycleBudget;
-use crate::config::{Intersample, MpcConfig};
+use crate::config::{DisturbanceCoupling, Intersample, MpcConfig};
 use crate::controller::{MpcController, PreviewWindow};
 use crate::error::MpcError;
 use crate::pid::{AntiWindup, Pid, PidGains};
@@ -1523,6 +1523,13 @@ pub struct GrooveMpcFeatures {
     /// misses — hysteresis, creep, the gauge zero — goes there instead of into the spindle states. Off:
     /// the error channel's disturbance alone. Only with the default configuration (`control.mpc` unset).
     pub gauge_disturbance: bool,
+    /// The gauge's disturbance is the stack's: what the linear stack model misses moves the tip, so it
+    /// enters the depth-error channel as well, through the tilt (`sin α`), and the error channel's own
+    /// disturbance is left with the deflection the plan misses. Off: the gauge's disturbance stays on
+    /// the gauge, and a hysteretic stack's lag reaches the error prediction only as fast as the error
+    /// channel's own disturbance (read through the force's noise) takes it up. With
+    /// [`Self::gauge_disturbance`] only.
+    pub stack_disturbance: bool,
     /// Weigh the error between the cycles too ([`crate::config::Intersample`]): at every stage step of
     /// the first [`INTERSAMPLE_WINDOW_S`] of the horizon, on the spindle model sampled at the stage step. A
     /// deflection that rises within a fraction of a cycle (the flank of one tooth's force at a change
@@ -1589,6 +1596,7 @@ impl Default for GrooveMpcFeatures {
             flute_phase: true,
             spindle_phase: true,
             gauge_disturbance: true,
+            stack_disturbance: true,
             intersample: true,
             unbiased_peak: true,
             flank_rubbing: true,
@@ -1729,6 +1737,12 @@ pub fn groove_mpc(
             c.kalman.disturbance_noise = 1e-5;
             if !settings.features.gauge_disturbance {
                 c.disturbance.channels = Some(vec![OUT_ERROR]);
+            } else if settings.features.stack_disturbance {
+                c.disturbance.coupling = vec![DisturbanceCoupling {
+                    state: 0,
+                    output: OUT_ERROR,
+                    gain: sin_a,
+                }];
             }
             if between {
                 c.intersample = Some(Intersample {

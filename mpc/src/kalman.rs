@@ -163,6 +163,13 @@ impl AugmentedModel {
                 DisturbanceKind::None => {}
             }
         }
+        if kind == DisturbanceKind::Output {
+            for cp in &cfg.disturbance.coupling {
+                if cp.state < nd && cp.output < ny {
+                    c[(cp.output, nx + cp.state)] += cp.gain;
+                }
+            }
+        }
         Ok(Self {
             a,
             b,
@@ -491,6 +498,57 @@ mod tests {
         kf.correct(&[f64::NAN], &[0.0]);
         assert!(kf.estimate().iter().all(|v| v.is_finite()));
         assert_eq!(kf.skipped_measurements, 1);
+    }
+
+    /// A disturbance that is one displacement seen by two sensors (the groove MPC's stack disturbance:
+    /// the gauge, and the depth error through the tilt) is one state with a coupling, and the second
+    /// output's own state is left with what only that output sees.
+    #[test]
+    fn coupled_output_disturbance_is_estimated_where_it_enters() {
+        let m1 = first_order();
+        let s = 0.342; // sin 20°
+        let c = DMatrix::from_row_slice(2, 1, &[m1.c[(0, 0)], s * m1.c[(0, 0)]]);
+        let m =
+            DiscreteLti::new(m1.a.clone(), m1.b.clone(), c, DMatrix::zeros(2, 1), m1.dt_s).unwrap();
+        let mut cfg = MpcConfig::siso(5, -1.0, 1.0, 1.0);
+        cfg.weights.output = vec![0.0, 1.0];
+        cfg.disturbance.channels = Some(vec![0, 1]);
+        cfg.disturbance.coupling = vec![crate::config::DisturbanceCoupling {
+            state: 0,
+            output: 1,
+            gain: s,
+        }];
+        let aug = AugmentedModel::new(&m, &cfg).unwrap();
+        assert_eq!((aug.c[(1, 1)], aug.c[(0, 2)], aug.c[(1, 2)]), (s, 0.0, 1.0));
+        // at rest: the stack stands 0.7 off the model (both sensors see it), the second output also
+        // carries 0.2 of its own
+        let y = [0.7, s * 0.7 + 0.2];
+        let mut kf = KalmanFilter::steady_state(&aug, 1e-6, 1e-2, &[1e-4, 1e-2]).unwrap();
+        for _ in 0..4000 {
+            kf.correct(&y, &[0.0, 0.0]);
+            kf.predict(&[0.0]);
+        }
+        assert_relative_eq!(kf.estimate()[1], 0.7, epsilon = 1e-6);
+        assert_relative_eq!(kf.estimate()[2], 0.2, epsilon = 1e-6);
+        // without the coupling the second output's state takes both
+        cfg.disturbance.coupling.clear();
+        let aug = AugmentedModel::new(&m, &cfg).unwrap();
+        let mut kf = KalmanFilter::steady_state(&aug, 1e-6, 1e-2, &[1e-4, 1e-2]).unwrap();
+        for _ in 0..4000 {
+            kf.correct(&y, &[0.0, 0.0]);
+            kf.predict(&[0.0]);
+        }
+        assert_relative_eq!(kf.estimate()[2], s * 0.7 + 0.2, epsilon = 1e-6);
+        // a coupling must name a state and an output that exist
+        cfg.disturbance.coupling = vec![crate::config::DisturbanceCoupling {
+            state: 2,
+            output: 1,
+            gain: s,
+        }];
+        assert!(matches!(
+            cfg.validate(1, 2),
+            Err(MpcError::InvalidConfig { key, .. }) if key == "disturbance.coupling[0].state"
+        ));
     }
 
     #[test]

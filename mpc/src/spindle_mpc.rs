@@ -105,6 +105,7 @@ pub fn default_spindle_config(
         disturbance: DisturbanceConfig {
             kind: DisturbanceKind::Output,
             channels: Some(vec![OUT_GAUGE, OUT_ERROR]),
+            coupling: Vec::new(),
         },
         kalman: KalmanConfig {
             input_noise: 1.0,

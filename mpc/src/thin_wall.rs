@@ -127,6 +127,7 @@ pub fn thin_wall_mpc(
         disturbance: DisturbanceConfig {
             kind: DisturbanceKind::Output,
             channels: Some(vec![1]),
+            coupling: Vec::new(),
         },
         kalman: KalmanConfig {
             input_noise: 1e-2,
