@@ -232,12 +232,12 @@ fn the_entry_is_timed_from_the_first_revolution_with_a_cut() {
     assert!(m <= 0.5 * p, "entry: mpc {m} pid-tuned {p}");
 }
 
-/// On a hysteretic stack the tip lags the linear stack model while the stack climbs ≈ 600 V at the
-/// entry. The gauge sees the lag at once (0.01 µm noise); the depth-error channel only through the
-/// force's noise. With the gauge's disturbance taken as the stack's (`stack_disturbance`: it enters
-/// the error through sin(tilt)) the MPC's error prediction has the lag at the gauge's speed, and the
-/// entry's excess falls (commissioned depth step, seeds 1–10: 0.51 → 0.46 µm, lower on every seed;
-/// here seed 7 over 4.5 mm: 0.52 → 0.45 µm).
+/// On a hysteretic stack the tip departs from the linear stack model while the stack climbs ≈ 600 V
+/// at the entry. The gauge sees it at once (0.01 µm noise); the depth-error channel only through the
+/// force's noise. With the gauge's disturbance taken as the stack's (`stack_disturbance`: it enters the
+/// error through sin(tilt) and walks as fast as the gauge reads) the MPC's error prediction has the
+/// misfit within cycles, and the entry's excess falls (commissioned depth step, seeds 1–10: 0.51 →
+/// 0.39 µm, the coupling alone 0.46; here seed 7 over 4.5 mm: 0.52 → 0.34 µm).
 #[test]
 fn the_stacks_lag_seen_by_the_gauge_reaches_the_error_prediction() {
     use millcomp_closedloop::compare::commissioned;
@@ -250,7 +250,7 @@ fn the_stacks_lag_seen_by_the_gauge_reaches_the_error_prediction() {
     let with = excess_at(&run(&s, ControllerKind::Mpc), ChangeKind::Entry);
     s.control.groove_mpc.stack_disturbance = false;
     let without = excess_at(&run(&s, ControllerKind::Mpc), ChangeKind::Entry);
-    assert!(with < 0.9 * without, "entry: with {with} without {without}");
+    assert!(with < 0.8 * without, "entry: with {with} without {without}");
 }
 
 /// The open-loop compensation follows the plan in time (midpoint over the spindle's unmeasured angle),

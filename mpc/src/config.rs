@@ -221,6 +221,12 @@ pub struct KalmanConfig {
     /// Random-walk variance per disturbance state per cycle (> 0), in output (or input) units².
     #[serde(default = "default_disturbance_noise")]
     pub disturbance_noise: f64,
+    /// Random-walk variance per cycle of each disturbance state (each positive), in
+    /// `disturbance.channels` order: for disturbances that move at different speeds (the groove MPC's:
+    /// the stack's misfit as fast as the stack moves, the plan's misfit per revolution). Empty:
+    /// `disturbance_noise` for each.
+    #[serde(default)]
+    pub disturbance_noise_per_state: Vec<f64>,
     /// Measurement-noise variance per output (> 0). Default: 1e-2 for every output.
     #[serde(default)]
     pub measurement_noise: Vec<f64>,
@@ -250,6 +256,7 @@ impl Default for KalmanConfig {
         Self {
             input_noise: default_input_noise(),
             disturbance_noise: default_disturbance_noise(),
+            disturbance_noise_per_state: Vec::new(),
             measurement_noise: Vec::new(),
             innovation_gate: Vec::new(),
             gate_max_skips: default_gate_max_skips(),
@@ -596,6 +603,15 @@ impl MpcConfig {
                 "finite and > 0",
             ));
         }
+        for (i, x) in k.disturbance_noise_per_state.iter().enumerate() {
+            if !(x.is_finite() && *x > 0.0) {
+                return Err(invalid(
+                    format!("kalman.disturbance_noise_per_state[{i}]"),
+                    x,
+                    "finite and > 0",
+                ));
+            }
+        }
         for (i, x) in k.measurement_noise.iter().enumerate() {
             if !(x.is_finite() && *x > 0.0) {
                 return Err(invalid(
@@ -686,6 +702,20 @@ impl MpcConfig {
                     ));
                 }
             }
+        }
+        let n_states = match (self.disturbance.kind, &self.disturbance.channels) {
+            (DisturbanceKind::None, _) => 0,
+            (_, Some(ch)) => ch.len(),
+            (DisturbanceKind::Output, None) => n_outputs,
+            (DisturbanceKind::Input, None) => n_inputs,
+        };
+        let per_state = &self.kalman.disturbance_noise_per_state;
+        if !per_state.is_empty() && per_state.len() != n_states {
+            return Err(invalid(
+                "kalman.disturbance_noise_per_state",
+                format!("{} values", per_state.len()),
+                format!("empty or one per disturbance state ({n_states})"),
+            ));
         }
         if !self.disturbance.coupling.is_empty() {
             let n_states = match (self.disturbance.kind, &self.disturbance.channels) {

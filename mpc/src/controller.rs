@@ -174,7 +174,11 @@ impl MpcController {
         let mut kf = KalmanFilter::steady_state(
             &aug,
             cfg.kalman.input_noise,
-            cfg.kalman.disturbance_noise,
+            if cfg.kalman.disturbance_noise_per_state.is_empty() {
+                std::slice::from_ref(&cfg.kalman.disturbance_noise)
+            } else {
+                &cfg.kalman.disturbance_noise_per_state
+            },
             &r,
         )?;
         kf.set_gate(&cfg.kalman.innovation_gate, cfg.kalman.gate_max_skips);

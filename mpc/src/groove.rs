@@ -1525,10 +1525,13 @@ pub struct GrooveMpcFeatures {
     pub gauge_disturbance: bool,
     /// The gauge's disturbance is the stack's: what the linear stack model misses moves the tip, so it
     /// enters the depth-error channel as well, through the tilt (`sin α`), and the error channel's own
-    /// disturbance is left with the deflection the plan misses. Off: the gauge's disturbance stays on
-    /// the gauge, and a hysteretic stack's lag reaches the error prediction only as fast as the error
-    /// channel's own disturbance (read through the force's noise) takes it up. With
-    /// [`Self::gauge_disturbance`] only.
+    /// disturbance is left with the deflection the plan misses; and it moves as fast as the stack does
+    /// — a random walk of the gauge's own noise variance per cycle, where the error channel's
+    /// disturbance walks (0.003 µm)² per cycle to smooth the per-revolution force peak. Off: the
+    /// gauge's disturbance stays on the gauge, walks as slowly as the error channel's, and a hysteretic
+    /// stack's misfit while it climbs reaches the error prediction only as fast as the error channel's
+    /// own disturbance (read through the force's noise) takes it up. With [`Self::gauge_disturbance`]
+    /// only.
     pub stack_disturbance: bool,
     /// Weigh the error between the cycles too ([`crate::config::Intersample`]): at every stage step of
     /// the first [`INTERSAMPLE_WINDOW_S`] of the horizon, on the spindle model sampled at the stage step. A
@@ -1726,10 +1729,8 @@ pub fn groove_mpc(
                 .stiffness()
                 .z_compliance_um_per_n(tilt_deg)?;
             let sf = (settings.force_noise_n * 0.5).max(0.005);
-            c.kalman.measurement_noise = vec![
-                (settings.gauge_noise_um.max(0.005)).powi(2),
-                (comp * sf).powi(2).max(1e-4),
-            ];
+            let r_gauge = (settings.gauge_noise_um.max(0.005)).powi(2);
+            c.kalman.measurement_noise = vec![r_gauge, (comp * sf).powi(2).max(1e-4)];
             // the deflection mismatch (force-model error × planned deflection) changes slowly except at
             // process changes, which the preview already carries: a (0.003 µm)²/cycle random walk gives a
             // ≈ 5 ms (≈ one revolution) disturbance time constant against ≈ 0.035 µm measurement noise,
@@ -1738,11 +1739,15 @@ pub fn groove_mpc(
             if !settings.features.gauge_disturbance {
                 c.disturbance.channels = Some(vec![OUT_ERROR]);
             } else if settings.features.stack_disturbance {
+                // the stack's misfit is a displacement of the tip, seen on the error through the
+                // tilt, and it moves as fast as the stack does: a random walk of the gauge's own noise
+                // per cycle, which the gauge tracks within ≈ 2 cycles
                 c.disturbance.coupling = vec![DisturbanceCoupling {
                     state: 0,
                     output: OUT_ERROR,
                     gain: sin_a,
                 }];
+                c.kalman.disturbance_noise_per_state = vec![r_gauge, c.kalman.disturbance_noise];
             }
             if between {
                 c.intersample = Some(Intersample {

@@ -300,12 +300,12 @@ pub fn filter_dare(
 
 impl KalmanFilter {
     /// Steady-state filter for `model` with input-referred plant noise `q_input · B̃ B̃ᵀ` (plus 1e-9 of its
-    /// trace on the diagonal, for definiteness), disturbance random-walk variance `q_dist`, and
-    /// measurement noise variances `r` (one per output).
+    /// trace on the diagonal, for definiteness), disturbance random-walk variances `q_dist` (one for
+    /// every disturbance state, or one per state), and measurement noise variances `r` (one per output).
     pub fn steady_state(
         model: &AugmentedModel,
         q_input: f64,
-        q_dist: f64,
+        q_dist: &[f64],
         r: &[f64],
     ) -> Result<Self, MpcError> {
         let n = model.n();
@@ -318,13 +318,21 @@ impl KalmanFilter {
                 found: r.len(),
             });
         }
+        if !(q_dist.len() == 1 || q_dist.len() == model.n_dist) {
+            return Err(MpcError::DimensionMismatch {
+                what: "kalman.disturbance_noise_per_state".into(),
+                expected: model.n_dist,
+                found: q_dist.len(),
+            });
+        }
+        let q_state = |j: usize| q_dist[if q_dist.len() == 1 { 0 } else { j }];
         let bp = model.b.rows(0, np).into_owned();
         let qp = &bp * bp.transpose() * q_input;
         let eps = 1e-9 * qp.trace().max(1e-300) / np as f64;
         let mut q = DMatrix::zeros(n, n);
         q.view_mut((0, 0), (np, np)).copy_from(&qp);
         for i in 0..n {
-            q[(i, i)] += if i < np { eps } else { q_dist };
+            q[(i, i)] += if i < np { eps } else { q_state(i - np) };
         }
         let rm = DMatrix::from_diagonal(&DVector::from_column_slice(r));
         let (p, iterations) = filter_dare(&model.a, &model.c, &q, &rm)?;
@@ -474,7 +482,7 @@ mod tests {
         let (a, b, c) = (aug.a[(0, 0)], aug.b[(0, 0)], aug.c[(0, 0)]);
         let (qu, r) = (1e-3, 1e-2);
         let q = qu * b * b * (1.0 + 1e-9);
-        let kf = KalmanFilter::steady_state(&aug, qu, 1.0, &[r]).unwrap();
+        let kf = KalmanFilter::steady_state(&aug, qu, &[1.0], &[r]).unwrap();
         // c² p² + (r(1 − a²) − q c²) p − q r = 0
         let (qa, qb, qc) = (c * c, r * (1.0 - a * a) - q * c * c, -q * r);
         let p = (-qb + (qb * qb - 4.0 * qa * qc).sqrt()) / (2.0 * qa);
@@ -487,7 +495,7 @@ mod tests {
         let cfg = MpcConfig::siso(5, -1.0, 1.0, 1.0);
         let aug = AugmentedModel::new(&m, &cfg).unwrap();
         assert_eq!(aug.n(), 2);
-        let mut kf = KalmanFilter::steady_state(&aug, 1e-6, 1e-2, &[1e-4]).unwrap();
+        let mut kf = KalmanFilter::steady_state(&aug, 1e-6, &[1e-2], &[1e-4]).unwrap();
         // true plant at rest with an output offset of 0.7: the estimate converges to d = 0.7
         for _ in 0..2000 {
             kf.correct(&[0.7], &[0.0]);
@@ -523,7 +531,7 @@ mod tests {
         // at rest: the stack stands 0.7 off the model (both sensors see it), the second output also
         // carries 0.2 of its own
         let y = [0.7, s * 0.7 + 0.2];
-        let mut kf = KalmanFilter::steady_state(&aug, 1e-6, 1e-2, &[1e-4, 1e-2]).unwrap();
+        let mut kf = KalmanFilter::steady_state(&aug, 1e-6, &[1e-2], &[1e-4, 1e-2]).unwrap();
         for _ in 0..4000 {
             kf.correct(&y, &[0.0, 0.0]);
             kf.predict(&[0.0]);
@@ -533,7 +541,7 @@ mod tests {
         // without the coupling the second output's state takes both
         cfg.disturbance.coupling.clear();
         let aug = AugmentedModel::new(&m, &cfg).unwrap();
-        let mut kf = KalmanFilter::steady_state(&aug, 1e-6, 1e-2, &[1e-4, 1e-2]).unwrap();
+        let mut kf = KalmanFilter::steady_state(&aug, 1e-6, &[1e-2], &[1e-4, 1e-2]).unwrap();
         for _ in 0..4000 {
             kf.correct(&y, &[0.0, 0.0]);
             kf.predict(&[0.0]);
@@ -548,6 +556,38 @@ mod tests {
         assert!(matches!(
             cfg.validate(1, 2),
             Err(MpcError::InvalidConfig { key, .. }) if key == "disturbance.coupling[0].state"
+        ));
+        // one random-walk variance per state, or none
+        cfg.disturbance.coupling.clear();
+        cfg.kalman.disturbance_noise_per_state = vec![1e-4, 1e-5, 1e-5];
+        assert!(matches!(
+            cfg.validate(1, 2),
+            Err(MpcError::InvalidConfig { key, .. }) if key == "kalman.disturbance_noise_per_state"
+        ));
+    }
+
+    /// A disturbance state given a larger random-walk variance is tracked faster: after a step of the
+    /// output, the faster state has taken up more of it after 5 cycles.
+    #[test]
+    fn per_state_disturbance_noise_sets_each_states_speed() {
+        let m1 = first_order();
+        let c = DMatrix::from_row_slice(2, 1, &[m1.c[(0, 0)], m1.c[(0, 0)]]);
+        let m =
+            DiscreteLti::new(m1.a.clone(), m1.b.clone(), c, DMatrix::zeros(2, 1), m1.dt_s).unwrap();
+        let mut cfg = MpcConfig::siso(5, -1.0, 1.0, 1.0);
+        cfg.weights.output = vec![0.0, 1.0];
+        cfg.disturbance.channels = Some(vec![0, 1]);
+        let aug = AugmentedModel::new(&m, &cfg).unwrap();
+        let mut kf = KalmanFilter::steady_state(&aug, 1e-9, &[1e-4, 1e-7], &[1e-4, 1e-4]).unwrap();
+        for _ in 0..5 {
+            kf.correct(&[1.0, 1.0], &[0.0, 0.0]);
+            kf.predict(&[0.0]);
+        }
+        let (fast, slow) = (kf.estimate()[1], kf.estimate()[2]);
+        assert!(fast > 0.9 && slow < 0.2, "fast {fast} slow {slow}");
+        assert!(matches!(
+            KalmanFilter::steady_state(&aug, 1e-9, &[1e-4, 1e-7, 1e-7], &[1e-4, 1e-4]),
+            Err(MpcError::DimensionMismatch { .. })
         ));
     }
 

@@ -110,6 +110,7 @@ pub fn default_spindle_config(
         kalman: KalmanConfig {
             input_noise: 1.0,
             disturbance_noise: 1e-2,
+            disturbance_noise_per_state: Vec::new(),
             measurement_noise: vec![1e-2, 4e-2],
             // outliers (a force spike, a glitching gauge) are skipped for up to 24 cycles (12 ms = two
             // revolutions; a spike is held for one revolution by the per-revolution peak); larger steps

@@ -132,6 +132,7 @@ pub fn thin_wall_mpc(
         kalman: KalmanConfig {
             input_noise: 1e-2,
             disturbance_noise: 1e-2,
+            disturbance_noise_per_state: Vec::new(),
             // grating ruler 0.1 µm resolution; excess channel: force noise × compliance + model scatter
             measurement_noise: vec![1e-3, 1e-2],
             innovation_gate: vec![2.0, 5.0],
