@@ -16,9 +16,9 @@
 //!
 //! `--features`: the groove scenarios with the MPC's planning and estimation features switched off one at
 //! a time (`control.groove_mpc`: `stroke_aware`, `adapt_plan_scale`, `spindle_phase`, `flute_phase`,
-//! `gauge_disturbance`, `stack_disturbance`, `intersample`), all off, beside `pid-ff` — what each feature buys; and the MPC
-//! and `pid-ff` driving the stack through the inverse of its identified hysteresis
-//! (`control.compensate_hysteresis`, off by default).
+//! `gauge_disturbance`, `stack_disturbance`, `intersample`), all off, beside `pid-ff` — what each
+//! feature buys; and the MPC and `pid-ff` driving the stack through the inverse of its identified
+//! hysteresis (`control.compensate_hysteresis`, off by default).
 //!
 //! `--rates`: the scenarios with process changes, the MPC at 2 kHz (horizon 20 = 10 ms, shipped), at
 //! 5 kHz with the same 20 steps (4 ms) and at 5 kHz with 50 steps (10 ms), beside `pid-ff` — what the

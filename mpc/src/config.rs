@@ -718,17 +718,13 @@ impl MpcConfig {
             ));
         }
         if !self.disturbance.coupling.is_empty() {
-            let n_states = match (self.disturbance.kind, &self.disturbance.channels) {
-                (DisturbanceKind::Output, Some(ch)) => ch.len(),
-                (DisturbanceKind::Output, None) => n_outputs,
-                _ => {
-                    return Err(invalid(
-                        "disturbance.coupling",
-                        format!("{:?}", self.disturbance.coupling),
-                        "empty unless disturbance.kind = \"output\"",
-                    ));
-                }
-            };
+            if self.disturbance.kind != DisturbanceKind::Output {
+                return Err(invalid(
+                    "disturbance.coupling",
+                    format!("{:?}", self.disturbance.coupling),
+                    "empty unless disturbance.kind = \"output\"",
+                ));
+            }
             for (i, c) in self.disturbance.coupling.iter().enumerate() {
                 if c.state >= n_states {
                     return Err(invalid(

@@ -164,10 +164,19 @@ impl AugmentedModel {
             }
         }
         if kind == DisturbanceKind::Output {
-            for cp in &cfg.disturbance.coupling {
-                if cp.state < nd && cp.output < ny {
-                    c[(cp.output, nx + cp.state)] += cp.gain;
+            for (j, cp) in cfg.disturbance.coupling.iter().enumerate() {
+                if cp.state >= nd || cp.output >= ny {
+                    return Err(crate::error::invalid(
+                        format!("disturbance.coupling[{j}]"),
+                        format!("state {}, output {}", cp.state, cp.output),
+                        format!(
+                            "state 0 ..= {}, output 0 ..= {}",
+                            nd.saturating_sub(1),
+                            ny - 1
+                        ),
+                    ));
                 }
+                c[(cp.output, nx + cp.state)] += cp.gain;
             }
         }
         Ok(Self {
@@ -556,6 +565,10 @@ mod tests {
         assert!(matches!(
             cfg.validate(1, 2),
             Err(MpcError::InvalidConfig { key, .. }) if key == "disturbance.coupling[0].state"
+        ));
+        assert!(matches!(
+            AugmentedModel::new(&m, &cfg),
+            Err(MpcError::InvalidConfig { key, .. }) if key == "disturbance.coupling[0]"
         ));
         // one random-walk variance per state, or none
         cfg.disturbance.coupling.clear();
