@@ -480,6 +480,23 @@ mod tests {
             .unwrap()
     }
 
+    /// [`first_order`] read by two sensors, the second through `gain` (the groove MPC's gauge and
+    /// depth error: one tip, the second through sin α).
+    fn two_outputs(gain: f64) -> DiscreteLti {
+        let m = first_order();
+        let c = DMatrix::from_row_slice(2, 1, &[m.c[(0, 0)], gain * m.c[(0, 0)]]);
+        DiscreteLti::new(m.a.clone(), m.b.clone(), c, DMatrix::zeros(2, 1), m.dt_s).unwrap()
+    }
+
+    /// `cycles` measurement updates with `y` at rest (no known offset, zero input).
+    fn settle(kf: &mut KalmanFilter, y: &[f64], cycles: usize) {
+        let w = vec![0.0; y.len()];
+        for _ in 0..cycles {
+            kf.correct(y, &w);
+            kf.predict(&[0.0]);
+        }
+    }
+
     #[test]
     fn scalar_dare_matches_closed_form() {
         // scalar system without disturbance: p = a²p − a²p²/(p + r) + q  ⇒ closed-form positive root
@@ -506,10 +523,7 @@ mod tests {
         assert_eq!(aug.n(), 2);
         let mut kf = KalmanFilter::steady_state(&aug, 1e-6, &[1e-2], &[1e-4]).unwrap();
         // true plant at rest with an output offset of 0.7: the estimate converges to d = 0.7
-        for _ in 0..2000 {
-            kf.correct(&[0.7], &[0.0]);
-            kf.predict(&[0.0]);
-        }
+        settle(&mut kf, &[0.7], 2000);
         assert_relative_eq!(kf.estimate()[1], 0.7, epsilon = 1e-6);
         // a NaN measurement is skipped, not propagated
         kf.correct(&[f64::NAN], &[0.0]);
@@ -522,11 +536,8 @@ mod tests {
     /// output's own state is left with what only that output sees.
     #[test]
     fn coupled_output_disturbance_is_estimated_where_it_enters() {
-        let m1 = first_order();
         let s = 0.342; // sin 20°
-        let c = DMatrix::from_row_slice(2, 1, &[m1.c[(0, 0)], s * m1.c[(0, 0)]]);
-        let m =
-            DiscreteLti::new(m1.a.clone(), m1.b.clone(), c, DMatrix::zeros(2, 1), m1.dt_s).unwrap();
+        let m = two_outputs(s);
         let mut cfg = MpcConfig::siso(5, -1.0, 1.0, 1.0);
         cfg.weights.output = vec![0.0, 1.0];
         cfg.disturbance.channels = Some(vec![0, 1]);
@@ -541,20 +552,14 @@ mod tests {
         // carries 0.2 of its own
         let y = [0.7, s * 0.7 + 0.2];
         let mut kf = KalmanFilter::steady_state(&aug, 1e-6, &[1e-2], &[1e-4, 1e-2]).unwrap();
-        for _ in 0..4000 {
-            kf.correct(&y, &[0.0, 0.0]);
-            kf.predict(&[0.0]);
-        }
+        settle(&mut kf, &y, 4000);
         assert_relative_eq!(kf.estimate()[1], 0.7, epsilon = 1e-6);
         assert_relative_eq!(kf.estimate()[2], 0.2, epsilon = 1e-6);
         // without the coupling the second output's state takes both
         cfg.disturbance.coupling.clear();
         let aug = AugmentedModel::new(&m, &cfg).unwrap();
         let mut kf = KalmanFilter::steady_state(&aug, 1e-6, &[1e-2], &[1e-4, 1e-2]).unwrap();
-        for _ in 0..4000 {
-            kf.correct(&y, &[0.0, 0.0]);
-            kf.predict(&[0.0]);
-        }
+        settle(&mut kf, &y, 4000);
         assert_relative_eq!(kf.estimate()[2], s * 0.7 + 0.2, epsilon = 1e-6);
         // a coupling must name a state and an output that exist
         cfg.disturbance.coupling = vec![crate::config::DisturbanceCoupling {
@@ -583,19 +588,13 @@ mod tests {
     /// output, the faster state has taken up more of it after 5 cycles.
     #[test]
     fn per_state_disturbance_noise_sets_each_states_speed() {
-        let m1 = first_order();
-        let c = DMatrix::from_row_slice(2, 1, &[m1.c[(0, 0)], m1.c[(0, 0)]]);
-        let m =
-            DiscreteLti::new(m1.a.clone(), m1.b.clone(), c, DMatrix::zeros(2, 1), m1.dt_s).unwrap();
+        let m = two_outputs(1.0);
         let mut cfg = MpcConfig::siso(5, -1.0, 1.0, 1.0);
         cfg.weights.output = vec![0.0, 1.0];
         cfg.disturbance.channels = Some(vec![0, 1]);
         let aug = AugmentedModel::new(&m, &cfg).unwrap();
         let mut kf = KalmanFilter::steady_state(&aug, 1e-9, &[1e-4, 1e-7], &[1e-4, 1e-4]).unwrap();
-        for _ in 0..5 {
-            kf.correct(&[1.0, 1.0], &[0.0, 0.0]);
-            kf.predict(&[0.0]);
-        }
+        settle(&mut kf, &[1.0, 1.0], 5);
         let (fast, slow) = (kf.estimate()[1], kf.estimate()[2]);
         assert!(fast > 0.9 && slow < 0.2, "fast {fast} slow {slow}");
         assert!(matches!(
