@@ -4,8 +4,12 @@
 //! diagnosed against their nominal session, and what is named is compared with what was hidden.
 //!
 //! ```text
-//! cargo run -p millcomp-diagnose --example real_data_study --release -- [--n 210] [--rows single,two,none,matched,measured_stiffness] [--seeds study|fresh|dev] [--out DIR]
+//! cargo run -p millcomp-diagnose --example real_data_study --release -- [--n 210] [--rows single,two,none,matched,measured_stiffness] [--seeds study|fresh|third|dev] [--plan base|extended] [--out DIR]
 //! ```
+//! `--plan extended` gives every row's nominal session the plan `diagnose` would propose as the
+//! next experiment: the study's 14 grooves with each of its eight standard changes appended once
+//! ([`millcomp_diagnose::aliasing::extended_session`]); the truth of each variant is drawn on that
+//! plan from the same distribution and seeds. The default is the study's plan (`base`).
 //! `--n` sessions per row (stratified: the single and matched rows cycle through the seven effects,
 //! the two-effect row through the 21 pairs, `measured_stiffness` alternates machine compliance and
 //! nothing); `--seeds` picks the seed block (`VARIANTS.md`, "Seeds"): `study` — version 1's study
@@ -228,6 +232,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut rows = vec![Row::Single, Row::Two, Row::None, Row::Matched];
     let mut block = SeedBlock::Study;
     let mut out: Option<PathBuf> = None;
+    let mut extended = false;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -247,6 +252,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 }
             }
             "--out" => out = Some(args.next().ok_or("--out needs a directory")?.into()),
+            "--plan" => {
+                extended = match args.next().ok_or("--plan needs base or extended")?.as_str() {
+                    "base" => false,
+                    "extended" => true,
+                    other => return Err(format!("unknown plan `{other}`").into()),
+                }
+            }
             "--rows" => {
                 rows = args
                     .next()
@@ -274,7 +286,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     let mut diagnosers: Vec<Prepared> = Vec::new();
     for &row in &rows {
-        let session = row.nominal_session();
+        let mut session = row.nominal_session();
+        if extended {
+            session = millcomp_diagnose::aliasing::extended_session(&session).0;
+        }
         let d = Diagnoser::new(&session, &DiagnoseOptions::default())?;
         let ideal = IdealObserver::new(d.session_model());
         diagnosers.push((row, session, d, ideal));
@@ -336,9 +351,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut md = String::new();
     let _ = writeln!(
         md,
-        "Variant distribution version {SPEC_VERSION} (synthetic/VARIANTS.md), {} seeds, {n} sessions per row, \
+        "Variant distribution version {SPEC_VERSION} (synthetic/VARIANTS.md), {} seeds, {}, {n} sessions per row, \
          {} sessions in {:.0} s wall ({:.2} s per session on one core on average).\n",
         block.name(),
+        if extended {
+            "the extended plan (the study's 14 grooves + the eight standard changes)"
+        } else {
+            "the study's plan (14 grooves)"
+        },
         done.len(),
         wall,
         done.iter().map(|d| d.seconds).sum::<f64>() / done.len().max(1) as f64

@@ -237,6 +237,33 @@ impl Change {
     }
 }
 
+/// The session with every standard change that applies appended once, in the order of
+/// [`CHANGES`], and each change in words: the next experiment that gives every family the
+/// variation the standard changes can give it (a design chosen from the changes alone, not from
+/// any data). A change that does not apply to the plan so far is left out.
+///
+/// # Examples
+/// ```
+/// use millcomp_diagnose::aliasing::{CHANGES, extended_session};
+/// let base = millcomp_synthetic::base_session("plan", "the committed cases' plan");
+/// let (ext, changes) = extended_session(&base);
+/// // the 14 grooves, then each of the eight changes' groove (the 20° first groove takes 40° tilt)
+/// assert_eq!(changes.len(), CHANGES.len());
+/// let grooves = |s: &millcomp_sim::session::Session| s.contexts().unwrap().points.len() / 21;
+/// assert_eq!((grooves(&base), grooves(&ext)), (14, 22));
+/// ```
+pub fn extended_session(s: &Session) -> (Session, Vec<String>) {
+    let mut out = s.clone();
+    let mut what = Vec::new();
+    for c in CHANGES {
+        if let Some((next, w)) = c.apply(&out) {
+            out = next;
+            what.push(w);
+        }
+    }
+    (out, what)
+}
+
 /// Whitened reference column of a family — its first shape at the 002 size and reference
 /// parameters, or, where those leave it flat (a speed below the reference onset), at the first
 /// grid point that does not — or `None` when no shape responds anywhere (not testable).

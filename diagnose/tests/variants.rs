@@ -296,3 +296,41 @@ fn a_straightness_bump_has_no_look_alike() {
     let rep = named_first(vec!["slideway_straightness"], 4);
     assert!(rep.look_alikes.is_empty(), "{:?}", rep.look_alikes);
 }
+
+/// The study's plan switches the coolant on at a speed change, so a coolant drift hidden beside a
+/// spindle growth is taken by the spindle's lags and not named (development seed, two-effect row,
+/// k = 126: both at 1.4–1.5× the 002 magnitudes). The same draw on the extended plan — the
+/// study's plan with `diagnose`'s eight standard changes appended, the coolant switched with the
+/// spindle running among them (`aliasing::extended_session`) — names both.
+#[test]
+fn the_extended_plan_separates_a_coolant_drift_from_a_spindle_growth() {
+    use millcomp_synthetic::variants::{SeedBlock, row_specs};
+    let spec = row_specs(Row::Two, 210, Row::Two.seed_base(SeedBlock::Dev))[126].clone();
+    assert_eq!(spec.seed, 9_100_126);
+    let mut hidden = spec.effects.clone();
+    hidden.sort_unstable();
+    assert_eq!(hidden, ["coolant_thermal_drift", "spindle_thermal_growth"]);
+    let base = study_session();
+    let on_base = run(&Measured::new("base", draw(&base, &spec).unwrap().points));
+    assert!(
+        on_base.named.iter().any(|n| n == "spindle_thermal_growth")
+            && !on_base.named.iter().any(|n| n == "coolant_thermal_drift"),
+        "{}",
+        show(&on_base)
+    );
+    let (ext, changes) = millcomp_diagnose::aliasing::extended_session(&base);
+    assert!(
+        changes.iter().any(|c| c.contains("spindle running")),
+        "{changes:?}"
+    );
+    let on_ext = Diagnoser::new(&ext, &opts())
+        .unwrap()
+        .run(&Measured::new(
+            "extended",
+            draw(&ext, &spec).unwrap().points,
+        ))
+        .unwrap();
+    let mut named = on_ext.named.clone();
+    named.sort_unstable();
+    assert_eq!(named, hidden, "{}", show(&on_ext));
+}
