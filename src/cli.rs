@@ -351,6 +351,12 @@ pub struct DiagnoseArgs {
     /// constant offset is then never blamed on an effect.
     #[arg(long)]
     pub free_offset: bool,
+    /// Also write the next experiment's session file here: this session's plan with each of
+    /// diagnose's standard changes appended (pauses with the spindle stopped and running, the
+    /// coolant switched with the spindle stopped and running, the first groove again at a second X,
+    /// upfeed, speed and tilt; diagnose/STUDY.md, "Fifth round").
+    #[arg(long, conflicts_with = "record")]
+    pub next_plan: Option<PathBuf>,
 }
 
 /// `millcomp simulate SESSION|SCENARIO`.

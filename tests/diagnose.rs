@@ -192,3 +192,44 @@ fn text_report_and_svg_plots_of_the_two_effect_session() {
     assert_eq!(name_of(1), "residual_step0_nuisance.svg");
     assert!(name_of(2).starts_with("residual_step1_"), "{}", name_of(2));
 }
+
+/// `--next-plan` writes the next experiment's session: the plan with diagnose's eight standard
+/// changes appended, which reads back as a session and plays out (22 grooves, 462 points); a path
+/// that cannot be written is an error naming it, with nothing left behind.
+#[test]
+fn next_plan_writes_the_session_with_the_standard_changes() {
+    let dir = tempfile::tempdir().unwrap();
+    let next = dir.path().join("next.toml");
+    millcomp()
+        .args([
+            "diagnose",
+            &synthetic("clean", "toml"),
+            &synthetic("clean", "csv"),
+            "--next-plan",
+            s(&next),
+        ])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("next plan: "))
+        .stdout(predicate::str::contains("22 grooves"))
+        .stdout(predicate::str::contains(
+            "the coolant switched on for 45 min with the spindle running",
+        ));
+    let session = millcomp_sim::session::Session::from_path(&next).unwrap();
+    assert!(session.name.ends_with("_next"), "{}", session.name);
+    assert_eq!(session.contexts().unwrap().points.len(), 462);
+    let bad = dir.path().join("missing").join("next.toml");
+    millcomp()
+        .args([
+            "diagnose",
+            &synthetic("clean", "toml"),
+            &synthetic("clean", "csv"),
+            "--next-plan",
+            s(&bad),
+        ])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains("missing"));
+    assert!(!bad.exists());
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+}

@@ -62,12 +62,25 @@ pub fn run(args: DiagnoseArgs, json: bool) -> anyhow::Result<()> {
         }
         None => Vec::new(),
     };
+    let next = match &args.next_plan {
+        Some(path) => Some(write_next_plan(&session, path)?),
+        None => None,
+    };
     if json {
         return print_json(&report);
     }
     print!("{}", present::diagnose::text(&report));
     for f in &plots {
         println!("report: {}", f.display());
+    }
+    if let (Some(path), Some((grooves, hours, changes))) = (&args.next_plan, next) {
+        println!(
+            "next plan: {} — {grooves} grooves, {hours:.1} h: this plan, then",
+            path.display()
+        );
+        for (i, c) in changes.iter().enumerate() {
+            println!("  {}. {c}", i + 1);
+        }
     }
     for c in &file.ignored_columns {
         println!(
@@ -79,4 +92,44 @@ pub fn run(args: DiagnoseArgs, json: bool) -> anyhow::Result<()> {
         println!("note: {}: {n}", measured_path.display());
     }
     Ok(())
+}
+
+/// Write `session` with every standard change appended (`aliasing::extended_session`) to `path`
+/// (temp file + rename), after checking that the file reads back as the same session. Returns the
+/// number of grooves, the hours to the last measured point and the changes in words.
+fn write_next_plan(
+    session: &Session,
+    path: &std::path::Path,
+) -> anyhow::Result<(usize, f64, Vec<String>)> {
+    let (mut next, changes) = millcomp_diagnose::aliasing::extended_session(session);
+    if changes.is_empty() {
+        bail!(
+            "--next-plan: no standard change applies to the plan of session `{}`",
+            session.name
+        );
+    }
+    next.name = format!("{}_next", session.name);
+    next.description = format!(
+        "{} Then diagnose's standard changes: {}.",
+        session.description.trim_end(),
+        changes.join("; ")
+    );
+    let text = toml::to_string(&next).context("--next-plan: writing the session as TOML")?;
+    let back = Session::from_toml_str(&text)
+        .context("--next-plan: the written session does not read back")?;
+    if back != next {
+        bail!("--next-plan: the written session does not read back as the same session");
+    }
+    let contexts = next
+        .contexts()
+        .context("--next-plan: playing out the next plan")?;
+    let grooves = next
+        .plan
+        .iter()
+        .filter(|p| matches!(p, millcomp_sim::session::PlanItem::Groove(_)))
+        .count();
+    let hours = contexts.points.iter().map(|p| p.t_s).fold(0.0, f64::max) / 3600.0;
+    millcomp_datasets::write_text_atomic(path, &text)
+        .with_context(|| format!("writing the next plan {}", path.display()))?;
+    Ok((grooves, hours, changes))
 }
