@@ -113,6 +113,10 @@ pub enum SeedBlock {
     /// The third round's fresh seeds (11 000 000 + k … 14 500 000 + k), first run after the third
     /// round of development (the leave-one-groove-out step): the honest estimate of that version.
     Third,
+    /// The fifth round's fresh seeds (15 000 000 + k … 18 500 000 + k), first run after the fifth
+    /// round of development (compliance past a preload, runout changing with depth): the honest
+    /// estimate of that version. (The fourth round changed no name and had no block.)
+    Fifth,
     /// Development seeds (9 000 000 + 100 000·row + k): tuning and tests.
     Dev,
 }
@@ -124,6 +128,7 @@ impl SeedBlock {
             SeedBlock::Study => "study (version 1's, looked at)",
             SeedBlock::Fresh => "fresh study (second round's)",
             SeedBlock::Third => "third round's fresh study",
+            SeedBlock::Fifth => "fifth round's fresh study",
             SeedBlock::Dev => "development",
         }
     }
@@ -150,6 +155,7 @@ impl Row {
             SeedBlock::Study => 1_000_000 * (k + 1) - u64::from(k == 4) * 500_000,
             SeedBlock::Fresh => 5_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
             SeedBlock::Third => 11_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
+            SeedBlock::Fifth => 15_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
             SeedBlock::Dev => DEV_SEED_BASE + 100_000 * k,
         }
     }

@@ -198,6 +198,7 @@ mod variants {
                     SeedBlock::Study,
                     SeedBlock::Fresh,
                     SeedBlock::Third,
+                    SeedBlock::Fifth,
                     SeedBlock::Dev,
                 ]
                 .map(|b| r.seed_base(b))
@@ -207,6 +208,10 @@ mod variants {
         assert_eq!(Row::Matched.seed_base(SeedBlock::Study), 4_000_000);
         assert_eq!(Row::Single.seed_base(SeedBlock::Fresh), 5_000_000);
         assert_eq!(Row::Single.seed_base(SeedBlock::Third), 11_000_000);
+        assert_eq!(
+            Row::MeasuredStiffness.seed_base(SeedBlock::Fifth),
+            18_500_000
+        );
         starts.sort_unstable();
         for w in starts.windows(2) {
             assert!(w[1] - w[0] >= 100_000, "{starts:?}");
