@@ -11,8 +11,8 @@
 //! | `probe_tilt_offset` | one constant per tool | `constant` (offset) |
 //! | `tool_wear` | engaged length, monotone | `saturating` (max wear ≥ 0; L0) — sim's form, `power_law` (wear at the end ≥ 0; exponent), `running_in_linear` (running-in wear ≥ 0, steady wear at the end ≥ 0; running-in length) |
 //! | `slideway_straightness` | machine X, smooth, zero at the start of the X range | `bow` (amplitude) — sim's parabola, `cubic` (three polynomial coefficients), `spline` (eight cubic B-spline coefficients, knots every 1/6 of the range) |
-//! | `machine_compliance` | peak force | `constant` (compliance ≥ 0), `x_linear` (compliance at X start and its change over the range) |
-//! | `flute_runout` | chip asymmetry of the two flutes | `constant` (runout; sim's form), `growing` (runout at the start and its growth over the session's engaged length), `speed_dependent` (runout at rest and its growth ∝ rpm², dynamic unbalance) |
+//! | `machine_compliance` | peak force | `constant` (compliance ≥ 0), `x_linear` (compliance at X start and its change over the range), `preload` (compliance ≥ 0 beyond a preload; the preload as a share of the session's largest force) — a joint that gives once its preload is overcome |
+//! | `flute_runout` | chip asymmetry of the two flutes | `constant` (runout; sim's form), `growing` (runout at the start and its growth over the session's engaged length), `speed_dependent` (runout at rest and its growth ∝ rpm², dynamic unbalance), `depth_dependent` (runout and its change at 80 µm depth: a chip asymmetry that changes with the depth cut) |
 //!
 //! The first shape of each family is its **reference** form (sim's effect); the plan analysis
 //! ([`crate::aliasing`]) uses it at its reference parameters (002's values).
@@ -66,12 +66,16 @@ pub enum ShapeKind {
     ComplianceConstant,
     /// −(c₀ + c₁u)·F.
     ComplianceXLinear,
+    /// −c·(F − b·F_max)₊: a joint that gives once its preload b·F_max is overcome.
+    CompliancePreload,
     /// sim's flute runout with runout r (a fixed column, no coefficient).
     RunoutConstant,
     /// sim's flute runout with runout r₀ + r₁·L/L_end (fixed column).
     RunoutGrowing,
     /// sim's flute runout with runout r₀ + r₂·(rpm/50 000)² (fixed column).
     RunoutSpeed,
+    /// sim's flute runout with runout r₀ + r₁·d/80 µm, d the depth cut (fixed column).
+    RunoutDepth,
 }
 
 /// One shape of a family.
@@ -224,12 +228,19 @@ impl Shape {
                     .map(|p| -p.force_z_n * u(p.machine_x_mm))
                     .collect(),
             ],
+            ShapeKind::CompliancePreload => {
+                let f0 = phi[0] * f.max_force_n;
+                vec![pts.iter().map(|p| -(p.force_z_n - f0).max(0.0)).collect()]
+            }
             ShapeKind::RunoutConstant => vec![runout_column(sm, |_| phi[0])],
             ShapeKind::RunoutGrowing => vec![runout_column(sm, |c| {
                 phi[0] + phi[1] * c.cut_length_mm.max(0.0) / f.end_mm.max(1e-9)
             })],
             ShapeKind::RunoutSpeed => vec![runout_column(sm, |c| {
                 phi[0] + phi[1] * (c.speed_rpm / 50_000.0).powi(2)
+            })],
+            ShapeKind::RunoutDepth => vec![runout_column(sm, |c| {
+                phi[0] + phi[1] * c.depth_actual_um.max(0.0) / 80.0
             })],
         }
     }
@@ -680,6 +691,21 @@ pub fn standard() -> Vec<Family> {
                     nonnegative: false,
                     reference_coef: 0.1,
                 },
+                Shape {
+                    name: "preload",
+                    description: "−c·(F − b·F_max)₊, a joint that gives once its preload b·F_max is overcome",
+                    linear: vec!["compliance_um_per_n"],
+                    nonlinear: vec![nl(
+                        "preload_share",
+                        0.0,
+                        0.9,
+                        &[0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7],
+                        0.3,
+                    )],
+                    kind: ShapeKind::CompliancePreload,
+                    nonnegative: true,
+                    reference_coef: 0.1,
+                },
             ],
         },
         Family {
@@ -729,6 +755,24 @@ pub fn standard() -> Vec<Family> {
                         ),
                     ],
                     kind: ShapeKind::RunoutSpeed,
+                    nonnegative: false,
+                    reference_coef: 1.0,
+                },
+                Shape {
+                    name: "depth_dependent",
+                    description: "runout r0 + r1·d/80 µm, changing with the depth cut (chip asymmetry)",
+                    linear: vec![],
+                    nonlinear: vec![
+                        nl("runout_um", 0.0, 50.0, &[0.5, 1.5, 3.0, 5.0], 3.0),
+                        nl(
+                            "runout_at_80_um_depth_um",
+                            -50.0,
+                            50.0,
+                            &[-1.0, 1.0, 2.0, 4.0],
+                            0.0,
+                        ),
+                    ],
+                    kind: ShapeKind::RunoutDepth,
                     nonnegative: false,
                     reference_coef: 1.0,
                 },

@@ -1032,17 +1032,19 @@ impl Diagnoser {
                 break;
             }
             let threshold = alpha / shapes_tried.max(1) as f64;
-            // significant candidates first, ranked by how much of the discrepancy they close for
-            // their parameters — the BIC of the raw residual, n·ln(RSS) + q·ln n: the raw RMS
-            // alone (the first version) favours the most flexible family, whose extra
-            // parameters also fit the misfit of another effect's shape; p alone favours a
-            // pattern within grooves (hundreds of dof) over one between them (a dozen groove
-            // means); the others by p
+            // significant candidates first, ranked by dominance (below), then by how well the
+            // model with each predicts held-out grooves (the leave-one-groove-out score, the
+            // quantity the acceptance checks): the raw RMS alone (the first version) favours the
+            // most flexible family, whose extra parameters also fit the misfit of another
+            // effect's shape; p alone favours a pattern within grooves (hundreds of dof) over one
+            // between them (a dozen groove means); the BIC of the raw residual (the second to
+            // fourth rounds) favours a pattern between grooves that soaks up groove scatter (a
+            // compliance in the force over a runout). The others by p.
             let sig = |c: &Candidate| c.test.p_value < threshold && cur.rss > c.alt.rss;
-            let raw_bic = |c: &Candidate| {
-                n as f64 * (c.rms_after * c.rms_after).max(1e-300).ln()
-                    + c.term.shape.n_params() as f64 * ln_n
-            };
+            let held_out: Vec<f64> = cands
+                .iter()
+                .map(|c| logo::score(&w, &c.alt.x, &c.alt.r))
+                .collect();
             let named_basis = self.named_driver_basis(&terms, &cur.theta, &w, cur.r.len());
             // which significant candidate explains what another cannot: a candidate is
             // dominated by another when the other is significant beyond a flexible shape of the
@@ -1084,7 +1086,7 @@ impl Diagnoser {
                 sig(cb).cmp(&sig(ca)).then(if sig(ca) && sig(cb) {
                     dominated[a]
                         .cmp(&dominated[b])
-                        .then(raw_bic(ca).total_cmp(&raw_bic(cb)))
+                        .then(held_out[a].total_cmp(&held_out[b]))
                 } else {
                     ca.test.ln_p.total_cmp(&cb.test.ln_p)
                 })
@@ -1102,7 +1104,7 @@ impl Diagnoser {
                 let significant = c.test.p_value < threshold && cur.rss > c.alt.rss;
                 let l = Logo {
                     before: logo_null,
-                    after: logo::score(&w, &c.alt.x, &c.alt.r),
+                    after: held_out[ci],
                 };
                 let logo_s = Some(l);
                 let beyond_named = named_basis
