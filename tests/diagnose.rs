@@ -199,16 +199,19 @@ fn text_report_and_svg_plots_of_the_two_effect_session() {
 #[test]
 fn next_plan_writes_the_session_with_the_standard_changes() {
     let dir = tempfile::tempdir().unwrap();
+    let next_plan = |path: &std::path::Path| {
+        millcomp()
+            .args([
+                "diagnose",
+                &synthetic("clean", "toml"),
+                &synthetic("clean", "csv"),
+                "--next-plan",
+                s(path),
+            ])
+            .assert()
+    };
     let next = dir.path().join("next.toml");
-    millcomp()
-        .args([
-            "diagnose",
-            &synthetic("clean", "toml"),
-            &synthetic("clean", "csv"),
-            "--next-plan",
-            s(&next),
-        ])
-        .assert()
+    next_plan(&next)
         .success()
         .stdout(predicate::str::contains("next plan: "))
         .stdout(predicate::str::contains("22 grooves"))
@@ -219,15 +222,7 @@ fn next_plan_writes_the_session_with_the_standard_changes() {
     assert!(session.name.ends_with("_next"), "{}", session.name);
     assert_eq!(session.contexts().unwrap().points.len(), 462);
     let bad = dir.path().join("missing").join("next.toml");
-    millcomp()
-        .args([
-            "diagnose",
-            &synthetic("clean", "toml"),
-            &synthetic("clean", "csv"),
-            "--next-plan",
-            s(&bad),
-        ])
-        .assert()
+    next_plan(&bad)
         .failure()
         .stderr(predicate::str::contains("missing"));
     assert!(!bad.exists());
