@@ -172,7 +172,7 @@ impl AugmentedModel {
                         format!(
                             "state 0 ..= {}, output 0 ..= {}",
                             nd.saturating_sub(1),
-                            ny - 1
+                            ny.saturating_sub(1)
                         ),
                     ));
                 }
