@@ -142,8 +142,12 @@ impl Change {
             .collect();
         let top = grooves.iter().map(|g| g.speed_rpm).fold(0.0, f64::max);
         let coolant_end = s.timeline().coolant_events.last().is_some_and(|e| e.1);
+        // The repeated groove keeps the coolant as the plan (and the change) left it: with the
+        // first groove's own setting it would switch the coolant back as it starts, so a coolant
+        // change would be undone and every other change would also be a coolant switch.
         let mut g = GrooveSpec {
             start_s: None,
+            coolant: None,
             ..first.clone()
         };
         let mut out = s.clone();

@@ -348,3 +348,42 @@ fn the_extended_plan_separates_a_coolant_drift_from_a_spindle_growth() {
     named.sort_unstable();
     assert_eq!(named, hidden, "{}", show(&on_ext));
 }
+
+/// Each standard change's repeated groove keeps the coolant as the change left it. The study's
+/// first groove is cut with the coolant off and the plan ends with it on, so a repeat with the
+/// first groove's own setting would switch the coolant off as it starts: the coolant switches
+/// would be undone and every other change would also be a coolant switch.
+#[test]
+fn a_change_repeats_the_first_groove_without_switching_the_coolant() {
+    use millcomp_diagnose::aliasing::CHANGES;
+    let base = study_session();
+    let coolant_at_end = |s: &Session| s.timeline().coolant_events.last().is_some_and(|e| e.1);
+    let base_ctx = base.contexts().unwrap();
+    // the premise: the first groove is cut dry and the plan ends with the coolant on
+    assert!(!base_ctx.points[0].coolant_on && coolant_at_end(&base));
+    for c in CHANGES {
+        let Some((changed, what)) = c.apply(&base) else {
+            continue;
+        };
+        let ctx = changed.contexts().unwrap();
+        let last = ctx.points.last().unwrap();
+        let switched = what.contains("coolant switched off");
+        // the coolant during the repeated groove: on unless the change itself switched it off
+        assert_eq!(last.coolant_on, !switched, "{c:?}: {what}");
+        // and no switch event falls inside the repeated groove
+        let groove_start = ctx
+            .points
+            .iter()
+            .find(|p| p.groove_id == last.groove_id)
+            .unwrap()
+            .t_s;
+        assert!(
+            ctx.timeline
+                .coolant_events
+                .iter()
+                .all(|e| e.0 < groove_start - 1e-9 || e.0 > last.t_s),
+            "{c:?}: {what}: {:?}",
+            ctx.timeline.coolant_events
+        );
+    }
+}
