@@ -11,5 +11,6 @@ mod diagnose;
 mod doe;
 mod identify;
 mod parts;
+mod readme;
 mod real;
 mod simulate;

@@ -1,0 +1,194 @@
+//! The README's outputs stay true: the console blocks whose commands are fast and deterministic are
+//! run as the README shows them and their output is compared with what it shows.
+//!
+//! A block is a run of `$ COMMAND` lines, each followed by the output the README shows for it. Its
+//! commands run in order in one scratch directory holding a copy of `datasets/` (so `--report`,
+//! `--save` and `--out` write there), through `bash -c` with this build's `millcomp` first on the
+//! PATH, stdout and stderr together (the README shows both). An output line `...` (indented or not)
+//! or a parenthesised remark `(…)` stands for output left out: the other lines must then appear in
+//! that order; a block without one must match line for line. Trailing spaces do not count.
+//!
+//! Left out, and why: the closed-loop `simulate`/`batch`/`parts` blocks (the MPC's cycle times and
+//! deadline fallbacks depend on the machine's load), `commission --coverage` and the thermal
+//! identifications of the full FL record (a minute each unoptimised), the studies run through
+//! `cargo run --release` (minutes), and `datasets check bad.csv` (the README does not ship the file).
+
+use std::path::Path;
+use std::process::Command;
+
+/// The first command of each checked block, as the README writes it.
+const CHECKED: &[&str] = &[
+    "millcomp datasets list",
+    "millcomp doe design --design fractional --factors depth_um=100:200,speed_rpm=10000:20000,upfeed_um=10:20,wearland_um=4:12 --resolution 4 --seed 3",
+    "millcomp doe analyze datasets/data/clayton_doe.csv --response max_fx_n --factors depth_um,speed_rpm,upfeed_um",
+    "millcomp identify force datasets/data/clayton_doe.csv --material 6061",
+    "millcomp simulate datasets/sessions/example.toml --out run.csv --plot run.svg",
+    "millcomp identify spindle datasets/runs/spindle_step_synthetic.csv --save spindle.toml",
+    "millcomp diagnose datasets/synthetic/real_tool_wear.toml datasets/synthetic/real_tool_wear.csv",
+    "millcomp diagnose datasets/synthetic/plan_cannot_separate.toml datasets/synthetic/plan_cannot_separate.csv",
+    "millcomp diagnose datasets/synthetic/real_coolant_thermal_drift+tool_wear.toml datasets/synthetic/real_coolant_thermal_drift+tool_wear.csv | grep -E '^(look-alike|named)'",
+    "millcomp diagnose datasets/synthetic/real_coolant_thermal_drift+tool_wear.toml datasets/synthetic/real_coolant_thermal_drift+tool_wear.csv --next-plan next.toml | grep -A8 '^next plan'",
+    "millcomp diagnose --record datasets/real/fl_thermal/thermal_drift.csv --columns 't_s=time_s,speed_rpm=spindle_rpm,temp_c=temp_t*_C,drift_um=disp_ch1_um'",
+    "millcomp diagnose --record datasets/real/phm2010_c1/per_cut_force_features_c1.csv --columns 'cut=run,force_n=force_*__rms' --report datasets/real/plots",
+    "millcomp diagnose --record datasets/real/phm2010_c1/per_cut_force_features_c1.csv --columns 'cut=run,t_s=run,speed_rpm=10400,force_n=force_z__rms'",
+    "millcomp identify wear datasets/real/phm2010_c1/per_cut_force_features_c1.csv --join datasets/real/phm2010_c1/per_cut_wear_c1.csv --on run --columns 'cut=run,force_n=force_*__rms,vb_um=VB_flute_*' --train 1:199 --test 200:315 --plots datasets/real/plots",
+    "millcomp identify flutes datasets/real/phm2010_c1/c1_cut001_mid.csv --also datasets/real/phm2010_c1/c1_cut315_mid.csv --columns 'force_n=force_x_N+force_y_N+force_z_N' --flutes 3 --speed-rpm 10400 --sample-rate-hz 50000 --plots datasets/real/plots",
+    "millcomp identify thermal datasets/real/fl_thermal/thermal_drift.csv --columns 't_s=time_s,drift_um=disp_ch9_um' --train 0:50%",
+];
+
+/// One `$ COMMAND` of a block and the output lines the README shows after it.
+struct Step {
+    command: String,
+    shown: Vec<String>,
+}
+
+/// The README's console blocks (```` ```console ````), each as its steps.
+fn console_blocks(readme: &str) -> Vec<Vec<Step>> {
+    let mut blocks = Vec::new();
+    let mut current: Option<Vec<Step>> = None;
+    for line in readme.lines() {
+        match current.as_mut() {
+            None if line.starts_with("```console") => current = Some(Vec::new()),
+            None => {}
+            Some(_) if line.starts_with("```") => blocks.extend(current.take()),
+            Some(steps) => {
+                if let Some(cmd) = line.strip_prefix("$ ") {
+                    steps.push(Step {
+                        command: cmd.to_string(),
+                        shown: Vec::new(),
+                    });
+                } else if let Some(step) = steps.last_mut() {
+                    step.shown.push(line.trim_end().to_string());
+                }
+            }
+        }
+    }
+    blocks
+}
+
+/// A shown line that stands for output left out.
+fn is_elision(line: &str) -> bool {
+    let t = line.trim();
+    t == "..." || (t.starts_with('(') && t.ends_with(')'))
+}
+
+/// `None` when `actual` shows what `shown` says; else what is wrong. Blank lines at the end of
+/// either do not count; a command shown without output is run but not compared.
+fn mismatch(shown: &[String], actual: &[String]) -> Option<String> {
+    let trim = |v: &[String]| v.len() - v.iter().rev().take_while(|l| l.is_empty()).count();
+    let (shown, actual) = (&shown[..trim(shown)], &actual[..trim(actual)]);
+    if shown.is_empty() {
+        return None;
+    }
+    if !shown.iter().any(|l| is_elision(l)) {
+        return (shown != actual).then(|| "the output differs line for line".to_string());
+    }
+    let mut rest = actual.iter();
+    let missing: Vec<&String> = shown
+        .iter()
+        .filter(|l| !is_elision(l))
+        .filter(|l| !rest.any(|a| a == *l))
+        .collect();
+    // after a missing line the search has run to the end: report the first one only
+    missing
+        .first()
+        .map(|l| format!("this shown line is not in the output (in order): {l}"))
+}
+
+/// Copies `from` into `to` recursively.
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).expect("scratch directory");
+    for entry in std::fs::read_dir(from).expect("datasets/ readable") {
+        let entry = entry.expect("directory entry");
+        let target = to.join(entry.file_name());
+        if entry.file_type().expect("file type").is_dir() {
+            copy_dir(&entry.path(), &target);
+        } else {
+            std::fs::copy(entry.path(), &target).expect("copy");
+        }
+    }
+}
+
+#[test]
+fn the_readme_blocks_show_what_the_commands_print() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let readme = std::fs::read_to_string(root.join("README.md")).expect("README.md");
+    let blocks = console_blocks(&readme);
+    let bin = assert_cmd::cargo::cargo_bin("millcomp");
+    let path = format!(
+        "{}:{}",
+        bin.parent().expect("the binary's directory").display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let scratch = tempfile::tempdir().expect("scratch directory");
+    copy_dir(&root.join("datasets"), &scratch.path().join("datasets"));
+    let mut failures = Vec::new();
+    for first in CHECKED {
+        let Some(block) = blocks
+            .iter()
+            .find(|b| b.first().is_some_and(|s| s.command == *first))
+        else {
+            failures.push(format!(
+                "no console block in README.md starts with `$ {first}`: update CHECKED in tests/readme.rs"
+            ));
+            continue;
+        };
+        for step in block {
+            let out = Command::new("bash")
+                .arg("-c")
+                .arg(format!("{} 2>&1", step.command))
+                .current_dir(scratch.path())
+                .env("PATH", &path)
+                .env("RAYON_NUM_THREADS", "2")
+                .env_remove("SLURM_ARRAY_TASK_ID")
+                .env_remove("JOB_COMPLETION_INDEX")
+                .output()
+                .expect("bash runs");
+            let actual: Vec<String> = String::from_utf8_lossy(&out.stdout)
+                .lines()
+                .map(|l| l.trim_end().to_string())
+                .collect();
+            if let Some(why) = mismatch(&step.shown, &actual) {
+                failures.push(format!(
+                    "$ {}\n{why}\nREADME shows:\n{}\nit prints:\n{}",
+                    step.command,
+                    step.shown.join("\n"),
+                    actual.join("\n")
+                ));
+            }
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} README output(s) are no longer true (re-run the command and update README.md):\n\n{}",
+        failures.len(),
+        failures.join("\n\n")
+    );
+}
+
+#[test]
+fn the_readme_check_tells_an_elided_block_from_a_changed_one() {
+    let lines = |s: &str| s.lines().map(str::to_string).collect::<Vec<_>>();
+    let actual = lines("a\nb\nc\nd");
+    // line for line
+    assert!(mismatch(&lines("a\nb\nc\nd"), &actual).is_none());
+    assert!(mismatch(&lines("a\nb\nc"), &actual).is_some());
+    assert!(mismatch(&lines("a\nb\nc\nd\n"), &actual).is_none());
+    // nothing shown: not compared
+    assert!(mismatch(&[], &actual).is_none());
+    // elisions: the shown lines in order
+    assert!(mismatch(&lines("a\n...\nd"), &actual).is_none());
+    assert!(mismatch(&lines("a\n  ...\nc\n(the rest)"), &actual).is_none());
+    assert!(mismatch(&lines("c\n...\nb"), &actual).is_some());
+    assert!(mismatch(&lines("a\n...\nx"), &actual).is_some());
+    // blocks: commands, their shown output, and a block's end
+    let readme = "text\n```console\n$ one\nout 1  \n$ two\n```\n```\n$ not a console block\n```\n";
+    let blocks = console_blocks(readme);
+    assert_eq!(blocks.len(), 1);
+    assert_eq!(blocks[0].len(), 2);
+    assert_eq!(
+        (blocks[0][0].command.as_str(), &blocks[0][0].shown),
+        ("one", &vec!["out 1".to_string()])
+    );
+    assert!(blocks[0][1].shown.is_empty());
+}
