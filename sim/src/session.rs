@@ -1072,8 +1072,12 @@ impl Session {
                 let delta = static_deflection(&table, d_cmd, compliance);
                 let d_act = (d_cmd - delta).max(0.0);
                 let phi = model.contact_angle_rad(d_act);
-                let n_coolant_events = timeline.coolant_events.partition_point(|e| e.0 <= tp);
-                let n_spindle_events = timeline.spindle_events.partition_point(|e| e.0 <= tp);
+                // the events up to this point: those before it, and those at the groove's start
+                // (its own, or a pause of no length); an event at the end of the groove is the
+                // next item's, after the groove's last point
+                let seen = |t_event: f64| t_event < tp || t_event <= t0;
+                let n_coolant_events = timeline.coolant_events.partition_point(|e| seen(e.0));
+                let n_spindle_events = timeline.spindle_events.partition_point(|e| seen(e.0));
                 points.push(PointContext {
                     groove_id,
                     t_s: tp,

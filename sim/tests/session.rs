@@ -70,6 +70,38 @@ fn timeline_and_contexts_of_the_example_plan() {
     assert_eq!(ctx.offsets_um(wear.as_ref()).len(), ctx.len());
 }
 
+/// A switch made by the item after a groove happens at the groove's end, after its last point:
+/// that point (cut at the end, x = length) keeps the state the groove was cut in. A groove's own
+/// switch, at its start, counts from its first point.
+#[test]
+fn a_switch_after_a_groove_is_not_seen_by_its_last_point() {
+    use millcomp_sim::session::PlanItem;
+    let mut s = Session::from_path(EXAMPLE).unwrap();
+    // example.toml: groove 0 switches the coolant on at 0 s; the 600 s pause after it now switches
+    // it off and stops the spindle at 12 s, the end of groove 0
+    let PlanItem::Pause(p) = &mut s.plan[1] else {
+        panic!("example.toml's second item is a pause")
+    };
+    p.coolant = Some(false);
+    p.speed_rpm = 0.0;
+    let ctx = s.contexts().unwrap();
+    assert_eq!(
+        ctx.timeline.coolant_events,
+        vec![(0.0, true), (ctx.timeline.item_start_s[1], false)]
+    );
+    let groove0: Vec<_> = ctx.points.iter().filter(|p| p.groove_id == 0).collect();
+    let (first, last) = (groove0[0], groove0[groove0.len() - 1]);
+    assert_eq!(last.t_s, ctx.timeline.item_start_s[1]);
+    // the groove's own switch at its first point; not the pause's at its last
+    assert!(first.coolant_on && last.coolant_on);
+    assert_eq!((first.n_coolant_events, last.n_coolant_events), (1, 1));
+    assert_eq!((first.n_spindle_events, last.n_spindle_events), (1, 1));
+    // the next groove is cut after the switch
+    let next = ctx.points.iter().find(|p| p.groove_id == 1).unwrap();
+    assert!(!next.coolant_on);
+    assert_eq!(next.n_coolant_events, 2);
+}
+
 #[test]
 fn measured_points_are_checked_as_a_measurement() {
     let s = Session::from_path(EXAMPLE).unwrap();
