@@ -194,7 +194,7 @@ fn text_report_and_svg_plots_of_the_two_effect_session() {
 }
 
 /// `--next-plan` writes the next experiment's session: the plan with diagnose's eight standard
-/// changes appended, which reads back as a session and plays out (22 grooves, 462 points); a path
+/// changes appended (each coolant switch kept through the groove after it), which reads back as a session and plays out (22 grooves, 462 points); a path
 /// that cannot be written is an error naming it, with nothing left behind.
 #[test]
 fn next_plan_writes_the_session_with_the_standard_changes() {
@@ -215,8 +215,13 @@ fn next_plan_writes_the_session_with_the_standard_changes() {
         .success()
         .stdout(predicate::str::contains("next plan: "))
         .stdout(predicate::str::contains("22 grooves"))
+        // the plan ends with the coolant on; the first groove (cut dry) repeated after the two
+        // pauses leaves it off, so the coolant is switched on, then off with the spindle running
         .stdout(predicate::str::contains(
-            "the coolant switched on for 45 min with the spindle running",
+            "the coolant switched on for 45 min, then cut the first groove again\n",
+        ))
+        .stdout(predicate::str::contains(
+            "the coolant switched off for 45 min with the spindle running",
         ));
     let session = millcomp_sim::session::Session::from_path(&next).unwrap();
     assert!(session.name.ends_with("_next"), "{}", session.name);

@@ -98,7 +98,12 @@ pub enum Change {
     PauseStopped,
     /// A 30 min pause with the spindle at the plan's top speed, then the first groove again.
     PauseRunning,
-    /// The coolant switched (off if it is on at the end, else on) for 45 min, then the first groove.
+    /// The coolant switched (off if it is on at the end, else on) for 45 min, then the first groove
+    /// with the coolant as the switch left it.
+    ///
+    /// Every change's groove is the first groove again, as it was cut — its coolant too, so when
+    /// the plan ends with the coolant in the other state the groove switches it as it starts (the
+    /// description says so) — except after a coolant switch, which it keeps.
     CoolantSwitch,
     /// The coolant switched for 45 min with the spindle running at the last groove's speed (so the
     /// switch is not also a speed change), then the first groove.
@@ -128,8 +133,8 @@ pub const CHANGES: [Change; 8] = [
 impl Change {
     /// The session with the change appended and its description; `None` when it does not apply.
     pub fn apply(self, s: &Session) -> Option<(Session, String)> {
-        let first = s.plan.iter().find_map(|p| match p {
-            PlanItem::Groove(g) => Some(g.clone()),
+        let (first_item, first) = s.plan.iter().enumerate().find_map(|(i, p)| match p {
+            PlanItem::Groove(g) => Some((i, g.clone())),
             PlanItem::Pause(_) => None,
         })?;
         let grooves: Vec<&GrooveSpec> = s
@@ -141,14 +146,33 @@ impl Change {
             })
             .collect();
         let top = grooves.iter().map(|g| g.speed_rpm).fold(0.0, f64::max);
-        let coolant_end = s.timeline().coolant_events.last().is_some_and(|e| e.1);
-        // The repeated groove keeps the coolant as the plan (and the change) left it: with the
-        // first groove's own setting it would switch the coolant back as it starts, so a coolant
-        // change would be undone and every other change would also be a coolant switch.
+        let timeline = s.timeline();
+        let coolant_end = timeline.coolant_events.last().is_some_and(|e| e.1);
+        // the coolant while the first groove was cut (the last switch at or before its start)
+        let first_start = timeline.item_start_s[first_item];
+        let coolant_first = timeline
+            .coolant_events
+            .iter()
+            .take_while(|e| e.0 <= first_start)
+            .last()
+            .is_some_and(|e| e.1);
+        // The repeated groove is the first groove as it was cut, coolant included, except after
+        // a coolant change: there it keeps the coolant as the change left it (with the first
+        // groove's own setting it would switch the coolant back as it starts and undo the change).
         let mut g = GrooveSpec {
             start_s: None,
-            coolant: None,
+            coolant: Some(coolant_first),
             ..first.clone()
+        };
+        let switch_note = |before: bool| {
+            if before == coolant_first {
+                String::new()
+            } else {
+                format!(
+                    " (with the coolant {}, as the first groove was cut; it is switched as the groove starts)",
+                    if coolant_first { "on" } else { "off" }
+                )
+            }
         };
         let mut out = s.clone();
         let repeat = "then cut the first groove again";
@@ -234,6 +258,12 @@ impl Change {
                 g.tilt_deg = first.tilt_deg + 20.0;
                 format!("the first groove again at {:.0}° tilt", g.tilt_deg)
             }
+        };
+        let what = if matches!(self, Change::CoolantSwitch | Change::CoolantSwitchRunning) {
+            g.coolant = None;
+            what
+        } else {
+            what + &switch_note(coolant_end)
         };
         out.plan.push(PlanItem::Groove(g));
         out.validate().ok()?;

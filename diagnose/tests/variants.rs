@@ -349,41 +349,72 @@ fn the_extended_plan_separates_a_coolant_drift_from_a_spindle_growth() {
     assert_eq!(named, hidden, "{}", show(&on_ext));
 }
 
-/// Each standard change's repeated groove keeps the coolant as the change left it. The study's
-/// first groove is cut with the coolant off and the plan ends with it on, so a repeat with the
-/// first groove's own setting would switch the coolant off as it starts: the coolant switches
-/// would be undone and every other change would also be a coolant switch.
+/// Each standard change repeats the first groove as it was cut, its coolant too (saying so when
+/// that switches the coolant), except after a coolant switch, which the repeated groove keeps. The
+/// study's first groove is cut dry and its plan ends with the coolant on: the first version
+/// repeated the groove dry after the coolant switches too, so "the coolant switched on for 45 min,
+/// then the first groove" switched it off again as the groove started.
 #[test]
-fn a_change_repeats_the_first_groove_without_switching_the_coolant() {
-    use millcomp_diagnose::aliasing::CHANGES;
+fn a_change_repeats_the_first_groove_and_keeps_a_coolant_switch() {
+    use millcomp_diagnose::aliasing::{CHANGES, Change};
     let base = study_session();
-    let coolant_at_end = |s: &Session| s.timeline().coolant_events.last().is_some_and(|e| e.1);
     let base_ctx = base.contexts().unwrap();
     // the premise: the first groove is cut dry and the plan ends with the coolant on
-    assert!(!base_ctx.points[0].coolant_on && coolant_at_end(&base));
+    assert!(!base_ctx.points[0].coolant_on);
+    assert!(base.timeline().coolant_events.last().unwrap().1);
     for c in CHANGES {
         let Some((changed, what)) = c.apply(&base) else {
             continue;
         };
         let ctx = changed.contexts().unwrap();
         let last = ctx.points.last().unwrap();
-        let switched = what.contains("coolant switched off");
-        // the coolant during the repeated groove: on unless the change itself switched it off
-        assert_eq!(last.coolant_on, !switched, "{c:?}: {what}");
-        // and no switch event falls inside the repeated groove
         let groove_start = ctx
             .points
             .iter()
             .find(|p| p.groove_id == last.groove_id)
             .unwrap()
             .t_s;
-        assert!(
-            ctx.timeline
-                .coolant_events
-                .iter()
-                .all(|e| e.0 < groove_start - 1e-9 || e.0 > last.t_s),
-            "{c:?}: {what}: {:?}",
-            ctx.timeline.coolant_events
-        );
+        let switches_in_groove = ctx
+            .timeline
+            .coolant_events
+            .iter()
+            .filter(|e| e.0 >= groove_start - 30.0 && e.0 <= last.t_s)
+            .count();
+        if matches!(c, Change::CoolantSwitch | Change::CoolantSwitchRunning) {
+            // switched off in the pause, and kept off through the groove
+            assert!(what.contains("coolant switched off"), "{what}");
+            assert!(!last.coolant_on, "{c:?}: {what}");
+            assert_eq!(switches_in_groove, 0, "{c:?}: {:?}", ctx.timeline);
+        } else {
+            // dry, as the first groove was cut, and the description says the coolant is switched
+            assert!(!last.coolant_on, "{c:?}: {what}");
+            assert_eq!(switches_in_groove, 1, "{c:?}: {:?}", ctx.timeline);
+            assert!(
+                what.ends_with(
+                    "(with the coolant off, as the first groove was cut; it is switched as the groove starts)"
+                ),
+                "{what}"
+            );
+        }
     }
+    // in the extended plan the two coolant changes each switch the coolant, and stay switched
+    let (ext, changes) = millcomp_diagnose::aliasing::extended_session(&base);
+    let switched: Vec<&String> = changes
+        .iter()
+        .filter(|w| w.starts_with("the coolant"))
+        .collect();
+    assert_eq!(switched.len(), 2);
+    assert!(switched[0].contains("switched on") && switched[1].contains("switched off"));
+    let ext_ctx = ext.contexts().unwrap();
+    let last_of = |g: i64| ext_ctx.points.iter().rfind(|p| p.groove_id == g).unwrap();
+    let n_base = base_ctx.points.last().unwrap().groove_id;
+    // grooves n+3 and n+4 follow the coolant changes
+    let on: Vec<bool> = (n_base + 1..=n_base + 8)
+        .map(|g| last_of(g).coolant_on)
+        .collect();
+    assert_eq!(
+        on,
+        [false, false, true, false, false, false, false, false],
+        "{changes:?}"
+    );
 }
