@@ -92,6 +92,10 @@ pub struct PlanAnalysis {
 }
 
 /// A standard change appended to a plan.
+///
+/// Every change ends with the first groove again, as it was cut — its coolant too, so when the plan
+/// ends with the coolant in the other state the groove switches it as it starts (the description
+/// says so) — except after a coolant switch, which the groove keeps.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Change {
     /// A 30 min pause with the spindle stopped, then the first groove again.
@@ -100,10 +104,6 @@ pub enum Change {
     PauseRunning,
     /// The coolant switched (off if it is on at the end, else on) for 45 min, then the first groove
     /// with the coolant as the switch left it.
-    ///
-    /// Every change's groove is the first groove again, as it was cut — its coolant too, so when
-    /// the plan ends with the coolant in the other state the groove switches it as it starts (the
-    /// description says so) — except after a coolant switch, which it keeps.
     CoolantSwitch,
     /// The coolant switched for 45 min with the spindle running at the last groove's speed (so the
     /// switch is not also a speed change), then the first groove.

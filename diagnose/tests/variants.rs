@@ -418,3 +418,29 @@ fn a_change_repeats_the_first_groove_and_keeps_a_coolant_switch() {
         "{changes:?}"
     );
 }
+
+/// A machine whose stiffness varies along X (`VARIANTS.md`'s `position_dependent` compliance,
+/// −F/k(X) with k(X) = k + (Δk/2)·cos(2πX/P); development seed 9 000 096, 0.63× the 002 size) was
+/// named `slideway_straightness` alone until the sixth round: `x_linear` could not follow it, and
+/// the straightness was significant beyond the compliance's driver basis while the compliance was
+/// not beyond the straightness's. With the `x_spline` shape, and the basis containing it, the
+/// compliance is named, alone, in that shape.
+#[test]
+fn a_compliance_that_varies_along_x_is_named_compliance_not_straightness() {
+    use millcomp_synthetic::variants::{SeedBlock, row_specs};
+    let spec = row_specs(Row::Single, 210, Row::Single.seed_base(SeedBlock::Dev))[96].clone();
+    assert_eq!(spec.seed, 9_000_096);
+    let v = draw(&study_session(), &spec).unwrap();
+    assert_eq!(
+        (v.hidden[0].effect, v.hidden[0].shape),
+        ("machine_compliance", "position_dependent")
+    );
+    let rep = run(&Measured::new("position-dependent compliance", v.points));
+    assert_eq!(rep.named, ["machine_compliance"], "{}", show(&rep));
+    assert_eq!(
+        rep.shapes.get("machine_compliance").map(String::as_str),
+        Some("x_spline"),
+        "{}",
+        show(&rep)
+    );
+}

@@ -117,6 +117,10 @@ pub enum SeedBlock {
     /// round of development (compliance past a preload, runout changing with depth): the honest
     /// estimate of that version. (The fourth round changed no name and had no block.)
     Fifth,
+    /// The sixth round's fresh seeds (19 000 000 + k … 22 500 000 + k), first run after the sixth
+    /// round of development (a compliance that varies along X): the honest estimate of that
+    /// version.
+    Sixth,
     /// Development seeds (9 000 000 + 100 000·row + k): tuning and tests.
     Dev,
 }
@@ -129,6 +133,7 @@ impl SeedBlock {
             SeedBlock::Fresh => "fresh study (second round's)",
             SeedBlock::Third => "third round's fresh study",
             SeedBlock::Fifth => "fifth round's fresh study",
+            SeedBlock::Sixth => "sixth round's fresh study",
             SeedBlock::Dev => "development",
         }
     }
@@ -156,6 +161,7 @@ impl Row {
             SeedBlock::Fresh => 5_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
             SeedBlock::Third => 11_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
             SeedBlock::Fifth => 15_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
+            SeedBlock::Sixth => 19_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
             SeedBlock::Dev => DEV_SEED_BASE + 100_000 * k,
         }
     }

@@ -199,6 +199,7 @@ mod variants {
                     SeedBlock::Fresh,
                     SeedBlock::Third,
                     SeedBlock::Fifth,
+                    SeedBlock::Sixth,
                     SeedBlock::Dev,
                 ]
                 .map(|b| r.seed_base(b))
@@ -211,6 +212,10 @@ mod variants {
         assert_eq!(
             Row::MeasuredStiffness.seed_base(SeedBlock::Fifth),
             18_500_000
+        );
+        assert_eq!(
+            Row::MeasuredStiffness.seed_base(SeedBlock::Sixth),
+            22_500_000
         );
         starts.sort_unstable();
         for w in starts.windows(2) {
