@@ -164,16 +164,6 @@ impl Change {
             coolant: Some(coolant_first),
             ..first.clone()
         };
-        let switch_note = |before: bool| {
-            if before == coolant_first {
-                String::new()
-            } else {
-                format!(
-                    " (with the coolant {}, as the first groove was cut; it is switched as the groove starts)",
-                    if coolant_first { "on" } else { "off" }
-                )
-            }
-        };
         let mut out = s.clone();
         let repeat = "then cut the first groove again";
         let what = match self {
@@ -262,8 +252,13 @@ impl Change {
         let what = if matches!(self, Change::CoolantSwitch | Change::CoolantSwitchRunning) {
             g.coolant = None;
             what
+        } else if coolant_end != coolant_first {
+            format!(
+                "{what} (with the coolant {}, as the first groove was cut; it is switched as the groove starts)",
+                if coolant_first { "on" } else { "off" }
+            )
         } else {
-            what + &switch_note(coolant_end)
+            what
         };
         out.plan.push(PlanItem::Groove(g));
         out.validate().ok()?;

@@ -215,13 +215,7 @@ impl Shape {
                 .map(|k| pts.iter().map(|p| u(p.machine_x_mm).powi(k)).collect())
                 .collect(),
             ShapeKind::Spline(m) => {
-                let basis: Vec<Vec<f64>> = pts
-                    .iter()
-                    .map(|p| bspline_basis(u(p.machine_x_mm), m))
-                    .collect();
-                (1..m + 3)
-                    .map(|j| basis.iter().map(|b| b[j]).collect())
-                    .collect()
+                spline_columns(pts, |p| u(p.machine_x_mm), m, 1..m + 3, |_| 1.0)
             }
             ShapeKind::ComplianceConstant => vec![pts.iter().map(|p| -p.force_z_n).collect()],
             ShapeKind::ComplianceXLinear => vec![
@@ -231,18 +225,7 @@ impl Shape {
                     .collect(),
             ],
             ShapeKind::ComplianceXSpline(m) => {
-                let basis: Vec<Vec<f64>> = pts
-                    .iter()
-                    .map(|p| bspline_basis(u(p.machine_x_mm), m))
-                    .collect();
-                (0..m + 3)
-                    .map(|j| {
-                        pts.iter()
-                            .zip(&basis)
-                            .map(|(p, b)| -p.force_z_n * b[j])
-                            .collect()
-                    })
-                    .collect()
+                spline_columns(pts, |p| u(p.machine_x_mm), m, 0..m + 3, |p| -p.force_z_n)
             }
             ShapeKind::CompliancePreload => {
                 let f0 = phi[0] * f.max_force_n;
@@ -288,6 +271,27 @@ fn lag_column(
     pts.iter()
         .map(|p| first_order_response(events, p.t_s, tau))
         .collect()
+}
+
+/// Columns `scale(point)·B_j(v(point))` for the cubic B-splines `B_j` with `m` intervals
+/// ([`bspline_basis`]) and `j` in `cols` (all of them: `0..m + 3`; without the first, zero at
+/// `v = 0`: `1..m + 3`).
+fn spline_columns(
+    pts: &[millcomp_sim::session::PointContext],
+    v: impl Fn(&millcomp_sim::session::PointContext) -> f64,
+    m: usize,
+    cols: std::ops::Range<usize>,
+    scale: impl Fn(&millcomp_sim::session::PointContext) -> f64,
+) -> Vec<Vec<f64>> {
+    let basis: Vec<Vec<f64>> = pts.iter().map(|p| bspline_basis(v(p), m)).collect();
+    cols.map(|j| {
+        basis
+            .iter()
+            .zip(pts)
+            .map(|(b, p)| b[j] * scale(p))
+            .collect()
+    })
+    .collect()
 }
 
 /// sim's flute runout offset at every point with the runout `r(point)` (µm) there.
@@ -379,21 +383,6 @@ impl Family {
         let f = &sm.facts;
         let lag = |events: &[(f64, f64)], tau: f64| lag_column(pts, events, tau);
         let u = |x: f64| f.along_x(x);
-        let spline = |v: &dyn Fn(&millcomp_sim::session::PointContext) -> f64,
-                      m: usize,
-                      scale: &dyn Fn(&millcomp_sim::session::PointContext) -> f64|
-         -> Vec<Vec<f64>> {
-            let basis: Vec<Vec<f64>> = pts.iter().map(|p| bspline_basis(v(p), m)).collect();
-            (1..m + 3)
-                .map(|j| {
-                    basis
-                        .iter()
-                        .zip(pts)
-                        .map(|(b, p)| b[j] * scale(p))
-                        .collect()
-                })
-                .collect()
-        };
         match self.name {
             "coolant_thermal_drift" => [30.0, 120.0, 400.0, 1200.0, 3600.0, 10_000.0]
                 .iter()
@@ -413,25 +402,30 @@ impl Family {
                 }
                 out
             }
-            "tool_wear" => spline(
-                &|p| p.cut_length_mm.max(0.0) / f.end_mm.max(1e-9),
+            "tool_wear" => spline_columns(
+                pts,
+                |p| p.cut_length_mm.max(0.0) / f.end_mm.max(1e-9),
                 6,
-                &|_| -1.0,
+                1..9,
+                |_| -1.0,
             ),
-            "slideway_straightness" => spline(&|p| u(p.machine_x_mm), 12, &|_| 1.0),
+            "slideway_straightness" => {
+                spline_columns(pts, |p| u(p.machine_x_mm), 12, 1..15, |_| 1.0)
+            }
             "machine_compliance" => {
                 let fmax = f.max_force_n.max(1e-9);
                 // all seven B-splines (a compliance at zero force is allowed)
-                let mut out: Vec<Vec<f64>> = (0..7)
-                    .map(|j| {
-                        pts.iter()
-                            .map(|p| -p.force_z_n * bspline_basis(p.force_z_n / fmax, 4)[j])
-                            .collect()
-                    })
-                    .collect();
+                let mut out =
+                    spline_columns(pts, |p| p.force_z_n / fmax, 4, 0..7, |p| -p.force_z_n);
                 // force × a cubic B-spline along X (the `x_spline` shape's, without its first
                 // column: the force splines above already sum to the force)
-                out.extend(spline(&|p| u(p.machine_x_mm), 3, &|p| -p.force_z_n));
+                out.extend(spline_columns(
+                    pts,
+                    |p| u(p.machine_x_mm),
+                    3,
+                    1..6,
+                    |p| -p.force_z_n,
+                ));
                 out
             }
             "flute_runout" => {
