@@ -11,7 +11,7 @@
 //! | `probe_tilt_offset` | one constant per tool | `constant` (offset) |
 //! | `tool_wear` | engaged length, monotone | `saturating` (max wear ≥ 0; L0) — sim's form, `power_law` (wear at the end ≥ 0; exponent), `running_in_linear` (running-in wear ≥ 0, steady wear at the end ≥ 0; running-in length) |
 //! | `slideway_straightness` | machine X, smooth, zero at the start of the X range | `bow` (amplitude) — sim's parabola, `cubic` (three polynomial coefficients), `spline` (eight cubic B-spline coefficients, knots every 1/6 of the range) |
-//! | `machine_compliance` | peak force | `constant` (compliance ≥ 0), `x_linear` (compliance at X start and its change over the range), `x_spline` (the compliance a cubic B-spline along X, knots at thirds of the range — a stiffness that varies with the axis position), `preload` (compliance ≥ 0 beyond a preload; the preload as a share of the session's largest force) — a joint that gives once its preload is overcome |
+//! | `machine_compliance` | peak force | `constant` (compliance ≥ 0), `x_linear` (compliance at X start and its change over the range), `x_spline` (the compliance a cubic B-spline along X, knots at sixths of the range, as the straightness's `spline` — a stiffness that varies with the axis position), `preload` (compliance ≥ 0 beyond a preload; the preload as a share of the session's largest force) — a joint that gives once its preload is overcome |
 //! | `flute_runout` | chip asymmetry of the two flutes | `constant` (runout; sim's form), `growing` (runout at the start and its growth over the session's engaged length), `speed_dependent` (runout at rest and its growth ∝ rpm², dynamic unbalance), `depth_dependent` (runout and its change at 80 µm depth: a chip asymmetry that changes with the depth cut) |
 //!
 //! The first shape of each family is its **reference** form (sim's effect); the plan analysis
@@ -376,7 +376,7 @@ impl Family {
     /// | probe tilt | none (a constant is complete) |
     /// | wear | cubic B-spline in engaged length, 6 intervals, zero at L = 0 (8) |
     /// | straightness | cubic B-spline in machine X, 12 intervals, zero at the start (14) |
-    /// | compliance | force × a cubic B-spline in force (4 intervals, 7) and force × a cubic B-spline along X (3 intervals, zero at the start: 5) |
+    /// | compliance | force × a cubic B-spline in force (4 intervals, 7) and force × a cubic B-spline along X (6 intervals, zero at the start: 8) |
     /// | runout | the runout column's change for a runout change ∝ 1, L, rpm², depth, at runout `runout_um` (4) |
     pub fn driver_basis(&self, sm: &SessionModel, runout_um: f64) -> Vec<Vec<f64>> {
         let pts = sm.points();
@@ -422,8 +422,8 @@ impl Family {
                 out.extend(spline_columns(
                     pts,
                     |p| u(p.machine_x_mm),
-                    3,
-                    1..6,
+                    6,
+                    1..9,
                     |p| -p.force_z_n,
                 ));
                 out
@@ -696,7 +696,7 @@ pub fn standard() -> Vec<Family> {
                 },
                 Shape {
                     name: "x_spline",
-                    description: "−c(u)·F, c a cubic B-spline in X (knots at thirds of the range): a stiffness that varies with the axis position",
+                    description: "−c(u)·F, c a cubic B-spline in X (knots at sixths of the range, as the straightness's spline): a stiffness that varies with the axis position",
                     linear: vec![
                         "c1_um_per_n",
                         "c2_um_per_n",
@@ -704,9 +704,12 @@ pub fn standard() -> Vec<Family> {
                         "c4_um_per_n",
                         "c5_um_per_n",
                         "c6_um_per_n",
+                        "c7_um_per_n",
+                        "c8_um_per_n",
+                        "c9_um_per_n",
                     ],
                     nonlinear: vec![],
-                    kind: ShapeKind::ComplianceXSpline(3),
+                    kind: ShapeKind::ComplianceXSpline(6),
                     nonnegative: false,
                     reference_coef: 0.1,
                 },

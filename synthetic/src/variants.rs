@@ -121,6 +121,10 @@ pub enum SeedBlock {
     /// round of development (a compliance that varies along X): the honest estimate of that
     /// version.
     Sixth,
+    /// The seventh round's fresh seeds (23 000 000 + k … 26 500 000 + k), first run after the
+    /// seventh round of development (the compliance's spline along X as flexible as the
+    /// straightness's): the honest estimate of that version.
+    Seventh,
     /// Development seeds (9 000 000 + 100 000·row + k): tuning and tests.
     Dev,
 }
@@ -134,6 +138,7 @@ impl SeedBlock {
             SeedBlock::Third => "third round's fresh study",
             SeedBlock::Fifth => "fifth round's fresh study",
             SeedBlock::Sixth => "sixth round's fresh study",
+            SeedBlock::Seventh => "seventh round's fresh study",
             SeedBlock::Dev => "development",
         }
     }
@@ -162,6 +167,7 @@ impl Row {
             SeedBlock::Third => 11_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
             SeedBlock::Fifth => 15_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
             SeedBlock::Sixth => 19_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
+            SeedBlock::Seventh => 23_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
             SeedBlock::Dev => DEV_SEED_BASE + 100_000 * k,
         }
     }

@@ -200,6 +200,7 @@ mod variants {
                     SeedBlock::Third,
                     SeedBlock::Fifth,
                     SeedBlock::Sixth,
+                    SeedBlock::Seventh,
                     SeedBlock::Dev,
                 ]
                 .map(|b| r.seed_base(b))
@@ -216,6 +217,11 @@ mod variants {
         assert_eq!(
             Row::MeasuredStiffness.seed_base(SeedBlock::Sixth),
             22_500_000
+        );
+        assert_eq!(Row::Single.seed_base(SeedBlock::Seventh), 23_000_000);
+        assert_eq!(
+            Row::MeasuredStiffness.seed_base(SeedBlock::Seventh),
+            26_500_000
         );
         starts.sort_unstable();
         for w in starts.windows(2) {
