@@ -419,17 +419,14 @@ fn a_change_repeats_the_first_groove_and_keeps_a_coolant_switch() {
     );
 }
 
-/// A machine whose stiffness varies along X (`VARIANTS.md`'s `position_dependent` compliance,
-/// −F/k(X) with k(X) = k + (Δk/2)·cos(2πX/P); development seed 9 000 096, 0.63× the 002 size) was
-/// named `slideway_straightness` alone until the sixth round: `x_linear` could not follow it, and
-/// the straightness was significant beyond the compliance's driver basis while the compliance was
-/// not beyond the straightness's. With the `x_spline` shape, and the basis containing it, the
-/// compliance is named, alone, in that shape.
-#[test]
-fn a_compliance_that_varies_along_x_is_named_compliance_not_straightness() {
+/// Development seed `seed` of the single row hides a `position_dependent` machine compliance
+/// (`VARIANTS.md`: −F/k(X), k(X) = k + (Δk/2)·cos(2πX/P)); `diagnose` names it alone, in the
+/// `x_spline` shape.
+fn assert_position_dependent_compliance_named_alone(seed: u64) {
     use millcomp_synthetic::variants::{SeedBlock, row_specs};
-    let spec = row_specs(Row::Single, 210, Row::Single.seed_base(SeedBlock::Dev))[96].clone();
-    assert_eq!(spec.seed, 9_000_096);
+    let base = Row::Single.seed_base(SeedBlock::Dev);
+    let spec = row_specs(Row::Single, 210, base)[(seed - base) as usize].clone();
+    assert_eq!(spec.seed, seed);
     let v = draw(&study_session(), &spec).unwrap();
     assert_eq!(
         (v.hidden[0].effect, v.hidden[0].shape),
@@ -445,27 +442,22 @@ fn a_compliance_that_varies_along_x_is_named_compliance_not_straightness() {
     );
 }
 
-/// The same machine drawn with a shorter period (development seed 9 000 089, 0.97× the 002 size):
-/// until the seventh round the `x_spline` shape had knots at thirds of the X range, while the
-/// straightness's `spline` has them at sixths, so what the compliance's spline could not follow
-/// of k(X) was named `slideway_straightness` beside it. With the compliance's spline as flexible
-/// along X as the straightness's, the compliance is named alone.
+/// A machine whose stiffness varies along X (development seed 9 000 096, 0.63× the 002 size) was
+/// named `slideway_straightness` alone until the sixth round: `x_linear` could not follow it, and
+/// the straightness was significant beyond the compliance's driver basis while the compliance was
+/// not beyond the straightness's. With the `x_spline` shape, and the basis containing it, the
+/// compliance is named, alone, in that shape.
+#[test]
+fn a_compliance_that_varies_along_x_is_named_compliance_not_straightness() {
+    assert_position_dependent_compliance_named_alone(9_000_096);
+}
+
+/// Another such machine (development seed 9 000 089, 0.97× the 002 size): until the seventh round
+/// the `x_spline` shape had knots at thirds of the X range, while the straightness's `spline` has
+/// them at sixths, so what the compliance's spline could not follow of k(X) was named
+/// `slideway_straightness`, first, beside it. With the compliance's spline as flexible along X as
+/// the straightness's, the compliance is named alone.
 #[test]
 fn a_compliance_as_flexible_along_x_as_the_straightness_leaves_it_no_residue() {
-    use millcomp_synthetic::variants::{SeedBlock, row_specs};
-    let spec = row_specs(Row::Single, 210, Row::Single.seed_base(SeedBlock::Dev))[89].clone();
-    assert_eq!(spec.seed, 9_000_089);
-    let v = draw(&study_session(), &spec).unwrap();
-    assert_eq!(
-        (v.hidden[0].effect, v.hidden[0].shape),
-        ("machine_compliance", "position_dependent")
-    );
-    let rep = run(&Measured::new("position-dependent compliance", v.points));
-    assert_eq!(rep.named, ["machine_compliance"], "{}", show(&rep));
-    assert_eq!(
-        rep.shapes.get("machine_compliance").map(String::as_str),
-        Some("x_spline"),
-        "{}",
-        show(&rep)
-    );
+    assert_position_dependent_compliance_named_alone(9_000_089);
 }
