@@ -4,7 +4,7 @@
 //! diagnosed against their nominal session, and what is named is compared with what was hidden.
 //!
 //! ```text
-//! cargo run -p millcomp-diagnose --example real_data_study --release -- [--n 210] [--rows single,two,none,matched,measured_stiffness] [--seeds study|fresh|third|fifth|sixth|seventh|dev] [--plan base|extended] [--out DIR]
+//! cargo run -p millcomp-diagnose --example real_data_study --release -- [--n 210] [--rows single,two,none,matched,measured_stiffness] [--seeds study|fresh|third|fifth|sixth|seventh|eighth|dev] [--plan base|extended] [--out DIR]
 //! ```
 //! `--plan extended` gives every row's nominal session the plan `diagnose` would propose as the
 //! next experiment: the study's 14 grooves with each of its eight standard changes appended once
@@ -14,9 +14,10 @@
 //! the two-effect row through the 21 pairs, `measured_stiffness` alternates machine compliance and
 //! nothing); `--seeds` picks the seed block (`VARIANTS.md`, "Seeds"): `study` — version 1's study
 //! seeds (1 000 000 + k …, looked at since the first study; the default, for comparison), `fresh`
-//! — the second round's fresh seeds (5 000 000 + k …), `third`, `fifth`, `sixth` and `seventh` —
-//! those of the third, fifth, sixth and seventh rounds (11 000 000 + k …, 15 000 000 + k …,
-//! 19 000 000 + k …, 23 000 000 + k …; each the honest estimate of its round),
+//! — the second round's fresh seeds (5 000 000 + k …), `third`, `fifth`, `sixth`, `seventh` and
+//! `eighth` — those of the third, fifth, sixth, seventh and eighth rounds (11 000 000 + k …,
+//! 15 000 000 + k …, 19 000 000 + k …, 23 000 000 + k …, 27 000 000 + k …; each the honest
+//! estimate of its round),
 //! `dev` — the development seeds
 //! (9 000 000 + k …; `--dev` is the same); `--out` writes `sessions.jsonl` (one line per session,
 //! with every round's tests) and `summary.md`. Rates come with their one-sided 95 %
@@ -246,7 +247,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--seeds" => {
                 block = match args
                     .next()
-                    .ok_or("--seeds needs study, fresh, third, fifth, sixth, seventh or dev")?
+                    .ok_or(
+                        "--seeds needs study, fresh, third, fifth, sixth, seventh, eighth or dev",
+                    )?
                     .as_str()
                 {
                     "study" => SeedBlock::Study,
@@ -255,6 +258,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     "fifth" => SeedBlock::Fifth,
                     "sixth" => SeedBlock::Sixth,
                     "seventh" => SeedBlock::Seventh,
+                    "eighth" => SeedBlock::Eighth,
                     "dev" => SeedBlock::Dev,
                     other => return Err(format!("unknown seed block `{other}`").into()),
                 }

@@ -9,7 +9,7 @@
 //! | `coolant_thermal_drift` | coolant state history | `one_lag` (amplitude; τ), `two_lag` (fast, slow; τ_fast, τ_slow) — the fast reaction and slow drift of 002 §4.7, `dead_time_lag` (amplitude; τ, dead time) — the coolant reaching the column late |
 //! | `spindle_thermal_growth` | spindle speed history | `onset_one_lag` (growth at 50 000 rpm; onset, τ) — sim's form, `onset_two_lag` (fast, slow; onset, τ_fast, τ_slow), `quadratic_one_lag` (growth at 50 000 rpm with gain ∝ rpm²; τ) |
 //! | `probe_tilt_offset` | one constant per tool | `constant` (offset) |
-//! | `tool_wear` | engaged length, monotone | `saturating` (max wear ≥ 0; L0) — sim's form, `power_law` (wear at the end ≥ 0; exponent), `running_in_linear` (running-in wear ≥ 0, steady wear at the end ≥ 0; running-in length) |
+//! | `tool_wear` | engaged length, monotone | `saturating` (max wear ≥ 0; L0) — sim's form, `power_law` (wear at the end ≥ 0; exponent), `running_in_linear` (running-in wear ≥ 0, steady wear at the end ≥ 0; running-in length), `monotone_spline` (a non-decreasing cubic spline in engaged length, knots at sixths, eight coefficients ≥ 0: a wear of any onset and curvature) |
 //! | `slideway_straightness` | machine X, smooth, zero at the start of the X range | `bow` (amplitude) — sim's parabola, `cubic` (three polynomial coefficients), `spline` (eight cubic B-spline coefficients, knots every 1/6 of the range) |
 //! | `machine_compliance` | peak force | `constant` (compliance ≥ 0), `x_linear` (compliance at X start and its change over the range), `x_spline` (the compliance a cubic B-spline along X, knots at sixths of the range, as the straightness's `spline` — a stiffness that varies with the axis position), `preload` (compliance ≥ 0 beyond a preload; the preload as a share of the session's largest force) — a joint that gives once its preload is overcome |
 //! | `flute_runout` | chip asymmetry of the two flutes | `constant` (runout; sim's form), `growing` (runout at the start and its growth over the session's engaged length), `speed_dependent` (runout at rest and its growth ∝ rpm², dynamic unbalance), `depth_dependent` (runout and its change at 80 µm depth: a chip asymmetry that changes with the depth cut) |
@@ -55,6 +55,10 @@ pub enum ShapeKind {
     WearPower,
     /// −W₁·(1 − exp(−L/L₁)) − W₂·L/L_end: running-in, then steady wear.
     WearRunningIn,
+    /// −Σ_j c_j·C_j(L/L_end), c_j ≥ 0, with C_j the tail sums of the clamped cubic B-splines on `n`
+    /// equal intervals of the engaged length (j ≥ 1): a wear that never decreases and is zero at
+    /// L = 0, with no fixed onset or curvature.
+    WearMonotoneSpline(usize),
     /// a·4u(1 − u), u = (X − X_start)/(X_end − X_start).
     Bow,
     /// b₁u + b₂u² + b₃u³.
@@ -203,6 +207,23 @@ impl Shape {
                     .map(|p| -p.cut_length_mm.max(0.0) / f.end_mm.max(1e-9))
                     .collect(),
             ],
+            ShapeKind::WearMonotoneSpline(m) => {
+                let b = spline_columns(
+                    pts,
+                    |p| p.cut_length_mm.max(0.0) / f.end_mm.max(1e-9),
+                    m,
+                    0..m + 3,
+                    |_| -1.0,
+                );
+                // the tail sums B_j + … + B_{m+2}: non-decreasing in L, zero at L = 0 for j ≥ 1
+                (1..m + 3)
+                    .map(|j| {
+                        (0..pts.len())
+                            .map(|i| b[j..].iter().map(|col| col[i]).sum())
+                            .collect()
+                    })
+                    .collect()
+            }
             ShapeKind::Bow => vec![
                 pts.iter()
                     .map(|p| {
@@ -632,6 +653,18 @@ pub fn standard() -> Vec<Family> {
                     kind: ShapeKind::WearRunningIn,
                     nonnegative: true,
                     reference_coef: 8.0,
+                },
+                Shape {
+                    name: "monotone_spline",
+                    description: "−W(L), W a non-decreasing cubic spline in engaged length (knots at sixths of the session's), zero at L = 0: a wear of any onset and curvature",
+                    linear: vec![
+                        "w1_um", "w2_um", "w3_um", "w4_um", "w5_um", "w6_um", "w7_um", "w8_um",
+                    ],
+                    nonlinear: vec![],
+                    kind: ShapeKind::WearMonotoneSpline(6),
+                    nonnegative: true,
+                    // the eight tail sums reach 1 each at the end: 8 µm there, 002's wear
+                    reference_coef: 1.0,
                 },
             ],
         },

@@ -281,8 +281,8 @@ fn candidate_subset_free_offset_and_bad_options() {
     };
     let rep = diagnose(&s, &m, &sub).unwrap();
     assert_eq!(rep.rounds[0].tested.len(), 2);
-    // Bonferroni over the shapes of the two families tried (3 + 3)
-    assert!((rep.rounds[0].threshold - ALPHA / 6.0).abs() < 1e-15);
+    // Bonferroni over the shapes of the two families tried (4 + 3)
+    assert!((rep.rounds[0].threshold - ALPHA / 7.0).abs() < 1e-15);
     assert_eq!(rep.named[0], "tool_wear");
 
     // a free touch-off absorbs any constant: the probe tilt is then never beyond its prior

@@ -461,3 +461,29 @@ fn a_compliance_that_varies_along_x_is_named_compliance_not_straightness() {
 fn a_compliance_as_flexible_along_x_as_the_straightness_leaves_it_no_residue() {
     assert_position_dependent_compliance_named_alone(9_000_089);
 }
+
+/// A coolant drift with a wear that sets in late (development seed 9 100 149: `VARIANTS.md`'s
+/// `logistic` wear) on the extended plan. None of the wear's parametric shapes has a late onset:
+/// until the eighth round a straightness cubic took the wear's rise within the grooves, the
+/// coolant's lags the rest, and the wear was not significant beyond both. With a non-decreasing
+/// spline among the wear's shapes — the "wear monotone in cut length", of any onset — both
+/// are named, and nothing else.
+#[test]
+fn a_wear_that_sets_in_late_is_named_wear_not_straightness() {
+    use millcomp_synthetic::variants::{SeedBlock, row_specs};
+    let spec = row_specs(Row::Two, 210, Row::Two.seed_base(SeedBlock::Dev))[149].clone();
+    assert_eq!(spec.seed, 9_100_149);
+    let mut hidden = spec.effects.clone();
+    hidden.sort_unstable();
+    assert_eq!(hidden, ["coolant_thermal_drift", "tool_wear"]);
+    let (ext, _) = millcomp_diagnose::aliasing::extended_session(&study_session());
+    let v = draw(&ext, &spec).unwrap();
+    assert!(v.hidden.iter().any(|h| h.shape == "logistic"));
+    let rep = Diagnoser::new(&ext, &opts())
+        .unwrap()
+        .run(&Measured::new("extended", v.points))
+        .unwrap();
+    let mut named = rep.named.clone();
+    named.sort_unstable();
+    assert_eq!(named, hidden, "{}", show(&rep));
+}

@@ -125,6 +125,10 @@ pub enum SeedBlock {
     /// seventh round of development (the compliance's spline along X as flexible as the
     /// straightness's): the honest estimate of that version.
     Seventh,
+    /// The eighth round's fresh seeds (27 000 000 + k … 30 500 000 + k), first run after the
+    /// eighth round of development (a monotone spline among the wear's shapes): the honest
+    /// estimate of that version.
+    Eighth,
     /// Development seeds (9 000 000 + 100 000·row + k): tuning and tests.
     Dev,
 }
@@ -139,6 +143,7 @@ impl SeedBlock {
             SeedBlock::Fifth => "fifth round's fresh study",
             SeedBlock::Sixth => "sixth round's fresh study",
             SeedBlock::Seventh => "seventh round's fresh study",
+            SeedBlock::Eighth => "eighth round's fresh study",
             SeedBlock::Dev => "development",
         }
     }
@@ -168,6 +173,7 @@ impl Row {
             SeedBlock::Fifth => 15_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
             SeedBlock::Sixth => 19_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
             SeedBlock::Seventh => 23_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
+            SeedBlock::Eighth => 27_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
             SeedBlock::Dev => DEV_SEED_BASE + 100_000 * k,
         }
     }

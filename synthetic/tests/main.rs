@@ -201,6 +201,7 @@ mod variants {
                     SeedBlock::Fifth,
                     SeedBlock::Sixth,
                     SeedBlock::Seventh,
+                    SeedBlock::Eighth,
                     SeedBlock::Dev,
                 ]
                 .map(|b| r.seed_base(b))
@@ -223,6 +224,7 @@ mod variants {
             Row::MeasuredStiffness.seed_base(SeedBlock::Seventh),
             26_500_000
         );
+        assert_eq!(Row::Single.seed_base(SeedBlock::Eighth), 27_000_000);
         starts.sort_unstable();
         for w in starts.windows(2) {
             assert!(w[1] - w[0] >= 100_000, "{starts:?}");
