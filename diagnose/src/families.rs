@@ -208,15 +208,16 @@ impl Shape {
                     .collect(),
             ],
             ShapeKind::WearMonotoneSpline(m) => {
+                // B_1 … B_{m+2} (B_0 is the only one not zero at L = 0)
                 let b = spline_columns(
                     pts,
                     |p| p.cut_length_mm.max(0.0) / f.end_mm.max(1e-9),
                     m,
-                    0..m + 3,
+                    1..m + 3,
                     |_| -1.0,
                 );
-                // the tail sums B_j + … + B_{m+2}: non-decreasing in L, zero at L = 0 for j ≥ 1
-                (1..m + 3)
+                // their tail sums B_j + … + B_{m+2}: non-decreasing in L, zero at L = 0
+                (0..b.len())
                     .map(|j| {
                         (0..pts.len())
                             .map(|i| b[j..].iter().map(|col| col[i]).sum())

@@ -165,17 +165,19 @@ impl Row {
             Row::Matched => 3,
             Row::MeasuredStiffness => 4,
         };
-        match block {
-            // the added row has no version-1 seeds: its block continues after `matched`'s
-            SeedBlock::Study => 1_000_000 * (k + 1) - u64::from(k == 4) * 500_000,
-            SeedBlock::Fresh => 5_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
-            SeedBlock::Third => 11_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
-            SeedBlock::Fifth => 15_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
-            SeedBlock::Sixth => 19_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
-            SeedBlock::Seventh => 23_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
-            SeedBlock::Eighth => 27_000_000 + 1_000_000 * k - u64::from(k == 4) * 500_000,
-            SeedBlock::Dev => DEV_SEED_BASE + 100_000 * k,
-        }
+        let start = match block {
+            SeedBlock::Dev => return DEV_SEED_BASE + 100_000 * k,
+            SeedBlock::Study => 1_000_000,
+            SeedBlock::Fresh => 5_000_000,
+            SeedBlock::Third => 11_000_000,
+            SeedBlock::Fifth => 15_000_000,
+            SeedBlock::Sixth => 19_000_000,
+            SeedBlock::Seventh => 23_000_000,
+            SeedBlock::Eighth => 27_000_000,
+        };
+        // a million seeds per row; the added row has no version-1 seeds: its block continues
+        // after `matched`'s
+        start + 1_000_000 * k - u64::from(k == 4) * 500_000
     }
 
     /// Row label.
