@@ -480,13 +480,12 @@ impl Diagnoser {
                 let Some((_, phi)) = self.linear_search(s, w, &base, &q0) else {
                     continue;
                 };
-                let start = self.start_for(s, &phi, w, &base);
                 let mut t2 = others.clone();
                 t2.push(Term {
                     family: fam.name,
                     shape: s.clone(),
                 });
-                let Ok(f) = fit(&self.problem(y, &t2, w), &start) else {
+                let Ok(f) = self.fit_added(&self.problem(y, &t2, w), s, &phi, w, &base) else {
                     continue;
                 };
                 if sign_violated(s, &f.theta[base.theta.len()..]) {
@@ -628,6 +627,64 @@ impl Diagnoser {
         theta.extend(step.iter().skip(cur.x.ncols()));
         theta.extend_from_slice(phi);
         theta
+    }
+
+    /// Starting θ for the model `terms + [shape at phi]` that cannot fit worse than `cur`: the
+    /// current estimate unchanged, the new term's coefficients regressed on the current residual
+    /// (zero for a non-negative shape whose regression breaks its sign, and for a fixed shape).
+    fn nested_start(&self, shape: &Shape, phi: &[f64], w: &Whitening, cur: &Fitted) -> Vec<f64> {
+        let n = self.sm.len();
+        let mut coef = vec![0.0; shape.linear.len()];
+        if !shape.is_fixed() {
+            let cols = shape.columns(&self.sm, phi);
+            let mut b = DMatrix::zeros(n, cols.len());
+            for (j, mut c) in cols.into_iter().enumerate() {
+                w.apply(&mut c);
+                b.column_mut(j).copy_from_slice(&c);
+            }
+            let r = DMatrix::from_column_slice(n, 1, &cur.r.as_slice()[..n]);
+            if let Some(beta) = lstsq(&b, &(-r))
+                && !sign_violated(shape, beta.as_slice())
+            {
+                coef.copy_from_slice(beta.as_slice());
+            }
+        }
+        let mut theta = cur.theta.clone();
+        theta.extend(coef);
+        theta.extend_from_slice(phi);
+        theta
+    }
+
+    /// Fits `p`, the model of `cur` plus one term (`shape` at `phi` from the linear search), from
+    /// the linearised start ([`Self::start_for`]). A nested model cannot fit worse than `cur`: when
+    /// that fit ends above `cur`'s RSS — the linearised step sent a nonlinear parameter where the
+    /// trust region cannot come back from, or out of the residual's finite range — it is fitted
+    /// again from [`Self::nested_start`], and if that also ends above, the model at the nested
+    /// start is returned unconverged. An error when the fit from the nested start fails.
+    fn fit_added(
+        &self,
+        p: &Problem<'_>,
+        shape: &Shape,
+        phi: &[f64],
+        w: &Whitening,
+        cur: &Fitted,
+    ) -> std::result::Result<Fitted, millcomp_identify::IdentifyError> {
+        let tol = 1e-9 * cur.rss.max(1.0);
+        let start = self.start_for(shape, phi, w, cur);
+        let mut first_err = None;
+        if start.iter().all(|v| v.is_finite()) {
+            match fit(p, &start) {
+                Ok(f) if f.rss <= cur.rss + tol => return Ok(f),
+                Ok(_) => {}
+                Err(e) => first_err = Some(e),
+            }
+        }
+        let safe = self.nested_start(shape, phi, w, cur);
+        match fit(p, &safe) {
+            Ok(f) if f.rss <= cur.rss + tol => Ok(f),
+            Ok(_) => Ok(evaluate(p, &safe, false)),
+            Err(e) => Err(first_err.unwrap_or(e)),
+        }
     }
 
     /// The whitened flexible driver bases ([`Family::driver_basis`]) of the effects in the model
@@ -972,16 +1029,14 @@ impl Diagnoser {
                 let mut violated: Option<(Shape, Fitted)> = None;
                 for (_, si, phi) in ranked {
                     let shape = fam.shapes[si].clone();
-                    let start = self.start_for(&shape, &phi, &w, &cur);
                     let mut all = terms.clone();
                     all.push(Term {
                         family: fam.name,
                         shape: shape.clone(),
                     });
                     let p = self.problem(&y, &all, &w);
-                    let alt = match fit(&p, &start) {
-                        Ok(f) if f.rss <= cur.rss + 1e-9 * cur.rss.max(1.0) => f,
-                        Ok(_) => evaluate(&p, &start, false),
+                    let alt = match self.fit_added(&p, &shape, &phi, &w, &cur) {
+                        Ok(f) => f,
                         Err(e) => {
                             notes.push(format!(
                                 "{} ({}): no fit in round {} ({e})",
