@@ -4,7 +4,7 @@
 //! diagnosed against their nominal session, and what is named is compared with what was hidden.
 //!
 //! ```text
-//! cargo run -p millcomp-diagnose --example real_data_study --release -- [--n 210] [--rows single,two,none,matched,measured_stiffness] [--seeds study|fresh|third|fifth|sixth|seventh|eighth|dev] [--plan base|extended] [--out DIR]
+//! cargo run -p millcomp-diagnose --example real_data_study --release -- [--n 210] [--rows single,two,none,matched,measured_stiffness] [--seeds study|fresh|third|fifth|sixth|seventh|eighth|dev] [--plan base|extended] [--alpha A] [--out DIR]
 //! ```
 //! `--plan extended` gives every row's nominal session the plan `diagnose` would propose as the
 //! next experiment: the study's 14 grooves with each of its eight standard changes appended once
@@ -25,7 +25,8 @@
 //! (`real_data_study/ideal_observer.rs`): the hidden offsets' exact shape, the true noise and
 //! scatter — its detection rate is the ceiling of every "named" rate, what the data could tell at
 //! all. The results of the recorded runs are in `diagnose/STUDY.md`.
-//! `RAYON_NUM_THREADS` sets the threads.
+//! `--alpha` runs `diagnose` at another family-wise level than its default 0.01 (the ideal
+//! observer's "at the first round's level" follows it). `RAYON_NUM_THREADS` sets the threads.
 
 #[path = "real_data_study/ideal_observer.rs"]
 mod ideal_observer;
@@ -90,6 +91,8 @@ struct Done {
     seconds: f64,
     /// The ideal observer's likelihood-ratio statistic of each hidden effect (`ideal_observer`).
     ideal_lr: Vec<f64>,
+    /// The family-wise level `diagnose` ran at (`--alpha`).
+    alpha: f64,
 }
 
 impl Done {
@@ -106,16 +109,13 @@ impl Done {
     /// tested its first round at (α = 0.01 over the shapes it tried, Bonferroni): the ceiling for
     /// a method that must search for the shape.
     fn detects_searching(&self, j: usize, r: &DiagnoseReport) -> bool {
-        self.detects_at(j, r, DiagnoseOptions::default().alpha)
+        self.detects_at(j, r, self.alpha)
     }
 
     /// As [`Self::detects_searching`] at the family-wise level `alpha` over the same number of
     /// shapes.
     fn detects_at(&self, j: usize, r: &DiagnoseReport, alpha: f64) -> bool {
-        let shapes = r
-            .rounds
-            .first()
-            .map_or(1.0, |rd| DiagnoseOptions::default().alpha / rd.threshold);
+        let shapes = r.rounds.first().map_or(1.0, |rd| self.alpha / rd.threshold);
         let critical = ChiSquared::new(1.0)
             .map(|c| c.inverse_cdf(1.0 - alpha / shapes))
             .unwrap_or(f64::INFINITY);
@@ -239,6 +239,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut block = SeedBlock::Study;
     let mut out: Option<PathBuf> = None;
     let mut extended = false;
+    let mut opts = DiagnoseOptions::default();
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -263,6 +264,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     other => return Err(format!("unknown seed block `{other}`").into()),
                 }
             }
+            "--alpha" => opts.alpha = args.next().ok_or("--alpha needs a value")?.parse()?,
             "--out" => out = Some(args.next().ok_or("--out needs a directory")?.into()),
             "--plan" => {
                 extended = match args.next().ok_or("--plan needs base or extended")?.as_str() {
@@ -302,7 +304,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         if extended {
             session = millcomp_diagnose::aliasing::extended_session(&session).0;
         }
-        let d = Diagnoser::new(&session, &DiagnoseOptions::default())?;
+        let d = Diagnoser::new(&session, &opts)?;
         let ideal = IdealObserver::new(d.session_model());
         diagnosers.push((row, session, d, ideal));
     }
@@ -354,6 +356,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 report,
                 seconds,
                 ideal_lr,
+                alpha: opts.alpha,
             }
         })
         .collect();
@@ -364,13 +367,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let _ = writeln!(
         md,
         "Variant distribution version {SPEC_VERSION} (synthetic/VARIANTS.md), {} seeds, {}, {n} sessions per row, \
-         {} sessions in {:.0} s wall ({:.2} s per session on one core on average).\n",
+         diagnose at α = {}, {} sessions in {:.0} s wall ({:.2} s per session on one core on average).\n",
         block.name(),
         if extended {
             "the extended plan (the study's 14 grooves + the eight standard changes)"
         } else {
             "the study's plan (14 grooves)"
         },
+        opts.alpha,
         done.len(),
         wall,
         done.iter().map(|d| d.seconds).sum::<f64>() / done.len().max(1) as f64
