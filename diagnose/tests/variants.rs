@@ -489,11 +489,11 @@ fn a_wear_that_sets_in_late_is_named_wear_not_straightness() {
 }
 
 /// A candidate's fit in a later round extends the model of the round before, so it cannot fit
-/// worse: development seeds 9 000 014 (single row: coolant drift) and 9 100 084 (two: coolant
-/// drift and spindle growth) once put every later-round candidate at a NaN residual or at an
-/// RMS of 5.9e8 µm — the linearised start sent the named drift's time constant where the trust
-/// region could not come back — and so tested none of them (p = 1). Now such a fit is repeated
-/// from the model it extends.
+/// worse. On development seeds 9 000 014 (single row: coolant drift) five of the six candidates of
+/// round 2 once ended at a NaN residual, and on 9 100 084 (two: coolant drift and spindle growth)
+/// the coolant drift at an RMS of 5.9e8 µm — the linearised start had sent a named effect's time
+/// constant where the trust region could not come back from — so they were not tested (p = 1).
+/// Now such a fit is repeated from the model it extends.
 #[test]
 fn a_later_rounds_candidate_never_fits_worse_than_the_model_it_extends() {
     use millcomp_synthetic::variants::{SeedBlock, row_specs};
