@@ -8,7 +8,8 @@ use std::sync::OnceLock;
 use millcomp_diagnose::{DiagnoseReport, Diagnoser, Measured, SessionModel};
 use millcomp_sim::session::Session;
 use millcomp_synthetic::variants::{
-    DEV_SEED_BASE, Row, Variant, VariantSpec, draw, normal_draws, score, study_session,
+    DEV_SEED_BASE, Row, SeedBlock, Variant, VariantSpec, draw, normal_draws, row_specs, score,
+    study_session,
 };
 
 use crate::common::{opts, show};
@@ -120,6 +121,15 @@ fn diagnose_variant(effects: Vec<&'static str>, k: u64) -> (Variant, DiagnoseRep
 }
 
 /// A variant of the study's distribution (development seeds): what it hides is named first.
+/// The variant spec of development seed `seed` in `row` (the row's development block: `seed` is
+/// its base plus the variant's index).
+fn dev_spec(row: Row, seed: u64) -> VariantSpec {
+    let base = row.seed_base(SeedBlock::Dev);
+    let spec = row_specs(row, 210, base)[(seed - base) as usize].clone();
+    assert_eq!(spec.seed, seed);
+    spec
+}
+
 fn named_first(effects: Vec<&'static str>, k: u64) -> DiagnoseReport {
     let (v, rep) = diagnose_variant(effects, k);
     let hidden: Vec<&str> = v.hidden.iter().map(|h| h.effect).collect();
@@ -248,7 +258,7 @@ fn a_stated_stiffness_prior_separates_the_machine_compliance() {
     let spec = VariantSpec {
         row: Row::MeasuredStiffness,
         effects: vec!["machine_compliance"],
-        seed: Row::MeasuredStiffness.seed_base(millcomp_synthetic::variants::SeedBlock::Dev),
+        seed: Row::MeasuredStiffness.seed_base(SeedBlock::Dev),
     };
     let v = draw(&session, &spec).unwrap();
     assert_eq!(v.hidden[0].shape, "progressive");
@@ -318,9 +328,7 @@ fn a_straightness_bump_has_no_look_alike() {
 /// spindle running among them (`aliasing::extended_session`) — names both.
 #[test]
 fn the_extended_plan_separates_a_coolant_drift_from_a_spindle_growth() {
-    use millcomp_synthetic::variants::{SeedBlock, row_specs};
-    let spec = row_specs(Row::Two, 210, Row::Two.seed_base(SeedBlock::Dev))[126].clone();
-    assert_eq!(spec.seed, 9_100_126);
+    let spec = dev_spec(Row::Two, 9_100_126);
     let mut hidden = spec.effects.clone();
     hidden.sort_unstable();
     assert_eq!(hidden, ["coolant_thermal_drift", "spindle_thermal_growth"]);
@@ -423,11 +431,7 @@ fn a_change_repeats_the_first_groove_and_keeps_a_coolant_switch() {
 /// (`VARIANTS.md`: −F/k(X), k(X) = k + (Δk/2)·cos(2πX/P)); `diagnose` names it alone, in the
 /// `x_spline` shape.
 fn assert_position_dependent_compliance_named_alone(seed: u64) {
-    use millcomp_synthetic::variants::{SeedBlock, row_specs};
-    let base = Row::Single.seed_base(SeedBlock::Dev);
-    let spec = row_specs(Row::Single, 210, base)[(seed - base) as usize].clone();
-    assert_eq!(spec.seed, seed);
-    let v = draw(&study_session(), &spec).unwrap();
+    let v = draw(&study_session(), &dev_spec(Row::Single, seed)).unwrap();
     assert_eq!(
         (v.hidden[0].effect, v.hidden[0].shape),
         ("machine_compliance", "position_dependent")
@@ -470,9 +474,7 @@ fn a_compliance_as_flexible_along_x_as_the_straightness_leaves_it_no_residue() {
 /// are named, and nothing else.
 #[test]
 fn a_wear_that_sets_in_late_is_named_wear_not_straightness() {
-    use millcomp_synthetic::variants::{SeedBlock, row_specs};
-    let spec = row_specs(Row::Two, 210, Row::Two.seed_base(SeedBlock::Dev))[149].clone();
-    assert_eq!(spec.seed, 9_100_149);
+    let spec = dev_spec(Row::Two, 9_100_149);
     let mut hidden = spec.effects.clone();
     hidden.sort_unstable();
     assert_eq!(hidden, ["coolant_thermal_drift", "tool_wear"]);
@@ -496,9 +498,8 @@ fn a_wear_that_sets_in_late_is_named_wear_not_straightness() {
 /// Now such a fit is repeated from the model it extends.
 #[test]
 fn a_later_rounds_candidate_never_fits_worse_than_the_model_it_extends() {
-    use millcomp_synthetic::variants::{SeedBlock, row_specs};
-    for (row, k) in [(Row::Single, 14), (Row::Two, 84)] {
-        let spec = row_specs(row, 210, row.seed_base(SeedBlock::Dev))[k].clone();
+    for (row, seed) in [(Row::Single, 9_000_014), (Row::Two, 9_100_084)] {
+        let spec = dev_spec(row, seed);
         let v = draw(&study_session(), &spec).unwrap();
         let rep = run(&Measured::new(format!("seed {}", spec.seed), v.points));
         assert!(rep.rounds.len() >= 2, "{}", show(&rep));
