@@ -554,18 +554,15 @@ impl Diagnoser {
         cur: &Fitted,
         q0: &DMatrix<f64>,
     ) -> Option<(f64, Vec<f64>)> {
-        let n = self.sm.len();
         let rows = cur.r.len();
         let r_perp = project_out(q0, &DMatrix::from_column_slice(rows, 1, cur.r.as_slice()));
         let base_rss = r_perp.norm_squared();
         let mut best: Option<(f64, Vec<f64>)> = None;
         for phi in shape.grid() {
-            let cols = shape.columns(&self.sm, &phi);
-            let mut b = DMatrix::zeros(rows, cols.len());
-            for (j, mut c) in cols.into_iter().enumerate() {
-                w.apply(&mut c);
-                b.column_mut(j).rows_mut(0, n).copy_from_slice(&c);
-            }
+            // every shape has a column (a fixed one its offsets): `stack` is `None` for none
+            let Some(b) = self.stack(whitened(w, shape.columns(&self.sm, &phi)), rows) else {
+                continue;
+            };
             let rss = if shape.is_fixed() {
                 let rr = DMatrix::from_column_slice(rows, 1, cur.r.as_slice()) + &b;
                 project_out(q0, &rr).norm_squared()
@@ -635,19 +632,13 @@ impl Diagnoser {
     fn nested_start(&self, shape: &Shape, phi: &[f64], w: &Whitening, cur: &Fitted) -> Vec<f64> {
         let n = self.sm.len();
         let mut coef = vec![0.0; shape.linear.len()];
-        if !shape.is_fixed() {
-            let cols = shape.columns(&self.sm, phi);
-            let mut b = DMatrix::zeros(n, cols.len());
-            for (j, mut c) in cols.into_iter().enumerate() {
-                w.apply(&mut c);
-                b.column_mut(j).copy_from_slice(&c);
-            }
-            let r = DMatrix::from_column_slice(n, 1, &cur.r.as_slice()[..n]);
-            if let Some(beta) = lstsq(&b, &(-r))
-                && !sign_violated(shape, beta.as_slice())
-            {
-                coef.copy_from_slice(beta.as_slice());
-            }
+        let r = DMatrix::from_column_slice(n, 1, &cur.r.as_slice()[..n]);
+        if !shape.is_fixed()
+            && let Some(b) = self.stack(whitened(w, shape.columns(&self.sm, phi)), n)
+            && let Some(beta) = lstsq(&b, &(-r))
+            && !sign_violated(shape, beta.as_slice())
+        {
+            coef.copy_from_slice(beta.as_slice());
         }
         let mut theta = cur.theta.clone();
         theta.extend(coef);
