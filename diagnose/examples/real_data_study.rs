@@ -91,8 +91,6 @@ struct Done {
     seconds: f64,
     /// The ideal observer's likelihood-ratio statistic of each hidden effect (`ideal_observer`).
     ideal_lr: Vec<f64>,
-    /// The family-wise level `diagnose` ran at (`--alpha`).
-    alpha: f64,
 }
 
 impl Done {
@@ -106,16 +104,16 @@ impl Done {
     }
 
     /// Whether the ideal observer detects hidden effect `j` at the significance level `diagnose`
-    /// tested its first round at (α = 0.01 over the shapes it tried, Bonferroni): the ceiling for
-    /// a method that must search for the shape.
+    /// tested its first round at (its α, 0.01 unless `--alpha`, over the shapes it tried,
+    /// Bonferroni): the ceiling for a method that must search for the shape.
     fn detects_searching(&self, j: usize, r: &DiagnoseReport) -> bool {
-        self.detects_at(j, r, self.alpha)
+        self.detects_at(j, r, r.alpha)
     }
 
     /// As [`Self::detects_searching`] at the family-wise level `alpha` over the same number of
     /// shapes.
     fn detects_at(&self, j: usize, r: &DiagnoseReport, alpha: f64) -> bool {
-        let shapes = r.rounds.first().map_or(1.0, |rd| self.alpha / rd.threshold);
+        let shapes = r.rounds.first().map_or(1.0, |rd| r.alpha / rd.threshold);
         let critical = ChiSquared::new(1.0)
             .map(|c| c.inverse_cdf(1.0 - alpha / shapes))
             .unwrap_or(f64::INFINITY);
@@ -243,7 +241,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
-            "--n" => n = args.next().ok_or("--n needs a value")?.parse()?,
+            "--n" => {
+                n = args
+                    .next()
+                    .ok_or("--n needs a value")?
+                    .parse()
+                    .map_err(|e| format!("--n: {e}"))?
+            }
             "--dev" => block = SeedBlock::Dev,
             "--seeds" => {
                 block = match args
@@ -264,7 +268,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     other => return Err(format!("unknown seed block `{other}`").into()),
                 }
             }
-            "--alpha" => opts.alpha = args.next().ok_or("--alpha needs a value")?.parse()?,
+            "--alpha" => {
+                opts.alpha = args
+                    .next()
+                    .ok_or("--alpha needs a value")?
+                    .parse()
+                    .map_err(|e| format!("--alpha: {e}"))?
+            }
             "--out" => out = Some(args.next().ok_or("--out needs a directory")?.into()),
             "--plan" => {
                 extended = match args.next().ok_or("--plan needs base or extended")?.as_str() {
@@ -356,7 +366,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 report,
                 seconds,
                 ideal_lr,
-                alpha: opts.alpha,
             }
         })
         .collect();
