@@ -129,6 +129,10 @@ pub enum SeedBlock {
     /// eighth round of development (a monotone spline among the wear's shapes): the honest
     /// estimate of that version.
     Eighth,
+    /// The ninth round's fresh seeds (31 000 000 + k … 34 500 000 + k), first run after the
+    /// ninth round of development (each round's threshold simulated instead of Bonferroni's):
+    /// the honest estimate of that version.
+    Ninth,
     /// Development seeds (9 000 000 + 100 000·row + k): tuning and tests.
     Dev,
 }
@@ -144,6 +148,7 @@ impl SeedBlock {
             SeedBlock::Sixth => "sixth round's fresh study",
             SeedBlock::Seventh => "seventh round's fresh study",
             SeedBlock::Eighth => "eighth round's fresh study",
+            SeedBlock::Ninth => "ninth round's fresh study",
             SeedBlock::Dev => "development",
         }
     }
@@ -174,6 +179,7 @@ impl Row {
             SeedBlock::Sixth => 19_000_000,
             SeedBlock::Seventh => 23_000_000,
             SeedBlock::Eighth => 27_000_000,
+            SeedBlock::Ninth => 31_000_000,
         };
         // a million seeds per row; the added row has no version-1 seeds: its block continues
         // after `matched`'s

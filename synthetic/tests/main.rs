@@ -202,6 +202,7 @@ mod variants {
                     SeedBlock::Sixth,
                     SeedBlock::Seventh,
                     SeedBlock::Eighth,
+                    SeedBlock::Ninth,
                     SeedBlock::Dev,
                 ]
                 .map(|b| r.seed_base(b))
@@ -225,6 +226,11 @@ mod variants {
             26_500_000
         );
         assert_eq!(Row::Single.seed_base(SeedBlock::Eighth), 27_000_000);
+        assert_eq!(Row::Single.seed_base(SeedBlock::Ninth), 31_000_000);
+        assert_eq!(
+            Row::MeasuredStiffness.seed_base(SeedBlock::Ninth),
+            34_500_000
+        );
         starts.sort_unstable();
         for w in starts.windows(2) {
             assert!(w[1] - w[0] >= 100_000, "{starts:?}");
