@@ -337,9 +337,15 @@ pub struct DiagnoseArgs {
     /// Write plots and a report here.
     #[arg(long)]
     pub report: Option<PathBuf>,
-    /// Significance level (corrected for the number of candidates).
+    /// Family-wise significance level of each round (for a session: the threshold on a family's p
+    /// is the level's quantile of the round's smallest p under the null, simulated; with
+    /// --record: Bonferroni over the candidates).
     #[arg(long, default_value_t = 0.01)]
     pub alpha: f64,
+    /// For a session: each round's threshold is --alpha over the shapes tried (Bonferroni,
+    /// conservative) instead of the simulated family-wise one.
+    #[arg(long, conflicts_with = "record")]
+    pub bonferroni: bool,
     /// Per-flute peak force trace (`groove_id,x_mm,fz_peak_flute1_n,fz_peak_flute2_n`) for the
     /// flute-runout force channel.
     #[arg(long)]

@@ -233,3 +233,59 @@ fn next_plan_writes_the_session_with_the_standard_changes() {
     assert!(!bad.exists());
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
 }
+
+/// The round's threshold is simulated by default and Bonferroni's with `--bonferroni`; the JSON
+/// keeps Bonferroni's beside the simulated one, and the text report prints both.
+#[test]
+fn bonferroni_flag_sets_the_rounds_threshold_to_alpha_over_the_shapes() {
+    let name = "coolant_thermal_drift";
+    let simulated = diagnose_json(name);
+    let round = &simulated["rounds"][0];
+    let (t, b) = (
+        round["threshold"].as_f64().unwrap(),
+        round["bonferroni_threshold"].as_f64().unwrap(),
+    );
+    assert!(t > b && t < 0.01, "simulated {t}, bonferroni {b}");
+    assert!(
+        simulated["correction"]
+            .as_str()
+            .unwrap()
+            .contains("simulated from 2000 draws")
+    );
+    let out = millcomp()
+        .args([
+            "diagnose",
+            &synthetic(name, "toml"),
+            &synthetic(name, "csv"),
+            "--bonferroni",
+            "--json",
+        ])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let doc: serde_json::Value = serde_json::from_slice(&out).unwrap();
+    let round = &doc["rounds"][0];
+    assert_eq!(round["threshold"], round["bonferroni_threshold"]);
+    assert_eq!(round["bonferroni_threshold"].as_f64().unwrap(), b);
+    millcomp()
+        .args([
+            "diagnose",
+            &synthetic(name, "toml"),
+            &synthetic(name, "csv"),
+        ])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("Bonferroni's would be"));
+    millcomp()
+        .args([
+            "diagnose",
+            &synthetic(name, "toml"),
+            &synthetic(name, "csv"),
+            "--bonferroni",
+        ])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("Bonferroni's would be").not());
+}

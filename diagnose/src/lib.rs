@@ -27,8 +27,10 @@
 //!    a bow, a cubic or a spline in machine X, …). In each round every shape of every remaining
 //!    family is searched over its grid of nonlinear parameters (linearised, in the GLS metric);
 //!    the family's best shape by GLS-BIC is refined by bounded nonlinear least squares jointly with
-//!    the nuisance and the effects already added, and tested (`nested::strata_test`; Bonferroni
-//!    over all shapes tried in the round).
+//!    the nuisance and the effects already added, and tested (`nested::strata_test`) against the
+//!    round's family-wise threshold: the α quantile of the round's smallest p when the current
+//!    model is right, simulated by repeating the round's linearised search on draws of the null
+//!    ([`familywise`]; [`Multiplicity::Bonferroni`]: α over all shapes tried in the round).
 //! 5. **Stop when the gain is not real.** A family is added — the most significant first — only if
 //!    it is significant, it is still significant when every effect already named is given a
 //!    flexible shape in its own driver ([`Family::driver_basis`]: lags of the coolant state or of
@@ -80,6 +82,7 @@
 pub mod aliasing;
 pub mod error;
 pub mod families;
+pub mod familywise;
 pub mod force_channel;
 pub mod logo;
 pub mod measured;
@@ -104,7 +107,7 @@ pub use measured::{ForceTrace, Measured};
 pub use nested::{Decision, StrataTest};
 pub use nominal::SessionModel;
 pub use report::{DiagnoseReport, Round, Series, Skipped, Step, StructureReport};
-pub use selection::{DiagnoseOptions, Diagnoser, WITHIN_NOMINAL};
+pub use selection::{DiagnoseOptions, Diagnoser, Multiplicity, NULL_DRAWS, WITHIN_NOMINAL};
 pub use structure::StructureItem;
 
 /// Diagnoses `measured` against the nominal model of `session` (crate documentation): the

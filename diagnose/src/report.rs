@@ -108,8 +108,11 @@ pub struct Skipped {
 /// One round of the forward selection: every family tried.
 #[derive(Debug, Clone, Serialize)]
 pub struct Round {
-    /// α / m (m = shapes tried).
+    /// The threshold on a family's p: the α quantile of the round's smallest p under the null
+    /// (simulated, the default) or Bonferroni's.
     pub threshold: f64,
+    /// α / m over the m shapes tried (Bonferroni's threshold, for comparison).
+    pub bonferroni_threshold: f64,
     /// Families, in candidate order.
     pub tested: Vec<Tested>,
     /// The effect added in this round, if any.

@@ -12,6 +12,7 @@ use millcomp_sim::session::Session;
 use crate::aliasing::{self, PlanAnalysis};
 use crate::error::{DiagnoseError, Result};
 use crate::families::{self, Family, Shape};
+use crate::familywise::{self, NullBlock, NullShape};
 use crate::logo;
 use crate::measured::Measured;
 use crate::model::{
@@ -31,11 +32,59 @@ use crate::{force_channel, structure, thresholds};
 /// The words for a candidate aliased with the nominal model and not beyond its prior.
 pub const WITHIN_NOMINAL: &str = "within the nominal model's uncertainty";
 
+/// How a round's family-wise level α becomes the threshold on each family's p.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
+pub enum Multiplicity {
+    /// α / m over the m shapes tried: valid for any dependence, conservative when the shapes of a
+    /// family test nearly the same thing.
+    Bonferroni,
+    /// The α quantile of the round's smallest family p under the null, from `draws` seeded draws
+    /// of the current model's whitened residual ([`familywise`](crate::familywise)); at least
+    /// 20/α draws whatever `draws` says.
+    Simulated {
+        /// Draws of the null per round.
+        draws: usize,
+    },
+}
+
+impl Multiplicity {
+    /// The words of the report's `correction` at level `alpha`.
+    pub fn describe(&self, alpha: f64) -> String {
+        match self {
+            Multiplicity::Bonferroni => {
+                "bonferroni over the family shapes tried in each round".into()
+            }
+            Multiplicity::Simulated { draws } => format!(
+                "family-wise over the shapes tried in each round, simulated from {} draws of the round's null",
+                Self::draws_at(*draws, alpha)
+            ),
+        }
+    }
+
+    /// The draws a round makes at level `alpha`: `draws`, and at least 20/α (20 draws below the
+    /// quantile).
+    fn draws_at(draws: usize, alpha: f64) -> usize {
+        draws.max((MIN_DRAWS_BEYOND / alpha).ceil() as usize)
+    }
+}
+
+/// Draws of the null per round by default: the 0.01 quantile is the 21st smallest of 2 000.
+pub const NULL_DRAWS: usize = 2000;
+
+/// A round draws at least this many over α (20 draws below its quantile: 2 000 at α = 0.01).
+const MIN_DRAWS_BEYOND: f64 = 20.0;
+
+/// Seed of the first round's null draws (a round adds its index): the threshold is reproducible.
+const NULL_SEED: u64 = 0x5eed_0015;
+
 /// Options of [`diagnose`](crate::diagnose).
 #[derive(Debug, Clone, PartialEq)]
 pub struct DiagnoseOptions {
-    /// Family-wise significance level per round (Bonferroni over the shapes tried), default 0.01.
+    /// Family-wise significance level per round, default 0.01.
     pub alpha: f64,
+    /// How α becomes each round's threshold (default: simulated, [`NULL_DRAWS`] draws).
+    pub multiplicity: Multiplicity,
     /// Candidate effect names to try (`None`: all families).
     pub candidates: Option<Vec<String>>,
     /// Leave the touch-off free (an infinite prior SD) whatever the session states.
@@ -48,6 +97,7 @@ impl Default for DiagnoseOptions {
     fn default() -> Self {
         DiagnoseOptions {
             alpha: 0.01,
+            multiplicity: Multiplicity::Simulated { draws: NULL_DRAWS },
             candidates: None,
             free_offset: false,
             max_effects: thresholds::MAX_EFFECTS,
@@ -477,7 +527,7 @@ impl Diagnoser {
                 {
                     continue;
                 }
-                let Some((_, phi)) = self.linear_search(s, w, &base, &q0) else {
+                let Some((_, phi)) = self.linear_search(s, w, &base, &q0, None) else {
                     continue;
                 };
                 let mut t2 = others.clone();
@@ -547,12 +597,15 @@ impl Diagnoser {
 
     /// The linearised fit of `shape` added to the current model over its grid: the best
     /// nonlinear parameters, their coefficients and the step of the current parameters.
+    /// With `null` given, each grid point's projected columns are pushed to it (the round's
+    /// simulated threshold repeats this search on draws of the null, [`familywise`]).
     fn linear_search(
         &self,
         shape: &Shape,
         w: &Whitening,
         cur: &Fitted,
         q0: &DMatrix<f64>,
+        mut null: Option<&mut Vec<NullBlock>>,
     ) -> Option<(f64, Vec<f64>)> {
         let rows = cur.r.len();
         let r_perp = project_out(q0, &DMatrix::from_column_slice(rows, 1, cur.r.as_slice()));
@@ -564,13 +617,20 @@ impl Diagnoser {
                 continue;
             };
             let rss = if shape.is_fixed() {
-                let rr = DMatrix::from_column_slice(rows, 1, cur.r.as_slice()) + &b;
-                project_out(q0, &rr).norm_squared()
+                let bp = project_out(q0, &b);
+                let rss = (&r_perp + &bp).norm_squared();
+                if let Some(v) = null.as_deref_mut() {
+                    v.push(NullBlock::Fixed(bp));
+                }
+                rss
             } else {
                 let bp = project_out(q0, &b);
                 let q = orthonormal_basis(&bp);
                 if q.ncols() < bp.ncols() {
                     continue;
+                }
+                if let Some(v) = null.as_deref_mut() {
+                    v.push(NullBlock::Free(q.clone()));
                 }
                 // coefficients: least squares of −r⊥ on B⊥ (full column rank: checked above),
                 // non-negative ones by the best subset with every coefficient ≥ 0
@@ -979,6 +1039,7 @@ impl Diagnoser {
             let p0 = cur.theta.len();
             let q0 = orthonormal_basis(&cur.x);
             let mut shapes_tried = 0usize;
+            let mut null_shapes: Vec<NullShape> = Vec::new();
             let mut cands: Vec<Candidate> = Vec::new();
             for &k in &remaining {
                 let fam = &self.families[k];
@@ -1006,7 +1067,14 @@ impl Diagnoser {
                         continue;
                     }
                     shapes_tried += 1;
-                    let Some((rss, phi)) = self.linear_search(shape, &w, &cur, &q0) else {
+                    let mut blocks = Vec::new();
+                    let found = self.linear_search(shape, &w, &cur, &q0, Some(&mut blocks));
+                    null_shapes.push(NullShape {
+                        family: k,
+                        params: q,
+                        blocks,
+                    });
+                    let Some((rss, phi)) = found else {
                         continue;
                     };
                     let crit = rss + q as f64 * ln_n;
@@ -1077,7 +1145,19 @@ impl Diagnoser {
             if cands.is_empty() {
                 break;
             }
-            let threshold = alpha / shapes_tried.max(1) as f64;
+            let bonferroni = alpha / shapes_tried.max(1) as f64;
+            let threshold = match self.opts.multiplicity {
+                Multiplicity::Bonferroni => bonferroni,
+                Multiplicity::Simulated { draws } => familywise::simulated_threshold(
+                    &null_shapes,
+                    cur.r.len(),
+                    ln_n,
+                    alpha,
+                    Multiplicity::draws_at(draws, alpha),
+                    NULL_SEED + rounds.len() as u64,
+                )
+                .map_or(bonferroni, |c| c.threshold),
+            };
             // significant candidates first, ranked by dominance (below), then by how well the
             // model with each predicts held-out grooves (the leave-one-groove-out score, the
             // quantity the acceptance checks): the raw RMS alone (the first version) favours the
@@ -1202,6 +1282,7 @@ impl Diagnoser {
             }
             rounds.push(Round {
                 threshold,
+                bonferroni_threshold: bonferroni,
                 tested,
                 added: accepted.map(|ci| cands[ci].term.family.to_string()),
             });
@@ -1392,7 +1473,7 @@ impl Diagnoser {
             session: sm.name.clone(),
             n_points: n,
             alpha,
-            correction: "bonferroni over the family shapes tried in each round".into(),
+            correction: self.opts.multiplicity.describe(alpha),
             nuisance: NuisanceStep {
                 params: nuisance_params,
                 rms_before_um: initial_rms,

@@ -3,7 +3,9 @@
 //! are not a measurement, bad options. (The contract's CSV errors are the reader's: tests of
 //! `millcomp_datasets::contracts`.)
 
-use millcomp_diagnose::{DiagnoseError, DiagnoseOptions, Measured, SessionModel, diagnose};
+use millcomp_diagnose::{
+    DiagnoseError, DiagnoseOptions, Measured, Multiplicity, SessionModel, diagnose,
+};
 use millcomp_sim::SimError;
 use millcomp_sim::groove::DepthProfile;
 use millcomp_sim::session::{EffectSpec, GrooveSpec, PlanItem, Session};
@@ -281,8 +283,22 @@ fn candidate_subset_free_offset_and_bad_options() {
     };
     let rep = diagnose(&s, &m, &sub).unwrap();
     assert_eq!(rep.rounds[0].tested.len(), 2);
-    // Bonferroni over the shapes of the two families tried (4 + 3)
-    assert!((rep.rounds[0].threshold - ALPHA / 7.0).abs() < 1e-15);
+    // Bonferroni over the shapes of the two families tried (4 + 3) for comparison; the simulated
+    // family-wise threshold lies between it and α (two families, each searching its shapes)
+    let r0 = &rep.rounds[0];
+    assert!((r0.bonferroni_threshold - ALPHA / 7.0).abs() < 1e-15);
+    assert!(
+        r0.threshold > r0.bonferroni_threshold && r0.threshold < ALPHA,
+        "{} {}",
+        r0.threshold,
+        r0.bonferroni_threshold
+    );
+    let bonf = DiagnoseOptions {
+        multiplicity: Multiplicity::Bonferroni,
+        ..sub.clone()
+    };
+    let rb = diagnose(&s, &m, &bonf).unwrap();
+    assert_eq!(rb.rounds[0].threshold, ALPHA / 7.0);
     assert_eq!(rep.named[0], "tool_wear");
 
     // a free touch-off absorbs any constant: the probe tilt is then never beyond its prior

@@ -6,7 +6,7 @@
 
 use anyhow::{Context, bail};
 use millcomp_datasets::contracts::{read_force_trace, read_measured_groove};
-use millcomp_diagnose::{DiagnoseOptions, Measured, diagnose};
+use millcomp_diagnose::{DiagnoseOptions, Measured, Multiplicity, diagnose};
 use millcomp_sim::session::Session;
 
 use crate::cli::DiagnoseArgs;
@@ -40,6 +40,11 @@ pub fn run(args: DiagnoseArgs, json: bool) -> anyhow::Result<()> {
         alpha: args.alpha,
         candidates: (!args.candidates.is_empty()).then(|| args.candidates.clone()),
         free_offset: args.free_offset,
+        multiplicity: if args.bonferroni {
+            Multiplicity::Bonferroni
+        } else {
+            DiagnoseOptions::default().multiplicity
+        },
         ..DiagnoseOptions::default()
     };
     let report = diagnose(&session, &measured, &options).with_context(|| {

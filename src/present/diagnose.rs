@@ -104,7 +104,16 @@ pub fn text(rep: &DiagnoseReport) -> String {
     for (i, r) in rep.rounds.iter().enumerate() {
         w(
             &mut s,
-            format!("round {} (threshold p < {:.2e}):", i + 1, r.threshold),
+            if r.threshold == r.bonferroni_threshold {
+                format!("round {} (threshold p < {:.2e}):", i + 1, r.threshold)
+            } else {
+                format!(
+                    "round {} (threshold p < {:.2e}; Bonferroni's would be {:.2e}):",
+                    i + 1,
+                    r.threshold,
+                    r.bonferroni_threshold
+                )
+            },
         );
         let mut t = r.tested.clone();
         t.sort_by(|a, b| a.test.ln_p.total_cmp(&b.test.ln_p));
