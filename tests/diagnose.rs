@@ -10,6 +10,11 @@ fn synthetic(name: &str, ext: &str) -> String {
 }
 
 fn diagnose_json(name: &str) -> serde_json::Value {
+    diagnose_json_with(name, &[])
+}
+
+/// `diagnose --json` of a shipped synthetic session with `extra` options.
+fn diagnose_json_with(name: &str, extra: &[&str]) -> serde_json::Value {
     let out = millcomp()
         .args([
             "diagnose",
@@ -17,6 +22,7 @@ fn diagnose_json(name: &str) -> serde_json::Value {
             &synthetic(name, "csv"),
             "--json",
         ])
+        .args(extra)
         .assert()
         .success()
         .get_output()
@@ -252,20 +258,7 @@ fn bonferroni_flag_sets_the_rounds_threshold_to_alpha_over_the_shapes() {
             .unwrap()
             .contains("simulated from 2000 draws")
     );
-    let out = millcomp()
-        .args([
-            "diagnose",
-            &synthetic(name, "toml"),
-            &synthetic(name, "csv"),
-            "--bonferroni",
-            "--json",
-        ])
-        .assert()
-        .success()
-        .get_output()
-        .stdout
-        .clone();
-    let doc: serde_json::Value = serde_json::from_slice(&out).unwrap();
+    let doc = diagnose_json_with(name, &["--bonferroni"]);
     let round = &doc["rounds"][0];
     assert_eq!(round["threshold"], round["bonferroni_threshold"]);
     assert_eq!(round["bonferroni_threshold"].as_f64().unwrap(), b);
