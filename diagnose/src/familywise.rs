@@ -48,15 +48,6 @@ pub(crate) struct NullShape {
     pub blocks: Vec<NullBlock>,
 }
 
-/// How the round's threshold was set.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct Calibration {
-    /// The threshold on a family's p.
-    pub threshold: f64,
-    /// Draws of the null.
-    pub draws: usize,
-}
-
 /// Draws per call are generated in chunks of this many columns (bounds the memory of `Qᵀe`).
 const CHUNK: usize = 500;
 
@@ -70,7 +61,7 @@ pub(crate) fn simulated_threshold(
     alpha: f64,
     draws: usize,
     seed: u64,
-) -> Option<Calibration> {
+) -> Option<f64> {
     let shapes: Vec<&NullShape> = shapes.iter().filter(|s| !s.blocks.is_empty()).collect();
     if shapes.is_empty() || draws == 0 || rows == 0 {
         return None;
@@ -97,6 +88,8 @@ pub(crate) fn simulated_threshold(
             let m = match b {
                 NullBlock::Free(m) | NullBlock::Fixed(m) => m,
             };
+            // every block is the round's `stack` of whitened columns: data and prior rows
+            debug_assert_eq!(m.nrows(), rows);
             if m.nrows() == rows {
                 all.columns_mut(c0, k).copy_from(m);
             }
@@ -150,10 +143,7 @@ pub(crate) fn simulated_threshold(
     smallest.sort_by(f64::total_cmp);
     // the largest t with #{p < t} ≤ α·draws
     let k = ((alpha * draws as f64).floor() as usize).min(draws - 1);
-    Some(Calibration {
-        threshold: smallest[k],
-        draws,
-    })
+    Some(smallest[k])
 }
 
 #[cfg(test)]
@@ -181,15 +171,11 @@ mod tests {
         let alpha = 0.05;
         let m = 8;
         let independent: Vec<NullShape> = (0..m).map(|j| one(j, unit(rows, j))).collect();
-        let t = simulated_threshold(&independent, rows, 0.0, alpha, 20_000, 7)
-            .unwrap()
-            .threshold;
+        let t = simulated_threshold(&independent, rows, 0.0, alpha, 20_000, 7).unwrap();
         let sidak = 1.0 - (1.0 - alpha).powf(1.0 / m as f64);
         assert!((t / sidak - 1.0).abs() < 0.12, "{t} vs Šidák {sidak}");
         let copies: Vec<NullShape> = (0..m).map(|j| one(j, unit(rows, 0))).collect();
-        let t = simulated_threshold(&copies, rows, 0.0, alpha, 20_000, 7)
-            .unwrap()
-            .threshold;
+        let t = simulated_threshold(&copies, rows, 0.0, alpha, 20_000, 7).unwrap();
         assert!((t / alpha - 1.0).abs() < 0.12, "{t} vs α {alpha}");
     }
 
@@ -199,9 +185,7 @@ mod tests {
     fn shapes_of_one_family_are_one_test() {
         let rows = 40;
         let fam: Vec<NullShape> = (0..8).map(|_| one(0, unit(rows, 3))).collect();
-        let t = simulated_threshold(&fam, rows, 0.0, 0.05, 20_000, 3)
-            .unwrap()
-            .threshold;
+        let t = simulated_threshold(&fam, rows, 0.0, 0.05, 20_000, 3).unwrap();
         assert!((t / 0.05 - 1.0).abs() < 0.12, "{t}");
     }
 
@@ -216,9 +200,7 @@ mod tests {
             params: 1,
             blocks: grid,
         };
-        let t = simulated_threshold(&[s], rows, 0.0, 0.05, 20_000, 5)
-            .unwrap()
-            .threshold;
+        let t = simulated_threshold(&[s], rows, 0.0, 0.05, 20_000, 5).unwrap();
         let sidak = 1.0 - 0.95f64.powf(0.1);
         assert!((t / sidak - 1.0).abs() < 0.12, "{t} vs {sidak}");
     }

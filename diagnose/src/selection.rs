@@ -1039,6 +1039,8 @@ impl Diagnoser {
             let p0 = cur.theta.len();
             let q0 = orthonormal_basis(&cur.x);
             let mut shapes_tried = 0usize;
+            // the shapes as searched, for the round's simulated threshold
+            let simulated = matches!(self.opts.multiplicity, Multiplicity::Simulated { .. });
             let mut null_shapes: Vec<NullShape> = Vec::new();
             let mut cands: Vec<Candidate> = Vec::new();
             for &k in &remaining {
@@ -1068,7 +1070,8 @@ impl Diagnoser {
                     }
                     shapes_tried += 1;
                     let mut blocks = Vec::new();
-                    let found = self.linear_search(shape, &w, &cur, &q0, Some(&mut blocks));
+                    let null = simulated.then_some(&mut blocks);
+                    let found = self.linear_search(shape, &w, &cur, &q0, null);
                     null_shapes.push(NullShape {
                         family: k,
                         params: q,
@@ -1156,7 +1159,7 @@ impl Diagnoser {
                     Multiplicity::draws_at(draws, alpha),
                     NULL_SEED + rounds.len() as u64,
                 )
-                .map_or(bonferroni, |c| c.threshold),
+                .unwrap_or(bonferroni),
             };
             // significant candidates first, ranked by dominance (below), then by how well the
             // model with each predicts held-out grooves (the leave-one-groove-out score, the
