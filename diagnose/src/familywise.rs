@@ -37,6 +37,14 @@ pub(crate) enum NullBlock {
     Fixed(DMatrix<f64>),
 }
 
+impl NullBlock {
+    fn columns(&self) -> &DMatrix<f64> {
+        match self {
+            NullBlock::Free(m) | NullBlock::Fixed(m) => m,
+        }
+    }
+}
+
 /// One shape of one family as the round searched it.
 #[derive(Debug, Clone)]
 pub(crate) struct NullShape {
@@ -66,34 +74,27 @@ pub(crate) fn simulated_threshold(
     if shapes.is_empty() || draws == 0 || rows == 0 {
         return None;
     }
-    // every block's columns side by side, with where each block starts
-    let mut starts: Vec<Vec<(usize, usize, bool, f64)>> = Vec::with_capacity(shapes.len());
-    let mut cols = 0usize;
+    // every block's columns side by side; per block: its first column, its width and, for a
+    // fixed column, ‖b‖² (the drop's constant)
+    let cols: usize = shapes
+        .iter()
+        .flat_map(|s| &s.blocks)
+        .map(|b| b.columns().ncols())
+        .sum();
+    let mut all = DMatrix::zeros(rows, cols);
+    let mut layout: Vec<Vec<(usize, usize, Option<f64>)>> = Vec::with_capacity(shapes.len());
+    let mut c0 = 0usize;
     for s in &shapes {
         let mut v = Vec::with_capacity(s.blocks.len());
         for b in &s.blocks {
-            let (m, fixed) = match b {
-                NullBlock::Free(m) => (m, false),
-                NullBlock::Fixed(m) => (m, true),
-            };
-            let norm2 = if fixed { m.norm_squared() } else { 0.0 };
-            v.push((cols, m.ncols(), fixed, norm2));
-            cols += m.ncols();
-        }
-        starts.push(v);
-    }
-    let mut all = DMatrix::zeros(rows, cols);
-    for (s, st) in shapes.iter().zip(&starts) {
-        for (b, &(c0, k, _, _)) in s.blocks.iter().zip(st) {
-            let m = match b {
-                NullBlock::Free(m) | NullBlock::Fixed(m) => m,
-            };
             // every block is the round's `stack` of whitened columns: data and prior rows
-            debug_assert_eq!(m.nrows(), rows);
-            if m.nrows() == rows {
-                all.columns_mut(c0, k).copy_from(m);
-            }
+            let m = b.columns();
+            all.columns_mut(c0, m.ncols()).copy_from(m);
+            let fixed = matches!(b, NullBlock::Fixed(_)).then(|| m.norm_squared());
+            v.push((c0, m.ncols(), fixed));
+            c0 += m.ncols();
         }
+        layout.push(v);
     }
     let at = all.transpose();
     let chi: Vec<Option<ChiSquared>> = shapes
@@ -103,6 +104,8 @@ pub(crate) fn simulated_threshold(
     let n_fam = shapes.iter().map(|s| s.family).max().unwrap_or(0) + 1;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut smallest: Vec<f64> = Vec::with_capacity(draws);
+    // per family: (linearised GLS-BIC, drop, shape) of its best shape in the current draw
+    let mut best: Vec<Option<(f64, f64, usize)>> = vec![None; n_fam];
     let mut done = 0usize;
     while done < draws {
         let m = CHUNK.min(draws - done);
@@ -110,14 +113,13 @@ pub(crate) fn simulated_threshold(
         let z = &at * &e;
         for d in 0..m {
             // per family: the shape with the lowest linearised GLS-BIC (−drop + params·ln n)
-            let mut best: Vec<Option<(f64, f64, usize)>> = vec![None; n_fam];
-            for (si, (s, st)) in shapes.iter().zip(&starts).enumerate() {
+            best.fill(None);
+            for (si, (s, st)) in shapes.iter().zip(&layout).enumerate() {
                 let mut drop = f64::NEG_INFINITY;
-                for &(c0, k, fixed, norm2) in st {
-                    let v = if fixed {
-                        -2.0 * z[(c0, d)] - norm2
-                    } else {
-                        (c0..c0 + k).map(|c| z[(c, d)] * z[(c, d)]).sum()
+                for &(c0, k, fixed) in st {
+                    let v = match fixed {
+                        Some(norm2) => -2.0 * z[(c0, d)] - norm2,
+                        None => (c0..c0 + k).map(|c| z[(c, d)] * z[(c, d)]).sum(),
                     };
                     drop = drop.max(v);
                 }

@@ -1072,11 +1072,13 @@ impl Diagnoser {
                     let mut blocks = Vec::new();
                     let null = simulated.then_some(&mut blocks);
                     let found = self.linear_search(shape, &w, &cur, &q0, null);
-                    null_shapes.push(NullShape {
-                        family: k,
-                        params: q,
-                        blocks,
-                    });
+                    if simulated {
+                        null_shapes.push(NullShape {
+                            family: k,
+                            params: q,
+                            blocks,
+                        });
+                    }
                     let Some((rss, phi)) = found else {
                         continue;
                     };
