@@ -360,7 +360,7 @@ pub struct DiagnoseArgs {
     /// Also write the next experiment's session file here: this session's plan with each of
     /// diagnose's standard changes appended (pauses with the spindle stopped and running, the
     /// coolant switched with the spindle stopped and running, the first groove again at a second X,
-    /// upfeed, speed and tilt; diagnose/STUDY.md, "Fifth round").
+    /// upfeed, speed and tilt; docs/studies/diagnose.md).
     #[arg(long, conflicts_with = "record")]
     pub next_plan: Option<PathBuf>,
 }

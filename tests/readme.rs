@@ -61,7 +61,10 @@ const CHECKED: &[(&str, &[&str])] = &[
     ),
     (
         "docs/identify.md",
-        &["millcomp identify force datasets/data/clayton_doe.csv --material 6061"],
+        &[
+            "millcomp identify force datasets/data/clayton_doe.csv --material 6061",
+            "millcomp identify spindle datasets/runs/spindle_step_synthetic.csv",
+        ],
     ),
     (
         "docs/simulate.md",
