@@ -455,7 +455,7 @@ pub struct ControlSpec {
     /// in air; `mpc::identified::HysteresisCompensator`) for every controller built from the bundle —
     /// `open-loop`, `pid-tuned`, `pid-ff`, `pid-ff-read`, `mpc`, `mpc-nopreview` — when the bundle has one. The
     /// published `pid` (and `pid-aw`, `pid-design`) stay as published. Off by default: on the
-    /// commissioned grooves it bought nothing (README, `compare --ablations --commissioned`): the
+    /// commissioned grooves it bought nothing (docs/studies/mpc-parts.md, `compare --features --commissioned`): the
     /// identified Prandtl–Ishlinskii model takes the stack's static error from 3.5–5 µm to about 1 µm
     /// of tip, but at a change what matters is the stack's slope, which the gauge channel's
     /// disturbance estimate follows already.
