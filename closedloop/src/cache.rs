@@ -11,10 +11,10 @@
 //! ([`CommissioningKey::new`]), so what it computes cannot depend on anything the key leaves out:
 //! a cached bundle is the bundle a fresh commissioning would give, value for value.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, VecDeque};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex, OnceLock, Weak};
+use std::sync::{Arc, Mutex, OnceLock};
 
 use millcomp_models::{ModelBundle, ModelFile, Provenance, sha256_hex};
 use millcomp_sim::groove::{ForceChannel, GrooveConfig, GrooveProgram};
@@ -122,12 +122,16 @@ pub struct CacheCounts {
 
 type Slot = OnceLock<Result<Arc<ModelBundle>, Arc<ClosedLoopError>>>;
 
-/// The commissioning cache: bundles by key, on disk under `dir` (none: in memory only) and in memory
-/// while some run holds them.
+/// Bundles kept in memory (the most recently asked for; about 10 kB each): a batch's scenarios that
+/// share a commissioning are usually near each other in the plan, the rest come from the disk.
+pub const IN_MEMORY: usize = 64;
+
+/// The commissioning cache: bundles by key, on disk under `dir` (none: in memory only) and the last
+/// [`IN_MEMORY`] in memory.
 #[derive(Debug, Default)]
 pub struct CommissioningCache {
     dir: Option<PathBuf>,
-    slots: Mutex<HashMap<String, Weak<Slot>>>,
+    slots: Mutex<(HashMap<String, Arc<Slot>>, VecDeque<String>)>,
     computed: AtomicUsize,
     from_disk: AtomicUsize,
     from_memory: AtomicUsize,
@@ -172,13 +176,19 @@ impl CommissioningCache {
     pub fn bundle(&self, key: &CommissioningKey) -> Result<Arc<ModelBundle>, ClosedLoopError> {
         let address = key.address()?;
         let slot = {
-            let mut slots = self.slots.lock().unwrap_or_else(|e| e.into_inner());
-            match slots.get(&address).and_then(Weak::upgrade) {
-                Some(s) => s,
+            let mut guard = self.slots.lock().unwrap_or_else(|e| e.into_inner());
+            let (slots, order) = &mut *guard;
+            match slots.get(&address) {
+                Some(s) => s.clone(),
                 None => {
-                    slots.retain(|_, w| w.strong_count() > 0);
+                    if order.len() >= IN_MEMORY
+                        && let Some(oldest) = order.pop_front()
+                    {
+                        slots.remove(&oldest);
+                    }
                     let s = Arc::new(Slot::new());
-                    slots.insert(address.clone(), Arc::downgrade(&s));
+                    slots.insert(address.clone(), s.clone());
+                    order.push_back(address.clone());
                     s
                 }
             }
