@@ -430,6 +430,16 @@ pub struct BatchArgs {
     /// checked).
     #[arg(long, requires = "scenarios")]
     pub columns: Option<String>,
+    /// Commissioning cache: each distinct commissioning computed once and kept here (default
+    /// OUT/cache). Slices of one batch may share a directory.
+    #[arg(long)]
+    pub cache: Option<PathBuf>,
+    /// No progress line.
+    #[arg(long)]
+    pub quiet: bool,
+    /// Print the plan's run count and an estimate of its time, and run nothing.
+    #[arg(long)]
+    pub dry_run: bool,
 }
 
 /// `millcomp parts`.

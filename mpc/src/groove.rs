@@ -1348,6 +1348,9 @@ pub struct FeedforwardPidController {
     peak_bias: Option<PeakNoiseBias>,
     /// Where the tool rides on its wear land ([`Self::with_read_features`]; empty otherwise).
     rubbing_mm: Vec<(f64, f64)>,
+    /// The planned pulses of the last revolution, kept between steps (the plan is read every stage
+    /// step; [`DeflectionPlan::deflections_phased_cached`], the same values bit for bit).
+    pulses: PulseCache,
 }
 
 impl FeedforwardPidController {
@@ -1377,6 +1380,7 @@ impl FeedforwardPidController {
             tooth_s: 60.0 / program.speed_rpm / flutes.max(1) as f64,
             peak_bias: None,
             rubbing_mm: Vec::new(),
+            pulses: PulseCache::default(),
         }
     }
 
@@ -1401,6 +1405,7 @@ impl FeedforwardPidController {
         )?);
         self.rubbing_mm = self.plan.plan.rubbing_spans_mm();
         self.plan.plan = self.plan.plan.clone().with_flank_push();
+        self.pulses = PulseCache::default();
         Ok(self)
     }
 
@@ -1434,7 +1439,13 @@ impl GrooveController for FeedforwardPidController {
                 Some(p) => self.plan.volts_for(
                     self.plan
                         .plan
-                        .deflections_phased(&[t_ff], self.rev_s, self.tooth_s, p)
+                        .deflections_phased_cached(
+                            &mut self.pulses,
+                            &[t_ff],
+                            self.rev_s,
+                            self.tooth_s,
+                            p,
+                        )
                         .first()
                         .copied()
                         .unwrap_or(0.0),
