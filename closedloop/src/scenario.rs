@@ -492,6 +492,7 @@ impl ControlSpec {
         millcomp_mpc::config::CycleBudget {
             fraction: self.budget_fraction,
             enforced: self.realtime,
+            max_iter: None,
         }
     }
 }
