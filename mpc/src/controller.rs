@@ -568,6 +568,11 @@ impl MpcController {
         self.model.n_dist
     }
 
+    /// The previous command (what the next cycle's slew limit is around).
+    pub fn previous_input(&self) -> &[f64] {
+        &self.u_prev
+    }
+
     /// The last accepted plan (N·n_inputs, step-major).
     pub fn plan(&self) -> &[f64] {
         &self.plan

@@ -582,20 +582,30 @@ impl From<MpcError> for Built {
 /// The groove MPC's settings: the program's controller settings, the amplifier's limit and the sensors'
 /// noise levels the bundle measured.
 fn mpc_settings(parts: Parts<'_>, s: &ControllerSettings) -> Result<GrooveMpcSettings, Built> {
-    let noise = parts.models.sensor_noise.as_ref().map_err(|e| {
-        Built::Runtime(RuntimeError::InvalidValue {
-            path: parts.origins.bundle.clone(),
+    mpc_settings_for(parts.models, parts.origins, s).map_err(Built::Runtime)
+}
+
+/// [`mpc_settings`] from the models and their origins.
+pub(crate) fn mpc_settings_for(
+    models: &Models,
+    origins: &Origins,
+    s: &ControllerSettings,
+) -> Result<GrooveMpcSettings, RuntimeError> {
+    let noise = models
+        .sensor_noise
+        .as_ref()
+        .map_err(|e| RuntimeError::InvalidValue {
+            path: origins.bundle.clone(),
             key: "model.sensor_noise".into(),
             value: "absent".into(),
             allowed: e.clone(),
-        })
-    })?;
+        })?;
     Ok(GrooveMpcSettings {
         dt_s: s.dt_s,
         mpc_every: s.mpc_every,
         horizon: s.horizon,
         slew_v_per_cycle: s.slew_v_per_cycle,
-        voltage_max_v: parts.models.spindle.plant().voltage_max_v,
+        voltage_max_v: models.spindle.plant().voltage_max_v,
         config: s.mpc.clone(),
         force_noise_n: noise.force_noise_n,
         gauge_noise_um: noise.gauge_noise_um,

@@ -43,6 +43,7 @@
 
 pub mod controller;
 pub mod error;
+pub mod export;
 pub mod kind;
 pub mod program;
 pub mod replay;

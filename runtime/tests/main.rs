@@ -4,4 +4,5 @@
 mod alloc;
 mod common;
 mod errors;
+mod export;
 mod reset;
