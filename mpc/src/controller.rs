@@ -438,10 +438,10 @@ impl MpcController {
                 buf.extend_from_slice(between);
             }
             self.qp
-                .update(&xa, &self.u_prev, &self.offsets_buf, &self.reference_buf)?
+                .update(xa, &self.u_prev, &self.offsets_buf, &self.reference_buf)?
         } else {
             self.qp
-                .update(&xa, &self.u_prev, &window.offsets, &window.reference)?
+                .update(xa, &self.u_prev, &window.offsets, &window.reference)?
         };
         let (status, solve_us, iterations) = if finite {
             let st = self.qp.solve_by(deadline);

@@ -171,7 +171,7 @@ impl Models {
             controller: "the controllers' models",
             bundle: origin.to_path_buf(),
             program: PathBuf::from("<no program>"),
-            source,
+            source: Box::new(source),
         };
         let tool = NominalTool::thesis_ball_end(material);
         let spindle =
@@ -359,7 +359,7 @@ impl Controller {
             controller: program.controller.kind.name(),
             bundle: origins.bundle.clone(),
             program: origins.program.clone(),
-            source,
+            source: Box::new(source),
         })?;
         Self::from_parts(
             Parts {
@@ -389,7 +389,7 @@ impl Controller {
                 controller: kind.name(),
                 bundle: parts.origins.bundle.clone(),
                 program: parts.origins.program.clone(),
-                source,
+                source: Box::new(source),
             },
             Built::Runtime(e) => e,
         })?;
@@ -400,7 +400,7 @@ impl Controller {
                 controller: kind.name(),
                 bundle: parts.origins.bundle.clone(),
                 program: parts.origins.program.clone(),
-                source: MpcError::Sim(e),
+                source: Box::new(MpcError::Sim(e)),
             })?;
         let mut c = Self {
             kind,
@@ -509,7 +509,7 @@ impl Controller {
             controller: self.kind.name(),
             bundle: PathBuf::from("<reset>"),
             program: PathBuf::from("<reset>"),
-            source,
+            source: Box::new(source),
         })?;
         self.inner.touched_off(self.touch_off);
         self.state = CycleState::new(self.touch_off);

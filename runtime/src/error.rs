@@ -56,7 +56,7 @@ pub enum RuntimeError {
     /// The bundle (or a model in it) cannot give what the controller needs; the model crate's error
     /// names the file and the key.
     #[error(transparent)]
-    Model(#[from] millcomp_models::ModelError),
+    Model(Box<millcomp_models::ModelError>),
     /// The controller could not be built from the bundle's models and the program.
     #[error("building `{controller}` from {} and {}", bundle.display(), program.display())]
     Build {
@@ -68,8 +68,14 @@ pub enum RuntimeError {
         program: PathBuf,
         /// The controllers' error (it names the key or the model).
         #[source]
-        source: millcomp_mpc::MpcError,
+        source: Box<millcomp_mpc::MpcError>,
     },
+}
+
+impl From<millcomp_models::ModelError> for RuntimeError {
+    fn from(e: millcomp_models::ModelError) -> Self {
+        RuntimeError::Model(Box::new(e))
+    }
 }
 
 impl RuntimeError {

@@ -104,7 +104,7 @@ pub fn export_mpc(
         controller: "mpc",
         bundle: origins.bundle.clone(),
         program: origins.program.clone(),
-        source,
+        source: Box::new(source),
     };
     let plan = models.plan(&nc).map_err(build)?;
     let settings = mpc_settings_for(&models, origins, &program.controller)?;
