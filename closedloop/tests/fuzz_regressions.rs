@@ -75,10 +75,10 @@ fn seed_files_are_handled() {
         "datasets/scenarios",
         "doe/data",
     ]
-        .iter()
-        .flat_map(|d| files(&r.join(d)))
-        .filter(|p| p.extension().is_some_and(|e| e == "csv"))
-        .collect();
+    .iter()
+    .flat_map(|d| files(&r.join(d)))
+    .filter(|p| p.extension().is_some_and(|e| e == "csv"))
+    .collect();
     let with_mode = |mode: u8, paths: &[PathBuf]| -> Vec<Vec<u8>> {
         paths
             .iter()

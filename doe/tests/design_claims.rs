@@ -115,10 +115,7 @@ fn check_claims(d: &Design, k: usize) {
             .filter_map(|m| sign_between(&product(&points, m), &col).map(|s| (m, s)))
             .collect();
         aliases.sort_by_key(|(m, _)| *m);
-        let entry = d
-            .alias_structure
-            .iter()
-            .find(|e| mask_of(&e.term, k) == t);
+        let entry = d.alias_structure.iter().find(|e| mask_of(&e.term, k) == t);
         let mut claimed: Vec<(u64, f64)> = entry
             .map(|e| {
                 e.aliases

@@ -27,8 +27,7 @@ use millcomp_models::{
     SensorNoise, SpindleModel, StiffnessModel,
 };
 use millcomp_mpc::identified::{
-    IdentifiedForceModel, IdentifiedHysteresis, IdentifiedSpindle, IdentifiedStiffness,
-    NominalTool,
+    IdentifiedForceModel, IdentifiedHysteresis, IdentifiedSpindle, IdentifiedStiffness, NominalTool,
 };
 use millcomp_mpc::replay::{QpSequence, replay_clarabel};
 use millcomp_sim::session::Session;
@@ -122,7 +121,10 @@ fn check_table(t: &Table, schema: Option<&Schema>) {
             assert!(ok, "{}: `{}` has the wrong kind", t.origin, spec.name);
             if spec.kind == ColumnKind::Flag {
                 assert!(
-                    t.i64s(&spec.name).unwrap().iter().all(|f| *f == 0 || *f == 1),
+                    t.i64s(&spec.name)
+                        .unwrap()
+                        .iter()
+                        .all(|f| *f == 0 || *f == 1),
                     "{}: flag `{}` not 0/1",
                     t.origin,
                     spec.name
@@ -164,7 +166,9 @@ pub fn table(data: &[u8]) {
     }
     if let Ok(g) = contracts::read_measured_groove(&path) {
         assert!(
-            g.points.iter().all(|p| p.depth_meas_um.is_finite() && p.t_s.is_finite()),
+            g.points
+                .iter()
+                .all(|p| p.depth_meas_um.is_finite() && p.t_s.is_finite()),
             "a measured groove with a non-finite depth or time"
         );
     }
@@ -383,7 +387,10 @@ pub fn doe_spec(data: &[u8]) {
             assert_eq!(len, n, "design column `{name}`");
         }
         for r in &d.runs {
-            assert!(r.coded.iter().all(|c| c.is_finite()), "a non-finite coded level");
+            assert!(
+                r.coded.iter().all(|c| c.is_finite()),
+                "a non-finite coded level"
+            );
         }
     }
 }

@@ -170,14 +170,21 @@ fn term() -> impl Strategy<Value = ActualTerm> {
 }
 
 fn square() -> impl Strategy<Value = Option<Vec<Vec<f64>>>> {
-    prop::option::of((0usize..4).prop_flat_map(|n| {
-        prop::collection::vec(prop::collection::vec(float(), n), n)
-    }))
+    prop::option::of(
+        (0usize..4).prop_flat_map(|n| prop::collection::vec(prop::collection::vec(float(), n), n)),
+    )
 }
 
 fn surface() -> impl Strategy<Value = ResponseSurface> {
     (
-        (text(), text(), count(), count(), prop::option::of(float()), float()),
+        (
+            text(),
+            text(),
+            count(),
+            count(),
+            prop::option::of(float()),
+            float(),
+        ),
         prop::collection::vec(coding(), 0..4),
         prop::collection::vec(term(), 0..4),
         square(),
@@ -225,7 +232,16 @@ fn bundle() -> impl Strategy<Value = ModelBundle> {
         prop::option::of(identified()),
     )
         .prop_map(
-            |(material, experiments, warnings, spindle, force, stiffness, sensor_noise, hysteresis)| {
+            |(
+                material,
+                experiments,
+                warnings,
+                spindle,
+                force,
+                stiffness,
+                sensor_noise,
+                hysteresis,
+            )| {
                 ModelBundle {
                     material,
                     experiments,

@@ -92,7 +92,11 @@ impl CscJson {
     /// `colptr` of `n + 1` non-decreasing entries from 0 to `nnz`, row indices below `m` and strictly
     /// increasing within each column, `rowval` and `nzval` of equal length, finite values, and — for
     /// `upper` (P) — no entry below the diagonal. `name` (`p` or `a`) goes into the message.
-    fn to_clarabel(&self, name: &str, upper: bool) -> Result<clarabel::algebra::CscMatrix<f64>, MpcError> {
+    fn to_clarabel(
+        &self,
+        name: &str,
+        upper: bool,
+    ) -> Result<clarabel::algebra::CscMatrix<f64>, MpcError> {
         let bad = |what: &str| MpcError::InvalidConfig {
             key: name.to_string(),
             value: format!("{}x{} matrix, {} entries", self.m, self.n, self.nzval.len()),
@@ -111,12 +115,21 @@ impl CscJson {
         };
         mat.check_format().map_err(|e| bad(&e.to_string()))?;
         if let Some(k) = self.nzval.iter().position(|v| !v.is_finite()) {
-            return Err(bad(&format!("finite values (entry {} is {})", k + 1, self.nzval[k])));
+            return Err(bad(&format!(
+                "finite values (entry {} is {})",
+                k + 1,
+                self.nzval[k]
+            )));
         }
         if upper {
             for col in 0..self.n {
-                if self.rowval[self.colptr[col]..self.colptr[col + 1]].iter().any(|&r| r > col) {
-                    return Err(bad("the upper triangle only (an entry lies below the diagonal)"));
+                if self.rowval[self.colptr[col]..self.colptr[col + 1]]
+                    .iter()
+                    .any(|&r| r > col)
+                {
+                    return Err(bad(
+                        "the upper triangle only (an entry lies below the diagonal)",
+                    ));
                 }
             }
         }
@@ -139,7 +152,13 @@ impl QpSequence {
 
     fn matrices(
         &self,
-    ) -> Result<(clarabel::algebra::CscMatrix<f64>, clarabel::algebra::CscMatrix<f64>), MpcError> {
+    ) -> Result<
+        (
+            clarabel::algebra::CscMatrix<f64>,
+            clarabel::algebra::CscMatrix<f64>,
+        ),
+        MpcError,
+    > {
         let p = self.p.to_clarabel("p", true)?;
         let a = self.a.to_clarabel("a", false)?;
         let n = self.p.n;
@@ -147,7 +166,11 @@ impl QpSequence {
             if expected == found {
                 Ok(())
             } else {
-                Err(MpcError::DimensionMismatch { what, expected, found })
+                Err(MpcError::DimensionMismatch {
+                    what,
+                    expected,
+                    found,
+                })
             }
         };
         dim("p (rows of a square P)".into(), n, self.p.m)?;
