@@ -28,6 +28,19 @@ struct DoeWrap {
 /// Runs the verb.
 pub fn run(args: BatchArgs, json: bool) -> anyhow::Result<()> {
     if let Some(BatchCommand::Merge(m)) = &args.command {
+        // the merged results must not overwrite a slice's
+        if let Some(d) = m
+            .dirs
+            .iter()
+            .find(|d| crate::cmd::guard::same_file(d, &m.out))
+        {
+            anyhow::bail!(
+                "--out {}: that is the slice {} — the merged results would overwrite it; merge into \
+                 another directory",
+                m.out.display(),
+                d.display()
+            );
+        }
         let start = std::time::Instant::now();
         let merged = merge(&m.dirs, &m.out)?;
         let mut summary = write_results(&merged.plan, &merged.records, &m.out, merged.summary)?;
@@ -38,6 +51,20 @@ pub fn run(args: BatchArgs, json: bool) -> anyhow::Result<()> {
         Some(s) => Shard::parse(s)?,
         None => Shard::from_env(|k| std::env::var(k).ok())?.unwrap_or(Shard::ALL),
     };
+    crate::cmd::guard::Inputs::new()
+        .add_opt("--scenarios", args.scenarios.as_deref())
+        .check_dir("--out", &args.out, |rel| {
+            [
+                "results.csv",
+                "results.parquet",
+                "summary.json",
+                "invocation.json",
+            ]
+            .iter()
+            .any(|n| rel == Path::new(n))
+                || rel.starts_with("plots")
+                || rel.starts_with("runs")
+        })?;
     let plan = make_plan(
         args.scenarios.as_deref(),
         args.doe.as_deref(),
