@@ -34,6 +34,26 @@ Exit status:
 
 Errors go to stderr with their cause chain; with --json, results go to stdout as one JSON document.";
 
+/// A number in `(0, max]` (`unit` names it in the message).
+fn positive_at_most(s: &str, max: f64, unit: &str) -> Result<f64, String> {
+    let v: f64 = s.parse().map_err(|_| format!("`{s}` is not a number"))?;
+    if v > 0.0 && v <= max {
+        Ok(v)
+    } else {
+        Err(format!("{v} is not in (0, {max}] {unit}"))
+    }
+}
+
+/// A spindle speed: above 0, at most 1e6 rpm (the physics crate's bound).
+fn speed_rpm(s: &str) -> Result<f64, String> {
+    positive_at_most(s, 1e6, "rpm")
+}
+
+/// A sample rate: above 0, at most 100 MHz (a revolution is then still a few million samples).
+fn sample_rate_hz(s: &str) -> Result<f64, String> {
+    positive_at_most(s, 1e8, "Hz")
+}
+
 /// Micro-milling accuracy: design and analyse experiments, identify material, friction and machine
 /// parameters, compensate tool and thin-wall deflection with MPC, and diagnose model gaps.
 #[derive(Debug, Parser)]
@@ -290,11 +310,11 @@ pub struct IdentifyArgs {
     /// Flutes: number of flutes of the cutter (at most 64).
     #[arg(long, value_parser = RangedU64ValueParser::<usize>::new().range(0..=MAX_FLUTES))]
     pub flutes: Option<usize>,
-    /// Flutes: spindle speed of the record (rpm).
-    #[arg(long, allow_negative_numbers = true)]
+    /// Flutes: spindle speed of the record (rpm; above 0, at most 1 000 000).
+    #[arg(long, allow_negative_numbers = true, value_parser = speed_rpm)]
     pub speed_rpm: Option<f64>,
-    /// Flutes: sample rate of the record (Hz).
-    #[arg(long, allow_negative_numbers = true)]
+    /// Flutes: sample rate of the record (Hz; above 0, at most 100 MHz).
+    #[arg(long, allow_negative_numbers = true, value_parser = sample_rate_hz)]
     pub sample_rate_hz: Option<f64>,
     /// Flutes: further records analysed the same way (e.g. the worn tool beside the fresh one).
     #[arg(long)]
