@@ -61,7 +61,7 @@ fn demo_runs_every_available_stage_and_writes_the_report() {
     // Table 3-3 conclusion (000 §3.5): depth and upfeed significant for X, speed not.
     let doe = stages[0]["summary"].as_str().unwrap();
     assert!(doe.contains("max_fx_n: depth_um, upfeed_um;"), "{doe}");
-    // Force fit: W(6061) from Table 3-3 is about 2049 MPa (README, `identify force` on clayton_doe).
+    // Force fit: W(6061) from Table 3-3 is about 2049 MPa (docs/identify.md, `identify force` on clayton_doe).
     let force = stages[1]["summary"].as_str().unwrap();
     assert!(force.contains("W(6061) = 2049"), "{force}");
     // Spindle: the generator's ζ = 0.46 and ωn = 1302 rad/s come back (noise 0.01 µm on a 5 µm step).
