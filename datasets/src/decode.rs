@@ -309,8 +309,10 @@ fn shape(cell: &str) -> Shape {
         let int_digits: String = match grouping {
             Some(g) => {
                 let groups: Vec<&str> = int.split(g).collect();
+                // a group mark after a leading 0 (`0.500`) is a decimal mark, never a group
                 if groups.len() < 2
                     || !(1..=3).contains(&groups[0].len())
+                    || groups[0].starts_with('0')
                     || groups[1..].iter().any(|x| x.len() != 3)
                     || groups
                         .iter()
@@ -372,6 +374,8 @@ fn shape(cell: &str) -> Shape {
                                 }
                             }
                         }
+                        // `0.500`: a leading zero does not group, so the mark is a decimal one
+                        (Some(dec), None) => Shape::Sure(dec, mark_of(*m)),
                         _ => Shape::Other,
                     }
                 }
@@ -398,36 +402,9 @@ fn shape(cell: &str) -> Shape {
     }
 }
 
-/// Normalises the numbers of one column in place (see the module docs) and returns the decimal mark it
-/// read them with when that changed a cell (a decimal comma, a digit group), for a note.
-///
-/// `comma_by_default` is the file's convention for a column that does not tell (true in a file separated
-/// by semicolons or tabs).
-///
-/// ```
-/// use millcomp_datasets::decode::{normalise_column, DecimalMark};
-/// let mut cells = vec![Some("1,5".to_string()), Some("1.234,25".to_string()), Some("NA".to_string())];
-/// assert_eq!(normalise_column(&mut cells, true), Ok(Some(DecimalMark::Comma)));
-/// assert_eq!(cells, [Some("1.5".into()), Some("1234.25".into()), Some("NA".into())]);
-/// // `1,234` is read with the column's decimal mark: here a point, so the comma groups
-/// let mut cells = vec![Some("1,234".to_string()), Some("0.5".to_string())];
-/// assert_eq!(normalise_column(&mut cells, true), Ok(Some(DecimalMark::Point)));
-/// assert_eq!(cells, [Some("1234".into()), Some("0.5".into())]);
-/// // cells that contradict each other: the first row that does (0-based index) is named
-/// let mut cells = vec![Some("1,5".to_string()), Some("2.5".to_string())];
-/// assert_eq!(normalise_column(&mut cells, true), Err(1));
-/// ```
-///
-/// # Errors
-/// The 0-based index of the first cell whose decimal mark contradicts the column's earlier cells.
-pub fn normalise_column(
-    cells: &mut [Option<String>],
-    comma_by_default: bool,
-) -> Result<Option<DecimalMark>, usize> {
-    let shapes: Vec<Shape> = cells
-        .iter()
-        .map(|c| c.as_deref().map_or(Shape::Other, shape))
-        .collect();
+/// The decimal mark a column's cells show by themselves: `Ok(None)` when no cell can be read only one
+/// way, `Err(i)` for the first cell (0-based) contradicting an earlier one.
+fn column_mark(shapes: &[Shape]) -> Result<Option<DecimalMark>, usize> {
     let mut mark: Option<DecimalMark> = None;
     for (i, s) in shapes.iter().enumerate() {
         if let Shape::Sure(_, Some(m)) = s {
@@ -438,31 +415,82 @@ pub fn normalise_column(
             }
         }
     }
-    let any_marked = shapes.iter().any(|s| !matches!(s, Shape::Other));
-    if !any_marked {
-        return Ok(None);
+    Ok(mark)
+}
+
+/// Normalises the numbers of a file's columns in place (see the module docs) and returns, per column,
+/// the decimal mark it read them with when that changed a cell (a decimal comma, a digit group), for a
+/// note. A column whose cells do not tell (`1,234` only) takes the mark the file's other columns show,
+/// or, when none does or they disagree, the file's convention: decimal commas when `comma_by_default`
+/// (a file separated by semicolons or tabs), decimal points otherwise.
+///
+/// ```
+/// use millcomp_datasets::decode::{normalise_columns, DecimalMark};
+/// let col = |cells: &[&str]| cells.iter().map(|c| Some(c.to_string())).collect::<Vec<_>>();
+/// let mut cols = vec![col(&["1,5", "1.234,25", "NA"])];
+/// assert_eq!(normalise_columns(&mut cols, true), Ok(vec![Some(DecimalMark::Comma)]));
+/// assert_eq!(cols[0], col(&["1.5", "1234.25", "NA"]));
+/// // `1,234` is read with the column's decimal mark: here a point, so the comma groups
+/// let mut cols = vec![col(&["1,234", "0.5"])];
+/// assert_eq!(normalise_columns(&mut cols, true), Ok(vec![Some(DecimalMark::Point)]));
+/// assert_eq!(cols[0], col(&["1234", "0.5"]));
+/// // a column that does not tell follows the others: decimal points in a semicolon file
+/// let mut cols = vec![col(&["1.500", "2.250"]), col(&["0.25"])];
+/// assert_eq!(normalise_columns(&mut cols, true), Ok(vec![None, None]));
+/// assert_eq!(cols[0], col(&["1.500", "2.250"]));
+/// // cells that contradict each other: the column and the first row that does (0-based)
+/// let mut cols = vec![col(&["x"]), col(&["1,5", "2.5"])];
+/// assert_eq!(normalise_columns(&mut cols, true), Err((1, 1)));
+/// ```
+///
+/// # Errors
+/// `(column, cell)`, 0-based, of the first cell whose decimal mark contradicts its column's earlier
+/// cells; nothing is changed then.
+pub fn normalise_columns(
+    columns: &mut [Vec<Option<String>>],
+    comma_by_default: bool,
+) -> Result<Vec<Option<DecimalMark>>, (usize, usize)> {
+    let shapes: Vec<Vec<Shape>> = columns
+        .iter()
+        .map(|cells| {
+            cells
+                .iter()
+                .map(|c| c.as_deref().map_or(Shape::Other, shape))
+                .collect()
+        })
+        .collect();
+    let mut marks = Vec::with_capacity(shapes.len());
+    for (j, s) in shapes.iter().enumerate() {
+        marks.push(column_mark(s).map_err(|i| (j, i))?);
     }
-    let column_mark = mark.unwrap_or(if comma_by_default {
-        DecimalMark::Comma
-    } else {
-        DecimalMark::Point
-    });
-    let mut changed = false;
-    for (cell, s) in cells.iter_mut().zip(shapes) {
-        let new = match s {
-            Shape::Other => continue,
-            Shape::Sure(n, _) => n,
-            Shape::Either { point, comma } => match column_mark {
-                DecimalMark::Point => point,
-                DecimalMark::Comma => comma,
-            },
-        };
-        if cell.as_deref() != Some(new.as_str()) {
-            changed = true;
-            *cell = Some(new);
+    let seen = |m: DecimalMark| marks.iter().any(|k| *k == Some(m));
+    let file_mark = match (seen(DecimalMark::Point), seen(DecimalMark::Comma)) {
+        (true, false) => DecimalMark::Point,
+        (false, true) => DecimalMark::Comma,
+        _ if comma_by_default => DecimalMark::Comma,
+        _ => DecimalMark::Point,
+    };
+    let mut out = Vec::with_capacity(columns.len());
+    for ((cells, shapes), mark) in columns.iter_mut().zip(shapes).zip(marks) {
+        let column_mark = mark.unwrap_or(file_mark);
+        let mut changed = false;
+        for (cell, s) in cells.iter_mut().zip(shapes) {
+            let new = match s {
+                Shape::Other => continue,
+                Shape::Sure(n, _) => n,
+                Shape::Either { point, comma } => match column_mark {
+                    DecimalMark::Point => point,
+                    DecimalMark::Comma => comma,
+                },
+            };
+            if cell.as_deref() != Some(new.as_str()) {
+                changed = true;
+                *cell = Some(new);
+            }
         }
+        out.push(changed.then_some(column_mark));
     }
-    Ok(changed.then_some(column_mark))
+    Ok(out)
 }
 
 /// The note for a column whose numbers were normalised.
@@ -515,9 +543,22 @@ mod tests {
     use super::*;
 
     fn norm(cells: &[&str], comma: bool) -> (Vec<String>, Result<Option<DecimalMark>, usize>) {
-        let mut c: Vec<Option<String>> = cells.iter().map(|s| Some(s.to_string())).collect();
-        let r = normalise_column(&mut c, comma);
-        (c.into_iter().map(Option::unwrap_or_default).collect(), r)
+        let mut c = vec![
+            cells
+                .iter()
+                .map(|s| Some(s.to_string()))
+                .collect::<Vec<_>>(),
+        ];
+        let r = normalise_columns(&mut c, comma)
+            .map(|m| m[0])
+            .map_err(|(_, i)| i);
+        (
+            c.remove(0)
+                .into_iter()
+                .map(Option::unwrap_or_default)
+                .collect(),
+            r,
+        )
     }
 
     #[test]
@@ -549,6 +590,9 @@ mod tests {
         assert_eq!(norm(&["1.234"], false).0, ["1.234"]);
         // a cell that tells decides for the others
         assert_eq!(norm(&["1.234", "0,5"], false).0, ["1234", "0.5"]);
+        // a leading zero is never a digit group: `0.500` is a half wherever it is
+        assert_eq!(norm(&["0.500"], true).0, ["0.500"]);
+        assert_eq!(norm(&["0,500"], false).0, ["0.500"]);
     }
 
     #[test]

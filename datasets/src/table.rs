@@ -582,7 +582,7 @@ fn read_raw(path: &Path) -> Result<RawTable, DatasetError> {
 
 /// A CSV file's bytes as text cells: decoded ([`crate::decode::decode_text`]), split on the delimiter
 /// of its header line ([`crate::decode::sniff_delimiter`]) by polars, every cell read as text, then the
-/// numbers of each column normalised ([`crate::decode::normalise_column`]). What was not plain UTF-8 with
+/// numbers of each column normalised ([`crate::decode::normalise_columns`]). What was not plain UTF-8 with
 /// commas and decimal points is noted.
 fn read_csv_bytes(path: &Path, bytes: &[u8]) -> Result<RawTable, DatasetError> {
     let empty = || DatasetError::Empty {
@@ -640,30 +640,34 @@ fn read_csv_bytes(path: &Path, bytes: &[u8]) -> Result<RawTable, DatasetError> {
     }
     let mut raw = raw_from_dataframe(path, &df, notes)?;
     let comma_by_default = delimiter != b',';
-    for (name, cells) in raw.names.iter().zip(raw.cells.iter_mut()) {
-        let original = cells.clone();
-        match crate::decode::normalise_column(cells, comma_by_default) {
-            Ok(Some(mark)) => raw.notes.push(crate::decode::number_note(name, mark)),
-            Ok(None) => {}
-            Err(i) => {
-                let other = original
-                    .iter()
-                    .take(i)
-                    .filter_map(|c| c.as_deref())
-                    .find(|c| c.contains([',', '.']))
-                    .unwrap_or("")
-                    .to_string();
-                return Err(DatasetError::Invalid {
-                    file: path.to_path_buf(),
-                    column: name.clone(),
-                    row: i + 1,
-                    message: format!(
-                        "`{}` uses the other decimal mark than `{other}` above it: write every number \
-                         of the column with the same decimal mark (and no digit groups)",
-                        original[i].as_deref().unwrap_or("")
-                    ),
-                });
+    // on a contradiction nothing is changed: the cells are still as written
+    match crate::decode::normalise_columns(&mut raw.cells, comma_by_default) {
+        Ok(marks) => {
+            for (name, mark) in raw.names.iter().zip(marks) {
+                if let Some(mark) = mark {
+                    raw.notes.push(crate::decode::number_note(name, mark));
+                }
             }
+        }
+        Err((j, i)) => {
+            let cells = &raw.cells[j];
+            let other = cells
+                .iter()
+                .take(i)
+                .filter_map(|c| c.as_deref())
+                .find(|c| c.contains([',', '.']))
+                .unwrap_or("")
+                .to_string();
+            return Err(DatasetError::Invalid {
+                file: path.to_path_buf(),
+                column: raw.names[j].clone(),
+                row: i + 1,
+                message: format!(
+                    "`{}` uses the other decimal mark than `{other}` above it: write every number \
+                     of the column with the same decimal mark (and no digit groups)",
+                    cells[i].as_deref().unwrap_or("")
+                ),
+            });
         }
     }
     Ok(raw)

@@ -30,12 +30,15 @@
 //!     `max(gtol, √(4ε) ≈ 3.0e-8)`: a tighter `gtol` would leave every fit to end on its iteration
 //!     limit or stalled at rounding level, which is what 1 300-point fits did. The estimate then lies
 //!     within `cosine·√(n − p)` standard errors of the exact minimum (≤ 1.1e-6 SE at 1 300 points);
-//! * `stalled_at_rounding_level` — a success: float64 cannot resolve further progress. A step was
-//!   rejected while the model predicted a reduction below the cost's rounding (`4ε·cost`), or the
-//!   trust radius shrank below `xtol·‖D θ‖` because no longer step reduced the cost (the residuals
-//!   are at the rounding noise of their own evaluation, as on NIST's Lanczos1). These are
-//!   MINPACK's `info` 6 and 7, "no further reduction possible". A wrong analytic Jacobian can
-//!   also make steps fail; [`check_jacobian`](crate::check_jacobian) is the test for that;
+//!   * at the residuals' resolution: a step was rejected while the model predicted a reduction below
+//!     the cost's rounding (`4ε·cost`), or the trust radius shrank below `xtol·‖D θ‖` because no
+//!     longer step reduced the cost (MINPACK's `info` 6 and 7, "no further reduction possible"), and
+//!     the Gauss–Newton reduction left is below what the residuals' own rounding noise resolves
+//!     (measured at that point by a second difference): the minimum as far as the arithmetic can tell,
+//!     as on NIST's Lanczos and Misra problems;
+//! * `stalled_at_rounding_level` — the same stop with a reduction left that the residuals could
+//!   show: the steps fail for another reason. A wrong analytic Jacobian makes them fail;
+//!   [`check_jacobian`](crate::check_jacobian) is the test for that;
 //! * `not_converged` — the iteration limit was reached first (a report with a warning, not an error).
 //!
 //! Tested on the NIST StRD nonlinear regression suite (27 problems, both certified starts; see

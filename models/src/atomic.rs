@@ -386,6 +386,32 @@ mod tests {
     }
 
     #[test]
+    fn nothing_but_our_own_temporary_file_is_visible_while_writing() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.toml");
+        let mut seen = Vec::new();
+        write_atomic(&path, |f| {
+            seen = std::fs::read_dir(dir.path())
+                .unwrap()
+                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect();
+            f.write_all(b"x")
+        })
+        .unwrap();
+        // on Linux an unnamed file (O_TMPFILE): nothing a kill could leave behind; elsewhere (or on a
+        // file system without it) one named temporary file, which says whose it is
+        #[cfg(target_os = "linux")]
+        if !seen.is_empty() {
+            eprintln!("no O_TMPFILE here: a named temporary file was used ({seen:?})");
+        }
+        assert!(
+            seen.iter().all(|n| n.starts_with(&temp_prefix())),
+            "{seen:?}"
+        );
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "x");
+    }
+
+    #[test]
     fn a_missing_directory_is_an_error_naming_the_file() {
         let dir = tempfile::tempdir().unwrap();
         let e =

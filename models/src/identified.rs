@@ -17,10 +17,12 @@ use crate::error::{ModelError, Result};
 pub enum FitStatus {
     /// Converged (a tolerance was met) or solved exactly (linear, full rank).
     Converged,
-    /// Stopped because float64 cannot resolve further progress: the model predicts a reduction
-    /// below the cost's rounding, or every step longer than the step tolerance fails to reduce
-    /// the cost (MINPACK's "no further reduction possible"). A success: the estimate is as good
-    /// as the arithmetic allows.
+    /// Stopped because no step reduces the cost any more (the model predicts a reduction below the
+    /// cost's rounding, or every step longer than the step tolerance fails: MINPACK's "no further
+    /// reduction possible") while a reduction the residuals could show is still left — a stop at the
+    /// residuals' own resolution is `Converged` (identify's nonlinear module). Counted a success (the
+    /// estimate is the best point found), but the steps failed for a reason the arithmetic does not
+    /// explain: a Jacobian that is not the residuals' derivative, for one.
     StalledAtRoundingLevel,
     /// Not converged: the iteration limit was reached before any tolerance was met (files
     /// written before this status was named carry `max_iter`, read as this).
