@@ -924,3 +924,115 @@ fn killed_writes_leave_no_half_written_or_stray_file() {
     );
     assert_eq!((damaged, stray), (0, 0));
 }
+
+/// A batch killed while it writes its results (`results.csv`, `results.parquet`, `plots/`,
+/// `summary.json` last, then `invocation.json`): no temporary file is left anywhere in its directory, no
+/// file is empty, and whenever `summary.json` is present the tables it summarises are present and
+/// complete (its presence is the batch's "the results are whole" marker). The rerun gives the
+/// undisturbed run's results byte for byte. `MILLCOMP_TEST_SLOW_WRITE_MS` (closedloop's batch store)
+/// stretches every text file the batch writes, so the kills land inside those writes.
+#[cfg(unix)]
+#[test]
+fn a_killed_batch_leaves_no_stray_file_and_no_summary_without_its_tables() {
+    use rand_chacha::rand_core::{RngCore, SeedableRng};
+    let work = tempfile::tempdir().unwrap();
+    let scenarios = write(
+        work.path(),
+        "s.csv",
+        "tilt_deg,depth_um,length_mm\n20,60,0.5\n40,100,0.5\n",
+    );
+    let bin = assert_cmd::cargo::cargo_bin("millcomp");
+    let run_in = |out: &Path| {
+        std::process::Command::new(&bin)
+            .args([
+                "batch",
+                "--scenarios",
+                s(&scenarios),
+                "--controllers",
+                "none,pid",
+                "--out",
+                s(out),
+            ])
+            .env("RAYON_NUM_THREADS", "2")
+            .env("MILLCOMP_TEST_SLOW_WRITE_MS", "150")
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap()
+    };
+    let reference = work.path().join("ref");
+    let start = std::time::Instant::now();
+    assert!(run_in(&reference).wait().unwrap().success());
+    let duration = start.elapsed();
+    let tables = ["results.csv", "results.parquet"];
+    let read = |dir: &Path, name: &str| std::fs::read(dir.join(name)).unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5151);
+    let (mut kills, mut tables_only, mut summary_seen, mut stray, mut broken) = (0, 0, 0, 0, 0);
+    for k in 0..12 {
+        let dir = work.path().join(format!("kill-{k}"));
+        // the first half of the kills in the last third of the run, where the results are written
+        let share = rng.next_u32() as f64 / u32::MAX as f64;
+        let at = duration.mul_f64(if k < 6 {
+            0.67 + 0.4 * share
+        } else {
+            1.1 * share
+        });
+        let mut child = run_in(&dir);
+        std::thread::sleep(at);
+        let _ = child.kill(); // SIGKILL
+        let _ = child.wait();
+        kills += 1;
+        let left = if dir.exists() {
+            files_under(&dir)
+        } else {
+            Vec::new()
+        };
+        for f in &left {
+            let name = f.file_name().unwrap().to_string_lossy();
+            if name.starts_with(".millcomp-") || name.ends_with(".partial") {
+                stray += 1;
+                eprintln!("stray file {} after a kill at {at:?}", f.display());
+            } else if std::fs::metadata(dir.join(f)).unwrap().len() == 0 {
+                broken += 1;
+                eprintln!("empty file {} after a kill at {at:?}", f.display());
+            }
+        }
+        let has = |name: &str| dir.join(name).exists();
+        if has("summary.json") {
+            summary_seen += 1;
+            assert_eq!(
+                read(&dir, "summary.json"),
+                read(&reference, "summary.json"),
+                "a kill at {at:?}"
+            );
+            for t in tables {
+                if !has(t) || read(&dir, t) != read(&reference, t) {
+                    broken += 1;
+                    eprintln!("summary.json without a complete {t} after a kill at {at:?}");
+                }
+            }
+        } else if tables.iter().any(|t| has(t)) {
+            tables_only += 1;
+        }
+        // the rerun resumes and gives the undisturbed run's results
+        assert!(run_in(&dir).wait().unwrap().success(), "rerun after {at:?}");
+        for name in ["summary.json", "results.csv", "results.parquet"] {
+            assert_eq!(
+                read(&dir, name),
+                read(&reference, name),
+                "{name} after {at:?}"
+            );
+        }
+        assert!(
+            !files_under(&dir)
+                .iter()
+                .any(|f| f.to_string_lossy().contains(".millcomp-")),
+            "a temporary file after the rerun"
+        );
+    }
+    eprintln!(
+        "killed batches: {kills} kills ({tables_only} with the tables but no summary yet, \
+         {summary_seen} with the summary), {stray} stray files, {broken} empty or incomplete"
+    );
+    assert_eq!((stray, broken), (0, 0));
+}
