@@ -867,7 +867,7 @@ impl Scenario {
                 .map(|f| f.upfeed_um)
                 .fold(g.upfeed_um, f64::min);
             let steps = g.length_mm / (g.speed_rpm / 60.0 * upfeed / 1000.0) / c.dt_s;
-            if !(steps <= MAX_RUN_STEPS) {
+            if steps.is_nan() || steps > MAX_RUN_STEPS {
                 return Err(invalid(
                     "groove.length_mm",
                     g.length_mm,

@@ -463,7 +463,7 @@ pub fn normalise_columns(
     for (j, s) in shapes.iter().enumerate() {
         marks.push(column_mark(s).map_err(|i| (j, i))?);
     }
-    let seen = |m: DecimalMark| marks.iter().any(|k| *k == Some(m));
+    let seen = |m: DecimalMark| marks.contains(&Some(m));
     let file_mark = match (seen(DecimalMark::Point), seen(DecimalMark::Comma)) {
         (true, false) => DecimalMark::Point,
         (false, true) => DecimalMark::Comma,
