@@ -19,7 +19,7 @@ def without_timing(report):
     if isinstance(report, dict):
         return {k: without_timing(v) for k, v in report.items()
                 if not (k.endswith("_wall_s") or k.startswith("solve_time") or k.endswith("_time_s")
-                        or k in ("elapsed_s", "wall_s"))}
+                        or k in ("elapsed_s", "wall_s", "wall_clock_s"))}
     if isinstance(report, list):
         return [without_timing(v) for v in report]
     return report
