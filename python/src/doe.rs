@@ -200,8 +200,22 @@ fn analyze_source(
     })
 }
 
-fn col(name: &str, values: Series) -> Column {
-    values.with_name(PlSmallStr::from(name)).into()
+/// A frame of named columns of equal length.
+fn frame(columns: Vec<(&str, Series)>) -> anyhow::Result<DataFrame> {
+    let height = columns.first().map_or(0, |(_, s)| s.len());
+    let columns: Vec<Column> = columns
+        .into_iter()
+        .map(|(name, s)| s.with_name(PlSmallStr::from(name)).into())
+        .collect();
+    Ok(DataFrame::new(height, columns)?)
+}
+
+/// One column from the rows: `f` picks the value.
+fn pick<R, T>(rows: &[R], f: impl Fn(&R) -> T) -> Series
+where
+    Series: NamedFrom<Vec<T>, [T]>,
+{
+    Series::new(PlSmallStr::EMPTY, rows.iter().map(f).collect::<Vec<T>>())
 }
 
 impl PyAnalysis {
@@ -222,82 +236,37 @@ impl PyAnalysis {
             .zip(&df)
             .map(|(s, d)| (*d > 0).then(|| s / *d as f64))
             .collect();
-        let n = term.len();
-        Ok(DataFrame::new(
-            n,
-            vec![
-                col("term", Series::new("".into(), term)),
-                col("df", Series::new("".into(), df)),
-                col("sum_sq", Series::new("".into(), ss)),
-                col("mean_sq", Series::new("".into(), ms)),
-                col("f", Series::new("".into(), f)),
-                col("p_value", Series::new("".into(), p)),
-            ],
-        )?)
+        let s = |v| Series::new(PlSmallStr::EMPTY, v);
+        frame(vec![
+            ("term", Series::new(PlSmallStr::EMPTY, term)),
+            ("df", Series::new(PlSmallStr::EMPTY, df)),
+            ("sum_sq", Series::new(PlSmallStr::EMPTY, ss)),
+            ("mean_sq", s(ms)),
+            ("f", s(f)),
+            ("p_value", s(p)),
+        ])
     }
 
     fn effects_frame(&self) -> anyhow::Result<DataFrame> {
         let t = &self.analysis.terms;
-        Ok(DataFrame::new(
-            t.len(),
-            vec![
-                col(
-                    "term",
-                    Series::new(
-                        "".into(),
-                        t.iter().map(|r| r.term.clone()).collect::<Vec<_>>(),
-                    ),
-                ),
-                col(
-                    "effect",
-                    Series::new("".into(), t.iter().map(|r| r.effect).collect::<Vec<_>>()),
-                ),
-                col(
-                    "coef",
-                    Series::new("".into(), t.iter().map(|r| r.coef).collect::<Vec<_>>()),
-                ),
-                col(
-                    "std_err",
-                    Series::new("".into(), t.iter().map(|r| r.std_err).collect::<Vec<_>>()),
-                ),
-                col(
-                    "p_value",
-                    Series::new("".into(), t.iter().map(|r| r.p_value).collect::<Vec<_>>()),
-                ),
-            ],
-        )?)
+        frame(vec![
+            ("term", pick(t, |r| r.term.clone())),
+            ("effect", pick(t, |r| r.effect)),
+            ("coef", pick(t, |r| r.coef)),
+            ("std_err", pick(t, |r| r.std_err)),
+            ("p_value", pick(t, |r| r.p_value)),
+        ])
     }
 
     fn coefficients_frame(&self) -> anyhow::Result<DataFrame> {
         let c = &self.analysis.coefficients;
-        Ok(DataFrame::new(
-            c.len(),
-            vec![
-                col(
-                    "name",
-                    Series::new(
-                        "".into(),
-                        c.iter().map(|r| r.name.clone()).collect::<Vec<_>>(),
-                    ),
-                ),
-                col(
-                    "coef",
-                    Series::new("".into(), c.iter().map(|r| r.coef).collect::<Vec<_>>()),
-                ),
-                col(
-                    "std_err",
-                    Series::new("".into(), c.iter().map(|r| r.std_err).collect::<Vec<_>>()),
-                ),
-                col(
-                    "t",
-                    Series::new("".into(), c.iter().map(|r| r.t).collect::<Vec<_>>()),
-                ),
-                col(
-                    "p_value",
-                    Series::new("".into(), c.iter().map(|r| r.p_value).collect::<Vec<_>>()),
-                ),
-            ],
-        )?)
+        frame(vec![
+            ("name", pick(c, |r| r.name.clone())),
+            ("coef", pick(c, |r| r.coef)),
+            ("std_err", pick(c, |r| r.std_err)),
+            ("t", pick(c, |r| r.t)),
+            ("p_value", pick(c, |r| r.p_value)),
+        ])
     }
 
     fn lenth_frame(&self) -> anyhow::Result<Option<DataFrame>> {
@@ -305,40 +274,13 @@ impl PyAnalysis {
             return Ok(None);
         };
         let t = &l.terms;
-        Ok(Some(DataFrame::new(
-            t.len(),
-            vec![
-                col(
-                    "term",
-                    Series::new(
-                        "".into(),
-                        t.iter().map(|r| r.term.clone()).collect::<Vec<_>>(),
-                    ),
-                ),
-                col(
-                    "effect",
-                    Series::new("".into(), t.iter().map(|r| r.effect).collect::<Vec<_>>()),
-                ),
-                col(
-                    "t_pse",
-                    Series::new("".into(), t.iter().map(|r| r.t_pse).collect::<Vec<_>>()),
-                ),
-                col(
-                    "exceeds_me",
-                    Series::new(
-                        "".into(),
-                        t.iter().map(|r| r.exceeds_me).collect::<Vec<_>>(),
-                    ),
-                ),
-                col(
-                    "exceeds_sme",
-                    Series::new(
-                        "".into(),
-                        t.iter().map(|r| r.exceeds_sme).collect::<Vec<_>>(),
-                    ),
-                ),
-            ],
-        )?))
+        Ok(Some(frame(vec![
+            ("term", pick(t, |r| r.term.clone())),
+            ("effect", pick(t, |r| r.effect)),
+            ("t_pse", pick(t, |r| r.t_pse)),
+            ("exceeds_me", pick(t, |r| r.exceeds_me)),
+            ("exceeds_sme", pick(t, |r| r.exceeds_sme)),
+        ])?))
     }
 
     fn report_value(&self) -> anyhow::Result<serde_json::Value> {
