@@ -243,6 +243,19 @@ pub fn read_measured_groove(path: &Path) -> Result<MeasuredGroove, DatasetError>
     measured_groove_from(path, table)
 }
 
+/// A measured-groove table held in memory (a Python caller's frame) into points, validated as
+/// [`read_measured_groove`] validates a file; `origin` names it in messages.
+///
+/// # Errors
+/// As [`read_measured_groove`].
+pub fn measured_groove_from_dataframe(
+    origin: &str,
+    df: &polars::prelude::DataFrame,
+) -> Result<MeasuredGroove, DatasetError> {
+    let table = crate::table::read_dataframe(origin, df, &measured_groove_schema())?;
+    measured_groove_from(Path::new(origin), table)
+}
+
 /// Reads measured-groove CSV text (embedded data, tests) into points; `origin` names it in messages.
 ///
 /// # Errors

@@ -432,23 +432,7 @@ fn typed(path: &Path, raw: RawTable) -> Result<Table, DatasetError> {
     let columns = names
         .into_iter()
         .zip(cells)
-        .map(|(name, cells)| {
-            let numbers: Option<Vec<f64>> = cells
-                .iter()
-                .map(|c| {
-                    c.as_deref()
-                        .and_then(|t| t.parse::<f64>().ok())
-                        .filter(|x| x.is_finite())
-                })
-                .collect();
-            let data = match numbers {
-                Some(v) => ColumnData::Float(v),
-                None => {
-                    ColumnData::Text(cells.into_iter().map(Option::unwrap_or_default).collect())
-                }
-            };
-            Column { name, data }
-        })
+        .map(|(name, cells)| typed_column(name, cells))
         .collect();
     Ok(Table {
         origin: path.display().to_string(),
@@ -456,6 +440,119 @@ fn typed(path: &Path, raw: RawTable) -> Result<Table, DatasetError> {
         ignored_columns: Vec::new(),
         notes,
     })
+}
+
+/// One column typed as [`read_any`] types it: all finite numbers → floats, anything else text.
+fn typed_column(name: String, cells: Vec<Option<String>>) -> Column {
+    let numbers: Option<Vec<f64>> = cells
+        .iter()
+        .map(|c| {
+            c.as_deref()
+                .and_then(|t| t.parse::<f64>().ok())
+                .filter(|x| x.is_finite())
+        })
+        .collect();
+    let data = match numbers {
+        Some(v) => ColumnData::Float(v),
+        None => ColumnData::Text(cells.into_iter().map(Option::unwrap_or_default).collect()),
+    };
+    Column { name, data }
+}
+
+/// A data frame in memory (a Python caller's, through Arrow) typed as [`read_any`] types a file with
+/// the same cells: a numeric column without nulls and with finite values only becomes a float column
+/// directly (no text in between); any other column is typed from its cells as text, by the same rule
+/// as a file's (a text column whose cells all read as finite numbers becomes floats, a number column
+/// with a null or NaN stays text, so the consumer names the cell). `origin` names the frame in errors
+/// (`frame`, the argument's name).
+///
+/// ```
+/// use polars::prelude::*;
+/// let df = df!("depth_um" => [100i64, 200], "fx_n" => [1.5, f64::NAN], "note" => ["a", "b"]).unwrap();
+/// let t = millcomp_datasets::table::from_dataframe("frame", &df).unwrap();
+/// assert_eq!(t.f64s("depth_um").unwrap(), [100.0, 200.0]);
+/// assert_eq!(t.strings("fx_n").unwrap(), ["1.5", "NaN"]); // kept as text: NaN is not a number
+/// assert!(millcomp_datasets::table::from_dataframe("frame", &DataFrame::empty()).is_err());
+/// ```
+///
+/// # Errors
+/// [`DatasetError::Empty`] (no columns, no rows), [`DatasetError::DuplicateColumn`],
+/// [`DatasetError::UnreadableColumn`] (a column polars cannot show as text).
+pub fn from_dataframe(origin: &str, df: &DataFrame) -> Result<Table, DatasetError> {
+    let path = PathBuf::from(origin);
+    let mut columns: Vec<Column> = Vec::with_capacity(df.width());
+    for col in df.columns() {
+        let name = col.name().to_string();
+        if columns.iter().any(|c| c.name == name) {
+            return Err(DatasetError::DuplicateColumn {
+                file: path,
+                column: name,
+            });
+        }
+        let floats = col
+            .dtype()
+            .is_primitive_numeric()
+            .then(|| col.cast(&DataType::Float64).ok())
+            .flatten()
+            .filter(|c| c.null_count() == 0)
+            .and_then(|c| {
+                c.f64()
+                    .ok()
+                    .map(|ca| ca.into_no_null_iter().collect::<Vec<f64>>())
+            })
+            .filter(|v| v.iter().all(|x| x.is_finite()));
+        match floats {
+            Some(v) => columns.push(Column {
+                name,
+                data: ColumnData::Float(v),
+            }),
+            None => {
+                let one = DataFrame::new(col.len(), vec![col.clone()]).map_err(|source| {
+                    DatasetError::UnreadableColumn {
+                        file: path.clone(),
+                        column: name.clone(),
+                        source,
+                    }
+                })?;
+                let mut raw = raw_from_dataframe(&path, &one, Vec::new())?;
+                columns.push(typed_column(name, raw.cells.remove(0)));
+            }
+        }
+    }
+    if columns.is_empty() {
+        return Err(DatasetError::Empty {
+            file: path,
+            what: "header",
+        });
+    }
+    if df.height() == 0 {
+        return Err(DatasetError::Empty {
+            file: path,
+            what: "data rows",
+        });
+    }
+    Ok(Table {
+        origin: origin.to_string(),
+        columns,
+        ignored_columns: Vec::new(),
+        notes: Vec::new(),
+    })
+}
+
+/// A data frame in memory validated against `schema` as [`read_table`] validates a file with the
+/// same cells (every cell read as text, then parsed by the schema's kind); `origin` names the frame in
+/// errors.
+///
+/// # Errors
+/// As [`read_table`], without [`DatasetError::Io`].
+pub fn read_dataframe(
+    origin: &str,
+    df: &DataFrame,
+    schema: &Schema,
+) -> Result<Table, DatasetError> {
+    let path = PathBuf::from(origin);
+    let raw = raw_from_dataframe(&path, df, Vec::new())?;
+    validate(&path, raw, schema)
 }
 
 /// Reads embedded CSV text (a shipped dataset) and validates it against `schema`; `origin` names it in

@@ -1283,3 +1283,53 @@ pub fn simulate_session(
     }
     Ok(out)
 }
+
+/// One groove of a simulated or measured session in numbers: its points, start time and depth error
+/// (measured − commanded). Fields in alphabetical order, as `simulate --json` has always printed them.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GrooveSummary {
+    /// The groove.
+    pub groove_id: i64,
+    /// The error of largest magnitude (µm, signed).
+    pub max_error_um: f64,
+    /// The mean error (µm).
+    pub mean_error_um: f64,
+    /// Points of the groove.
+    pub n_points: usize,
+    /// Time of its first point (s).
+    pub t_start_s: f64,
+}
+
+/// Per groove (by id, ascending): points, start time and the depth error (`simulate SESSION`'s table,
+/// the Python package's `simulate_session`).
+///
+/// ```
+/// use millcomp_sim::session::{Session, SimOptions, groove_summaries, simulate_session};
+/// let s = Session::from_path(concat!(env!("CARGO_MANIFEST_DIR"), "/../datasets/sessions/example.toml")).unwrap();
+/// let pts = simulate_session(&s, &SimOptions::default()).unwrap();
+/// let g = groove_summaries(&pts);
+/// assert_eq!(g.iter().map(|g| g.n_points).sum::<usize>(), pts.len());
+/// assert!(g.windows(2).all(|w| w[0].groove_id < w[1].groove_id));
+/// ```
+pub fn groove_summaries(points: &[GroovePoint]) -> Vec<GrooveSummary> {
+    let mut ids: Vec<i64> = points.iter().map(|p| p.groove_id).collect();
+    ids.sort_unstable();
+    ids.dedup();
+    ids.iter()
+        .map(|&id| {
+            let g: Vec<&GroovePoint> = points.iter().filter(|p| p.groove_id == id).collect();
+            let err: Vec<f64> = g.iter().map(|p| p.depth_meas_um - p.depth_cmd_um).collect();
+            let max = err
+                .iter()
+                .fold(0.0_f64, |m, e| if e.abs() > m.abs() { *e } else { m });
+            let mean = err.iter().sum::<f64>() / err.len() as f64;
+            GrooveSummary {
+                groove_id: id,
+                max_error_um: max,
+                mean_error_um: mean,
+                n_points: g.len(),
+                t_start_s: g[0].t_s,
+            }
+        })
+        .collect()
+}

@@ -4,10 +4,7 @@
 use std::path::Path;
 
 use anyhow::{Context, bail};
-use millcomp_doe::{
-    AnalysisInput, CcdAlpha, CcdVariant, DesignKind, DesignRequest, FactorSpec, LinearConstraint,
-    ModelSpec,
-};
+use millcomp_doe::{AnalyzeOptions, AnalyzeOutcome, DesignOptions, DesignRequest};
 
 use crate::cli::{DoeAnalyzeArgs, DoeCommand, DoeDesignArgs};
 use crate::cmd::guard::Inputs;
@@ -20,35 +17,26 @@ pub fn run(cmd: DoeCommand, json: bool) -> anyhow::Result<()> {
     }
 }
 
-/// The design request of `doe design` arguments (also used by `batch --doe`).
+/// The design request of `doe design` arguments (also used by `batch --doe`): the library's
+/// [`DesignOptions`] (one place, shared with the Python package).
 pub fn design_request(args: &DoeDesignArgs) -> anyhow::Result<DesignRequest> {
-    let factors = FactorSpec::parse_list(&args.factors).context("--factors")?;
-    let mut kind: DesignKind = args.design.parse().context("--design")?;
-    if let DesignKind::Ccd { variant, alpha } = &mut kind {
-        if args.design == "ccd" {
-            *variant = args
-                .ccd_variant
-                .parse::<CcdVariant>()
-                .context("--ccd-variant")?;
-        }
-        *alpha = args.alpha.parse::<CcdAlpha>().context("--alpha")?;
-    }
-    let mut req = DesignRequest::new(kind, factors);
-    req.resolution = args.resolution;
-    req.generators = args.generators.clone();
-    req.runs = args.runs;
-    req.replicates = args.replicates;
-    req.center_points = args.center_points;
-    req.blocks = args.blocks;
-    req.seed = args.seed;
-    req.randomize = !args.no_randomize;
-    if let Some(m) = &args.model {
-        req.model = Some(ModelSpec::parse(m).context("--model")?);
-    }
-    if let Some(c) = &args.constraints {
-        req.constraints = LinearConstraint::parse_list(c, &req.factors).context("--constraints")?;
-    }
-    Ok(req)
+    let options = DesignOptions {
+        design: args.design.clone(),
+        factors: args.factors.clone(),
+        resolution: args.resolution,
+        generators: args.generators.clone(),
+        runs: args.runs,
+        replicates: args.replicates,
+        center_points: args.center_points,
+        blocks: args.blocks,
+        seed: args.seed,
+        randomize: !args.no_randomize,
+        ccd_variant: args.ccd_variant.clone(),
+        alpha: args.alpha.clone(),
+        model: args.model.clone(),
+        constraints: args.constraints.clone(),
+    };
+    Ok(options.request()?)
 }
 
 fn design(args: &DoeDesignArgs, json: bool) -> anyhow::Result<()> {
@@ -134,19 +122,17 @@ fn analyze(args: &DoeAnalyzeArgs, json: bool) -> anyhow::Result<()> {
         eprintln!("note: {}: {n}", args.file.display());
     }
     let columns = millcomp_datasets::adapters::doe_columns(&table);
-    let model = ModelSpec::parse(&args.model).context("--model")?;
-    let factors = (!args.factors.is_empty()).then_some(args.factors.as_slice());
-    let input = AnalysisInput::from_table(&columns, &args.response, factors, model)
-        .with_context(|| format!("{}: preparing the analysis", args.file.display()))?;
-    let (analysis, elimination) = if args.reduce {
-        let e = millcomp_doe::backward_eliminate(&input, args.alpha)
-            .with_context(|| format!("{}: backward elimination", args.file.display()))?;
-        (e.analysis.clone(), Some(e))
-    } else {
-        let a = millcomp_doe::analyze(&input)
-            .with_context(|| format!("{}: analysing `{}`", args.file.display(), args.response))?;
-        (a, None)
+    let options = AnalyzeOptions {
+        response: args.response.clone(),
+        factors: Some(args.factors.clone()),
+        model: args.model.clone(),
+        alpha: args.alpha,
+        reduce: args.reduce,
     };
+    let AnalyzeOutcome {
+        analysis,
+        elimination,
+    } = options.run(&args.file.display().to_string(), &columns)?;
     check_finite(&analysis, &args.file)?;
     if let Some(path) = &args.save {
         save_model(&analysis, &args.file, path)?;

@@ -91,14 +91,12 @@ pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
 }
 
 fn options(args: &IdentifyArgs) -> anyhow::Result<IdentifyOptions> {
-    let thermal_model = match args.model.as_deref().unwrap_or("exponential") {
-        "exponential" => ThermalModel::Exponential,
-        "linear-temperature" => ThermalModel::LinearTemperature,
-        "speed-dependent" => ThermalModel::SpeedDependent,
-        other => {
-            bail!("--model `{other}`: allowed exponential, linear-temperature, speed-dependent")
-        }
-    };
+    let thermal_model: ThermalModel = args
+        .model
+        .as_deref()
+        .unwrap_or("exponential")
+        .parse()
+        .context("--model")?;
     let force_free = args
         .free
         .iter()

@@ -4,7 +4,7 @@
 use anyhow::{Context, bail};
 use millcomp_datasets::contracts::measured_groove_table;
 use millcomp_sim::sensors::NoiseSpec;
-use millcomp_sim::session::{GroovePoint, Session, SimOptions, simulate_session};
+use millcomp_sim::session::{GroovePoint, Session, SimOptions, groove_summaries, simulate_session};
 use serde_json::json;
 
 use std::path::Path;
@@ -51,7 +51,7 @@ pub fn run(args: SimulateArgs, json: bool) -> anyhow::Result<()> {
     if let Some(plot) = &args.plot {
         plot_profiles(plot, &session.name, &points)?;
     }
-    let summary = summarise(&points);
+    let summary = groove_summaries(&points);
     if json {
         return print_json(&json!({
             "session": session.name,
@@ -74,11 +74,7 @@ pub fn run(args: SimulateArgs, json: bool) -> anyhow::Result<()> {
     for g in &summary {
         println!(
             "{:>6} {:>7} {:>12.1} {:>16.3} {:>16.3}",
-            g["groove_id"].as_i64().unwrap_or(-1),
-            g["n_points"].as_u64().unwrap_or(0),
-            g["t_start_s"].as_f64().unwrap_or(f64::NAN),
-            g["max_error_um"].as_f64().unwrap_or(f64::NAN),
-            g["mean_error_um"].as_f64().unwrap_or(f64::NAN)
+            g.groove_id, g.n_points, g.t_start_s, g.max_error_um, g.mean_error_um
         );
     }
     if let Some(out) = &args.out {
@@ -100,26 +96,6 @@ fn check_outputs(args: &SimulateArgs, inputs: Inputs) -> anyhow::Result<()> {
         bail!("--out and --plot name the same file {}", o.display());
     }
     Ok(())
-}
-
-/// Per groove: number of points, start time, and the depth error (measured − commanded).
-fn summarise(points: &[GroovePoint]) -> Vec<serde_json::Value> {
-    let mut ids: Vec<i64> = points.iter().map(|p| p.groove_id).collect();
-    ids.dedup();
-    ids.sort_unstable();
-    ids.dedup();
-    ids.iter()
-        .map(|&id| {
-            let g: Vec<&GroovePoint> = points.iter().filter(|p| p.groove_id == id).collect();
-            let err: Vec<f64> = g.iter().map(|p| p.depth_meas_um - p.depth_cmd_um).collect();
-            let max = err
-                .iter()
-                .fold(0.0_f64, |m, e| if e.abs() > m.abs() { *e } else { m });
-            let mean = err.iter().sum::<f64>() / err.len() as f64;
-            json!({"groove_id": id, "n_points": g.len(), "t_start_s": g[0].t_s,
-                   "max_error_um": max, "mean_error_um": mean})
-        })
-        .collect()
 }
 
 fn plot_profiles(path: &std::path::Path, name: &str, points: &[GroovePoint]) -> anyhow::Result<()> {

@@ -12,6 +12,7 @@
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
@@ -105,6 +106,9 @@ pub struct BatchRequest {
     /// Stop cleanly on SIGTERM and SIGINT ([`super::signals`]): for a program's own batch, not a
     /// library caller's.
     pub stop_on_signals: bool,
+    /// A library caller's stop request (a notebook's interrupt, seen by its progress callback): set,
+    /// the runs not started are left for the next call, as on a signal.
+    pub stop: Option<Arc<AtomicBool>>,
 }
 
 impl BatchRequest {
@@ -121,6 +125,7 @@ impl BatchRequest {
             progress: ProgressMode::Auto,
             plots: true,
             stop_on_signals: false,
+            stop: None,
         }
     }
 
@@ -191,9 +196,10 @@ pub fn run_plan(plan: &Plan, req: &BatchRequest) -> Result<BatchSummary, ClosedL
         let opts = ShardOptions {
             progress: req.progress.clone(),
             cache: Some(&cache),
-            stop: req
-                .stop_on_signals
-                .then(|| super::signals::stop_flag() as &AtomicBool),
+            stop: req.stop.as_deref().or_else(|| {
+                req.stop_on_signals
+                    .then(|| super::signals::stop_flag() as &AtomicBool)
+            }),
             stop_reason: Some(super::signals::received),
         };
         let outcome = run_shard_with(plan, req.shard, &req.out, &MpcClosedLoop, &opts)?;

@@ -240,6 +240,112 @@ impl DesignRequest {
     }
 }
 
+/// A design request as text and numbers, as `millcomp doe design` takes its flags and Python's
+/// `doe.design` its arguments: one place that turns them into a [`DesignRequest`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct DesignOptions {
+    /// `full | fractional | plackett-burman | ccd | box-behnken | lhs | dsd | d-optimal` (also `ccf`,
+    /// `cci`).
+    pub design: String,
+    /// `depth_um=100:200,speed_rpm=10000:20000` or bare names `A,B,C` (coded −1/+1).
+    pub factors: String,
+    /// Fractional: minimum resolution.
+    pub resolution: Option<u32>,
+    /// Fractional: generators such as `"D=AB,E=AC"`.
+    pub generators: Option<String>,
+    /// Runs (LHS, D-optimal, Plackett–Burman, fractional).
+    pub runs: Option<usize>,
+    /// Replicates of the whole design.
+    pub replicates: usize,
+    /// Centre points per block (`None`: the design's default).
+    pub center_points: Option<usize>,
+    /// Blocks.
+    pub blocks: usize,
+    /// Seed of the run order (and of LHS / D-optimal searches).
+    pub seed: Option<u64>,
+    /// Randomise the run order.
+    pub randomize: bool,
+    /// CCD variant (`circumscribed | inscribed | face-centred`), used when `design` is `ccd`.
+    pub ccd_variant: String,
+    /// CCD alpha (`rotatable | orthogonal | orthogonal-blocking | a number`).
+    pub alpha: String,
+    /// D-optimal: the model (`main | 2fi | quadratic | a formula`).
+    pub model: Option<String>,
+    /// D-optimal: linear constraints in coded units (`"a + b <= 1.5; 2*A - B >= -1"`).
+    pub constraints: Option<String>,
+}
+
+impl DesignOptions {
+    /// `design` over `factors` with the defaults of `doe design`: 1 replicate, 1 block, randomised,
+    /// a circumscribed rotatable CCD.
+    pub fn new(design: &str, factors: &str) -> Self {
+        Self {
+            design: design.to_string(),
+            factors: factors.to_string(),
+            resolution: None,
+            generators: None,
+            runs: None,
+            replicates: 1,
+            center_points: None,
+            blocks: 1,
+            seed: None,
+            randomize: true,
+            ccd_variant: "circumscribed".to_string(),
+            alpha: "rotatable".to_string(),
+            model: None,
+            constraints: None,
+        }
+    }
+
+    /// The request these options describe.
+    ///
+    /// ```
+    /// use millcomp_doe::{DesignOptions, DoeError};
+    /// let mut o = DesignOptions::new("fractional", "a=1:2,b=1:2,c=1:2,d=1:2");
+    /// o.resolution = Some(4);
+    /// assert_eq!(millcomp_doe::generate(&o.request().unwrap()).unwrap().runs.len(), 8);
+    /// o.factors = "a=1:1".into();
+    /// let e = o.request().unwrap_err();
+    /// assert!(matches!(e, DoeError::BadOption { option: "factors", .. }));
+    /// assert_eq!(e.to_string(), "--factors");
+    /// ```
+    ///
+    /// # Errors
+    /// [`DoeError::BadOption`] naming the option, with the parser's error as its source.
+    pub fn request(&self) -> Result<DesignRequest> {
+        fn at<T>(option: &'static str, r: Result<T>) -> Result<T> {
+            r.map_err(|e| DoeError::BadOption {
+                option,
+                source: Box::new(e),
+            })
+        }
+        let factors = at("factors", FactorSpec::parse_list(&self.factors))?;
+        let mut kind: DesignKind = at("design", self.design.parse())?;
+        if let DesignKind::Ccd { variant, alpha } = &mut kind {
+            if self.design == "ccd" {
+                *variant = at("ccd_variant", self.ccd_variant.parse::<CcdVariant>())?;
+            }
+            *alpha = at("alpha", self.alpha.parse::<CcdAlpha>())?;
+        }
+        let mut req = DesignRequest::new(kind, factors);
+        req.resolution = self.resolution;
+        req.generators = self.generators.clone();
+        req.runs = self.runs;
+        req.replicates = self.replicates;
+        req.center_points = self.center_points;
+        req.blocks = self.blocks;
+        req.seed = self.seed;
+        req.randomize = self.randomize;
+        if let Some(m) = &self.model {
+            req.model = Some(at("model", ModelSpec::parse(m))?);
+        }
+        if let Some(c) = &self.constraints {
+            req.constraints = at("constraints", LinearConstraint::parse_list(c, &req.factors))?;
+        }
+        Ok(req)
+    }
+}
+
 /// One run of a design.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Run {

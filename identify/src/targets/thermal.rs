@@ -55,6 +55,29 @@ pub enum ThermalModel {
     SpeedDependent,
 }
 
+impl std::str::FromStr for ThermalModel {
+    type Err = crate::IdentifyError;
+
+    /// The CLI's `--model` names (and Python's `model=`).
+    ///
+    /// ```
+    /// use millcomp_identify::targets::thermal::ThermalModel;
+    /// assert_eq!("speed-dependent".parse::<ThermalModel>().unwrap(), ThermalModel::SpeedDependent);
+    /// assert!("linear".parse::<ThermalModel>().unwrap_err().to_string().contains("allowed exponential"));
+    /// ```
+    fn from_str(s: &str) -> std::result::Result<Self, Self::Err> {
+        match s {
+            "exponential" => Ok(ThermalModel::Exponential),
+            "linear-temperature" => Ok(ThermalModel::LinearTemperature),
+            "speed-dependent" => Ok(ThermalModel::SpeedDependent),
+            other => Err(crate::IdentifyError::UnknownModel {
+                name: other.to_string(),
+                allowed: "exponential, linear-temperature, speed-dependent".to_string(),
+            }),
+        }
+    }
+}
+
 impl ThermalModel {
     /// Saved-model kind string.
     pub fn kind(&self) -> &'static str {
