@@ -338,7 +338,7 @@ type LsqState = IterState<DVector<f64>, (), (), (), (), f64>;
 const ROUNDING: f64 = 4.0 * f64::EPSILON;
 
 /// `√(4ε)` ≈ 2.98e-8: the smallest cosine the gradient test can resolve — a cosine below it promises a
-/// reduction below the cost's rounding ([`ROUNDING`]).
+/// reduction below the cost's rounding (`4ε` of the cost).
 pub const GTOL_FLOOR: f64 = 2.9802322387695312e-8;
 
 /// A Levenberg–Marquardt trust-region solver for argmin (see the module docs): the step solves
