@@ -12,6 +12,7 @@ use serde::{Deserialize, Serialize};
 use super::factors::{ScenarioSpec, build_scenario};
 use super::plan::{Plan, RunId, Shard};
 use crate::error::{ClosedLoopError, error_chain};
+use crate::report::RunReport;
 use crate::runner::run_scenario;
 use crate::scenario::ControllerKind;
 
@@ -76,6 +77,36 @@ pub const METRICS: [&str; 10] = [
 ];
 
 impl RunMetrics {
+    /// The metrics of a run's report.
+    pub fn from_report(r: &RunReport) -> Self {
+        let m = &r.metrics;
+        RunMetrics {
+            pp_error_um: m.pp_error_um,
+            rms_error_um: m.rms_error_um,
+            max_error_um: m.max_error_um,
+            min_error_um: m.min_error_um,
+            actuator_travel_um: m.actuator_travel_um,
+            solver_fallbacks: r.solver.map_or(0, |s| s.fallbacks),
+            change_excess_um: m.change_excess_um,
+            stroke_bound_um: m.stroke_bound_um,
+            optimum_pp_um: m.optimum_pp_um,
+            change_bound_um: r
+                .changes
+                .iter()
+                .max_by(|a, b| a.excess_um.total_cmp(&b.excess_um))
+                .and_then(|c| c.bound_um)
+                .or_else(|| {
+                    r.nc_axis
+                        .as_ref()
+                        .and_then(|n| n.wall.feed_step_peak_bound_um)
+                }),
+            solve_median_us: r.solver.map(|s| s.median_us),
+            solve_p99_us: r.solver.map(|s| s.p99_us),
+            solve_max_us: r.solver.map(|s| s.max_us),
+            deadline_misses: r.solver.map(|s| s.deadline_misses),
+        }
+    }
+
     /// Value of metric `name` (one of [`METRICS`]).
     pub fn get(&self, name: &str) -> Option<f64> {
         Some(match name {
@@ -120,33 +151,7 @@ impl ClosedLoop for MpcClosedLoop {
         let s = build_scenario(scenario)?;
         let kind: ControllerKind = controller.parse()?;
         let r = run_scenario(&s, kind)?;
-        let m = &r.metrics;
-        let metrics = RunMetrics {
-            pp_error_um: m.pp_error_um,
-            rms_error_um: m.rms_error_um,
-            max_error_um: m.max_error_um,
-            min_error_um: m.min_error_um,
-            actuator_travel_um: m.actuator_travel_um,
-            solver_fallbacks: r.solver.map_or(0, |s| s.fallbacks),
-            change_excess_um: m.change_excess_um,
-            stroke_bound_um: m.stroke_bound_um,
-            optimum_pp_um: m.optimum_pp_um,
-            change_bound_um: r
-                .changes
-                .iter()
-                .max_by(|a, b| a.excess_um.total_cmp(&b.excess_um))
-                .and_then(|c| c.bound_um)
-                .or_else(|| {
-                    r.nc_axis
-                        .as_ref()
-                        .and_then(|n| n.wall.feed_step_peak_bound_um)
-                }),
-            solve_median_us: r.solver.map(|s| s.median_us),
-            solve_p99_us: r.solver.map(|s| s.p99_us),
-            solve_max_us: r.solver.map(|s| s.max_us),
-            deadline_misses: r.solver.map(|s| s.deadline_misses),
-        };
-        Ok((metrics, r.simulated_s))
+        Ok((RunMetrics::from_report(&r), r.simulated_s))
     }
 }
 
