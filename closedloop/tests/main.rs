@@ -4,6 +4,7 @@ mod commissioning;
 mod common;
 mod faults;
 mod groove;
+mod machine;
 mod nc_axis;
 mod optimum;
 mod parts;
