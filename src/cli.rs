@@ -418,7 +418,7 @@ pub struct DiagnoseArgs {
     /// Also write the next experiment's session file here: this session's plan with each of
     /// diagnose's standard changes appended (pauses with the spindle stopped and running, the
     /// coolant switched with the spindle stopped and running, the first groove again at a second X,
-    /// upfeed, speed and tilt; diagnose/STUDY.md, "Fifth round").
+    /// upfeed, speed and tilt; docs/studies/diagnose.md).
     #[arg(long, conflicts_with = "record")]
     pub next_plan: Option<PathBuf>,
 }
@@ -488,6 +488,16 @@ pub struct BatchArgs {
     /// checked).
     #[arg(long, requires = "scenarios")]
     pub columns: Option<String>,
+    /// Commissioning cache: each distinct commissioning computed once and kept here (default
+    /// OUT/cache). Slices of one batch may share a directory.
+    #[arg(long)]
+    pub cache: Option<PathBuf>,
+    /// No progress line.
+    #[arg(long)]
+    pub quiet: bool,
+    /// Print the plan's run count and an estimate of its time, and run nothing.
+    #[arg(long)]
+    pub dry_run: bool,
 }
 
 /// `millcomp parts`.

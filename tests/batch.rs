@@ -89,7 +89,10 @@ fn four_shards_merge_to_the_single_run_and_resume_skips_done_runs() {
             String::from_utf8_lossy(&out.stderr)
         );
         let v: Value = serde_json::from_slice(&out.stdout).unwrap();
-        assert_eq!(v["n_runs"], 2, "8 runs round-robin over 4 shards");
+        assert_eq!(
+            v["n_runs"], 2,
+            "4 scenarios over 4 shards, both controllers each"
+        );
         assert_eq!(v["shard"]["index"], k);
         dirs.push(d);
     }

@@ -107,13 +107,19 @@ fn launch(bin: &Path, profile: &Path) -> (std::process::Child, Cdp) {
     .stdin(std::process::Stdio::null())
     .stdout(std::process::Stdio::null())
     .stderr(std::process::Stdio::null());
-    // SAFETY: between fork and exec only async-signal-safe dup2 calls; they put the pipe ends at the
-    // descriptors the protocol expects (3: commands in, 4: messages out), clearing close-on-exec there.
+    // SAFETY: between fork and exec only async-signal-safe fcntl, dup2 and close calls; they put the
+    // pipe ends at the descriptors the protocol expects (3: commands in, 4: messages out), clearing
+    // close-on-exec there. Each end is first copied above 10: a pipe end may itself be 3 or 4 (dup2
+    // onto itself would keep close-on-exec, and the first dup2 could overwrite the other end).
     unsafe {
         cmd.pre_exec(move || {
-            if libc::dup2(child_in, 3) < 0 || libc::dup2(child_out, 4) < 0 {
+            let a = libc::fcntl(child_in, libc::F_DUPFD, 10);
+            let b = libc::fcntl(child_out, libc::F_DUPFD, 10);
+            if a < 0 || b < 0 || libc::dup2(a, 3) < 0 || libc::dup2(b, 4) < 0 {
                 return Err(std::io::Error::last_os_error());
             }
+            libc::close(a);
+            libc::close(b);
             Ok(())
         });
     }
@@ -136,7 +142,7 @@ fn launch(bin: &Path, profile: &Path) -> (std::process::Child, Cdp) {
 fn ink(png_bytes: &[u8]) -> (f64, usize) {
     let decoder = png::Decoder::new(std::io::Cursor::new(png_bytes));
     let mut reader = decoder.read_info().expect("a PNG");
-    let mut buf = vec![0; reader.output_buffer_size().expect("size")];
+    let mut buf = vec![0; reader.output_buffer_size()];
     let info = reader.next_frame(&mut buf).expect("a frame");
     let channels = info.color_type.samples();
     let px = &buf[..info.buffer_size()];
@@ -169,11 +175,16 @@ pub fn check_in_chromium(html: &Path, screenshot: &Path) -> Option<String> {
     let profile = tempfile::tempdir().unwrap();
     let (mut child, mut cdp) = launch(&bin, profile.path());
     let pid = child.id();
-    let watchdog = std::thread::spawn(move || {
+    let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let watched = done.clone();
+    let _watchdog = std::thread::spawn(move || {
         std::thread::sleep(Duration::from_secs(120));
-        // SAFETY: a plain kill of the browser this test started, if it still runs after 2 minutes.
-        unsafe {
-            libc::kill(pid as i32, libc::SIGKILL);
+        // only while the browser this test started has not been waited for (its pid is still its own)
+        if !watched.load(std::sync::atomic::Ordering::SeqCst) {
+            // SAFETY: a plain kill of the browser this test started, still running after 2 minutes.
+            unsafe {
+                libc::kill(pid as i32, libc::SIGKILL);
+            }
         }
     });
     let target = cdp.call("Target.createTarget", json!({"url": "about:blank"}), None);
@@ -221,8 +232,9 @@ pub fn check_in_chromium(html: &Path, screenshot: &Path) -> Option<String> {
         .unwrap();
     std::fs::write(screenshot, &png_bytes).unwrap();
     let _ = cdp.call("Browser.close", json!({}), None);
+    let _ = child.kill();
     let _ = child.wait();
-    drop(watchdog);
+    done.store(true, std::sync::atomic::Ordering::SeqCst);
 
     let errors: Vec<String> = cdp
         .events

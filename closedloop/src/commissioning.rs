@@ -38,7 +38,7 @@ use std::collections::BTreeMap;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 use millcomp_doe::{DesignKind, DesignRequest, FactorSpec, Level, generate};
 use millcomp_identify::targets::Identified;
@@ -57,81 +57,9 @@ use millcomp_sim::groove::GrooveConfig;
 use millcomp_sim::sensors::{CapacitanceGauge, ForceSensor, InstrumentErrors};
 
 use crate::calibration::{G_N_PER_KG, StiffnessCalibration, axial_masses_g, radial_masses_g};
+pub use crate::commissioning_plan::CommissioningPlan;
 use crate::error::{ClosedLoopError, invalid};
 use crate::scenario::Scenario;
-
-/// The settings of a commissioning (`[commissioning]` of a scenario; every key optional).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct CommissioningPlan {
-    /// Depth levels of the force DOE (µm).
-    pub force_depths_um: Vec<f64>,
-    /// Upfeed levels of the force DOE (µm/rev).
-    pub force_upfeeds_um: Vec<f64>,
-    /// Replicates of the force DOE.
-    pub replicates: usize,
-    /// Revolutions cut per run (synchronously averaged).
-    pub revolutions: usize,
-    /// Force samples per revolution.
-    pub samples_per_rev: usize,
-    /// Force parameters fitted (the rest at the nominal values): names of `identify force --free`.
-    pub force_free: Vec<String>,
-    /// Bias voltage of the step test (V).
-    pub step_bias_v: f64,
-    /// Voltage step (V).
-    pub step_v: f64,
-    /// Duration of the step test after the step (s).
-    pub step_duration_s: f64,
-    /// Gauge sampling interval of the step test (s).
-    pub step_dt_s: f64,
-    /// The load–deflection test.
-    pub stiffness: StiffnessCalibration,
-    /// Samples of each sensor's record at rest (every `step_dt_s`).
-    pub noise_samples: usize,
-    /// Turning points of the hysteresis sweep (V), from rest at 0 V.
-    pub hysteresis_turning_v: Vec<f64>,
-    /// Rate of the hysteresis sweep (V/s): slow against the stack's dynamics.
-    pub hysteresis_rate_v_per_s: f64,
-    /// Gauge sampling interval of the hysteresis sweep (s).
-    pub hysteresis_dt_s: f64,
-    /// Acceptance: the largest relative standard error of a parameter that sets the deflection prediction
-    /// (the fitted force parameters and the two stiffnesses); above it the bundle carries a warning that
-    /// the experiment was too small for the model to be trusted.
-    pub accept_rel_se: f64,
-}
-
-impl Default for CommissioningPlan {
-    /// A 3×3 full factorial (depth 20/50/80 µm — the thesis' groove range; upfeed 5/10/15 µm/rev around
-    /// its 10 µm/rev), 2 replicates, 20 revolutions at 72 samples each; W, wearland and runout free (a fresh
-    /// tool's wearland and runout are not the catalogue's; the averaged traces show both); a 10 V step
-    /// from 20 V (≈ 0.5 µm, the thesis' step of Fig. 5-15) for 30 ms sampled at 20 kHz; the thesis'
-    /// hanging-mass calibration; a hysteresis sweep at 500 V/s through a major loop 20–900 V (the
-    /// gauge's 50 µm range holds ≈ 950 V of tip) and minor loops of 20–700 V amplitude (≈ 13 s, read
-    /// every ms); 2000 samples (0.1 s) of each sensor at rest.
-    fn default() -> Self {
-        Self {
-            force_depths_um: vec![20.0, 50.0, 80.0],
-            force_upfeeds_um: vec![5.0, 10.0, 15.0],
-            replicates: 2,
-            revolutions: 20,
-            samples_per_rev: 72,
-            force_free: vec!["w_mpa".into(), "wearland_um".into(), "runout_um".into()],
-            step_bias_v: 20.0,
-            step_v: 10.0,
-            step_duration_s: 0.03,
-            step_dt_s: 5e-5,
-            stiffness: StiffnessCalibration::default(),
-            noise_samples: 2000,
-            hysteresis_turning_v: vec![
-                900.0, 20.0, 700.0, 200.0, 600.0, 300.0, 500.0, 400.0, 460.0, 440.0, 900.0, 600.0,
-                750.0, 650.0, 700.0, 20.0, 300.0, 100.0, 200.0, 150.0,
-            ],
-            hysteresis_rate_v_per_s: 500.0,
-            hysteresis_dt_s: 1e-3,
-            accept_rel_se: 0.05,
-        }
-    }
-}
 
 /// The plant as the commissioning sees it: the truth and its instruments, with the sensors' noise levels.
 #[derive(Debug, Clone)]
@@ -269,20 +197,50 @@ pub fn commission(
     plan: &CommissioningPlan,
     seed: u64,
 ) -> Result<Commissioned, ClosedLoopError> {
+    commission_with(plant, plan, seed, true)
+}
+
+/// The bundle of [`commission`] alone — the same bundle, value for value — without the pseudo-true
+/// values: the force and spindle experiments are not run a second time without noise. What a run's
+/// controllers are built from (`crate::groove::groove_setup`).
+///
+/// # Errors
+/// As [`commission`].
+pub fn commission_bundle(
+    plant: &CommissioningPlant<'_>,
+    plan: &CommissioningPlan,
+    seed: u64,
+) -> Result<ModelBundle, ClosedLoopError> {
+    Ok(commission_with(plant, plan, seed, false)?.bundle)
+}
+
+/// [`commission`]; the force and spindle experiments are rerun without noise for their pseudo-true values
+/// only when `pseudo_true_wanted` (without, the map holds only the values that cost nothing).
+fn commission_with(
+    plant: &CommissioningPlant<'_>,
+    plan: &CommissioningPlan,
+    seed: u64,
+    pseudo_true_wanted: bool,
+) -> Result<Commissioned, ClosedLoopError> {
     validate_plan(plan)?;
     let mut pseudo_true = BTreeMap::new();
 
     let (force, force_desc) = force_experiment(plant, plan, seed, true)?;
-    let (force_ideal, _) = force_experiment(plant, plan, seed, false)?;
-    for (k, v) in &force_ideal.report.params {
-        pseudo_true.insert(format!("force.{k}"), *v);
+    if pseudo_true_wanted {
+        let (force_ideal, _) = force_experiment(plant, plan, seed, false)?;
+        for (k, v) in &force_ideal.report.params {
+            pseudo_true.insert(format!("force.{k}"), *v);
+        }
     }
 
     let (spindle, spindle_bic, spindle_desc, structure) =
         spindle_experiment(plant, plan, seed, true, None)?;
-    let (spindle_ideal, _, _, _) = spindle_experiment(plant, plan, seed, false, Some(structure))?;
-    for (k, v) in &spindle_ideal.report.params {
-        pseudo_true.insert(format!("spindle.{k}"), *v);
+    if pseudo_true_wanted {
+        let (spindle_ideal, _, _, _) =
+            spindle_experiment(plant, plan, seed, false, Some(structure))?;
+        for (k, v) in &spindle_ideal.report.params {
+            pseudo_true.insert(format!("spindle.{k}"), *v);
+        }
     }
 
     let (stiffness, stiffness_desc) = stiffness_experiment(plant, plan, seed)?;

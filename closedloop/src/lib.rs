@@ -48,9 +48,11 @@
 #![warn(missing_docs)]
 
 pub mod batch;
+pub mod cache;
 pub mod calibration;
 pub mod changes;
 pub mod commissioning;
+pub mod commissioning_plan;
 pub mod compare;
 pub mod error;
 pub mod faults;
@@ -60,13 +62,17 @@ pub mod model_errors;
 pub mod model_files;
 pub mod nc_axis;
 pub mod nc_axis_bound;
+pub mod nc_axis_scenario;
 pub mod optimum;
 pub mod parts;
+pub mod plot;
+pub mod profile;
 pub mod realtime;
 pub mod recording;
 pub mod report;
 pub mod runner;
 pub mod scenario;
+pub mod stats;
 pub mod thin_wall;
 pub mod touch_off;
 

@@ -34,7 +34,7 @@ use millcomp_sim::session::{
 };
 use millcomp_sim::tool_variation::ToolVariation;
 
-use crate::batch::exec::{ClosedLoop, RunMetrics};
+use crate::batch::exec::{ClosedLoop, Condition, RunContext, RunMetrics};
 use crate::batch::factors::{ScenarioSpec, build_scenario};
 use crate::calibration::StiffnessCalibration;
 use crate::commissioning::{
@@ -43,7 +43,7 @@ use crate::commissioning::{
     record_sensors_at_rest, record_step_test,
 };
 use crate::error::{ClosedLoopError, invalid};
-use crate::groove::{deflection_plan, groove_setup, groove_truth, run_groove_with};
+use crate::groove::{RunOptions, deflection_plan, groove_setup, groove_truth, run_groove_opts};
 use crate::scenario::{ControllerKind, Scenario, StageKind};
 
 /// The effect the nominal model lacks, by its `diagnose` name (DESIGN.md's effect names).
@@ -482,38 +482,71 @@ impl MachineRuns<'_> {
     }
 }
 
-impl MachineRuns<'_> {
-    /// One cut of scenario `spec` with `controller` (module documentation), its run output.
+/// A condition prepared once for its controllers: the scenario on this machine, its set-up (the truth
+/// with the guideway under the groove, the controllers' models from the bundle) and the preview.
+struct MachineCondition {
+    scenario: Scenario,
+    setup: crate::groove::GrooveSetup,
+    plan: millcomp_mpc::groove::DeflectionPlan,
+    truth_offset: PathOffset,
+    correction: Option<PathOffset>,
+    index: usize,
+}
+
+impl MachineCondition {
     fn cut(
         &self,
-        spec: &ScenarioSpec,
         controller: &str,
+        opts: RunOptions,
     ) -> Result<crate::report::RunOutput, ClosedLoopError> {
         let (kind, correction) = controller_variant(controller)?;
-        let s = self.scenario(spec)?;
-        let mut setup = groove_setup(&s)?;
-        let length = setup.truth.program.length_mm;
-        let truth_offset = self.machine.path_offset(length)?;
-        setup.truth.path_offset = truth_offset.clone();
-        let plan = deflection_plan(&setup, 0.01)?;
         let plan = match correction {
-            Correction::None => plan,
-            Correction::Oracle => plan.with_path_offset(truth_offset),
+            Correction::None => self.plan.clone(),
+            Correction::Oracle => self
+                .plan
+                .clone()
+                .with_path_offset(self.truth_offset.clone()),
             Correction::Diagnosed => {
-                let c = self.corrections.get(&spec.index).ok_or_else(|| {
+                let c = self.correction.as_ref().ok_or_else(|| {
                     invalid(
                         "controller",
                         controller,
                         format!(
                             "a diagnosed path offset for scenario {} (none was given)",
-                            spec.index + 1
+                            self.index + 1
                         ),
                     )
                 })?;
-                plan.with_path_offset(c.clone())
+                self.plan.clone().with_path_offset(c.clone())
             }
         };
-        run_groove_with(&s, &setup, &plan, kind)
+        run_groove_opts(&self.scenario, &self.setup, &plan, kind, opts)
+    }
+}
+
+impl Condition for MachineCondition {
+    fn run(&self, controller: &str) -> Result<(RunMetrics, f64), ClosedLoopError> {
+        let out = self.cut(controller, RunOptions::BATCH)?;
+        Ok((RunMetrics::from_report(&out.report), out.report.simulated_s))
+    }
+}
+
+impl MachineRuns<'_> {
+    fn condition(&self, spec: &ScenarioSpec) -> Result<MachineCondition, ClosedLoopError> {
+        let scenario = self.scenario(spec)?;
+        scenario.validate()?;
+        let mut setup = groove_setup(&scenario)?;
+        let truth_offset = self.machine.path_offset(setup.truth.program.length_mm)?;
+        setup.truth.path_offset = truth_offset.clone();
+        let plan = deflection_plan(&setup, 0.01)?;
+        Ok(MachineCondition {
+            scenario,
+            setup,
+            plan,
+            truth_offset,
+            correction: self.corrections.get(&spec.index).cloned(),
+            index: spec.index,
+        })
     }
 
     /// One cut and the finished part's depth error along the groove — what a profilometer would show:
@@ -526,7 +559,9 @@ impl MachineRuns<'_> {
         spec: &ScenarioSpec,
         controller: &str,
     ) -> Result<(RunMetrics, Vec<(f64, f64)>), ClosedLoopError> {
-        let out = self.cut(spec, controller)?;
+        let out = self
+            .condition(spec)?
+            .cut(controller, RunOptions::default())?;
         let col = |name: &str| out.trace.columns.iter().position(|c| c == name);
         let (Some(ix), Some(ie)) = (col("x_mm"), col("error_um")) else {
             return Err(invalid(
@@ -552,7 +587,14 @@ impl ClosedLoop for MachineRuns<'_> {
         spec: &ScenarioSpec,
         controller: &str,
     ) -> Result<(RunMetrics, f64), ClosedLoopError> {
-        let out = self.cut(spec, controller)?;
-        Ok((RunMetrics::from_report(&out.report), out.report.simulated_s))
+        self.condition(spec)?.run(controller)
+    }
+
+    fn prepare<'a>(
+        &'a self,
+        scenario: &'a ScenarioSpec,
+        _cx: &RunContext<'a>,
+    ) -> Result<Box<dyn Condition + 'a>, ClosedLoopError> {
+        Ok(Box::new(self.condition(scenario)?))
     }
 }

@@ -16,7 +16,7 @@ use millcomp_mpc::config::MAX_HORIZON;
 use millcomp_mpc::{MpcConfig, MpcError};
 
 use crate::calibration::StiffnessCalibration;
-use crate::commissioning::CommissioningPlan;
+use crate::commissioning_plan::CommissioningPlan;
 use crate::error::{ClosedLoopError, invalid};
 use crate::model_errors::ForceErrors;
 use crate::touch_off::TouchOffBias;
@@ -455,7 +455,7 @@ pub struct ControlSpec {
     /// in air; `mpc::identified::HysteresisCompensator`) for every controller built from the bundle —
     /// `open-loop`, `pid-tuned`, `pid-ff`, `pid-ff-read`, `mpc`, `mpc-nopreview` — when the bundle has one. The
     /// published `pid` (and `pid-aw`, `pid-design`) stay as published. Off by default: on the
-    /// commissioned grooves it bought nothing (README, `compare --ablations --commissioned`): the
+    /// commissioned grooves it bought nothing (docs/studies/mpc-parts.md, `compare --features --commissioned`): the
     /// identified Prandtl–Ishlinskii model takes the stack's static error from 3.5–5 µm to about 1 µm
     /// of tip, but at a change what matters is the stack's slope, which the gauge channel's
     /// disturbance estimate follows already.
@@ -569,7 +569,7 @@ pub struct Scenario {
     pub thin_wall: Option<ThinWallScenario>,
     /// NC feed-axis settings (stage = "nc_axis", `crate::nc_axis`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub nc_axis: Option<crate::nc_axis::NcAxisScenario>,
+    pub nc_axis: Option<crate::nc_axis_scenario::NcAxisScenario>,
     /// Truth vs model.
     #[serde(default)]
     pub truth: TruthSpec,
@@ -608,21 +608,7 @@ impl Scenario {
     }
 }
 
-pub(crate) fn finite_pos(key: &str, v: f64) -> Result<(), ClosedLoopError> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(invalid(key, v, "finite and > 0"))
-    }
-}
-
-pub(crate) fn finite_nonneg(key: &str, v: f64) -> Result<(), ClosedLoopError> {
-    if v.is_finite() && v >= 0.0 {
-        Ok(())
-    } else {
-        Err(invalid(key, v, "finite and >= 0"))
-    }
-}
+pub(crate) use crate::error::{finite_nonneg, finite_pos, sim_keyed};
 
 impl Scenario {
     /// Parse TOML text (`path` is only used in messages) and validate.
@@ -917,19 +903,34 @@ impl Scenario {
     }
 }
 
-/// Sim's own check of a scenario table, its parameter names turned into scenario keys under `prefix`
-/// (`exit.x_mm` → `groove.exit.x_mm`, `e_factor` → `truth.wall.e_factor`).
-pub(crate) fn sim_keyed(
-    prefix: &'static str,
-) -> impl Fn(millcomp_sim::SimError) -> ClosedLoopError {
-    move |err| match err {
-        millcomp_sim::SimError::InvalidParameter {
-            name,
-            value,
-            allowed,
-        } => invalid(format!("{prefix}{name}"), value, allowed),
-        other => other.into(),
+/// A scenario turned into its hard form. Grooves: instrument errors and a fresh tool drawn from the seed,
+/// a PZT stack with hysteresis and creep, the controllers built from the commissioning of the truth alone
+/// (the models it named, if any, dropped). Thin walls: every wall a real part drawn from the seed
+/// (`truth.draw_wall`: its modulus and force coefficient off the published wall the controllers' model
+/// keeps; the thin wall is not commissioned yet). Both: no deliberate force-model errors on top
+/// (`truth.force_error_max` 0, `truth.force_errors` dropped) — what the controllers get wrong comes from
+/// the plant, not from a perturbation laid on their model.
+pub fn commissioned(s: &Scenario) -> Scenario {
+    let mut s = s.clone();
+    match s.stage {
+        StageKind::Groove => {
+            s.truth.draw_instruments = true;
+            s.truth.draw_tool = true;
+            s.truth.pzt_nonlinear = true;
+            s.control.commission = true;
+            s.control.bundle = None;
+            s.control.spindle_model = None;
+            s.control.force_model = None;
+        }
+        StageKind::ThinWall => {
+            s.truth.draw_wall = true;
+        }
+        // always commissioned; its truth draws per seed
+        StageKind::NcAxis => {}
     }
+    s.truth.force_error_max = 0.0;
+    s.truth.force_errors = None;
+    s
 }
 
 #[cfg(test)]

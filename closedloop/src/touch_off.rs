@@ -3,7 +3,7 @@
 //!
 //! A 0–1000 V amplifier cannot pull a PZT stack below where it stands at 0 V. After a deep cut the
 //! stack's remanence holds the tip out there (`exit_floor_tip_um`; 4.4–4.8 µm of tip on the
-//! commissioned 20° exit, README), so where the cutter leaves the workpiece and the deflection it must
+//! commissioned 20° exit, docs/studies/process-changes.md), so where the cutter leaves the workpiece and the deflection it must
 //! cancel vanishes, no controller can follow: the command sits at 0 V and the exit is cut too deep.
 //! Touching off with the stack at a bias puts the depth's zero higher up the stroke; the stack then has
 //! the travel down from the bias to spend at the exit, and the deep end has that much less.

@@ -281,7 +281,7 @@ fn reading_the_force_once_a_revolution_away_from_the_changes_lets_less_noise_thr
 fn pid_ff_given_the_mpcs_read_features_cuts_the_ramp_start() {
     // the fairness ablation: `pid-ff` reading what the MPC reads (the peak's noise bias off, the rubbing
     // start known). On the 30° ramp plain `pid-ff` leaves the first ≈ 0.2 mm uncut on every one of the
-    // seeds 1–10 of README `bash bench/ramp-start-noise` (error −cmd, about 0.8 µm of its 1.2 µm above the
+    // seeds 1–10 of `bash bench/ramp-start-noise` (docs/studies/ramp-start.md) (error −cmd, about 0.8 µm of its 1.2 µm above the
     // optimum); with the features it cuts there, as the MPC does. Seed 1, the bench's first (seed 1:
     // 1.16 → 0.40 µm; on the scenario's own seed 30 plain `pid-ff` cuts the start, 0.24 against 0.30).
     let mut s = scenario("groove_s7_30deg.toml");

@@ -1,5 +1,6 @@
 //! The integration tests of millcomp-closedloop (scenarios, closed-loop runs, faults), one binary.
 
+mod batch;
 mod commissioning;
 mod common;
 mod faults;

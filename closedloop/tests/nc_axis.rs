@@ -148,7 +148,7 @@ fn controllers_compensate_a_shortened_groove() {
     let none = run(&s, ControllerKind::None);
     let w0 = &none.nc_axis.as_ref().unwrap().wall;
     // uncompensated: ≈ 140 µm at 500 mm/min, a deflection step ≈ 90 µm (full-length runs: 145 and
-    // 93.5 µm, README); the wall never undersize at the exit (003 §3.3)
+    // 93.5 µm, docs/nc-axis.md); the wall never undersize at the exit (003 §3.3)
     assert!(
         w0.static_uncompensated_um > 100.0,
         "{}",
@@ -190,7 +190,7 @@ fn controllers_compensate_a_shortened_groove() {
         assert!(r.commands_finite && r.commands_in_limits, "{k}");
         let w = &r.nc_axis.as_ref().unwrap().wall;
         below(w, k);
-        // the full-length groove removes 95-98 % (README); a shortened one at least 90 %
+        // the full-length groove removes 95-98 % (docs/studies/nc-axis.md); a shortened one at least 90 %
         assert!(w.static_removed_pct > 90.0, "{k}: {}", w.static_removed_pct);
         // compensating the static deflection leaves a negative wall at the exit for the published
         // controllers (003 §3.3), and the step's transient is below the uncompensated step
@@ -203,7 +203,7 @@ fn controllers_compensate_a_shortened_groove() {
         } else {
             assert_eq!(r.solver.unwrap().fallbacks, 0);
             // planning for the wall instants, the MPC's static error is close to the
-            // certainty-equivalent wall's (README: 2.2 against 2.1 µm over 10 seeds)
+            // certainty-equivalent wall's (docs/studies/nc-axis.md: 1.96 against 1.95 µm over 10 seeds)
             assert!(
                 w.static_error_um < ce.static_error_um + 1.5,
                 "{} vs {}",

@@ -275,7 +275,7 @@ fn open_loop_does_not_step_ahead_of_a_step_made_at_once() {
 /// 20°. As the cutter leaves (the engagement falls over the last 0.21 mm) the MPC reaches 0 V and the
 /// part of the ball still engaged cuts that much deeper than the settled level: the exit's excess. On
 /// a linear stack with the same drawn instruments and tool the excess is a fraction of it. Seed 1
-/// (seeds 1–10: `examples/exit_remanence.rs`, in the README).
+/// (seeds 1–10: `examples/exit_remanence.rs`, in docs/studies/process-changes.md).
 #[test]
 fn the_commissioned_exit_overcut_is_the_stacks_remanence_at_zero_volts() {
     use millcomp_closedloop::compare::commissioned;
@@ -307,7 +307,7 @@ fn the_commissioned_exit_overcut_is_the_stacks_remanence_at_zero_volts() {
 /// commissioned exit of seed 8 the program leaves room above its planned peak, `auto` touches off at a
 /// bias, the MPC's command never reaches the amplifier's 0 V floor as the cutter leaves, and the exit's
 /// excess falls to well under half of the touch-off at rest's (seeds 1–10: `examples/exit_remanence.rs
-/// --touch-off auto`, in the README). The shipped exit (a linear stack, no hysteresis model) is touched
+/// --touch-off auto`, in docs/studies/process-changes.md). The shipped exit (a linear stack, no hysteresis model) is touched
 /// off at rest whatever the key says.
 #[test]
 fn a_touch_off_at_a_bias_leaves_the_stack_room_to_retract_at_the_exit() {

@@ -24,7 +24,7 @@
 //! Clopper–Pearson lower bounds. Every session is also given to the ideal observer
 //! (`real_data_study/ideal_observer.rs`): the hidden offsets' exact shape, the true noise and
 //! scatter — its detection rate is the ceiling of every "named" rate, what the data could tell at
-//! all. The results of the recorded runs are in `diagnose/STUDY.md`.
+//! all. The results of the recorded runs are in `docs/studies/diagnose.md`.
 //! `--alpha` runs `diagnose` at another family-wise level than its default 0.01 (the ideal
 //! observer's "at the first round's level" follows it); `--multiplicity bonferroni` sets each
 //! round's threshold to α over the shapes tried instead of the simulated family-wise one (the
@@ -78,7 +78,7 @@ fn rate(k: usize, n: usize) -> String {
 const ALIASED: [&str; 2] = ["probe_tilt_offset", "machine_compliance"];
 
 /// Hidden shapes of `VARIANTS.md` version 1 that are members of a candidate family since the
-/// second round of development (`diagnose/STUDY.md`, "What changed"), and the dead band since the
+/// second round of development (its history: `git log -p -- diagnose/STUDY.md`), and the dead band since the
 /// fifth (the compliance family's `preload`): their strata no longer test a shape the families do
 /// not contain.
 const NOW_FAMILY_SHAPES: [(&str, &str); 5] = [

@@ -7,7 +7,7 @@
 //! same test, so it spends the level many times over: on the study's plan, in 210 development
 //! sessions with nothing hidden, the first round's smallest p fell below Bonferroni's 0.01/22 =
 //! 4.5e-4 in none; its 1 % quantile there is about 2e-3, and this simulation puts the threshold at
-//! 1.0–1.4e-3 (`diagnose/STUDY.md`, "Ninth round"). The simulation draws the whitened
+//! 1.0–1.4e-3 (`docs/studies/diagnose.md`, "Each round's threshold"). The simulation draws the whitened
 //! residual of the current model under the null — `e ~ N(0, I)` in the GLS metric, data and prior
 //! rows, projected off the current model's Jacobian — and repeats the round's linearised search on
 //! it: every shape at every point of its grid of nonlinear parameters, the family's shape chosen

@@ -57,7 +57,7 @@
 //!    force asymmetry ([`force_channel`]).
 //!
 //! How well this works on data drawn from a fixed distribution of nominal errors, non-candidate
-//! shapes and scatter is measured by `examples/real_data_study.rs` (results in `diagnose/STUDY.md`).
+//! shapes and scatter is measured by `examples/real_data_study.rs` (results in `docs/studies/diagnose.md`).
 //!
 //! # Examples
 //! ```

@@ -848,7 +848,7 @@ impl Diagnoser {
     /// linearised interval's (the strata's combined variance and its Satterthwaite dof). Where
     /// the model is nearly linear in the parameter both agree; where it is not (the onset of a
     /// speed-dependent growth between two of the plan's speeds, a runout interacting with the
-    /// force scale) the linearised interval was too narrow (`diagnose/STUDY.md`). A side whose
+    /// force scale) the linearised interval was too narrow (`docs/studies/diagnose.md`). A side whose
     /// profile never reaches the level within the parameter's bounds ends at the bound; a side
     /// whose constrained fits fail keeps the linearised end.
     fn profile_intervals(

@@ -23,7 +23,7 @@ fn run(name: &str) -> DiagnoseReport {
 /// Committed (seed-fixed) intervals that miss the truth. A 95 % interval misses 1 time in 20; the
 /// seeds were fixed before the first run (7001 + case index) and are not re-drawn to hide a miss:
 /// the miss must be a chance one — within 3 standard errors — and the coverage over many seeds is
-/// the study's (`examples/real_data_study.rs`, row `matched`, diagnose/STUDY.md).
+/// the study's (`examples/real_data_study.rs`, row `matched`, docs/studies/diagnose.md).
 const KNOWN_MISSES: [(&str, &str); 1] = [("slideway_straightness", "amplitude_um")];
 
 /// Every parameter of every hidden effect fitted in its family's reference shape: the final joint

@@ -1,5 +1,5 @@
 //! `diagnose` on measured records (issue 17): the real thermal record (decimated to every 8th row
-//! to stay fast; the full record is the README's `millcomp diagnose --record`) against a no-drift
+//! to stay fast; the full record is docs/real-machines.md's `millcomp diagnose --record`) against a no-drift
 //! nominal, the PHM 2010 per-cut forces against a fresh-tool nominal, the aliasing of cut count and
 //! time, the JSON contract, and bad input.
 

@@ -1,7 +1,7 @@
 //! `diagnose` on data as a user has them (issue 15): the failures the issue reports, each as a
 //! seeded case, and a few variants drawn from the study's distribution (`synthetic/VARIANTS.md`,
 //! development seeds — never the study's). The full study is `examples/real_data_study.rs`
-//! (results in `diagnose/STUDY.md`); these are the small cases that can fail in CI.
+//! (results in `docs/studies/diagnose.md`); these are the small cases that can fail in CI.
 
 use std::sync::OnceLock;
 
@@ -194,7 +194,7 @@ fn nothing_hidden_names_none_after_recalibration() {
 /// engaged length that a straightness cubic in machine X fits significantly (the plan's first
 /// grooves move along X as the engaged length grows); it is not significant beyond a flexible
 /// shape of the wear in its own driver (a spline in engaged length), so it is not named.
-/// Development seed found in the development runs (diagnose/STUDY.md).
+/// Development seed found in the development runs (`docs/studies/diagnose.md`).
 #[test]
 fn the_misfit_of_a_named_effect_is_not_named_as_another() {
     let (v, rep) = diagnose_variant(vec!["tool_wear"], 31);
@@ -521,7 +521,7 @@ fn a_later_rounds_candidate_never_fits_worse_than_the_model_it_extends() {
     }
 }
 
-/// Ninth round (`diagnose/STUDY.md`): each round's threshold is the level made exact for that round
+/// Ninth round (`docs/studies/diagnose.md`, "Each round's threshold"): each round's threshold is the level made exact for that round
 /// (simulated), not Bonferroni's bound over the 22 shapes. Development seed 9 100 130 hides a
 /// coolant drift and a machine compliance: after the coolant drift, the compliance's test beyond
 /// the coolant drift's flexible shapes (p = 1.4e-3) lies between Bonferroni's threshold and the

@@ -1,6 +1,6 @@
 //! The record targets on the real records of `datasets/real/` (issue 17): the thermal study, the wear
 //! laws and the per-flute peaks. The thermal record is decimated to every 8th row (a 2-min step) to
-//! keep the tests fast; the full-record study is `millcomp identify thermal` in the README. Golden
+//! keep the tests fast; the full-record study is `millcomp identify thermal` in docs/real-machines.md. Golden
 //! values from statsmodels / scipy are in `tests/golden/real_*.json`
 //! (`bench/peers/real_goldens.py`, which records the call and the versions).
 
@@ -171,7 +171,7 @@ fn the_structure_is_chosen_on_the_training_half_only() {
 
 #[test]
 fn decimated_record_every_channel_beats_plain_lsq_on_the_second_half() {
-    // Issue 17's first claim on the record at a 2-min step (the README has the full 15-s record):
+    // Issue 17's first claim on the record at a 2-min step (docs/real-machines.md has the full 15-s record):
     // the model chosen by cross-validation on the first half predicts the second half (5000 rpm,
     // never seen) better than least squares on all 16 temperatures fitted on the same half.
     let th = thermal();

@@ -1414,6 +1414,9 @@ pub struct FeedforwardPidController {
     peak_bias: Option<PeakNoiseBias>,
     /// Where the tool rides on its wear land ([`Self::with_read_features`]; empty otherwise).
     rubbing_mm: Vec<(f64, f64)>,
+    /// The planned pulses of the last revolution, kept between steps (the plan is read every stage
+    /// step; [`DeflectionPlan::deflections_phased_cached`], the same values bit for bit).
+    pulses: PulseCache,
 }
 
 impl FeedforwardPidController {
@@ -1443,6 +1446,7 @@ impl FeedforwardPidController {
             tooth_s: 60.0 / program.speed_rpm / flutes.max(1) as f64,
             peak_bias: None,
             rubbing_mm: Vec::new(),
+            pulses: PulseCache::default(),
         }
     }
 
@@ -1467,6 +1471,7 @@ impl FeedforwardPidController {
         )?);
         self.rubbing_mm = self.plan.plan.rubbing_spans_mm();
         self.plan.plan = self.plan.plan.clone().with_flank_push();
+        self.pulses = PulseCache::default();
         Ok(self)
     }
 
@@ -1500,7 +1505,13 @@ impl GrooveController for FeedforwardPidController {
                 Some(p) => self.plan.volts_for(
                     self.plan
                         .plan
-                        .deflections_phased(&[t_ff], self.rev_s, self.tooth_s, p)
+                        .deflections_phased_cached(
+                            &mut self.pulses,
+                            &[t_ff],
+                            self.rev_s,
+                            self.tooth_s,
+                            p,
+                        )
                         .first()
                         .copied()
                         .unwrap_or(0.0),
@@ -1560,7 +1571,7 @@ pub struct GrooveMpcSettings {
 /// The groove MPC's planning and estimation features (scenario keys `control.groove_mpc.*`). Each one
 /// answers something the commissioning could not pin down or the horizon cannot see; switching one
 /// off is an ablation that measures what it buys. All are on by default except `stroke_aware`, which
-/// the ablations showed to hurt (README, `compare --features` and the commissioned 20° groove).
+/// the ablations showed to hurt (docs/studies/mpc-parts.md, `compare --features` and the commissioned 20° groove).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct GrooveMpcFeatures {
@@ -1610,7 +1621,7 @@ pub struct GrooveMpcFeatures {
     /// [`ForcePeakChain`]). With no force the sliding peak reads the noise's own maximum (0.046 N at
     /// σ 0.04 N), which the error channel takes for a deflection. On its own it leaves the ramp's rubbing
     /// start uncut, which the noise's bias got the MPC through, so it goes with [`Self::flank_rubbing`]
-    /// (README, `bash bench/ramp-start-noise`).
+    /// (docs/studies/ramp-start.md, `bash bench/ramp-start-noise`).
     pub unbiased_peak: bool,
     /// Know the ramp's rubbing start: where the planned deflection exceeds the depth the preview pushes
     /// by the full planned deflection ([`DeflectionPlan::with_flank_push`]) instead of capping it at the
@@ -1649,7 +1660,7 @@ pub const INTERSAMPLE_WINDOW_S: f64 = 2e-3;
 /// make the tip rise with a tooth's force flank shows its benefit; at 1e-4 a 100 V move costs as much
 /// as 1 µm of error at one cycle and the MPC spreads a 20 µm depth step's 200 V over 2 ms. Chosen on
 /// the development seeds 101–106 (1e-4, 1e-5, 3e-6) of the shipped changes made at once, not on the
-/// seeds the README reports; without intersample costs a lower weight made the depth step worse
+/// seeds the studies in docs/studies/ report; without intersample costs a lower weight made the depth step worse
 /// (between the cycles the moves overshoot unseen), so it goes with them.
 pub const INTERSAMPLE_INPUT_RATE: f64 = 1e-5;
 

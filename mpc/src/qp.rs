@@ -632,7 +632,9 @@ impl CondensedQp {
                 .min(u64::MAX as u128) as u64
         });
         self.deadline_ns.store(ns, Ordering::Relaxed);
+        let t0 = Instant::now();
         self.solver.solve();
+        crate::stats::add_qp_solve(t0.elapsed());
         let st = QpStatus::from_clarabel(self.solver.solution.status);
         if st.is_ok() && !self.solver.solution.x.iter().all(|v| v.is_finite()) {
             return QpStatus::NonFiniteSolution;

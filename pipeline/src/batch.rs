@@ -1,34 +1,39 @@
 //! The designed comparison through the batch engine — the one place the pipeline calls
-//! `millcomp_closedloop::batch` ([`compare`]), so that its API can change in one place.
+//! `millcomp_closedloop::batch` ([`compare`]: `run_plan_with` for runs on a closed loop, `write_results`
+//! for runs measured elsewhere), so that its API can change in one place.
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use millcomp_closedloop::batch::exec::{ClosedLoop, RunMetrics, RunRecord, run_shard};
+use millcomp_closedloop::batch::exec::{ClosedLoop, RunMetrics, RunRecord};
 use millcomp_closedloop::batch::factors::{FactorValue, ScenarioSpec};
 use millcomp_closedloop::batch::paired::PairedEntry;
-use millcomp_closedloop::batch::plan::{Plan as BatchPlan, Shard};
-use millcomp_closedloop::batch::results::{
-    AnovaEntry, new_summary, results_table, write_summary, write_tables,
-};
+use millcomp_closedloop::batch::plan::Plan as BatchPlan;
+use millcomp_closedloop::batch::results::{AnovaEntry, new_summary, results_table};
+use millcomp_closedloop::batch::{BatchRequest, ProgressMode, ScenarioSource, run_plan_with};
 use millcomp_datasets::{ColumnData, Table};
 
 use crate::error::{PipelineError, Result};
 
 /// Where the runs of a comparison come from.
 pub enum Runs<'a> {
-    /// Run every condition × controller on a closed loop (the simulated machine).
-    Machine(&'a dyn ClosedLoop),
-    /// Runs measured elsewhere: one record per condition × controller.
-    Measured(Vec<RunRecord>),
+    /// Run every condition of the table × controller on a closed loop (the simulated machine).
+    Machine {
+        /// The conditions (batch factor names, one row each).
+        conditions: &'a Table,
+        /// The closed loop.
+        runner: &'a dyn ClosedLoop,
+    },
+    /// Runs measured elsewhere: one record per condition × controller ([`records_from_table`]).
+    Measured(BatchPlan, Vec<RunRecord>),
 }
 
 /// What a comparison found.
 #[derive(Debug, Clone)]
 pub struct Compared {
-    /// The plan (conditions × controllers).
+    /// The plan (conditions × controllers), as read back from `results.csv`.
     pub plan: BatchPlan,
-    /// Every run's metrics.
+    /// Every run's metrics, as read back from `results.csv`.
     pub records: Vec<RunRecord>,
     /// Medians of every metric per controller.
     pub by_controller: BTreeMap<String, BTreeMap<String, f64>>,
@@ -37,58 +42,75 @@ pub struct Compared {
     /// Each controller against the reference (`pid-tuned` when it ran, else the first), condition by
     /// condition.
     pub paired: Vec<PairedEntry>,
-    /// Notes of the analysis.
+    /// Notes of the analysis (failed runs among them).
     pub notes: Vec<String>,
-    /// Simulated machining seconds (0 for measured runs).
-    pub simulated_s: f64,
-    /// Files written, relative paths as written.
+    /// Files written.
     pub files: Vec<std::path::PathBuf>,
 }
 
-/// Runs (or takes) the comparison of `controllers` over the conditions of `conditions` (one row per
-/// condition, batch factor names), writes `results.csv`, `results.parquet`, `summary.json` and
-/// `invocation.json` into `dir`, and returns the analysis: per-controller medians, the ANOVA with the
-/// controller as a factor and the paired differences. A machine run starts afresh (`dir/runs` is
-/// cleared: the bundles may have changed under the same plan).
+/// Runs (or takes) the comparison of `controllers` and writes `results.csv`, `results.parquet`,
+/// `summary.json` and `invocation.json` into `dir`; returns the analysis: per-controller medians, the
+/// ANOVA with the controller as a factor, the paired differences, and the runs read back from
+/// `results.csv`. A machine run starts afresh (`dir/runs` is cleared: the bundles may have changed
+/// under the same plan). Controller names are not checked against the published controllers: a
+/// closed loop may know variants (`mpc+diagnosed`).
 ///
 /// # Errors
-/// The batch engine's errors (bad factor values naming the row, run failures, writing).
-pub fn compare(plan: BatchPlan, runs: Runs<'_>, dir: &Path, progress: bool) -> Result<Compared> {
-    let (records, simulated_s, n_ran, wall, threads) = match runs {
-        Runs::Machine(runner) => {
-            let stale = millcomp_closedloop::batch::exec::runs_dir(dir);
-            if stale.exists() {
-                std::fs::remove_dir_all(&stale).map_err(|e| {
-                    PipelineError::io(&stale, "clearing the runs of an earlier call", e)
-                })?;
+/// The batch engine's errors (bad factor values naming the row, writing); a run that failed is a note.
+pub fn compare(
+    controllers: &[String],
+    runs: Runs<'_>,
+    dir: &Path,
+    progress: bool,
+) -> Result<Compared> {
+    let summary = match runs {
+        Runs::Machine { conditions, runner } => {
+            for stale in [dir.join("runs"), dir.join("plan.json")] {
+                if stale.is_dir() {
+                    std::fs::remove_dir_all(&stale).map_err(|e| {
+                        PipelineError::io(&stale, "clearing an earlier call's runs", e)
+                    })?;
+                } else if stale.exists() {
+                    std::fs::remove_file(&stale)
+                        .map_err(|e| PipelineError::io(&stale, "clearing", e))?;
+                }
             }
-            let plan_file = dir.join("plan.json");
-            if plan_file.exists() {
-                std::fs::remove_file(&plan_file)
-                    .map_err(|e| PipelineError::io(&plan_file, "clearing", e))?;
-            }
-            let done = run_shard(&plan, Shard::ALL, dir, runner, progress)?;
-            (
-                done.records,
-                done.simulated_s,
-                done.n_ran,
-                done.wall_clock_s,
-                done.threads,
-            )
+            let mut req = BatchRequest::new(
+                ScenarioSource::Table(conditions.clone()),
+                &controllers.join(","),
+                dir,
+            );
+            req.progress = if progress {
+                ProgressMode::Auto
+            } else {
+                ProgressMode::Quiet
+            };
+            req.plots = false;
+            let plan = BatchPlan::from_table(conditions, controllers.to_vec())?;
+            run_plan_with(&plan, &req, runner)?
         }
-        Runs::Measured(records) => {
+        Runs::Measured(plan, records) => {
             std::fs::create_dir_all(dir).map_err(|e| PipelineError::io(dir, "creating", e))?;
-            (records, 0.0, 0, 0.0, 1)
+            let summary = new_summary(&plan, records.len(), None);
+            millcomp_closedloop::batch::engine::write_results(
+                &plan,
+                &records,
+                &[],
+                dir,
+                summary,
+                false,
+            )?
         }
     };
-    let mut summary = new_summary(&plan, records.len(), None);
-    summary.invocation.n_ran = n_ran;
-    summary.invocation.simulated_s = simulated_s;
-    summary.invocation.wall_clock_s = wall;
-    summary.invocation.threads = threads;
-    let summary = write_tables(&plan, &records, dir, summary)?;
-    let summary = write_summary(dir, summary)?;
+    let results = dir.join("results.csv");
+    let (plan, records) = records_from_table(&millcomp_datasets::read_any(&results)?, &results)?;
     let r = summary.results;
+    let mut notes = r.notes;
+    notes.extend(
+        r.failed
+            .iter()
+            .map(|f| format!("run {} ({}) failed: {}", f.run, f.controller, f.reason)),
+    );
     Ok(Compared {
         files: summary
             .invocation
@@ -101,17 +123,8 @@ pub fn compare(plan: BatchPlan, runs: Runs<'_>, dir: &Path, progress: bool) -> R
         by_controller: r.by_controller,
         anova: r.anova,
         paired: r.paired,
-        notes: r.notes,
-        simulated_s,
+        notes,
     })
-}
-
-/// A plan of the conditions of `table` (batch factor names) × `controllers`.
-///
-/// # Errors
-/// The batch engine's errors naming the row and factor.
-pub fn plan_of(table: &Table, controllers: &[String]) -> Result<BatchPlan> {
-    Ok(BatchPlan::from_table(table, controllers.to_vec())?)
 }
 
 /// The paired comparison of every controller of `records` against `reference` (condition by condition,

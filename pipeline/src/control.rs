@@ -22,7 +22,7 @@ use millcomp_mpc::pid::PidGains;
 use millcomp_mpc::predictor::ForcePredictor;
 use millcomp_sim::groove::{GrooveProgram, PathOffset};
 
-use crate::batch::{Compared, Runs, compare, paired_against, plan_of, records_from_table};
+use crate::batch::{Compared, Runs, compare, paired_against, records_from_table};
 use crate::calibration::{aliases, describe_design, design_table, read};
 use crate::ctx::{BatchAnswer, Ctx, RerunAnswer, f, fp, median};
 use crate::error::{PipelineError, Result};
@@ -493,7 +493,8 @@ pub(crate) fn batch(cx: &mut Ctx<'_>) -> Result<()> {
         std::fs::copy(&file, &dst).map_err(|e| PipelineError::io(&file, "reading", e))?;
         let table = read(&dst)?;
         let (plan, records) = records_from_table(&table, &file)?;
-        let c = compare(plan, Runs::Measured(records), &dir, false)?;
+        let ctrls = plan.controllers.clone();
+        let c = compare(&ctrls, Runs::Measured(plan, records), &dir, false)?;
         (
             c,
             vec![std::fs::canonicalize(&file).unwrap_or(file)],
@@ -517,9 +518,16 @@ pub(crate) fn batch(cx: &mut Ctx<'_>) -> Result<()> {
         }
         let t0 = cx.start("batch");
         let table = read(&conditions)?;
-        let plan = plan_of(&table, &controllers)?;
         let runs = machine.runs(cx.bundles.clone());
-        let c = compare(plan, Runs::Machine(&runs), &dir, cx.opts.progress_bar)?;
+        let c = compare(
+            &controllers,
+            Runs::Machine {
+                conditions: &table,
+                runner: &runs,
+            },
+            &dir,
+            cx.opts.progress_bar,
+        )?;
         let mut inputs = vec![conditions];
         inputs.extend(cx.bundles.values().cloned());
         (c, inputs, cx.source(), t0)
@@ -784,7 +792,8 @@ pub(crate) fn rerun(cx: &mut Ctx<'_>) -> Result<()> {
         let dst = dir.join("measured_results.csv");
         std::fs::copy(&file, &dst).map_err(|e| PipelineError::io(&file, "reading", e))?;
         let (plan, records) = records_from_table(&read(&dst)?, &file)?;
-        let c = compare(plan, Runs::Measured(records), &dir, false)?;
+        let ctrls = plan.controllers.clone();
+        let c = compare(&ctrls, Runs::Measured(plan, records), &dir, false)?;
         (
             c,
             vec![
@@ -819,10 +828,18 @@ pub(crate) fn rerun(cx: &mut Ctx<'_>) -> Result<()> {
             format!("mpc+{ORACLE}"),
         ]
         .to_vec();
-        let plan = plan_of(&table, &controllers)?;
+        let plan = millcomp_closedloop::batch::plan::Plan::from_table(&table, controllers.clone())?;
         let corr = corrections(cx, &plan)?;
         let runs = machine.runs(cx.bundles.clone()).with_corrections(corr);
-        let c = compare(plan, Runs::Machine(&runs), &dir, cx.opts.progress_bar)?;
+        let c = compare(
+            &controllers,
+            Runs::Machine {
+                conditions: &table,
+                runner: &runs,
+            },
+            &dir,
+            cx.opts.progress_bar,
+        )?;
         let mut inputs = vec![conditions, batch_results.clone()];
         inputs.extend(cx.bundles.values().cloned());
         inputs.extend(cx.effects.iter().cloned());

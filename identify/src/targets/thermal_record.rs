@@ -835,7 +835,7 @@ fn zeroed_ss(y: &[f64], pred: &[f64], rows: &[usize]) -> f64 {
 /// * [`IdentifyError::InvalidParameter`] for a negative speed or fewer than 2 folds.
 ///
 /// # Examples
-/// A synthetic record (the real one is `millcomp identify thermal` in the README): a machine whose
+/// A synthetic record (the real one is `millcomp identify thermal` in docs/real-machines.md): a machine whose
 /// drift is 3 µm per (krpm)² through a 1 h lag plus 1.5 µm/K of an ambient sensor; the chosen model
 /// removes nearly all of the test drift.
 /// ```
