@@ -767,6 +767,10 @@ pub fn record_step_test(
     Ok(rec)
 }
 
+/// A spindle fit from a step test: the fit kept, every structure's BIC (by name) and the index of the
+/// one kept ([`identify_step_test`]).
+pub type SpindleFit = (Identified, Vec<(String, f64)>, usize);
+
 /// Identifies the spindle from a step record: each structure of [`SPINDLE_STRUCTURES`] (or only
 /// `structure`) fitted, the one with the smallest BIC kept (its choice and the BICs noted in its
 /// warnings). Returns the fit, every structure's BIC and the index of the one kept.
@@ -776,7 +780,7 @@ pub fn record_step_test(
 pub fn identify_step_test(
     rec: &StepRecord,
     structure: Option<usize>,
-) -> Result<(Identified, Vec<(String, f64)>, usize), ClosedLoopError> {
+) -> Result<SpindleFit, ClosedLoopError> {
     let data = SpindleData {
         t_s: &rec.t_s,
         u_v: &rec.u_v,

@@ -152,6 +152,9 @@ fn headline(cx: &Ctx<'_>) -> String {
     h
 }
 
+/// One stage of the pipeline: it reads the files earlier stages wrote and records its own.
+type StageFn = fn(&mut Ctx<'_>) -> Result<()>;
+
 /// Runs the plan's stages in order into `opts.out`, then writes the report and the chain. `progress`
 /// is called with each stage's name as it starts.
 ///
@@ -162,7 +165,7 @@ pub fn run(plan: &Plan, opts: &Options, progress: &(dyn Fn(&str) + Sync)) -> Res
     let start = Instant::now();
     std::fs::create_dir_all(&opts.out).map_err(|e| PipelineError::io(&opts.out, "creating", e))?;
     let mut cx = Ctx::new(plan, opts, progress);
-    let stages: [(&str, fn(&mut Ctx<'_>) -> Result<()>); 12] = [
+    let stages: [(&str, StageFn); 12] = [
         ("design", calibration::design),
         ("measure", calibration::measure),
         ("analyse", calibration::analyse),

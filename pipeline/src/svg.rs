@@ -248,17 +248,14 @@ impl Chart {
                         }
                     }
                     Mark::Band { lo, hi } => {
-                        let mut poly: Vec<(f64, f64)> = Vec::new();
-                        for i in 0..s.x.len() {
-                            if lo[i].is_finite() && s.x[i].is_finite() {
-                                poly.push((s.x[i], lo[i]));
-                            }
-                        }
-                        for i in (0..s.x.len()).rev() {
-                            if hi[i].is_finite() && s.x[i].is_finite() {
-                                poly.push((s.x[i], hi[i]));
-                            }
-                        }
+                        let finite = |(&x, &y): (&f64, &f64)| {
+                            (x.is_finite() && y.is_finite()).then_some((x, y))
+                        };
+                        let mut poly: Vec<(f64, f64)> =
+                            s.x.iter().zip(lo.iter()).filter_map(finite).collect();
+                        let upper: Vec<(f64, f64)> =
+                            s.x.iter().zip(hi.iter()).filter_map(finite).collect();
+                        poly.extend(upper.into_iter().rev());
                         let a = chart
                             .draw_series(std::iter::once(Polygon::new(poly, c.mix(0.2).filled())))
                             .map_err(|e| plot_err(name, e))?;
