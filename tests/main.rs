@@ -14,5 +14,6 @@ mod manners;
 mod parts;
 mod readme;
 mod real;
+mod reliability;
 mod report_html;
 mod simulate;
