@@ -71,26 +71,58 @@ pub struct Cli {
 /// The verbs.
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Run the whole pipeline on the shipped data and write a report (the main job).
+    /// The main job end to end on a simulated machine — design, measure, analyse, identify, commission,
+    /// build, compare, diagnose, rerun — with one report (report.md, report.html).
+    #[command(
+        after_help = "Example:\n  millcomp demo --out millcomp-demo    # then open millcomp-demo/report.html"
+    )]
     Demo(DemoArgs),
+    /// The same pipeline on your measured files: PLAN.toml names a file for each stage (docs/pipeline.md);
+    /// a stage without files is skipped, saying what it would need.
+    #[command(
+        after_help = "Example:\n  millcomp pipeline datasets/pipeline/plan.toml --out my-machine"
+    )]
+    Pipeline(PipelineArgs),
     /// Design of experiments: generate treatment matrices and analyse responses.
+    #[command(
+        after_help = "Example:\n  millcomp doe design --design fractional --factors A,B,C,D --resolution 4 --seed 1"
+    )]
     #[command(subcommand)]
     Doe(DoeCommand),
     /// Identify model parameters from measured runs by least squares.
+    #[command(
+        after_help = "Example:\n  millcomp identify spindle datasets/runs/spindle_step_synthetic.csv --save spindle.toml"
+    )]
     Identify(IdentifyArgs),
     /// Find where simulation and measurement disagree and name the missing physical effect.
+    #[command(
+        after_help = "Example:\n  millcomp diagnose datasets/synthetic/coolant_thermal_drift.toml datasets/synthetic/coolant_thermal_drift.csv"
+    )]
     Diagnose(DiagnoseArgs),
     /// Commission a scenario's machine: calibration experiments through its instruments, identified into
     /// one model bundle the controllers are built from.
+    #[command(
+        after_help = "Example:\n  millcomp commission datasets/scenarios/groove_s7_20deg_commissioned.toml --out bundle.toml"
+    )]
     Commission(CommissionArgs),
     /// Simulate a session or a closed-loop scenario.
+    #[command(
+        after_help = "Example:\n  millcomp simulate datasets/scenarios/groove_s7_20deg.toml --controller mpc"
+    )]
     Simulate(SimulateArgs),
     /// Run controllers over many conditions and compare them statistically.
+    #[command(
+        after_help = "Example:\n  millcomp batch --doe \"--design fractional --factors tilt_deg=20:40,depth_um=40:80,upfeed_um=8:12 --resolution 3 --seed 1\" --controllers pid-tuned,mpc"
+    )]
     Batch(BatchArgs),
     /// Cut successive parts of a groove scenario: after each the groove is measured, the deflection model
     /// identified from the parts so far, and the next part uses it (run-to-run learning).
+    #[command(
+        after_help = "Example:\n  millcomp parts datasets/scenarios/groove_s7_20deg.toml --parts 3 --seeds 4"
+    )]
     Parts(PartsArgs),
     /// List and show the published tables, real measured records and synthetic runs shipped with millcomp.
+    #[command(after_help = "Example:\n  millcomp datasets show clayton_doe")]
     #[command(subcommand)]
     Datasets(DatasetsCommand),
 }
@@ -98,10 +130,30 @@ pub enum Command {
 /// `millcomp demo`.
 #[derive(Debug, Args)]
 pub struct DemoArgs {
-    /// Directory for the report and tables.
+    /// Directory for the report, the measured files, the models and the tables.
     #[arg(long, default_value = "millcomp-demo")]
     pub out: PathBuf,
-    /// Worker threads of the demo batch (default: all cores; 1 to 1024).
+    /// Seed of the simulated machine (its tool, instruments and what the nominal model lacks).
+    #[arg(long, default_value_t = 7)]
+    pub seed: u64,
+    /// Worker threads of the comparison's runs (default: all cores; 1 to 1024).
+    #[arg(long, value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_THREADS))]
+    pub threads: Option<usize>,
+    /// A quicker look: 8 conditions (a 2^(4−1) over tilt, depth, material and a depth step at once) on
+    /// 5 mm grooves instead of 32 on 10 mm.
+    #[arg(long)]
+    pub quick: bool,
+}
+
+/// `millcomp pipeline PLAN.toml`.
+#[derive(Debug, Args)]
+pub struct PipelineArgs {
+    /// The plan (TOML, docs/pipeline.md): the measured files of each stage and the designs.
+    pub plan: PathBuf,
+    /// Directory for the report, the models and the tables.
+    #[arg(long, default_value = "millcomp-pipeline")]
+    pub out: PathBuf,
+    /// Worker threads of the comparison's runs, if the plan runs them on a simulated machine (1 to 1024).
     #[arg(long, value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_THREADS))]
     pub threads: Option<usize>,
 }
@@ -143,8 +195,14 @@ pub struct CommissionArgs {
 #[derive(Debug, Subcommand)]
 pub enum DoeCommand {
     /// Generate a treatment matrix.
+    #[command(
+        after_help = "Example:\n  millcomp doe design --design fractional --factors A,B,C,D --resolution 4 --seed 1"
+    )]
     Design(DoeDesignArgs),
     /// Analyse a response: effects, ANOVA, Lenth.
+    #[command(
+        after_help = "Example:\n  millcomp doe analyze datasets/data/clayton_doe.csv --response max_fx_n --factors depth_um,speed_rpm,upfeed_um"
+    )]
     Analyze(DoeAnalyzeArgs),
 }
 
@@ -523,6 +581,7 @@ pub struct PartsArgs {
 #[derive(Debug, Subcommand)]
 pub enum BatchCommand {
     /// Join the slices (output directories of `--shard K/N` runs) of one batch.
+    #[command(after_help = "Example:\n  millcomp batch merge slice-0 slice-1 --out merged")]
     Merge(BatchMergeArgs),
 }
 
@@ -541,10 +600,15 @@ pub struct BatchMergeArgs {
 #[derive(Debug, Subcommand)]
 pub enum DatasetsCommand {
     /// List the shipped tables: published, real measured records, synthetic runs.
+    #[command(after_help = "Example:\n  millcomp datasets list")]
     List,
     /// Print one table (a real record: its provenance and first rows).
+    #[command(after_help = "Example:\n  millcomp datasets show clayton_doe")]
     Show(DatasetsShowArgs),
     /// Validate your own CSV/Parquet file against a contract or a shipped table's schema.
+    #[command(
+        after_help = "Example:\n  millcomp datasets check my-grooves.csv --as measured-groove"
+    )]
     Check(DatasetsCheckArgs),
 }
 

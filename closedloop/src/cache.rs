@@ -72,6 +72,8 @@ impl CommissioningKey {
                 force_noise: None,
                 gauge_noise: None,
                 instruments: InstrumentErrors::default(),
+                // the calibrations cut no groove: the path's offset is not the commissioning's
+                path_offset: Default::default(),
             },
             instruments: plant.instruments,
             force_noise_n: plant.force_noise_n,
@@ -122,6 +124,9 @@ pub struct CacheCounts {
 
 type Slot = OnceLock<Result<Arc<ModelBundle>, Arc<ClosedLoopError>>>;
 
+/// The slots by key address, and the addresses in the order they were first asked for.
+type Slots = (HashMap<String, Arc<Slot>>, VecDeque<String>);
+
 /// Bundles kept in memory (the most recently asked for; about 10 kB each): a batch's scenarios that
 /// share a commissioning are usually near each other in the plan, the rest come from the disk.
 pub const IN_MEMORY: usize = 64;
@@ -131,7 +136,7 @@ pub const IN_MEMORY: usize = 64;
 #[derive(Debug, Default)]
 pub struct CommissioningCache {
     dir: Option<PathBuf>,
-    slots: Mutex<(HashMap<String, Arc<Slot>>, VecDeque<String>)>,
+    slots: Mutex<Slots>,
     computed: AtomicUsize,
     from_disk: AtomicUsize,
     from_memory: AtomicUsize,

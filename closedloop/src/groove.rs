@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use millcomp_sim::actuator::{BoucWenParams, LogCreepParams};
-use millcomp_sim::groove::{GrooveConfig, GrooveStage, GrooveStepOutput};
+use millcomp_sim::groove::{GrooveConfig, GrooveProgram, GrooveStage, GrooveStepOutput};
 use millcomp_sim::material::Material;
 use millcomp_sim::sensors::{CapacitanceGauge, InstrumentErrors, NoiseSpec};
 
@@ -82,6 +82,35 @@ fn deepest(g: &GrooveScenario) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// The program a groove scenario cuts — what the NC program says (speed, feed and its changes, tilt,
+/// length, depth profile, approach, entry and exit) — from which the controllers plan. Not validated
+/// (the stage validates it against the tool).
+///
+/// ```
+/// use millcomp_closedloop::groove::groove_program;
+/// use millcomp_closedloop::Scenario;
+/// let s = Scenario::from_toml_str(
+///     include_str!("../../datasets/scenarios/groove_s7_20deg.toml"),
+///     "groove_s7_20deg.toml",
+/// )
+/// .unwrap();
+/// let p = groove_program(s.groove.as_ref().unwrap());
+/// assert_eq!((p.tilt_deg, p.length_mm, p.upfeed_um), (20.0, 20.0, 10.0));
+/// ```
+pub fn groove_program(g: &GrooveScenario) -> GrooveProgram {
+    let mut p = GrooveProgram::thesis(g.tilt_deg);
+    p.speed_rpm = g.speed_rpm;
+    p.upfeed_um = g.upfeed_um;
+    p.length_mm = g.length_mm;
+    p.depth_profile = g.depth.clone();
+    p.feed_changes = g.feed_steps.clone();
+    p.feed_accel_mm_s2 = g.feed_accel_mm_s2;
+    p.exit = g.exit;
+    p.approach_mm = g.approach_mm;
+    p.entry_length_mm = g.entry_length_mm;
+    p
+}
+
 /// The truth plant of a groove scenario: thesis plant, the scenario's program and material, the tool's
 /// deviations from the catalogue tool (`truth.tool` / `truth.draw_tool`), sensor noise, instrument errors
 /// and (when asked) the force scale calibrated to the uncompensated deflection.
@@ -95,15 +124,7 @@ pub fn groove_truth(s: &Scenario) -> Result<GrooveConfig, ClosedLoopError> {
         .ok_or_else(|| invalid("groove", "missing", "a [groove] table"))?;
     let mut truth = GrooveConfig::thesis(g.tilt_deg, g.wearland_um)?;
     truth.force_model.material = Material::by_name(&g.material)?;
-    truth.program.speed_rpm = g.speed_rpm;
-    truth.program.upfeed_um = g.upfeed_um;
-    truth.program.length_mm = g.length_mm;
-    truth.program.depth_profile = g.depth.clone();
-    truth.program.feed_changes = g.feed_steps.clone();
-    truth.program.feed_accel_mm_s2 = g.feed_accel_mm_s2;
-    truth.program.exit = g.exit;
-    truth.program.approach_mm = g.approach_mm;
-    truth.program.entry_length_mm = g.entry_length_mm;
+    truth.program = groove_program(g);
     match (s.truth.tool, s.truth.draw_tool) {
         (Some(t), _) => t.apply(&mut truth.force_model)?,
         (None, true) => millcomp_sim::tool_variation::ToolVariation::draw(s.seed)

@@ -7,6 +7,7 @@ mod common;
 mod faults;
 mod fuzz_regressions;
 mod groove;
+mod machine;
 mod nc_axis;
 mod optimum;
 mod parts;

@@ -28,7 +28,7 @@ use millcomp_sim::SimError;
 use millcomp_sim::feed::FeedProfile;
 use millcomp_sim::filters::{Biquad, FirstOrderFilter, PeakHold, SlidingMax};
 use millcomp_sim::force::CutConditions;
-use millcomp_sim::groove::GrooveProgram;
+use millcomp_sim::groove::{GrooveProgram, PathOffset};
 use nalgebra::DMatrix;
 
 use crate::config::CycleBudget;
@@ -288,6 +288,9 @@ pub struct DeflectionPlan {
     waveform: Vec<f64>,
     /// Tabulated points where the force predictor extrapolated beyond its fitted range.
     pub extrapolated_points: usize,
+    /// A depth offset along the path the controllers were told of (µm, + = deeper; empty: none):
+    /// an identified effect the deflection model lacks ([`Self::with_path_offset`]).
+    path_offset: PathOffset,
 }
 
 impl DeflectionPlan {
@@ -432,6 +435,7 @@ impl DeflectionPlan {
             flute_ratio: 1.0,
             waveform: Vec::new(),
             extrapolated_points: 0,
+            path_offset: PathOffset::default(),
         })
     }
 
@@ -818,6 +822,60 @@ impl DeflectionPlan {
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
                 (a.min(v), b.max(v))
             })
+    }
+
+    /// The plan with an additive depth offset along the path (µm, + = deeper) that the deflection model
+    /// lacks — an identified effect tabulated along this program (e.g. a guideway's straightness that
+    /// `millcomp diagnose` named, evaluated at the groove's machine X). The controllers that follow the
+    /// plan take it into account: the open-loop compensation (and `pid-ff`'s feedforward) subtract it
+    /// from the correction they command, the MPC adds it to its error channel's prediction, preview,
+    /// measurement and stroke band. The deflection itself (and the MPC's online plan scale, which
+    /// compares it with the measured force) is unchanged.
+    ///
+    /// ```
+    /// use millcomp_mpc::groove::DeflectionPlan;
+    /// use millcomp_sim::groove::{GrooveProgram, PathOffset};
+    /// let program = GrooveProgram::thesis(30.0);
+    /// let plan = DeflectionPlan::reference(&program, 400.0, 0.01, 0.5, |c| Ok(0.1 * c.depth_um))
+    ///     .unwrap()
+    ///     .with_path_offset(PathOffset::new(vec![(0.0, 0.0), (20.0, -2.0)]).unwrap());
+    /// assert!((plan.path_offset_at(10.0) + 1.0).abs() < 1e-12);
+    /// // the deflection is the model's alone; what the actuator must make up is the deflection less
+    /// // the offset: 4 µm + 2 µm at the deep end
+    /// assert!((plan.deflection_at(20.0) - 4.0).abs() < 1e-9);
+    /// assert!((plan.range_um().1 - 4.0).abs() < 1e-9);
+    /// assert!((plan.required_range_um(1.0).1 - 6.0).abs() < 1e-9);
+    /// ```
+    pub fn with_path_offset(mut self, offset: PathOffset) -> Self {
+        self.path_offset = offset;
+        self
+    }
+
+    /// The path offset the plan was given (empty: none).
+    pub fn path_offset(&self) -> &PathOffset {
+        &self.path_offset
+    }
+
+    /// The path offset (µm, + = deeper) at `x_mm`; 0 without one.
+    pub fn path_offset_at(&self, x_mm: f64) -> f64 {
+        self.path_offset.at(x_mm)
+    }
+
+    /// The smallest and largest correction the actuator must make over the cut (µm): the planned
+    /// deflection scaled by `scale` less the path offset, at every tabulated point (the deflection's
+    /// range times `scale` without an offset).
+    pub fn required_range_um(&self, scale: f64) -> (f64, f64) {
+        if self.path_offset.is_empty() {
+            let (a, b) = self.range_um();
+            return (scale * a, scale * b);
+        }
+        self.xs_mm.iter().zip(&self.values_um).fold(
+            (f64::INFINITY, f64::NEG_INFINITY),
+            |(a, b), (&x, &v)| {
+                let r = scale * v - self.path_offset.at(x);
+                (a.min(r), b.max(r))
+            },
+        )
     }
 }
 
@@ -1215,11 +1273,19 @@ impl OpenLoopController {
     fn volts_for(&self, deflection_um: f64) -> f64 {
         deflection_um * self.tip_per_z * self.v_per_um
     }
+
+    /// The voltage by which the plan's path offset at `t_s` reduces the correction (0 without one).
+    fn offset_volts_at(&self, t_s: f64) -> f64 {
+        if self.plan.path_offset.is_empty() {
+            return 0.0;
+        }
+        self.volts_for(self.plan.path_offset_at(self.plan.x_at(t_s)))
+    }
 }
 
 impl GrooveController for OpenLoopController {
     fn command(&mut self, _: Option<&GrooveMeasurement>, t_s: f64) -> f64 {
-        (self.bias_v + self.volts_at(t_s)).clamp(0.0, self.v_max)
+        (self.bias_v + self.volts_at(t_s) - self.offset_volts_at(t_s)).clamp(0.0, self.v_max)
     }
 
     fn touched_off(&mut self, at: TouchOff) {
@@ -1564,7 +1630,7 @@ impl GrooveController for FeedforwardPidController {
                 }
                 None => self.plan.volts_at(t_ff),
             };
-        let v_ff = v_ff + self.plan.bias_v;
+        let v_ff = v_ff - self.plan.offset_volts_at(t_ff) + self.plan.bias_v;
         let x_now = self.plan.plan.x_at(t_s);
         let rubbing = within_spans(&self.rubbing_mm, x_now);
         let plan_tip = rubbing.then(|| rho * self.plan.plan.deflection_at(x_now) / self.sin_a);
@@ -2199,6 +2265,9 @@ pub struct MpcGrooveController {
     z_zero_um: f64,
     /// The last cycle at which the preview saw a change ([`GrooveMpcFeatures::quiet_revolutions`]).
     last_change_s: f64,
+    /// The required correction's range over the cut for the last plan scale, with a path offset:
+    /// `(scale, (min, max))` ([`DeflectionPlan::required_range_um`]).
+    required_range: (f64, (f64, f64)),
     /// MPC cycles in a spindle revolution ([`GrooveMpcFeatures::quiet_revolutions`]).
     cycles_per_rev: usize,
 }
@@ -2295,6 +2364,7 @@ impl MpcGrooveController {
             reach_z_um: sp.gain_um_per_v * sp.voltage_max_v * sin_a,
             z_zero_um: 0.0,
             last_change_s: f64::NEG_INFINITY,
+            required_range: (f64::NAN, plan_range_um),
             cycles_per_rev: samples_per_rev(program.speed_rpm, dt * settings.mpc_every as f64),
         })
     }
@@ -2394,6 +2464,14 @@ impl GrooveController for MpcGrooveController {
         }
         let planned = &self.planned_buf;
         let planned_now = planned[0];
+        // a path offset the plan was given (an identified effect: + = deeper) enters the error channel
+        // beside the deflection: the error is z − δ + o
+        let offsets: Option<Vec<f64>> = (!self.plan.path_offset.is_empty()).then(|| {
+            times
+                .iter()
+                .map(|&t| self.plan.path_offset_at(self.plan.x_at(t)))
+                .collect()
+        });
         // away from the changes the preview sees, the force once per revolution
         let mut skip_force = false;
         if self.features.quiet_revolutions {
@@ -2410,34 +2488,47 @@ impl GrooveController for MpcGrooveController {
             self.scale.update(planned_now, self.compliance * fpk);
         }
         let rho = self.plan_scale();
+        let offset = |i: usize| offsets.as_ref().map_or(0.0, |o| o[i]);
         // the z the stack must stand at for a deflection is the deflection above the touch-off's tip
         let z0 = self.z_zero_um;
         let band = if self.features.stroke_aware {
-            StrokeBand::from_range(
-                rho * self.plan_range_um.0 + z0,
-                rho * self.plan_range_um.1 + z0,
-                self.reach_z_um,
-            )
+            let (lo, hi) = if offsets.is_some() {
+                if (self.required_range.0 - rho).abs() > 1e-4 || self.required_range.0.is_nan() {
+                    self.required_range = (rho, self.plan.required_range_um(rho));
+                }
+                self.required_range.1
+            } else {
+                (rho * self.plan_range_um.0, rho * self.plan_range_um.1)
+            };
+            StrokeBand::from_range(lo + z0, hi + z0, self.reach_z_um)
         } else {
             StrokeBand::from_range(0.0, 0.0, f64::INFINITY)
         };
         // the error channel's disturbance carries the deflection the plan misses now; the scale applies
         // to what the plan says will change over the horizon
-        self.window.offset_now[OUT_ERROR] = -(planned_now + z0);
+        self.window.offset_now[OUT_ERROR] = -(planned_now + z0) + offset(0);
         let preview = self.preview;
-        let ahead = |i: usize| if preview { planned[i] } else { planned_now };
+        let ahead = |i: usize| {
+            if preview {
+                (planned[i], offset(i))
+            } else {
+                (planned_now, offset(0))
+            }
+        };
         for j in 0..n {
-            let a = ahead(at_cycle(j + 1));
-            self.window.offsets[j * 2 + OUT_ERROR] = -(planned_now + z0 + rho * (a - planned_now));
-            self.window.reference[j * 2 + OUT_ERROR] = band.target_error_um(rho * a + z0);
+            let (a, o) = ahead(at_cycle(j + 1));
+            self.window.offsets[j * 2 + OUT_ERROR] =
+                -(planned_now + z0 + rho * (a - planned_now)) + o;
+            self.window.reference[j * 2 + OUT_ERROR] = band.target_error_um(rho * a + z0 - o);
         }
         // between the cycles: sub-step s after cycle k (0-based)
         for k in 0..between {
             for s in 1..m {
-                let a = ahead(k * m + s);
+                let (a, o) = ahead(k * m + s);
                 let r = (k * (m - 1) + s - 1) * 2 + OUT_ERROR;
-                self.window.intersample_offsets[r] = -(planned_now + z0 + rho * (a - planned_now));
-                self.window.intersample_reference[r] = band.target_error_um(rho * a + z0);
+                self.window.intersample_offsets[r] =
+                    -(planned_now + z0 + rho * (a - planned_now)) + o;
+                self.window.intersample_reference[r] = band.target_error_um(rho * a + z0 - o);
             }
         }
         // a stale sensor is left out of the measurement update (prediction from the model and the plan),
@@ -2449,7 +2540,7 @@ impl GrooveController for MpcGrooveController {
             if gauge_stale || force_stale || rubbing || skip_force {
                 f64::NAN
             } else {
-                self.sin_a * gauge - z0 - self.compliance * fpk
+                self.sin_a * gauge - z0 - self.compliance * fpk + offset(0)
             },
         ];
         // dimension errors cannot happen here (window built for this controller); on one, hold

@@ -6,7 +6,6 @@
 use anyhow::Context;
 use clap::Parser;
 use millcomp_closedloop::ClosedLoopError;
-pub use millcomp_closedloop::batch::engine::outcome_summary;
 use millcomp_closedloop::batch::plan::Shard;
 use millcomp_closedloop::batch::{
     BatchRequest, BatchSummary, ProgressMode, ScenarioSource, estimate_request, merge_batch,

@@ -66,6 +66,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Datasets(c) => datasets::run(c, json),
         Command::Demo(a) => demo::run(a, json),
+        Command::Pipeline(a) => demo::run_plan(a, json),
         Command::Doe(c) => doe::run(c, json),
         Command::Identify(a) => identify::run(a, json),
         Command::Diagnose(a) => diagnose::run(a, json),

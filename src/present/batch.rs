@@ -1,31 +1,11 @@
 //! Batch results for people: the text summary `millcomp batch` prints and its `--dry-run` estimate.
 //! The numbers, the tables and the plots come from `millcomp_closedloop::batch`.
 
-use std::path::Path;
-
 use millcomp_closedloop::batch::Estimate;
-use millcomp_closedloop::batch::exec::{METRICS, RunRecord};
+use millcomp_closedloop::batch::exec::METRICS;
 use millcomp_closedloop::batch::plan::{Plan, Shard};
 use millcomp_closedloop::batch::progress::duration;
 use millcomp_closedloop::batch::results::BatchSummary;
-
-/// Writes the results of a batch into `out` (tables, plots, `summary.json`, `invocation.json`):
-/// `millcomp_closedloop::batch::engine::write_results` with no failed runs.
-pub fn write_results(
-    plan: &Plan,
-    records: &[RunRecord],
-    out: &Path,
-    summary: BatchSummary,
-) -> anyhow::Result<BatchSummary> {
-    Ok(millcomp_closedloop::batch::engine::write_results(
-        plan,
-        records,
-        &[],
-        out,
-        summary,
-        true,
-    )?)
-}
 
 /// Prints what a plan will cost (`batch --dry-run`).
 pub fn print_estimate(plan: &Plan, e: &Estimate, shard: Shard) {

@@ -20,7 +20,7 @@ use millcomp_datasets::Table;
 use millcomp_doe::DesignRequest;
 use serde::Serialize;
 
-use super::exec::{MpcClosedLoop, ShardOptions, ShardOutcome, run_shard_with};
+use super::exec::{ClosedLoop, MpcClosedLoop, ShardOptions, ShardOutcome, run_shard_with};
 use super::factors::build_scenario;
 use super::plan::{Plan, Shard, parse_controllers};
 use super::plots::plots;
@@ -188,6 +188,19 @@ pub fn run_batch(req: &BatchRequest) -> Result<BatchSummary, ClosedLoopError> {
 /// and of writing the results. A run that failed is not an error: it is listed in the summary's
 /// `failed`.
 pub fn run_plan(plan: &Plan, req: &BatchRequest) -> Result<BatchSummary, ClosedLoopError> {
+    run_plan_with(plan, req, &MpcClosedLoop)
+}
+
+/// [`run_plan`] on another closed loop than the published scenario's — a simulated machine's
+/// (`crate::machine::MachineRuns`), whose controllers come from a user's bundles.
+///
+/// # Errors
+/// As [`run_plan`].
+pub fn run_plan_with(
+    plan: &Plan,
+    req: &BatchRequest,
+    runner: &dyn ClosedLoop,
+) -> Result<BatchSummary, ClosedLoopError> {
     let _signals = req.stop_on_signals.then(SignalGuard::install);
     with_threads(req.threads, || {
         let start = Instant::now();
@@ -202,7 +215,7 @@ pub fn run_plan(plan: &Plan, req: &BatchRequest) -> Result<BatchSummary, ClosedL
             }),
             stop_reason: Some(super::signals::received),
         };
-        let outcome = run_shard_with(plan, req.shard, &req.out, &MpcClosedLoop, &opts)?;
+        let outcome = run_shard_with(plan, req.shard, &req.out, runner, &opts)?;
         let shard = (req.shard != Shard::ALL).then_some(req.shard);
         let mut summary = outcome_summary(plan, &outcome, shard);
         summary.invocation.cache = Some(CacheUse {

@@ -47,7 +47,7 @@ pub mod store;
 
 pub use engine::{
     BatchRequest, Estimate, ScenarioSource, estimate, estimate_request, merge_batch, run_batch,
-    run_plan,
+    run_plan, run_plan_with,
 };
 pub use progress::{ProgressMode, ProgressUpdate};
 pub use results::BatchSummary;
