@@ -12,6 +12,7 @@
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
@@ -105,6 +106,10 @@ pub struct BatchRequest {
     /// Stop cleanly on SIGTERM and SIGINT ([`super::signals`]): for a program's own batch, not a
     /// library caller's.
     pub stop_on_signals: bool,
+    /// The caller's stop request (set from another thread, a notebook's interrupt): once set, the
+    /// runs under way finish and are stored, no new one starts, and the call returns
+    /// [`ClosedLoopError::Interrupted`]; the same request with the flag cleared resumes.
+    pub stop: Option<Arc<AtomicBool>>,
 }
 
 impl BatchRequest {
@@ -121,6 +126,7 @@ impl BatchRequest {
             progress: ProgressMode::Auto,
             plots: true,
             stop_on_signals: false,
+            stop: None,
         }
     }
 
@@ -193,7 +199,10 @@ pub fn run_plan(plan: &Plan, req: &BatchRequest) -> Result<BatchSummary, ClosedL
             cache: Some(&cache),
             stop: req
                 .stop_on_signals
-                .then(|| super::signals::stop_flag() as &AtomicBool),
+                .then(super::signals::stop_flag)
+                .into_iter()
+                .chain(req.stop.as_deref())
+                .collect(),
             stop_reason: Some(super::signals::received),
         };
         let outcome = run_shard_with(plan, req.shard, &req.out, &MpcClosedLoop, &opts)?;
