@@ -13,4 +13,5 @@ mod identify;
 mod parts;
 mod readme;
 mod real;
+mod reliability;
 mod simulate;

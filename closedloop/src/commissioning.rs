@@ -554,15 +554,9 @@ fn force_experiment(
     if predicted.is_finite() && predicted > 0.0 && measured > 0.0 {
         base.material.w_mpa *= measured / predicted;
     }
-    let mut common = millcomp_identify::targets::thermal::CommonOptions::default();
-    // identify's defaults (ftol 1e-14, gtol 1e-12) are meant for small fits; on ~1300 noisy trace samples
-    // the gradient cosine settles at its rounding floor above 1e-12 and the fit can stall at the optimum
-    // without meeting a tolerance. scipy's least_squares defaults (gtol 1e-8) stop it there; ftol 1e-10
-    // leaves a parameter error below √(1e-10·n)·SE ≈ 4e-4 SE.
-    common.nls.ftol = 1e-10;
-    common.nls.xtol = 1e-10;
-    common.nls.gtol = 1e-8;
-    common.nls.max_iter = common.nls.max_iter.max(1000);
+    // identify's defaults: its gradient test stops at its own resolution (identify's nonlinear module),
+    // which the ~1300 trace samples reach in a few iterations
+    let common = millcomp_identify::targets::thermal::CommonOptions::default();
     let opts = ForceOptions {
         base,
         common,

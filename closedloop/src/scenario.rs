@@ -492,6 +492,7 @@ impl ControlSpec {
         millcomp_mpc::config::CycleBudget {
             fraction: self.budget_fraction,
             enforced: self.realtime,
+            max_iter: None,
         }
     }
 }
@@ -605,6 +606,24 @@ impl Scenario {
                 _ => None,
             })
             .collect()
+    }
+}
+
+/// The longest groove or thin wall a scenario may cut: 1 m, fifty times the published 20 mm groove and
+/// beyond the travel of a micro-milling machine. Checked before anything is allocated (a plan of
+/// `length_mm = 1e9` asked for 800 GB).
+pub const MAX_LENGTH_MM: f64 = 1000.0;
+
+/// The most control steps one closed-loop groove run may take: 10 million (the published groove is
+/// 240 000 steps at 20 kHz; 10 million take about a minute and 0.5 GB of trace).
+pub const MAX_RUN_STEPS: f64 = 1e7;
+
+/// Finite, > 0 and at most `max`.
+fn finite_pos_at_most(key: &str, v: f64, max: f64) -> Result<(), ClosedLoopError> {
+    if v.is_finite() && v > 0.0 && v <= max {
+        Ok(())
+    } else {
+        Err(invalid(key, v, format!("0 < value <= {max}")))
     }
 }
 
@@ -726,7 +745,7 @@ impl Scenario {
                 finite_nonneg("groove.wearland_um", g.wearland_um)?;
                 finite_pos("groove.speed_rpm", g.speed_rpm)?;
                 finite_pos("groove.upfeed_um", g.upfeed_um)?;
-                finite_pos("groove.length_mm", g.length_mm)?;
+                finite_pos_at_most("groove.length_mm", g.length_mm, MAX_LENGTH_MM)?;
                 g.depth.validate(400.0).map_err(|e| {
                     invalid(
                         "groove.depth",
@@ -776,7 +795,7 @@ impl Scenario {
                 finite_pos("thin_wall.ae_um", t.ae_um)?;
                 finite_pos("thin_wall.ap_um", t.ap_um)?;
                 finite_pos("thin_wall.fz_um", t.fz_um)?;
-                finite_pos("thin_wall.length_mm", t.length_mm)?;
+                finite_pos_at_most("thin_wall.length_mm", t.length_mm, MAX_LENGTH_MM)?;
             }
             StageKind::NcAxis => {
                 self.nc()?;
@@ -838,8 +857,28 @@ impl Scenario {
         finite_nonneg("truth.force_noise_n", tr.force_noise_n)?;
         finite_nonneg("truth.gauge_noise_um", tr.gauge_noise_um)?;
         let c = &self.control;
-        if !(c.dt_s.is_finite() && c.dt_s > 0.0 && c.dt_s <= 1e-3) {
-            return Err(invalid("control.dt_s", c.dt_s, "0 < dt_s <= 1e-3"));
+        if !(c.dt_s.is_finite() && c.dt_s >= 1e-6 && c.dt_s <= 1e-3) {
+            return Err(invalid("control.dt_s", c.dt_s, "1e-6 <= dt_s <= 1e-3"));
+        }
+        if let Some(g) = &self.groove {
+            // the run's length in control steps, at its slowest feed, before anything is allocated
+            let upfeed = g
+                .feed_steps
+                .iter()
+                .map(|f| f.upfeed_um)
+                .fold(g.upfeed_um, f64::min);
+            let steps = g.length_mm / (g.speed_rpm / 60.0 * upfeed / 1000.0) / c.dt_s;
+            if steps.is_nan() || steps > MAX_RUN_STEPS {
+                return Err(invalid(
+                    "groove.length_mm",
+                    g.length_mm,
+                    format!(
+                        "a run of at most {MAX_RUN_STEPS:e} control steps: at {} rpm, {upfeed} um/rev and \
+                         dt_s = {} s this groove takes {steps:.3e}",
+                        g.speed_rpm, c.dt_s
+                    ),
+                ));
+            }
         }
         if c.mpc_every == 0 {
             return Err(invalid("control.mpc_every", 0, ">= 1"));

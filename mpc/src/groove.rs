@@ -33,7 +33,7 @@ use nalgebra::DMatrix;
 
 use crate::config::CycleBudget;
 use crate::config::{DisturbanceCoupling, Intersample, MpcConfig};
-use crate::controller::{MpcController, PreviewWindow};
+use crate::controller::{MpcController, MpcCycle, PreviewWindow};
 use crate::error::MpcError;
 use crate::pid::{AntiWindup, Pid, PidGains};
 use crate::predictor::ForcePredictor;
@@ -70,6 +70,9 @@ fn within_spans(spans: &[(f64, f64)], x_mm: f64) -> bool {
 pub struct ForcePeakChain {
     low_pass: Biquad,
     peak: SlidingMax,
+    /// The pre-filter as built and the peak's window (samples): what [`Self::reset`] returns to.
+    initial: Biquad,
+    window: usize,
 }
 
 impl ForcePeakChain {
@@ -84,10 +87,19 @@ impl ForcePeakChain {
 
     /// `low_pass`, then the one-revolution sliding peak at `speed_rpm`, sampled every `dt_s`.
     fn with_low_pass(low_pass: Biquad, speed_rpm: f64, dt_s: f64) -> Self {
+        let window = samples_per_rev(speed_rpm, dt_s);
         Self {
             low_pass,
-            peak: SlidingMax::new(samples_per_rev(speed_rpm, dt_s)),
+            peak: SlidingMax::new(window),
+            initial: low_pass,
+            window,
         }
+    }
+
+    /// Back to the state as built: the filter at rest, the peak's window empty.
+    pub fn reset(&mut self) {
+        self.low_pass = self.initial;
+        self.peak = SlidingMax::new(self.window);
     }
 
     /// The chain with the [`BUTTERWORTH_PREFILTER_HZ`] Butterworth (damping 0.707) instead of the
@@ -667,15 +679,31 @@ impl DeflectionPlan {
         tooth_s: f64,
         pass_s: f64,
     ) -> Vec<f64> {
+        let mut out = vec![0.0; times_s.len()];
+        self.deflections_phased_into(cache, times_s, rev_s, tooth_s, pass_s, &mut out);
+        out
+    }
+
+    /// [`Self::deflections_phased_cached`] written into `out` (as long as `times_s`): with the cache's
+    /// storage reserved ([`PulseCache::with_capacity`]) and `times_s` ascending, nothing is allocated.
+    pub fn deflections_phased_into(
+        &self,
+        cache: &mut PulseCache,
+        times_s: &[f64],
+        rev_s: f64,
+        tooth_s: f64,
+        pass_s: f64,
+        out: &mut [f64],
+    ) {
         let (Some(&first), Some(&last)) = (times_s.first(), times_s.last()) else {
-            return Vec::new();
+            return;
         };
         let n = self.waveform.len();
         if n == 0 {
-            return times_s
-                .iter()
-                .map(|&t| self.deflection_at_time_phased(t, rev_s, tooth_s, pass_s))
-                .collect();
+            for (o, &t) in out.iter_mut().zip(times_s) {
+                *o = self.deflection_at_time_phased(t, rev_s, tooth_s, pass_s);
+            }
+            return;
         }
         let dt = rev_s / n as f64;
         // pulse samples τ_i = pass + i·dt, waveform index i mod n (index 0 = the peak)
@@ -707,7 +735,7 @@ impl DeflectionPlan {
         }
         let pulses = cache.pulses.make_contiguous();
         let pulses = &pulses[..((i1 - i0 + 1).max(0) as usize).min(pulses.len())];
-        window_maxima(pulses, times_s, rev_s, &mut cache.best)
+        window_maxima_into(pulses, times_s, rev_s, &mut cache.best, out);
     }
 
     /// The deflection at `t_s` when the larger flute last passed `phi_s` ago; `hint` is where the
@@ -882,23 +910,26 @@ fn flute_ratio(
 /// maximum (a deque of the pulses that can still be a window's largest), so each pulse is pushed and
 /// popped once: linear in pulses + times, where searching every window was times × pulses per revolution
 /// (a third of the preview's time at 57 times and 120 pulses per revolution). `best` is the deque's
-/// storage, kept by the caller so a cycle does not allocate it.
-fn window_maxima(
+/// storage, kept by the caller so a cycle does not allocate it; the maxima go into `out` (as long as
+/// `times_s`).
+fn window_maxima_into(
     pulses: &[(f64, f64)],
     times_s: &[f64],
     rev_s: f64,
     best: &mut std::collections::VecDeque<usize>,
-) -> Vec<f64> {
+    out: &mut [f64],
+) {
     if !times_s.is_sorted() {
-        return times_s
-            .iter()
-            .map(|&t| window_maxima(pulses, &[t], rev_s, best)[0])
-            .collect();
+        for (o, &t) in out.iter_mut().zip(times_s) {
+            let mut one = [0.0];
+            window_maxima_into(pulses, &[t], rev_s, best, &mut one);
+            *o = one[0];
+        }
+        return;
     }
     best.clear();
-    let mut out = Vec::with_capacity(times_s.len());
     let mut next = 0;
-    for &t in times_s {
+    for (o, &t) in out.iter_mut().zip(times_s) {
         while next < pulses.len() && pulses[next].0 <= t {
             while best.back().is_some_and(|&j| pulses[j].1 <= pulses[next].1) {
                 best.pop_back();
@@ -910,9 +941,8 @@ fn window_maxima(
         while best.front().is_some_and(|&j| pulses[j].0 <= start) {
             best.pop_front();
         }
-        out.push(best.front().map_or(0.0, |&j| pulses[j].1.max(0.0)));
+        *o = best.front().map_or(0.0, |&j| pulses[j].1.max(0.0));
     }
-    out
 }
 
 /// The planned pulses of the last window of [`DeflectionPlan::deflections_phased_cached`].
@@ -926,6 +956,26 @@ pub struct PulseCache {
     pulses: std::collections::VecDeque<(f64, f64)>,
     /// Storage of [`window_maxima`]'s deque (its content does not outlive a call).
     best: std::collections::VecDeque<usize>,
+}
+
+impl PulseCache {
+    /// A cache with room for `pulses` planned pulses (the pulses of a window: one revolution before
+    /// its first time to its last), so that a controller's cycle does not allocate.
+    pub fn with_capacity(pulses: usize) -> Self {
+        Self {
+            pulses: std::collections::VecDeque::with_capacity(pulses),
+            best: std::collections::VecDeque::with_capacity(pulses),
+            ..Self::default()
+        }
+    }
+
+    /// Empty, as new (the storage kept).
+    pub fn reset(&mut self) {
+        self.key = (0, 0);
+        self.first = 0;
+        self.pulses.clear();
+        self.best.clear();
+    }
 }
 
 /// Angles per revolution of the plan's force waveform: 120, the samples of a revolution at 10 000 rpm
@@ -991,6 +1041,19 @@ pub trait GrooveController {
     fn command(&mut self, last: Option<&GrooveMeasurement>, t_s: f64) -> f64;
     /// The tool was touched off at `at` (before the first [`Self::command`]).
     fn touched_off(&mut self, at: TouchOff);
+    /// Back to the state right after construction, before the touch-off: every filter, integrator,
+    /// estimator and plan of the controller (what construction computed — models, plan, gains — stays).
+    /// A runtime touches the tool off again after it.
+    ///
+    /// # Errors
+    /// [`MpcError::SolverSetup`] when the MPC's solver refuses its settings back (after a fault
+    /// injection).
+    fn reset(&mut self) -> Result<(), MpcError>;
+    /// What the MPC did in the last [`Self::command`], when it planned in it (`None` for the steps it
+    /// holds its command in, and for controllers without a QP).
+    fn last_cycle(&self) -> Option<MpcCycle> {
+        None
+    }
     /// QP statistics (MPC only).
     fn solver_stats(&self) -> Option<SolverStats> {
         None
@@ -1006,6 +1069,14 @@ impl<C: GrooveController + ?Sized> GrooveController for Box<C> {
 
     fn touched_off(&mut self, at: TouchOff) {
         (**self).touched_off(at);
+    }
+
+    fn reset(&mut self) -> Result<(), MpcError> {
+        (**self).reset()
+    }
+
+    fn last_cycle(&self) -> Option<MpcCycle> {
+        (**self).last_cycle()
     }
 
     fn solver_stats(&self) -> Option<SolverStats> {
@@ -1045,6 +1116,15 @@ impl<C: GrooveController> GrooveController for Compensated<C> {
         self.inner.touched_off(TouchOff { bias_v, ..at });
     }
 
+    fn reset(&mut self) -> Result<(), MpcError> {
+        self.compensator.reset();
+        self.inner.reset()
+    }
+
+    fn last_cycle(&self) -> Option<MpcCycle> {
+        self.inner.last_cycle()
+    }
+
     fn solver_stats(&self) -> Option<SolverStats> {
         self.inner.solver_stats()
     }
@@ -1067,6 +1147,11 @@ impl GrooveController for NoneController {
 
     fn touched_off(&mut self, at: TouchOff) {
         self.hold_v = at.bias_v;
+    }
+
+    fn reset(&mut self) -> Result<(), MpcError> {
+        self.hold_v = 0.0;
+        Ok(())
     }
 }
 
@@ -1140,6 +1225,12 @@ impl GrooveController for OpenLoopController {
     fn touched_off(&mut self, at: TouchOff) {
         self.bias_v = at.bias_v;
     }
+
+    /// Stateless but for the touch-off's bias.
+    fn reset(&mut self) -> Result<(), MpcError> {
+        self.bias_v = 0.0;
+        Ok(())
+    }
 }
 
 /// The published PID with the thesis' signal chain (ch. 7), at the stage rate.
@@ -1153,6 +1244,8 @@ pub struct PidController {
     tip_per_n: f64,
     dt_s: f64,
     touch_off: TouchOff,
+    /// The signal chain as built (at rest): what a reset returns to.
+    initial: (Biquad, Biquad, PeakHold, FirstOrderFilter),
 }
 
 impl PidController {
@@ -1171,11 +1264,16 @@ impl PidController {
         voltage_max_v: f64,
         dt_s: f64,
     ) -> Result<Self, MpcError> {
+        let force_lp = Biquad::low_pass(500.0, std::f64::consts::FRAC_1_SQRT_2, dt_s)?;
+        let gauge_lp = Biquad::low_pass(500.0, std::f64::consts::FRAC_1_SQRT_2, dt_s)?;
+        let peak = PeakHold::thesis(program.speed_rpm)?;
+        let smooth = FirstOrderFilter::thesis(dt_s)?;
         Ok(Self {
-            force_lp: Biquad::low_pass(500.0, std::f64::consts::FRAC_1_SQRT_2, dt_s)?,
-            gauge_lp: Biquad::low_pass(500.0, std::f64::consts::FRAC_1_SQRT_2, dt_s)?,
-            peak: PeakHold::thesis(program.speed_rpm)?,
-            smooth: FirstOrderFilter::thesis(dt_s)?,
+            force_lp,
+            gauge_lp,
+            peak,
+            smooth,
+            initial: (force_lp, gauge_lp, peak, smooth),
             pid: Pid::new(
                 gains,
                 anti_windup,
@@ -1197,6 +1295,13 @@ impl GrooveController for PidController {
     fn touched_off(&mut self, at: TouchOff) {
         self.touch_off = at;
         self.pid.start_at(at.bias_v);
+    }
+
+    fn reset(&mut self) -> Result<(), MpcError> {
+        (self.force_lp, self.gauge_lp, self.peak, self.smooth) = self.initial;
+        self.pid.reset();
+        self.touch_off = TouchOff::default();
+        Ok(())
     }
 
     fn command(&mut self, last: Option<&GrooveMeasurement>, _: f64) -> f64 {
@@ -1318,6 +1423,13 @@ impl GrooveController for TunedPidController {
         self.tip_zero_um = at.gauge_um;
         self.pid.start_at(at.bias_v);
     }
+
+    fn reset(&mut self) -> Result<(), MpcError> {
+        self.force.reset();
+        self.pid.reset();
+        self.tip_zero_um = 0.0;
+        Ok(())
+    }
 }
 
 /// The spindle's mean delay (s): the first moment of its identified impulse response, `2ζ/ωn` of the
@@ -1368,7 +1480,8 @@ impl FeedforwardPidController {
         force_noise_n: f64,
     ) -> Self {
         let dt_s = feedback.dt_s;
-        let phase = SpindlePhase::new(program.speed_rpm, &plan.waveform, force_noise_n);
+        let mut phase = SpindlePhase::new(program.speed_rpm, &plan.waveform, force_noise_n);
+        phase.reserve_samples(samples_per_rev(program.speed_rpm, dt_s) + 2);
         Self {
             feedback,
             plan: OpenLoopController::new(plan, program, model_spindle, voltage_max_v),
@@ -1380,7 +1493,8 @@ impl FeedforwardPidController {
             tooth_s: 60.0 / program.speed_rpm / flutes.max(1) as f64,
             peak_bias: None,
             rubbing_mm: Vec::new(),
-            pulses: PulseCache::default(),
+            // the plan is read one revolution back from one time a step
+            pulses: PulseCache::with_capacity(WAVEFORM_SAMPLES + 4),
         }
     }
 
@@ -1405,7 +1519,7 @@ impl FeedforwardPidController {
         )?);
         self.rubbing_mm = self.plan.plan.rubbing_spans_mm();
         self.plan.plan = self.plan.plan.clone().with_flank_push();
-        self.pulses = PulseCache::default();
+        self.pulses.reset();
         Ok(self)
     }
 
@@ -1436,20 +1550,18 @@ impl GrooveController for FeedforwardPidController {
         // the plan timed by the spindle's angle once the force shows it, as the MPC's is
         let v_ff = rho
             * match self.phase.pass_s() {
-                Some(p) => self.plan.volts_for(
-                    self.plan
-                        .plan
-                        .deflections_phased_cached(
-                            &mut self.pulses,
-                            &[t_ff],
-                            self.rev_s,
-                            self.tooth_s,
-                            p,
-                        )
-                        .first()
-                        .copied()
-                        .unwrap_or(0.0),
-                ),
+                Some(p) => {
+                    let mut d = [0.0];
+                    self.plan.plan.deflections_phased_into(
+                        &mut self.pulses,
+                        &[t_ff],
+                        self.rev_s,
+                        self.tooth_s,
+                        p,
+                        &mut d,
+                    );
+                    self.plan.volts_for(d[0])
+                }
                 None => self.plan.volts_at(t_ff),
             };
         let v_ff = v_ff + self.plan.bias_v;
@@ -1471,6 +1583,17 @@ impl GrooveController for FeedforwardPidController {
     fn touched_off(&mut self, at: TouchOff) {
         self.plan.bias_v = at.bias_v;
         self.feedback.tip_zero_um = at.gauge_um;
+    }
+
+    fn reset(&mut self) -> Result<(), MpcError> {
+        self.feedback.reset()?;
+        self.plan.reset()?;
+        if let Some(s) = &mut self.scale {
+            s.reset();
+        }
+        self.phase.reset();
+        self.pulses.reset();
+        Ok(())
     }
 }
 
@@ -1693,6 +1816,13 @@ impl PlanScale {
         self.sxx = self.lambda * self.sxx + planned_um * planned_um;
     }
 
+    /// Back to nothing measured (the commissioned model as it is).
+    pub fn reset(&mut self) {
+        self.sxy = 0.0;
+        self.sxx = 0.0;
+        self.skips = 0;
+    }
+
     /// The estimated ratio, measured over planned.
     pub fn ratio(&self) -> f64 {
         ((self.sxy + Self::PRIOR_UM2) / (self.sxx + Self::PRIOR_UM2)).clamp(0.5, 2.0)
@@ -1880,6 +2010,25 @@ impl SpindlePhase {
         }
     }
 
+    /// Room for `samples` force samples a revolution (the samples of a step's period), so that
+    /// [`Self::update`] does not allocate.
+    pub fn reserve_samples(&mut self, samples: usize) {
+        self.samples
+            .reserve_exact(samples.saturating_sub(self.samples.len()));
+    }
+
+    /// Back to no revolution seen: the phase unknown.
+    pub fn reset(&mut self) {
+        self.rev_index = i64::MIN;
+        self.best_force = f64::NEG_INFINITY;
+        self.best_t = 0.0;
+        self.sum_cos = 0.0;
+        self.sum_sin = 0.0;
+        self.weight = 0.0;
+        self.revolutions = 0;
+        self.samples.clear();
+    }
+
     /// One force sample `force_n` (N) taken at `t_s`.
     pub fn update(&mut self, t_s: f64, force_n: f64) {
         if !force_n.is_finite() || !t_s.is_finite() {
@@ -1996,6 +2145,10 @@ impl StaleDetector {
         }
     }
 
+    fn reset(&mut self) {
+        *self = Self::new(self.limit);
+    }
+
     fn stale(&mut self, x: f64) -> bool {
         if x == self.last {
             self.repeats += 1;
@@ -2033,7 +2186,11 @@ pub struct MpcGrooveController {
     scale: PlanScale,
     phase: SpindlePhase,
     times_buf: Vec<f64>,
+    /// The plan at `times_buf` (storage kept between cycles).
+    planned_buf: Vec<f64>,
     pulses: PulseCache,
+    /// What the MPC did in the last step, when it planned in it.
+    last: Option<MpcCycle>,
     /// The plan's deflection range over the cut (µm) and the actuator's z-reach on the controllers'
     /// spindle model (µm), for the stroke band.
     plan_range_um: (f64, f64),
@@ -2080,14 +2237,30 @@ impl MpcGrooveController {
         } else {
             None
         };
-        let mpc = groove_mpc(model_spindle, model_stiffness, program.tilt_deg, settings)?;
+        let mut mpc = groove_mpc(model_spindle, model_stiffness, program.tilt_deg, settings)?;
         let dt = settings.dt_s;
         let n = mpc.config().horizon;
+        let tc = dt * settings.mpc_every as f64;
+        // the cycles of the program (and its approach) and some to spare: the cycle times' storage
+        mpc.reserve_cycle_times((program.duration_s() / tc).ceil() as usize + 1024);
         let window = PreviewWindow::zeros_for(mpc.config(), 2);
         let sp = model_spindle.plant();
         let sin_a = program.tilt_deg.to_radians().sin();
         let plan_range_um = plan.range_um();
-        let phase = SpindlePhase::new(program.speed_rpm, &plan.waveform, settings.force_noise_n);
+        let mut phase =
+            SpindlePhase::new(program.speed_rpm, &plan.waveform, settings.force_noise_n);
+        phase.reserve_samples(samples_per_rev(program.speed_rpm, dt) + 2);
+        // the preview's times: now, the sub-steps of the first cycles, then the cycles
+        let (between, substeps) = mpc
+            .config()
+            .intersample
+            .map_or((0, 1), |i| (i.cycles, i.substeps));
+        let n_times = 1 + between * substeps + n;
+        // the planned pulses from a revolution before now to the horizon's end, at the waveform's
+        // spacing
+        let rev_s = 60.0 / program.speed_rpm;
+        let n_pulses =
+            ((n as f64 * tc + rev_s) / (rev_s / WAVEFORM_SAMPLES as f64)).ceil() as usize + 8;
         Ok(Self {
             mpc,
             plan,
@@ -2114,8 +2287,10 @@ impl MpcGrooveController {
             features: settings.features,
             scale: PlanScale::new(dt * settings.mpc_every as f64, PLAN_SCALE_TIME_CONSTANT_S),
             phase,
-            times_buf: Vec::with_capacity(n + 1),
-            pulses: PulseCache::default(),
+            times_buf: Vec::with_capacity(n_times),
+            planned_buf: Vec::with_capacity(n_times),
+            pulses: PulseCache::with_capacity(n_pulses),
+            last: None,
             plan_range_um,
             reach_z_um: sp.gain_um_per_v * sp.voltage_max_v * sin_a,
             z_zero_um: 0.0,
@@ -2145,12 +2320,19 @@ impl MpcGrooveController {
     pub fn mpc(&self) -> &MpcController {
         &self.mpc
     }
+
+    /// The preview window of the last cycle (what the QP was given besides the state estimate and
+    /// the previous command).
+    pub fn window(&self) -> &PreviewWindow {
+        &self.window
+    }
 }
 
 impl GrooveController for MpcGrooveController {
     fn command(&mut self, last: Option<&GrooveMeasurement>, t_s: f64) -> f64 {
         // the cycle's budget counts from here: sensor chain, preview and solve
         let cycle_start = std::time::Instant::now();
+        self.last = None;
         let (force, gauge) = last
             .map(|o| (o.force_meas_n, o.gauge_um))
             .unwrap_or((0.0, 0.0));
@@ -2196,15 +2378,21 @@ impl GrooveController for MpcGrooveController {
                 between * m + j - between
             }
         };
-        let planned: Vec<f64> = match pass {
-            Some(p) => self
-                .plan
-                .deflections_phased_cached(&mut self.pulses, times, rev, tooth, p),
-            None => times
-                .iter()
-                .map(|&t| self.plan.deflection_at_time(t, rev, tooth))
-                .collect(),
-        };
+        let planned = &mut self.planned_buf;
+        planned.clear();
+        planned.resize(times.len(), 0.0);
+        match pass {
+            Some(p) => {
+                self.plan
+                    .deflections_phased_into(&mut self.pulses, times, rev, tooth, p, planned)
+            }
+            None => {
+                for (d, &t) in planned.iter_mut().zip(times.iter()) {
+                    *d = self.plan.deflection_at_time(t, rev, tooth);
+                }
+            }
+        }
+        let planned = &self.planned_buf;
         let planned_now = planned[0];
         // away from the changes the preview sees, the force once per revolution
         let mut skip_force = false;
@@ -2265,10 +2453,33 @@ impl GrooveController for MpcGrooveController {
             },
         ];
         // dimension errors cannot happen here (window built for this controller); on one, hold
-        if let Ok(s) = self.mpc.step_from(cycle_start, &y, &self.window) {
-            self.v_hold = s.u[0];
+        let mut u = [self.v_hold];
+        if let Ok(c) = self.mpc.step_into(cycle_start, &y, &self.window, &mut u) {
+            self.v_hold = u[0];
+            self.last = Some(c);
         }
         self.v_hold
+    }
+
+    fn reset(&mut self) -> Result<(), MpcError> {
+        self.mpc.reset()?;
+        self.force.reset();
+        self.k = 0;
+        self.v_hold = 0.0;
+        for s in &mut self.stale {
+            s.reset();
+        }
+        self.scale.reset();
+        self.phase.reset();
+        self.pulses.reset();
+        self.last = None;
+        self.z_zero_um = 0.0;
+        self.last_change_s = f64::NEG_INFINITY;
+        Ok(())
+    }
+
+    fn last_cycle(&self) -> Option<MpcCycle> {
+        self.last
     }
 
     fn solver_stats(&self) -> Option<SolverStats> {

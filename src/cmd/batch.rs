@@ -29,6 +29,19 @@ struct DoeWrap {
 /// Runs the verb.
 pub fn run(args: BatchArgs, json: bool) -> anyhow::Result<()> {
     if let Some(BatchCommand::Merge(m)) = &args.command {
+        // the merged results must not overwrite a slice's
+        if let Some(d) = m
+            .dirs
+            .iter()
+            .find(|d| crate::cmd::guard::same_file(d, &m.out))
+        {
+            anyhow::bail!(
+                "--out {}: that is the slice {} — the merged results would overwrite it; merge into \
+                 another directory",
+                m.out.display(),
+                d.display()
+            );
+        }
         let summary = merge_batch(&m.dirs, &m.out, true)?;
         return show(&summary, json, &format!("merged {} slices", m.dirs.len()));
     }
@@ -36,6 +49,21 @@ pub fn run(args: BatchArgs, json: bool) -> anyhow::Result<()> {
         Some(s) => Shard::parse(s)?,
         None => Shard::from_env(|k| std::env::var(k).ok())?.unwrap_or(Shard::ALL),
     };
+    // the output directory's files are not the scenario file
+    crate::cmd::guard::Inputs::new()
+        .add_opt("--scenarios", args.scenarios.as_deref())
+        .check_dir("--out", &args.out, |rel| {
+            [
+                "results.csv",
+                "results.parquet",
+                "summary.json",
+                "invocation.json",
+            ]
+            .iter()
+            .any(|n| rel == std::path::Path::new(n))
+                || rel.starts_with("plots")
+                || rel.starts_with("runs")
+        })?;
     let scenarios = match (&args.scenarios, &args.doe) {
         (Some(path), None) => ScenarioSource::File {
             path: path.clone(),

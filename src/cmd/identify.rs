@@ -8,9 +8,22 @@ use millcomp_identify::targets::wall::WallGeometry;
 use millcomp_identify::{FitReport, IdentifyOptions, Target, identify_columns};
 
 use crate::cli::{IdentifyArgs, IdentifyWhat};
+use crate::cmd::guard::{Inputs, svg_starting};
 use crate::cmd::print_json;
 
 pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
+    let mut inputs = Inputs::new()
+        .add("FILE", &args.file)
+        .add_opt("--join", args.join.as_deref());
+    for a in &args.also {
+        inputs = inputs.add("--also", a);
+    }
+    inputs.check_opt("--save", args.save.as_deref())?;
+    if let Some(dir) = &args.plots {
+        inputs.check_dir("--plots", dir, |rel| {
+            svg_starting(rel, &["thermal_", "wear_", "flutes_"])
+        })?;
+    }
     let record_study = matches!(args.what, IdentifyWhat::Wear | IdentifyWhat::Flutes)
         || (matches!(args.what, IdentifyWhat::Thermal)
             && crate::cmd::record::is_thermal_study(&args));

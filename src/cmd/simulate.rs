@@ -12,6 +12,7 @@ use std::path::Path;
 use millcomp_closedloop::{ControllerKind, Scenario, run_scenario_with_trace};
 
 use crate::cli::SimulateArgs;
+use crate::cmd::guard::{Inputs, same_file, with_scenario_models};
 use crate::cmd::print_json;
 use crate::present::plot::{Series, line_plot};
 
@@ -22,6 +23,7 @@ pub fn run(args: SimulateArgs, json: bool) -> anyhow::Result<()> {
     if args.controller.is_some() || is_scenario(&args.file)? {
         return run_scenario(&args, json);
     }
+    check_outputs(&args, Inputs::new().add("FILE", &args.file))?;
     let session = Session::from_path(&args.file)
         .with_context(|| format!("reading session {}", args.file.display()))?;
     let options = SimOptions {
@@ -88,6 +90,18 @@ pub fn run(args: SimulateArgs, json: bool) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// `--out` and `--plot` are neither an input nor each other.
+fn check_outputs(args: &SimulateArgs, inputs: Inputs) -> anyhow::Result<()> {
+    inputs.check_opt("--out", args.out.as_deref())?;
+    inputs.check_opt("--plot", args.plot.as_deref())?;
+    if let (Some(o), Some(p)) = (&args.out, &args.plot)
+        && same_file(o, p)
+    {
+        bail!("--out and --plot name the same file {}", o.display());
+    }
+    Ok(())
+}
+
 /// Per groove: number of points, start time, and the depth error (measured − commanded).
 fn summarise(points: &[GroovePoint]) -> Vec<serde_json::Value> {
     let mut ids: Vec<i64> = points.iter().map(|p| p.groove_id).collect();
@@ -146,6 +160,10 @@ fn is_scenario(path: &Path) -> anyhow::Result<bool> {
 /// `simulate SCENARIO --controller K`: one closed-loop run on the truth plant of the scenario.
 fn run_scenario(args: &SimulateArgs, json: bool) -> anyhow::Result<()> {
     let mut scenario = Scenario::load(&args.file)?;
+    check_outputs(
+        args,
+        with_scenario_models(Inputs::new().add("FILE", &args.file), &scenario),
+    )?;
     scenario.control.realtime = !args.no_realtime;
     if args.budget_fraction.is_some() {
         scenario.control.budget_fraction = args.budget_fraction;

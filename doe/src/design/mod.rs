@@ -23,6 +23,14 @@ use crate::model::ModelSpec;
 pub use doptimal::LinearConstraint;
 pub use fractional::{AliasEntry, resolution_roman};
 
+/// The most runs a generated design may have, replicates and centre points included (a full factorial
+/// stops at the same 1e6): more is no experiment anyone runs, and a billion-run request would exhaust
+/// memory before it failed.
+pub const MAX_DESIGN_RUNS: usize = 1_000_000;
+
+/// The most centre points per block.
+pub const MAX_CENTER_POINTS: usize = 1000;
+
 /// Variant of a central composite design.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CcdVariant {
@@ -580,6 +588,13 @@ pub fn generate(req: &DesignRequest) -> Result<Design> {
         _ => 0,
     };
     let centers = req.center_points.unwrap_or(default_centers);
+    if centers > MAX_CENTER_POINTS {
+        return Err(DoeError::InvalidParameter {
+            name: "center_points",
+            value: centers.to_string(),
+            allowed: format!("at most {MAX_CENTER_POINTS} per block"),
+        });
+    }
     let mut base = match req.kind {
         DesignKind::Full => factorial::full(req)?,
         DesignKind::Fractional => factorial::fractional(req)?,
@@ -596,6 +611,24 @@ pub fn generate(req: &DesignRequest) -> Result<Design> {
                 "{} blocks with the {} design (two-level factorials take a power of two, CCD 1 or 2; others 1)",
                 req.blocks,
                 req.kind.name()
+            ),
+        });
+    }
+    let total = (base.coded.len()
+        + if base.centers_included {
+            0
+        } else {
+            centers * base.n_blocks
+        })
+    .saturating_mul(req.replicates);
+    if total > MAX_DESIGN_RUNS {
+        return Err(DoeError::InvalidParameter {
+            name: "replicates",
+            value: req.replicates.to_string(),
+            allowed: format!(
+                "a design of at most {MAX_DESIGN_RUNS} runs (this one would have {total}: {} runs × {} replicates)",
+                total / req.replicates.max(1),
+                req.replicates
             ),
         });
     }

@@ -283,10 +283,10 @@ pub fn identify_thermal(
             })?;
             validate::same_len("speed_rpm", speed, "t_s", data.t_s.len())?;
             validate::finite("speed_rpm", speed)?;
-            if let Some(row) = speed.iter().position(|&n| n < 0.0) {
+            if let Some(i) = speed.iter().position(|&n| n < 0.0) {
                 return Err(IdentifyError::InvalidParameter {
-                    name: format!("speed_rpm row {row}"),
-                    value: speed[row],
+                    name: format!("speed_rpm, row {}", i + 1),
+                    value: speed[i],
                     allowed: ">= 0 rpm",
                 });
             }
@@ -617,7 +617,7 @@ mod tests {
         let e =
             identify_thermal(&d, ThermalModel::Exponential, &CommonOptions::default()).unwrap_err();
         assert!(
-            matches!(e, IdentifyError::NonMonotoneTime { row: 2, .. }),
+            matches!(e, IdentifyError::NonMonotoneTime { row: 3, .. }),
             "{e}"
         );
         let t = [0.0, 1.0, 2.0, 3.0];
