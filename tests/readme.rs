@@ -110,6 +110,7 @@ const CHECKED: &[(&str, &[&str])] = &[
         "docs/batch.md",
         &[
             "millcomp batch --doe \"--design fractional --factors tilt_deg=20:40,upfeed_um=8:12,wearland_um=4:10 --resolution 3 --seed 1\" --controllers pid,mpc --out results",
+            "millcomp batch --doe \"--design fractional --resolution 5 --seed 1 --factors tilt_deg=20:40,depth_um=40:80,wearland_um=4:12,stiffness_error_pct=-10:10,noise_scale=0.5:2,material=S7:6061,feed_step=0:1,depth_step=0:1\" --controllers pid-tuned,mpc --out b128 --threads 2 --dry-run",
         ],
     ),
     (
@@ -180,12 +181,15 @@ fn as_run(command: &str) -> String {
 }
 
 /// The part of a line the machine's speed does not decide, for the lines where it decides the rest:
-/// the MPC's cycle times and deadline misses, a batch's wall time, its QP solve times, the demo's
-/// wall time.
+/// the MPC's cycle times and deadline misses, a batch's wall time, its progress lines' time left and
+/// speed, its QP solve times, the demo's wall time.
 fn timing_free(line: &str) -> Option<&str> {
     let upto = |marker: &str| line.find(marker).map(|i| &line[..i + marker.len()]);
     if line.starts_with("solver: ") {
         upto(" solves,")
+    } else if line.starts_with("batch: ") && line.contains(" runs | ") {
+        // a batch's progress line: runs done of the total, then the time left and the speed
+        upto(" runs |")
     } else if line.starts_with("report: ") {
         line.rfind(" (").map(|i| &line[..i])
     } else if line.starts_with("simulated ") {

@@ -124,8 +124,12 @@ pub struct CacheCounts {
 
 type Slot = OnceLock<Result<Arc<ModelBundle>, Arc<ClosedLoopError>>>;
 
-/// The slots by key address, and the addresses in the order they were first asked for.
-type Slots = (HashMap<String, Arc<Slot>>, VecDeque<String>);
+/// The slots of the keys asked for last, oldest first.
+#[derive(Debug, Default)]
+struct Recent {
+    slots: HashMap<String, Arc<Slot>>,
+    order: VecDeque<String>,
+}
 
 /// Bundles kept in memory (the most recently asked for; about 10 kB each): a batch's scenarios that
 /// share a commissioning are usually near each other in the plan, the rest come from the disk.
@@ -136,7 +140,7 @@ pub const IN_MEMORY: usize = 64;
 #[derive(Debug, Default)]
 pub struct CommissioningCache {
     dir: Option<PathBuf>,
-    slots: Mutex<Slots>,
+    slots: Mutex<Recent>,
     computed: AtomicUsize,
     from_disk: AtomicUsize,
     from_memory: AtomicUsize,
@@ -181,19 +185,18 @@ impl CommissioningCache {
     pub fn bundle(&self, key: &CommissioningKey) -> Result<Arc<ModelBundle>, ClosedLoopError> {
         let address = key.address()?;
         let slot = {
-            let mut guard = self.slots.lock().unwrap_or_else(|e| e.into_inner());
-            let (slots, order) = &mut *guard;
-            match slots.get(&address) {
+            let mut recent = self.slots.lock().unwrap_or_else(|e| e.into_inner());
+            match recent.slots.get(&address) {
                 Some(s) => s.clone(),
                 None => {
-                    if order.len() >= IN_MEMORY
-                        && let Some(oldest) = order.pop_front()
+                    if recent.order.len() >= IN_MEMORY
+                        && let Some(oldest) = recent.order.pop_front()
                     {
-                        slots.remove(&oldest);
+                        recent.slots.remove(&oldest);
                     }
                     let s = Arc::new(Slot::new());
-                    slots.insert(address.clone(), s.clone());
-                    order.push_back(address.clone());
+                    recent.slots.insert(address.clone(), s.clone());
+                    recent.order.push_back(address.clone());
                     s
                 }
             }

@@ -132,7 +132,7 @@ fn a_stop_request_leaves_the_runs_not_started_for_the_next_call() {
     let dir = tempfile::tempdir().unwrap();
     let stop = AtomicBool::new(true);
     let opts = ShardOptions {
-        stop: Some(&stop),
+        stop: vec![&stop],
         ..ShardOptions::default()
     };
     let e = run_shard_with(&plan, Shard::ALL, dir.path(), &Flaky, &opts).unwrap_err();
@@ -235,6 +235,25 @@ fn one_call_runs_the_batch_and_writes_its_files() {
     let mut req = BatchRequest::new(ScenarioSource::Table(t), "pid,pid-tuned", dir.path());
     req.progress = ProgressMode::Quiet;
     req.threads = Some(2);
+    // the caller's stop request (BatchRequest::stop), set before the call: no run starts, the call
+    // says so and writes no result
+    let stop = std::sync::Arc::new(AtomicBool::new(true));
+    req.stop = Some(stop.clone());
+    let e = run_batch(&req).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            ClosedLoopError::Interrupted {
+                done: 0,
+                planned: 6,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert!(!dir.path().join("results.csv").exists());
+    // cleared: the same request runs the batch
+    stop.store(false, Ordering::SeqCst);
     let s = run_batch(&req).unwrap();
     assert_eq!(s.results.n_runs, 6);
     // scenarios 0 and 2 differ only in the controllers' stiffness error: one commissioning for both

@@ -106,8 +106,9 @@ pub struct BatchRequest {
     /// Stop cleanly on SIGTERM and SIGINT ([`super::signals`]): for a program's own batch, not a
     /// library caller's.
     pub stop_on_signals: bool,
-    /// A library caller's stop request (a notebook's interrupt, seen by its progress callback): set,
-    /// the runs not started are left for the next call, as on a signal.
+    /// The caller's stop request (set from another thread, a notebook's interrupt): once set, the
+    /// runs under way finish and are stored, no new one starts, and the call returns
+    /// [`ClosedLoopError::Interrupted`]; the same request with the flag cleared resumes.
     pub stop: Option<Arc<AtomicBool>>,
 }
 
@@ -209,10 +210,12 @@ pub fn run_plan_with(
         let opts = ShardOptions {
             progress: req.progress.clone(),
             cache: Some(&cache),
-            stop: req.stop.as_deref().or_else(|| {
-                req.stop_on_signals
-                    .then(|| super::signals::stop_flag() as &AtomicBool)
-            }),
+            stop: req
+                .stop_on_signals
+                .then(super::signals::stop_flag)
+                .into_iter()
+                .chain(req.stop.as_deref())
+                .collect(),
             stop_reason: Some(super::signals::received),
         };
         let outcome = run_shard_with(plan, req.shard, &req.out, runner, &opts)?;

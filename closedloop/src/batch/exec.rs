@@ -156,9 +156,9 @@ pub struct ShardOptions<'a> {
     pub progress: ProgressMode,
     /// The commissioning cache the runs share.
     pub cache: Option<&'a CommissioningCache>,
-    /// Set (by a signal handler, another thread) to stop: runs not started are left for the next call,
-    /// runs under way finish and are stored.
-    pub stop: Option<&'a AtomicBool>,
+    /// Any of these set (by a signal handler, another thread): stop — runs not started are left for
+    /// the next call, runs under way finish and are stored.
+    pub stop: Vec<&'a AtomicBool>,
     /// How to name the stop in [`ClosedLoopError::Interrupted`] (`SIGTERM`, …).
     pub stop_reason: Option<fn() -> Option<&'static str>>,
 }
@@ -277,7 +277,7 @@ pub fn run_shard_with(
         }
     }
     let progress = Progress::start(&opts.progress, runs.len(), n_resumed);
-    let stopped = || opts.stop.is_some_and(|s| s.load(Ordering::Relaxed));
+    let stopped = || opts.stop.iter().any(|s| s.load(Ordering::Relaxed));
     let cx = RunContext { cache: opts.cache };
     let fresh: Mutex<Vec<RunRecord>> = Mutex::new(Vec::new());
     let fresh_failed: Mutex<Vec<FailedRun>> = Mutex::new(Vec::new());

@@ -10,13 +10,13 @@ use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-/// Where a batch's progress goes.
+/// Where a batch's progress goes (by default nowhere: a library prints only when asked).
 #[derive(Clone, Default)]
 pub enum ProgressMode {
     /// A redrawn line on a terminal, a line every tenth of the runs otherwise (stderr).
-    #[default]
     Auto,
     /// None (`--quiet`, `--json`).
+    #[default]
     Quiet,
     /// The redrawn line on stderr.
     Bar,
