@@ -143,7 +143,7 @@ fn the_demo_runs_the_pipeline_and_its_chain_holds() {
     );
     for part in [
         " µm, difference ",
-        "paired p = ",
+        "sign-test p = ",
         "; diagnosis named ",
         ", rms ",
         "; with the corrected model mpc ",

@@ -656,11 +656,12 @@ pub(crate) fn batch(cx: &mut Ctx<'_>) -> Result<()> {
         if let Some(ce) = entry(&compared.paired, "mpc", "change_excess_um") {
             s.para(format!(
                 "At the changes (largest excess over the level before), mpc − {}: median {:+.3} µm [{:+.3}, \
-                 {:+.3}], p = {}.",
+                 {:+.3}], sign test p = {}, paired t-test p = {}.",
                 ce.reference,
                 ce.median_diff,
                 ce.ci95[0],
                 ce.ci95[1],
+                fp(ce.sign_p_value),
                 fp(ce.t_p_value)
             ));
         }
@@ -670,7 +671,7 @@ pub(crate) fn batch(cx: &mut Ctx<'_>) -> Result<()> {
             ref_median: med(&e.reference),
             diff: e.median_diff,
             ci: e.ci95,
-            p: e.t_p_value,
+            p: e.sign_p_value,
             reference: e.reference.clone(),
         });
     }
@@ -692,7 +693,7 @@ pub(crate) fn batch(cx: &mut Ctx<'_>) -> Result<()> {
     let summary = match &cx.batch {
         Some(b) => format!(
             "{n} conditions × {} controllers ({source}); median pp mpc {:.3} vs {} {:.3} µm, paired difference \
-             {:+.3} [{:+.3}, {:+.3}] µm, p = {}",
+             {:+.3} [{:+.3}, {:+.3}] µm, sign test p = {}",
             ctrls.len(),
             b.mpc_median,
             b.reference,
@@ -921,7 +922,7 @@ pub(crate) fn rerun(cx: &mut Ctx<'_>) -> Result<()> {
                     e.median_diff, e.ci95[0], e.ci95[1]
                 )
             }),
-            e.map_or("–".into(), |e| fp(e.t_p_value)),
+            e.map_or("–".into(), |e| fp(e.sign_p_value)),
         ]
     };
     s.table(
@@ -929,7 +930,7 @@ pub(crate) fn rerun(cx: &mut Ctx<'_>) -> Result<()> {
             "controller",
             "median pp (µm)",
             "paired difference to its uncorrected self (µm, 95 %)",
-            "paired p",
+            "sign test p",
         ],
         vec![
             row("open-loop", None, o0),

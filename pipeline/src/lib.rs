@@ -111,12 +111,14 @@ fn signed(x: f64) -> String {
 /// The answer: mpc against pid-tuned over the designed conditions (medians and the paired difference),
 /// what the diagnosis named and how far the residual fell, and what the corrected model changed in
 /// mpc's part error (the paired median difference to mpc built from the bundle alone) beside the oracle's.
+/// The p-value is the sign test's, the test of the median whose distribution-free interval the line
+/// shows (the paired t-test of the mean, which one large difference can swamp, is in the report).
 fn headline(cx: &Ctx<'_>) -> String {
     let mut parts = Vec::new();
     match &cx.batch {
         Some(b) => parts.push(format!(
             "mpc vs {} over {} designed conditions: median pp {} vs {} µm, difference {:+.3} [{:+.3}, {:+.3}] µm, \
-             paired p = {}",
+             sign-test p = {}",
             b.reference,
             b.n,
             f(b.mpc_median, 3),

@@ -6,17 +6,8 @@ use plotters::prelude::*;
 
 use crate::error::{PipelineError, Result};
 
-/// Colours of the series, in order.
-pub const PALETTE: [RGBColor; 8] = [
-    RGBColor(31, 119, 180),
-    RGBColor(214, 39, 40),
-    RGBColor(44, 160, 44),
-    RGBColor(255, 127, 14),
-    RGBColor(148, 103, 189),
-    RGBColor(140, 86, 75),
-    RGBColor(227, 119, 194),
-    RGBColor(127, 127, 127),
-];
+/// Colours of the series, in order: the batch plots' palette, so a controller keeps its colour.
+pub use millcomp_closedloop::plot::PALETTE;
 
 /// How a series is drawn.
 #[derive(Debug, Clone, PartialEq)]

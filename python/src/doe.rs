@@ -118,6 +118,8 @@ pub struct PyAnalysis {
 }
 
 /// Analyses `source` (a path or a table) as `millcomp doe analyze FILE --response R …`.
+// One argument per keyword of the Python call (the signature below), as the CLI has one flag each.
+#[allow(clippy::too_many_arguments)]
 #[pyfunction]
 #[pyo3(signature = (source, response, factors = None, model = "main".to_string(), alpha = 0.05,
     reduce = false, columns = None))]
