@@ -16,7 +16,7 @@
 //!    (`identify spindle`: 2nd order; + a real pole; + pole and dead time) and the one with the smallest
 //!    BIC kept (the choice and the BICs go into the bundle's warnings/experiments).
 //! 3. **Load–deflection** (`000_…txt` §5.2.3): hanging masses, read by a dial indicator
-//!    ([`StiffnessCalibration`](crate::calibration::StiffnessCalibration)), axial and radial directions fitted by `identify stiffness`.
+//!    ([`StiffnessCalibration`]), axial and radial directions fitted by `identify stiffness`.
 //! 4. **Hysteresis sweep** in air: the amplifier drives the stack quasi-statically through the turning
 //!    points `hysteresis_turning_v` at `hysteresis_rate_v_per_s`, the gauge (its offset, noise and 0–50 µm
 //!    range) read every `hysteresis_dt_s`; a Prandtl–Ishlinskii model fitted (`identify hysteresis`). A
