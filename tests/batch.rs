@@ -382,6 +382,22 @@ fn assert_same_results(a: &std::path::Path, b: &std::path::Path, what: &str) {
 }
 
 /// Every `.partial` file under `dir`.
+/// Whether process `pid` holds a file open for writing in `dir` that has no name yet: the atomic writer's
+/// unnamed temporary file (`O_TMPFILE` on Linux; /proc shows it as `DIR/#<inode> (deleted)`), which
+/// leaves no `.partial` a test could see.
+fn writing_unnamed_in(pid: u32, dir: &std::path::Path) -> bool {
+    let Ok(fds) = std::fs::read_dir(format!("/proc/{pid}/fd")) else {
+        return false;
+    };
+    let dir = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf());
+    fds.flatten().any(|fd| {
+        std::fs::read_link(fd.path()).is_ok_and(|target| {
+            let t = target.to_string_lossy();
+            t.ends_with(" (deleted)") && target.parent() == Some(dir.as_path())
+        })
+    })
+}
+
 fn partials(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
     let mut out = Vec::new();
     let mut stack = vec![dir.to_path_buf()];
@@ -553,13 +569,17 @@ fn a_killed_batch_resumes_and_writes_the_same_files() {
             }
             let now = match trigger {
                 Trigger::RunsStored(n) => stored(&out) >= *n,
-                Trigger::WritingARun => !partials(&out.join("runs")).is_empty(),
+                Trigger::WritingARun => {
+                    !partials(&out.join("runs")).is_empty()
+                        || writing_unnamed_in(child.id(), &out.join("runs"))
+                }
                 Trigger::WritingTheResults => {
                     out.join("results.csv").exists()
-                        && std::fs::read_dir(&out)
-                            .unwrap()
-                            .flatten()
-                            .any(|e| e.file_name().to_string_lossy().ends_with(".partial"))
+                        && (writing_unnamed_in(child.id(), &out)
+                            || std::fs::read_dir(&out)
+                                .unwrap()
+                                .flatten()
+                                .any(|e| e.file_name().to_string_lossy().ends_with(".partial")))
                 }
                 Trigger::After(ms) => start.elapsed() >= Duration::from_millis(*ms),
             };
