@@ -354,11 +354,11 @@ impl Table {
 /// let t = read_table(&path, &schema).unwrap();
 /// assert_eq!(t.f64s("depth_um").unwrap(), [40.5, 80.0]);
 /// assert_eq!(t.ignored_columns, ["operator"]);
-/// // A bad cell is named by column and 1-based data row.
+/// // A bad cell is named by column, 1-based data row and the file's line.
 /// std::fs::write(&path, "pass,depth_um\n1,40.5\n2,deep\n").unwrap();
 /// let e = read_table(&path, &schema).unwrap_err();
 /// assert!(matches!(&e, DatasetError::BadCell { row: 2, .. }));
-/// assert!(e.to_string().ends_with("column `depth_um`, row 2: `deep` is not a number"));
+/// assert!(e.to_string().contains("column `depth_um`, row 2 (line 3): `deep` is not a number"), "{e}");
 /// ```
 ///
 /// # Errors
