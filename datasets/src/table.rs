@@ -655,21 +655,7 @@ fn read_raw(path: &Path) -> Result<RawTable, DatasetError> {
         });
     }
     if is_parquet(path) {
-        let file = File::open(path).map_err(io)?;
-        if file.metadata().map(|m| m.len()).unwrap_or(0) == 0 {
-            return Err(DatasetError::Empty {
-                file: path.to_path_buf(),
-                what: "header",
-            });
-        }
-        let df = ParquetReader::new(file)
-            .finish()
-            .map_err(|source| DatasetError::Parse {
-                file: path.to_path_buf(),
-                format: "Parquet",
-                source,
-            })?;
-        raw_from_dataframe(path, &df, Vec::new())
+        guarded(path, "Parquet", || read_parquet(path))
     } else {
         // read whole (also from a pipe, whose size the file system does not know), then decoded
         let bytes = std::fs::read(path).map_err(io)?;
@@ -677,11 +663,71 @@ fn read_raw(path: &Path) -> Result<RawTable, DatasetError> {
     }
 }
 
+/// The table reader's boundary around polars: a panic inside it (a dependency's bug on some input)
+/// becomes [`DatasetError::Parse`] naming the file, the panic's message kept as the error's source,
+/// rather than unwinding through whatever called the reader (a CLI verb, a batch worker, a Python
+/// session). The panic hook still prints where it happened, for the bug report.
+fn guarded<T>(
+    path: &Path,
+    format: &'static str,
+    read: impl FnOnce() -> Result<T, DatasetError>,
+) -> Result<T, DatasetError> {
+    let run = || {
+        #[cfg(test)]
+        tests::injected_panic();
+        read()
+    };
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(run)).unwrap_or_else(|payload| {
+        let what = payload
+            .downcast_ref::<&str>()
+            .map(|s| (*s).to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "no message".to_string());
+        Err(DatasetError::Parse {
+            file: path.to_path_buf(),
+            format,
+            source: PolarsError::ComputeError(
+                format!(
+                    "the {format} reader panicked on this file ({what}): a bug in the reader, \
+                     not necessarily in the file; please report it with the file"
+                )
+                .into(),
+            ),
+        })
+    })
+}
+
+fn read_parquet(path: &Path) -> Result<RawTable, DatasetError> {
+    let io = |source| DatasetError::Io {
+        file: path.to_path_buf(),
+        source,
+    };
+    let file = File::open(path).map_err(io)?;
+    if file.metadata().map(|m| m.len()).unwrap_or(0) == 0 {
+        return Err(DatasetError::Empty {
+            file: path.to_path_buf(),
+            what: "header",
+        });
+    }
+    let df = ParquetReader::new(file)
+        .finish()
+        .map_err(|source| DatasetError::Parse {
+            file: path.to_path_buf(),
+            format: "Parquet",
+            source,
+        })?;
+    raw_from_dataframe(path, &df, Vec::new())
+}
+
 /// A CSV file's bytes as text cells: decoded ([`crate::decode::decode_text`]), split on the delimiter
 /// of its header line ([`crate::decode::sniff_delimiter`]) by polars, every cell read as text, then the
 /// numbers of each column normalised ([`crate::decode::normalise_columns`]). What was not plain UTF-8 with
 /// commas and decimal points is noted.
 fn read_csv_bytes(path: &Path, bytes: &[u8]) -> Result<RawTable, DatasetError> {
+    guarded(path, "CSV", || read_csv_unguarded(path, bytes))
+}
+
+fn read_csv_unguarded(path: &Path, bytes: &[u8]) -> Result<RawTable, DatasetError> {
     let empty = || DatasetError::Empty {
         file: path.to_path_buf(),
         what: "header",
@@ -1158,6 +1204,68 @@ pub fn write_text_atomic(path: &Path, text: &str) -> Result<(), DatasetError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    thread_local! {
+        /// Set by a test: the next read through [`guarded`] on this thread panics inside the boundary
+        /// with this message, as a bug inside polars would.
+        static PANIC_INSIDE_READER: std::cell::Cell<Option<&'static str>> =
+            const { std::cell::Cell::new(None) };
+    }
+
+    /// The test hook of [`guarded`] (test builds only): panics once when a test asked for it.
+    pub(super) fn injected_panic() {
+        if let Some(message) = PANIC_INSIDE_READER.take() {
+            panic!("{message}");
+        }
+    }
+
+    /// A panic inside the reader (polars) is an error naming the file and the panic, for every way in
+    /// (a CSV file with and without a schema, embedded CSV text, a Parquet file), and the next read is
+    /// not affected.
+    #[test]
+    fn a_panic_inside_the_reader_is_an_error_naming_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let csv = dir.path().join("forces.csv");
+        std::fs::write(&csv, "a_um,n\n1.5,2\n").unwrap();
+        let parquet = dir.path().join("forces.parquet");
+        write_table(&read_any(&csv).unwrap(), &parquet).unwrap();
+        let message = "index out of bounds: the len is 3 but the index is 7";
+        type Read<'a> = Box<dyn Fn() -> Result<Table, DatasetError> + 'a>;
+        let reads: [(&Path, &str, Read); 4] = [
+            (&csv, "CSV", Box::new(|| read_table(&csv, &schema()))),
+            (&csv, "CSV", Box::new(|| read_any(&csv))),
+            (
+                Path::new("embedded.csv"),
+                "CSV",
+                Box::new(|| read_any_str("embedded.csv", "a_um,n\n1.5,2\n")),
+            ),
+            (&parquet, "Parquet", Box::new(|| read_any(&parquet))),
+        ];
+        for (path, format, read) in reads {
+            assert_eq!(read().unwrap().n_rows(), 1, "{}", path.display());
+            PANIC_INSIDE_READER.set(Some(message));
+            let e = read().unwrap_err();
+            assert!(
+                matches!(&e, DatasetError::Parse { file, format: f, .. } if file == path && *f == format),
+                "{e:?}"
+            );
+            let source = std::error::Error::source(&e).expect("the panic as the source");
+            assert_eq!(
+                format!("{e}: {source}"),
+                format!(
+                    "{}: cannot parse as {format}: the {format} reader panicked on this file ({message}): \
+                     a bug in the reader, not necessarily in the file; please report it with the file",
+                    path.display()
+                )
+            );
+            assert_eq!(
+                read().unwrap().n_rows(),
+                1,
+                "{} after the panic",
+                path.display()
+            );
+        }
+    }
 
     fn schema() -> Schema {
         Schema::new(
