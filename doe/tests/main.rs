@@ -10,6 +10,7 @@ mod errors;
 mod fractional;
 mod golden_anova;
 mod lenth_power;
+mod mutation_survivors;
 mod offset_anova;
 mod offset_data;
 mod properties;
