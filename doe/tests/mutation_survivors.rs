@@ -24,3 +24,60 @@ fn a_mixed_level_full_factorial_beyond_a_million_runs_is_refused_naming_its_size
         other => panic!("{other:?}"),
     }
 }
+
+/// Lenth's PSE is 1.5 × the median of the effects below 2.5·s0; when that median is 0 there is no
+/// scale to judge the effects by and the result is `None` (effects 0, 0, 0, 1, 100, 100, 100: s0 =
+/// 1.5, the trimmed effects 0, 0, 0, 1 have median 0), while 0, 0, 1, 1, 100, 100 keep a PSE of
+/// 1.5 × 0.5 = 0.75 (by hand). Kills `lenth.rs: replace || with && in lenth` (which returns a PSE of 0
+/// and infinite t ratios).
+#[test]
+fn lenth_has_no_pse_when_the_trimmed_median_is_zero() {
+    let names = |m: usize| (0..m).map(|i| format!("e{i}")).collect::<Vec<_>>();
+    let e = [0.0, 0.0, 0.0, 1.0, 100.0, 100.0, 100.0];
+    assert!(millcomp_doe::lenth(&names(7), &e).is_none());
+    let e = [0.0, 0.0, 1.0, 1.0, 100.0, 100.0];
+    let l = millcomp_doe::lenth(&names(6), &e).unwrap();
+    assert_eq!((l.s0, l.pse, l.df), (1.5, 0.75, 2.0));
+    assert_eq!(l.terms[4].t_pse, 100.0 / 0.75);
+}
+
+/// A two-level label factor is one ±1 column named by the factor alone, also inside an interaction
+/// with a three-level label factor (sum coding: `B[x]`, `B[y]`): the coefficients of `A*B` on a
+/// replicated 2×3 table are named `A`, `B[x]`, `B[y]`, `A:B[x]`, `A:B[y]`, and the intercept is the
+/// mean of the six cell means (balanced data, sum coding; by hand: 21). Kills
+/// `analysis/mod.rs: replace match guard levels.len() > 2 with true in build_matrix` (which names them
+/// `A[p]:B[x]`).
+#[test]
+fn a_two_level_label_keeps_its_name_inside_an_interaction() {
+    use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze};
+    let mut a = Vec::new();
+    let mut b = Vec::new();
+    let mut y = Vec::new();
+    // cell means: p: x 10, y 20, z 30; q: x 12, y 22, z 32 (mean 21); replicates ±0.5
+    for noise in [0.5, -0.5] {
+        for (la, base) in [("p", 10.0), ("q", 12.0)] {
+            for (k, lb) in ["x", "y", "z"].iter().enumerate() {
+                a.push(la.to_string());
+                b.push(lb.to_string());
+                y.push(base + 10.0 * k as f64 + noise);
+            }
+        }
+    }
+    let input = AnalysisInput {
+        factors: vec![("A".into(), Values::Str(a)), ("B".into(), Values::Str(b))],
+        response_name: "y".into(),
+        response: Values::F64(y),
+        model: ModelSpec::parse("A*B").unwrap(),
+    };
+    let fit = analyze(&input).unwrap();
+    let names: Vec<&str> = fit.coefficients.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["intercept", "A", "B[x]", "B[y]", "A:B[x]", "A:B[y]"]
+    );
+    assert!(
+        (fit.coefficients[0].coef - 21.0).abs() < 1e-12,
+        "{}",
+        fit.coefficients[0].coef
+    );
+}
