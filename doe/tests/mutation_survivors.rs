@@ -81,3 +81,40 @@ fn a_two_level_label_keeps_its_name_inside_an_interaction() {
         fit.coefficients[0].coef
     );
 }
+
+/// A constant response is analysed (every effect 0) with a note that R² is undefined, and R² is
+/// NaN; a response that varies gets no such note (its R² here is 1 − 0.5/40.5 by hand: SSE 0.5
+/// from the ±0.25 replicate pairs, SST 40.5). Kills `analysis/mod.rs: replace == with != in analyze`
+/// (which notes a constant response exactly when it is not).
+#[test]
+fn only_a_constant_response_is_noted_as_constant() {
+    use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze};
+    let x = [-1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0];
+    let z = [-1.0, -1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0];
+    let input = |y: Vec<f64>| AnalysisInput {
+        factors: vec![
+            ("x".into(), Values::F64(x.to_vec())),
+            ("z".into(), Values::F64(z.to_vec())),
+        ],
+        response_name: "y".into(),
+        response: Values::F64(y),
+        model: ModelSpec::Main,
+    };
+    let note = "the response is constant: R² is undefined";
+    let flat = analyze(&input(vec![5.0; 8])).unwrap();
+    assert!(flat.notes.iter().any(|n| n == note), "{:?}", flat.notes);
+    assert!(flat.r_squared.is_nan());
+    assert!(flat.coefficients[1..].iter().all(|c| c.coef == 0.0));
+    // y = 5 + 2x + z ± 0.25 (first replicate +, second −)
+    let y: Vec<f64> = (0..8)
+        .map(|i| 5.0 + 2.0 * x[i] + z[i] + if i < 4 { 0.25 } else { -0.25 })
+        .collect();
+    let varied = analyze(&input(y)).unwrap();
+    assert!(
+        !varied.notes.iter().any(|n| n == note),
+        "{:?}",
+        varied.notes
+    );
+    let r2 = varied.r_squared;
+    assert!((r2 - (1.0 - 0.5 / 40.5)).abs() < 1e-12, "{r2}");
+}
