@@ -6,6 +6,7 @@ mod common;
 mod bad_input;
 mod golden;
 mod jacobians;
+mod mutation_survivors;
 mod nist_strd;
 mod offset_line;
 mod real_records;
