@@ -118,3 +118,34 @@ fn only_a_constant_response_is_noted_as_constant() {
     let r2 = varied.r_squared;
     assert!((r2 - (1.0 - 0.5 / 40.5)).abs() < 1e-12, "{r2}");
 }
+
+/// Without `--factors`, the factors are the columns with 2 to max(2, n/2) distinct values: on 8 runs,
+/// the two-level columns `A` and `B` are chosen, a column of 8 distinct values (a measured
+/// temperature, a run id) is not. Kills `analysis/mod.rs: replace && with || in
+/// AnalysisInput::from_table` (which chooses every column).
+#[test]
+fn factors_are_not_guessed_from_columns_of_distinct_values() {
+    use millcomp_doe::{AnalysisInput, ModelSpec, Values};
+    let col = |v: [f64; 8]| Values::F64(v.to_vec());
+    let table = vec![
+        (
+            "A".to_string(),
+            col([-1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0]),
+        ),
+        (
+            "B".to_string(),
+            col([-1.0, -1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0]),
+        ),
+        (
+            "temp_c".to_string(),
+            col([20.1, 20.4, 20.2, 20.9, 21.3, 20.0, 20.7, 21.1]),
+        ),
+        (
+            "y".to_string(),
+            col([1.0, 3.0, 2.0, 4.0, 1.5, 3.5, 2.5, 4.5]),
+        ),
+    ];
+    let input = AnalysisInput::from_table(&table, "y", None, ModelSpec::Main).unwrap();
+    let names: Vec<&str> = input.factors.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names, ["A", "B"]);
+}

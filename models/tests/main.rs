@@ -1,3 +1,4 @@
 //! The integration tests of millcomp-models, one binary: a module per subject.
 
+mod mutation_survivors;
 mod round_trip;
