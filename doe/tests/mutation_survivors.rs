@@ -149,3 +149,23 @@ fn factors_are_not_guessed_from_columns_of_distinct_values() {
     let names: Vec<&str> = input.factors.iter().map(|(n, _)| n.as_str()).collect();
     assert_eq!(names, ["A", "B"]);
 }
+
+/// Nine factors at resolution VII: the catalogue's best for nine factors is resolution VI (128 runs)
+/// and the full factorial (512 runs) is past what a fraction request falls back to (up to 7
+/// factors), so the request is refused naming the factors and the resolution. Kills
+/// `fractional.rs: replace match guard k <= 7 with true in by_resolution` (which returns the 512-run
+/// full factorial).
+#[test]
+fn nine_factors_at_resolution_seven_are_refused_not_run_in_full() {
+    let factors = (0..9)
+        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
+        .collect();
+    let mut req = DesignRequest::new(DesignKind::Fractional, factors);
+    req.resolution = Some(7);
+    match generate(&req) {
+        Err(DoeError::NoCatalogueDesign {
+            factors, request, ..
+        }) => assert_eq!((factors, request.as_str()), (9, "at resolution VII")),
+        other => panic!("{other:?}"),
+    }
+}
