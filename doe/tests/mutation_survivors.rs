@@ -169,3 +169,42 @@ fn nine_factors_at_resolution_seven_are_refused_not_run_in_full() {
         other => panic!("{other:?}"),
     }
 }
+
+/// A CCD's α given as a number must be finite and > 0: `1.5` is taken, `-1.5`, `0` and `inf` are
+/// refused naming `alpha`. Kills `mod.rs: replace && with || in <impl FromStr for CcdAlpha>::from_str`.
+#[test]
+fn a_ccd_alpha_must_be_a_positive_finite_number() {
+    use millcomp_doe::CcdAlpha;
+    assert_eq!("1.5".parse::<CcdAlpha>().unwrap(), CcdAlpha::Value(1.5));
+    for bad in ["-1.5", "0", "inf"] {
+        match bad.parse::<CcdAlpha>() {
+            Err(DoeError::InvalidParameter { name, value, .. }) => {
+                assert_eq!((name, value.as_str()), ("alpha", bad))
+            }
+            other => panic!("{bad}: {other:?}"),
+        }
+    }
+}
+
+/// A Plackett–Burman design with its run count given: 5 factors in 20 runs (Hadamard order 20) has
+/// 20 runs; 4100 runs (past the 4096 built here) is refused naming `runs`. Kills `screening.rs:
+/// replace > with < in plackett_burman` (which refuses every run count up to 4096).
+#[test]
+fn a_plackett_burman_run_count_is_taken_up_to_its_bound() {
+    let factors = || {
+        (0..5)
+            .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
+            .collect()
+    };
+    let mut req = DesignRequest::new(DesignKind::PlackettBurman, factors());
+    req.runs = Some(20);
+    assert_eq!(generate(&req).unwrap().n_runs(), 20);
+    let mut req = DesignRequest::new(DesignKind::PlackettBurman, factors());
+    req.runs = Some(4100);
+    match generate(&req) {
+        Err(DoeError::InvalidParameter { name, value, .. }) => {
+            assert_eq!((name, value.as_str()), ("runs", "4100"))
+        }
+        other => panic!("{other:?}"),
+    }
+}
