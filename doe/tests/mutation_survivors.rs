@@ -208,3 +208,24 @@ fn a_plackett_burman_run_count_is_taken_up_to_its_bound() {
         other => panic!("{other:?}"),
     }
 }
+
+/// `coded_factor` gives each run's coded level, in input order (what the CLI's effect plots draw):
+/// on a 2^2 in standard order, −1, 1, −1, 1 for the first factor and −1, −1, 1, 1 for the second,
+/// coded from actual levels 100/200 and 10/20. Kills `analysis/mod.rs: replace Analysis::coded_factor
+/// -> &[f64] with Vec::leak(vec![-1.0])`.
+#[test]
+fn coded_factor_gives_each_runs_coded_level_in_input_order() {
+    use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze};
+    let input = AnalysisInput {
+        factors: vec![
+            ("d".into(), Values::F64(vec![100.0, 200.0, 100.0, 200.0])),
+            ("u".into(), Values::F64(vec![10.0, 10.0, 20.0, 20.0])),
+        ],
+        response_name: "f".into(),
+        response: Values::F64(vec![1.0, 2.0, 2.0, 3.5]),
+        model: ModelSpec::Main,
+    };
+    let a = analyze(&input).unwrap();
+    assert_eq!(a.coded_factor(0), [-1.0, 1.0, -1.0, 1.0]);
+    assert_eq!(a.coded_factor(1), [-1.0, -1.0, 1.0, 1.0]);
+}
