@@ -119,10 +119,11 @@ fn only_a_constant_response_is_noted_as_constant() {
     assert!((r2 - (1.0 - 0.5 / 40.5)).abs() < 1e-12, "{r2}");
 }
 
-/// Without `--factors`, the factors are the columns with 2 to max(2, n/2) distinct values: on 8 runs,
-/// the two-level columns `A` and `B` are chosen, a column of 8 distinct values (a measured
-/// temperature, a run id) is not. Kills `analysis/mod.rs: replace && with || in
-/// AnalysisInput::from_table` (which chooses every column).
+/// Without `--factors`, the factors are the columns with 2 to max(2, n/2) distinct values other than
+/// the response and the bookkeeping columns: on 8 runs, the two-level columns `A` and `B` are chosen;
+/// a column of 8 distinct values (a measured temperature), the `block` column and the response (4
+/// distinct values here) are not. Kills `analysis/mod.rs:120:33: replace && with || in
+/// AnalysisInput::from_table` (which lets the response and `block` through).
 #[test]
 fn factors_are_not_guessed_from_columns_of_distinct_values() {
     use millcomp_doe::{AnalysisInput, ModelSpec, Values};
@@ -141,8 +142,12 @@ fn factors_are_not_guessed_from_columns_of_distinct_values() {
             col([20.1, 20.4, 20.2, 20.9, 21.3, 20.0, 20.7, 21.1]),
         ),
         (
+            "block".to_string(),
+            col([1.0, 1.0, 1.0, 1.0, 2.0, 2.0, 2.0, 2.0]),
+        ),
+        (
             "y".to_string(),
-            col([1.0, 3.0, 2.0, 4.0, 1.5, 3.5, 2.5, 4.5]),
+            col([1.0, 3.0, 2.0, 4.0, 1.0, 3.0, 2.0, 4.0]),
         ),
     ];
     let input = AnalysisInput::from_table(&table, "y", None, ModelSpec::Main).unwrap();
