@@ -1,5 +1,6 @@
 //! The MPC of a program, built from a bundle, as the JSON document of `millcomp_runtime::export`
-//! (docs/export-mpc.md): what `bench/peers/mpc_export_casadi.py` rebuilds with CasADi.
+//! (docs/export-mpc.md): what `bench/peers/mpc_export_casadi.py` rebuilds with CasADi. The CLI
+//! writes the same document: `millcomp commission … --program PROGRAM --export-mpc OUT.json`.
 //!
 //! ```text
 //! cargo run -p millcomp-runtime --example export_mpc -- BUNDLE PROGRAM OUT.json
@@ -21,7 +22,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         &Program::load(program.as_ref())?,
         &origins,
     )?;
-    std::fs::write(out, serde_json::to_string_pretty(&doc)?)?;
+    doc.save(out.as_ref())?;
     eprintln!(
         "{out}: horizon {}, QP {} × {}",
         doc.horizon, doc.first_cycle.qp.n, doc.first_cycle.qp.m

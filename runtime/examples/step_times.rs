@@ -10,9 +10,9 @@
 //! cargo run --release -p millcomp-runtime --example step_times [-- REPEATS]
 //! ```
 
-use millcomp_runtime::{Controller, ControllerKind, Measurement, Program, load_bundle, replay};
-use millcomp_sim::groove::{DepthProfile, GrooveConfig, GrooveStage};
-use millcomp_sim::sensors::NoiseSpec;
+use millcomp_runtime::record::{SimulatedMachine, record};
+use millcomp_runtime::{Controller, ControllerKind, Program, load_bundle, replay};
+use millcomp_sim::groove::DepthProfile;
 
 fn data(name: &str) -> std::path::PathBuf {
     std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/")).join(name)
@@ -37,29 +37,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         p.controller.kind = kind;
         let mut ctl = Controller::from_bundle(&bundle, &p)?;
         // the machine: sim's stage with sensor noise, only to record a sensor log
-        let mut truth = GrooveConfig::thesis(p.program.tilt_deg, 8.0)?;
-        truth.program = p.program.groove_program();
-        truth.force_noise = Some(NoiseSpec {
-            seed: 7,
-            sigma: 0.04,
-        });
-        truth.gauge_noise = Some(NoiseSpec {
-            seed: 8,
-            sigma: 0.01,
-        });
-        let mut stage = GrooveStage::new(truth, ctl.period_s())?;
-        let mut log = Vec::with_capacity(10_000);
-        let mut m = Measurement::NONE;
-        for _ in 0..10_000 {
-            log.push(m);
-            let c = ctl.step(&m);
-            let o = stage.step(c.voltage_v);
-            m = Measurement {
-                x_mm: o.x_mm,
-                force_n: o.force_meas_n,
-                gauge_um: o.gauge_um,
-            };
-        }
+        let log = record(&mut ctl, &p, &SimulatedMachine::default(), 10_000)?.log;
         // the replay, `repeats` times: the worst over all of them
         let mut all_ns = Vec::with_capacity(repeats * log.len());
         for _ in 0..repeats {

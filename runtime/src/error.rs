@@ -70,6 +70,13 @@ pub enum RuntimeError {
         #[source]
         source: Box<millcomp_mpc::MpcError>,
     },
+    /// The simulated machine refused the program (recording a simulated run).
+    #[error("the simulated machine")]
+    Simulation {
+        /// sim's error (it names the parameter).
+        #[source]
+        source: Box<millcomp_sim::SimError>,
+    },
 }
 
 impl From<millcomp_models::ModelError> for RuntimeError {

@@ -76,6 +76,20 @@ pub struct MpcExport {
     pub first_cycle: FirstCycle,
 }
 
+impl MpcExport {
+    /// Writes the document as pretty JSON to `path`, whole or not at all (temporary file + rename):
+    /// what `millcomp commission … --export-mpc PATH` and the `export_mpc` example write.
+    ///
+    /// # Errors
+    /// [`RuntimeError::Model`] naming `path` and the step of the atomic write that failed.
+    pub fn save(&self, path: &std::path::Path) -> Result<(), RuntimeError> {
+        use std::io::Write;
+        let text = serde_json::to_string_pretty(self).map_err(std::io::Error::other);
+        millcomp_models::atomic::write_atomic(path, |f| f.write_all(text?.as_bytes()))?;
+        Ok(())
+    }
+}
+
 fn rows(m: &nalgebra::DMatrix<f64>) -> Rows {
     (0..m.nrows())
         .map(|i| m.row(i).iter().copied().collect())

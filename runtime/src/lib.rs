@@ -15,7 +15,8 @@
 //! - the state between cycles is the controller's filters, integrators, estimators and last plan, and
 //!   the runtime's cycle index and last readings; [`Controller::reset`] returns it to the state right
 //!   after construction;
-//! - [`replay`]: a recorded sensor log through a controller, with every step timed;
+//! - [`replay`]: a recorded sensor log through a controller, with every step timed; [`record`]: a
+//!   simulated machine's run recorded as such a log;
 //! - [`export`]: the MPC's prediction model, weights, constraints and horizon, and one cycle's QP, as
 //!   a JSON document another toolchain (CasADi, do-mpc, acados) can rebuild the problem from.
 //!
@@ -46,6 +47,7 @@ pub mod error;
 pub mod export;
 pub mod kind;
 pub mod program;
+pub mod record;
 pub mod replay;
 
 pub use controller::{

@@ -71,6 +71,37 @@ pub fn step_times(step_ns: &[u64]) -> StepTimes {
     }
 }
 
+/// A sensor log's columns (the sensor-log contract's `x_mm`, `force_n`, `gauge_um`,
+/// `millcomp_datasets::contracts::SensorLog`) as the measurements of consecutive cycles; the shortest
+/// column sets the length.
+///
+/// ```
+/// use millcomp_runtime::replay::measurements;
+/// let m = measurements(&[f64::NAN, 0.0], &[f64::NAN, 0.1], &[f64::NAN, 0.0]);
+/// assert!(m[0].force_n.is_nan() && m[1].force_n == 0.1);
+/// ```
+pub fn measurements(x_mm: &[f64], force_n: &[f64], gauge_um: &[f64]) -> Vec<Measurement> {
+    x_mm.iter()
+        .zip(force_n)
+        .zip(gauge_um)
+        .map(|((&x_mm, &force_n), &gauge_um)| Measurement {
+            x_mm,
+            force_n,
+            gauge_um,
+        })
+        .collect()
+}
+
+/// Commands as columns: the voltages (V), the flag bits and the QP's iterations (a commands table's,
+/// `millcomp_datasets::contracts::CommandColumns`).
+pub fn columns(commands: &[Command]) -> (Vec<f64>, Vec<u32>, Vec<u32>) {
+    (
+        commands.iter().map(|c| c.voltage_v).collect(),
+        commands.iter().map(|c| c.flags).collect(),
+        commands.iter().map(|c| c.iterations).collect(),
+    )
+}
+
 /// Step `controller` through `log` from its current state, one measurement per cycle; each step timed.
 ///
 /// # Examples
