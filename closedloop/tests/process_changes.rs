@@ -32,6 +32,7 @@ fn around_change(mut s: millcomp_closedloop::Scenario) -> millcomp_closedloop::S
 }
 
 #[test]
+#[ignore = "slow suite (a long study): cargo test --workspace --test main -- --ignored"]
 fn feed_doubling_mpc_peak_at_most_half_of_pid() {
     let s = around_change(scenario("groove_s7_20deg_feed_step.toml"));
     let none = run(&s, ControllerKind::None);
