@@ -143,6 +143,7 @@ fn commissioning_identifies_the_plant_through_its_instruments() {
 }
 
 #[test]
+#[ignore = "slow suite (a long study): cargo test --workspace --test main -- --ignored"]
 fn controllers_compensate_a_shortened_groove() {
     let s = short();
     let none = run(&s, ControllerKind::None);
@@ -230,6 +231,7 @@ fn controllers_compensate_a_shortened_groove() {
 }
 
 #[test]
+#[ignore = "slow suite (a long study): cargo test --workspace --test main -- --ignored"]
 fn the_references_are_below_every_controller_on_other_seeds() {
     // a 35 mm blank, the feed step at 20 mm: the feed step's and the exit's windows, another seed
     // (the shortened groove above checks seed 3)

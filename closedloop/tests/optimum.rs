@@ -29,6 +29,7 @@ fn depth_at_once() -> Scenario {
 }
 
 #[test]
+#[ignore = "slow suite (a long study): cargo test --workspace --test main -- --ignored"]
 fn no_controller_leaves_less_than_the_bound_and_the_bound_is_not_half_the_step() {
     let s = depth_at_once();
     let none = run(&s, ControllerKind::None);
@@ -54,6 +55,7 @@ fn no_controller_leaves_less_than_the_bound_and_the_bound_is_not_half_the_step()
 }
 
 #[test]
+#[ignore = "slow suite (a long study): cargo test --workspace --test main -- --ignored"]
 fn the_spindle_angle_seen_in_the_force_times_the_step() {
     let s = depth_at_once();
     let with = run(&s, ControllerKind::Mpc);

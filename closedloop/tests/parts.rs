@@ -24,6 +24,7 @@ fn short_30deg() -> millcomp_closedloop::Scenario {
 }
 
 #[test]
+#[ignore = "slow suite (a long study): cargo test --workspace --test main -- --ignored"]
 fn learning_closes_the_gap_to_the_true_model_and_the_ratio_converges() {
     let s = short_30deg();
     let plan = PartsPlan {
