@@ -1,0 +1,185 @@
+//! Across units (issue 50): the meta-analysis against an independent peer, the real two-cutter case
+//! end to end, and the coverage of the new unit's prediction interval on simulated units whose true
+//! between-unit scatter is known.
+//!
+//! Golden values: `tests/golden/meta_*.json`, written by `bench/peers/meta_goldens.py` (statsmodels
+//! `combine_effects`, which records its call and versions); the BCG case also carries the values the
+//! metafor documentation prints (Viechtbauer 2010), a second, published reference.
+
+use millcomp_datasets::Table;
+use millcomp_datasets::mapping::join_on;
+use millcomp_identify::targets::wear::{
+    CutRange, WearLaw, WearOptions, WearStudy, study_wear, wear_across_units,
+};
+use millcomp_identify::units::{MetaAnalysis, MetaOptions, Tau2Method, meta_analyse};
+use serde_json::Value;
+
+use crate::unit_sim::{Family, Setting, coverage};
+
+fn golden(case: &str) -> Value {
+    let path = format!(
+        "{}/tests/golden/meta_{case}.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    serde_json::from_str(&std::fs::read_to_string(path).expect("golden")).expect("json")
+}
+
+fn nums(v: &Value) -> Vec<f64> {
+    v.as_array()
+        .expect("array")
+        .iter()
+        .map(|x| x.as_f64().expect("number"))
+        .collect()
+}
+
+fn close(what: &str, got: f64, want: f64, rel: f64) {
+    assert!(
+        (got - want).abs() <= rel * want.abs().max(1e-12),
+        "{what}: millcomp {got} vs peer {want} (rel {:.2e})",
+        (got - want).abs() / want.abs()
+    );
+}
+
+/// Compares one meta-analysis with statsmodels' `combine_effects` output `p`. `rel`: 1e-10 where both
+/// compute closed forms; Paule–Mandel is iterated by both (statsmodels to |Q − (k − 1)| < 1e-12), so
+/// its τ² agrees to ~1e-9.
+fn compare(m: &MetaAnalysis, p: &Value, rel: f64) {
+    let g = |k: &str| p[k].as_f64().expect(k);
+    close("tau2", m.tau2, g("tau2"), rel);
+    close("mean_re", m.mean, g("mean_re"), rel);
+    close("se_re", m.se_random, g("se_re"), rel);
+    close("hksj_q", m.hksj_q, g("hksj_q"), rel);
+    close("mean_fe", m.fixed_mean, g("mean_fe"), 1e-12);
+    close("se_fe", m.fixed_se, g("se_fe"), 1e-12);
+    close("q", m.q, g("q"), 1e-12);
+    close("q_p", m.q_p, g("q_p"), 1e-8);
+    close("i2", m.i2, g("i2"), 1e-12);
+    // statsmodels does not truncate the Hartung–Knapp scale at 1: where q ≥ 1 the intervals agree
+    if m.hksj_q >= 1.0 {
+        close("se_hksj", m.se, g("se_hksj"), rel);
+        let ci = nums(&p["ci_hksj"]);
+        close("ci_hksj lower", m.ci95[0], ci[0], rel);
+        close("ci_hksj upper", m.ci95[1], ci[1], rel);
+    }
+}
+
+const PM: MetaOptions = MetaOptions {
+    tau2: Tau2Method::PauleMandel,
+};
+
+#[test]
+fn bcg_trials_match_statsmodels_and_metafor() {
+    let g = golden("bcg");
+    let (y, s) = (nums(&g["estimate"]), nums(&g["std_err"]));
+    let dl = meta_analyse(&y, &s, &MetaOptions::default()).unwrap();
+    compare(&dl, &g["peer"]["dl"], 1e-10);
+    let pm = meta_analyse(&y, &s, &PM).unwrap();
+    compare(&pm, &g["peer"]["pm"], 1e-8);
+    // metafor's printed DL values (4 decimals): a published reference beside the peer
+    let mf = &g["metafor_dl"];
+    let r4 = |x: f64| (x * 1e4).round() / 1e4;
+    assert_eq!(r4(dl.tau2), mf["tau2"].as_f64().unwrap());
+    assert_eq!(r4(dl.q), mf["q"].as_f64().unwrap());
+    assert_eq!(r4(dl.i2), mf["i2"].as_f64().unwrap());
+    assert_eq!(r4(dl.mean), mf["mean"].as_f64().unwrap());
+    assert_eq!(r4(dl.se_random), mf["se"].as_f64().unwrap());
+}
+
+fn phm(cutter: &str) -> Table {
+    let load = |name: String| {
+        millcomp_datasets::real::record(&name)
+            .expect("shipped")
+            .load()
+            .expect("loads")
+    };
+    let f = load(format!("phm2010_{cutter}_per_cut_forces"));
+    let w = load(format!("phm2010_{cutter}_per_cut_wear"));
+    join_on(&f, &w, "run").expect("joins").0
+}
+
+fn wear_study(t: &Table) -> WearStudy {
+    let col = |n: &str| t.f64s(n).expect("numeric");
+    let cut = col("run");
+    let vb: Vec<(String, Vec<f64>)> = (1..=3)
+        .map(|i| {
+            let n = format!("VB_flute_{i}");
+            (n.clone(), col(&n))
+        })
+        .collect();
+    let refs: Vec<(String, &[f64])> = vb.iter().map(|(n, v)| (n.clone(), v.as_slice())).collect();
+    let mut o = WearOptions::new(CutRange::parse("--train", "1:end").unwrap(), None);
+    o.laws = vec![WearLaw::Linear];
+    study_wear(&cut, Some(&refs), "force_y__rms", &col("force_y__rms"), &o).unwrap()
+}
+
+#[test]
+fn cutters_c1_and_c4_match_the_peer_end_to_end() {
+    // the whole path of `identify wear … --columns unit=case`: each cutter's Newey–West fit of the
+    // force against its mean flank wear, then the two combined — against statsmodels OLS(HAC) and
+    // combine_effects on the same shipped files
+    let g = golden("phm_c1_c4");
+    let units = vec![
+        ("1".to_string(), vec![wear_study(&phm("c1"))]),
+        ("4".to_string(), vec![wear_study(&phm("c4"))]),
+    ];
+    for (tau2, key, rel) in [
+        (Tau2Method::DerSimonianLaird, "dl", 1e-7),
+        (Tau2Method::PauleMandel, "pm", 1e-7),
+    ] {
+        let a = wear_across_units(&units, 100.0, &MetaOptions { tau2 }).unwrap();
+        assert_eq!(a.len(), 1);
+        for q in &a[0].across.quantities {
+            // per cutter: estimate and Newey–West SE (the peer's lag-1 r and lags are the same rule)
+            for (e, pu) in q.per_unit.iter().zip(g["units"].as_array().unwrap()) {
+                assert_eq!(e.unit, pu["unit"].as_str().unwrap());
+                let want = nums(&pu[&q.name]);
+                close(&format!("{} unit {} estimate", q.name, e.unit), e.value, want[0], 1e-9);
+                close(&format!("{} unit {} SE", q.name, e.unit), e.std_err, want[1], 1e-7);
+            }
+            compare(&q.meta, &g["peer"][&q.name][key], rel);
+        }
+    }
+    // the issue's point, on the shipped data: c4's slope lies far outside c1's own interval
+    let a = wear_across_units(&units, 100.0, &MetaOptions::default()).unwrap();
+    let k = a[0]
+        .across
+        .quantities
+        .iter()
+        .find(|q| q.name == "k_n_per_um")
+        .unwrap();
+    let (c1, c4) = (&k.per_unit[0], &k.per_unit[1]);
+    assert!(c1.value - 3.0 * c1.std_err > c4.value, "{c1:?} {c4:?}");
+    // and the new cutter's interval holds both, on t(1) = 12.71
+    let pi = k.meta.new_unit.pi95;
+    assert!(pi[0] < c4.value && c1.value < pi[1]);
+    assert!((k.meta.new_unit.t_quantile - 12.706_204_736_174_7).abs() < 1e-9);
+}
+
+/// Coverage of the new unit's 95 % prediction interval. 300 data sets per setting: the binomial
+/// standard deviation of a 95 % rate is 1.3 %, so [0.91, 0.99] is −3σ/+3σ around 95 % (the
+/// example `unit_coverage` runs 4000 per setting, and more settings: docs/identify.md).
+#[test]
+fn the_new_unit_interval_covers_new_units() {
+    for s in [
+        Setting {
+            family: Family::Wall,
+            units: 2,
+            tau_rel: 0.10,
+            noise: 0.05,
+            tau2: Tau2Method::DerSimonianLaird,
+        },
+        Setting {
+            family: Family::Wall,
+            units: 5,
+            tau_rel: 0.10,
+            noise: 0.3,
+            tau2: Tau2Method::DerSimonianLaird,
+        },
+    ] {
+        let c = coverage(&s, 300, 50_000);
+        let rate = c.new_unit_rate();
+        assert!((0.91..=0.99).contains(&rate), "{s:?}: {c:?}");
+        // a one-unit interval (the unit's own) would cover far less: the scatter is the point
+        assert!(c.median_se_over_tau < 1.5, "{s:?}: {c:?}");
+    }
+}
