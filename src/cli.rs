@@ -2,7 +2,29 @@
 
 use std::path::PathBuf;
 
+use clap::builder::RangedU64ValueParser;
 use clap::{Args, Parser, Subcommand};
+
+/// The most worker threads a run takes (`--threads`): far beyond any machine's cores; a pool of a
+/// billion threads would exhaust the machine before it started.
+pub const MAX_THREADS: u64 = 1024;
+/// The most seeds of a coverage study (`commission --coverage`): at 100 000 seeds a 95 % rate's
+/// binomial interval is ±0.14 %, finer than any use; one seed takes about 0.3 s.
+pub const MAX_COVERAGE_SEEDS: u64 = 100_000;
+/// The most replicates of a design (`doe design --replicates`).
+pub const MAX_REPLICATES: u64 = 1000;
+/// The most centre points per block (`doe design --center-points`).
+pub const MAX_CENTER_POINTS: u64 = 1000;
+/// The most blocks (`doe design --blocks`).
+pub const MAX_BLOCKS: u64 = 64;
+/// The most parts in a row (`parts --parts`).
+pub const MAX_PARTS: u64 = 1000;
+/// The most machines (`parts --seeds`).
+pub const MAX_MACHINES: u64 = 10_000;
+/// The most cross-validation folds (`identify --folds`).
+pub const MAX_FOLDS: u64 = 100;
+/// The most flutes of a cutter (`identify flutes --flutes`).
+pub const MAX_FLUTES: u64 = 64;
 
 const EXIT_CODES: &str = "\
 Exit status:
@@ -11,6 +33,26 @@ Exit status:
   2  usage error (unknown option, missing argument)
 
 Errors go to stderr with their cause chain; with --json, results go to stdout as one JSON document.";
+
+/// A number in `(0, max]` (`unit` names it in the message).
+fn positive_at_most(s: &str, max: f64, unit: &str) -> Result<f64, String> {
+    let v: f64 = s.parse().map_err(|_| format!("`{s}` is not a number"))?;
+    if v > 0.0 && v <= max {
+        Ok(v)
+    } else {
+        Err(format!("{v} is not in (0, {max}] {unit}"))
+    }
+}
+
+/// A spindle speed: above 0, at most 1e6 rpm (the physics crate's bound).
+fn speed_rpm(s: &str) -> Result<f64, String> {
+    positive_at_most(s, 1e6, "rpm")
+}
+
+/// A sample rate: above 0, at most 100 MHz (a revolution is then still a few million samples).
+fn sample_rate_hz(s: &str) -> Result<f64, String> {
+    positive_at_most(s, 1e8, "Hz")
+}
 
 /// Micro-milling accuracy: design and analyse experiments, identify material, friction and machine
 /// parameters, compensate tool and thin-wall deflection with MPC, and diagnose model gaps.
@@ -29,26 +71,58 @@ pub struct Cli {
 /// The verbs.
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Run the whole pipeline on the shipped data and write a report (the main job).
+    /// The main job end to end on a simulated machine — design, measure, analyse, identify, commission,
+    /// build, compare, diagnose, rerun — with one report (report.md, report.html).
+    #[command(
+        after_help = "Example:\n  millcomp demo --out millcomp-demo    # then open millcomp-demo/report.html"
+    )]
     Demo(DemoArgs),
+    /// The same pipeline on your measured files: PLAN.toml names a file for each stage (docs/pipeline.md);
+    /// a stage without files is skipped, saying what it would need.
+    #[command(
+        after_help = "Example:\n  millcomp pipeline datasets/pipeline/plan.toml --out my-machine"
+    )]
+    Pipeline(PipelineArgs),
     /// Design of experiments: generate treatment matrices and analyse responses.
+    #[command(
+        after_help = "Example:\n  millcomp doe design --design fractional --factors A,B,C,D --resolution 4 --seed 1"
+    )]
     #[command(subcommand)]
     Doe(DoeCommand),
     /// Identify model parameters from measured runs by least squares.
+    #[command(
+        after_help = "Example:\n  millcomp identify spindle datasets/runs/spindle_step_synthetic.csv --save spindle.toml"
+    )]
     Identify(IdentifyArgs),
     /// Find where simulation and measurement disagree and name the missing physical effect.
+    #[command(
+        after_help = "Example:\n  millcomp diagnose datasets/synthetic/coolant_thermal_drift.toml datasets/synthetic/coolant_thermal_drift.csv"
+    )]
     Diagnose(DiagnoseArgs),
     /// Commission a scenario's machine: calibration experiments through its instruments, identified into
     /// one model bundle the controllers are built from.
+    #[command(
+        after_help = "Example:\n  millcomp commission datasets/scenarios/groove_s7_20deg_commissioned.toml --out bundle.toml"
+    )]
     Commission(CommissionArgs),
     /// Simulate a session or a closed-loop scenario.
+    #[command(
+        after_help = "Example:\n  millcomp simulate datasets/scenarios/groove_s7_20deg.toml --controller mpc"
+    )]
     Simulate(SimulateArgs),
     /// Run controllers over many conditions and compare them statistically.
+    #[command(
+        after_help = "Example:\n  millcomp batch --doe \"--design fractional --factors tilt_deg=20:40,depth_um=40:80,upfeed_um=8:12 --resolution 3 --seed 1\" --controllers pid-tuned,mpc"
+    )]
     Batch(BatchArgs),
     /// Cut successive parts of a groove scenario: after each the groove is measured, the deflection model
     /// identified from the parts so far, and the next part uses it (run-to-run learning).
+    #[command(
+        after_help = "Example:\n  millcomp parts datasets/scenarios/groove_s7_20deg.toml --parts 3 --seeds 4"
+    )]
     Parts(PartsArgs),
     /// List and show the published tables, real measured records and synthetic runs shipped with millcomp.
+    #[command(after_help = "Example:\n  millcomp datasets show clayton_doe")]
     #[command(subcommand)]
     Datasets(DatasetsCommand),
 }
@@ -56,11 +130,31 @@ pub enum Command {
 /// `millcomp demo`.
 #[derive(Debug, Args)]
 pub struct DemoArgs {
-    /// Directory for the report and tables.
+    /// Directory for the report, the measured files, the models and the tables.
     #[arg(long, default_value = "millcomp-demo")]
     pub out: PathBuf,
-    /// Worker threads of the demo batch (default: all cores).
+    /// Seed of the simulated machine (its tool, instruments and what the nominal model lacks).
+    #[arg(long, default_value_t = 7)]
+    pub seed: u64,
+    /// Worker threads of the comparison's runs (default: all cores; 1 to 1024).
+    #[arg(long, value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_THREADS))]
+    pub threads: Option<usize>,
+    /// A quicker look: 8 conditions (a 2^(4−1) over tilt, depth, material and a depth step at once) on
+    /// 5 mm grooves instead of 32 on 10 mm.
     #[arg(long)]
+    pub quick: bool,
+}
+
+/// `millcomp pipeline PLAN.toml`.
+#[derive(Debug, Args)]
+pub struct PipelineArgs {
+    /// The plan (TOML, docs/pipeline.md): the measured files of each stage and the designs.
+    pub plan: PathBuf,
+    /// Directory for the report, the models and the tables.
+    #[arg(long, default_value = "millcomp-pipeline")]
+    pub out: PathBuf,
+    /// Worker threads of the comparison's runs, if the plan runs them on a simulated machine (1 to 1024).
+    #[arg(long, value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_THREADS))]
     pub threads: Option<usize>,
 }
 
@@ -77,9 +171,10 @@ pub struct CommissionArgs {
     /// Seed of the experiments' noise (default: the scenario's seed).
     #[arg(long, requires = "scenario")]
     pub seed: Option<u64>,
-    /// Instead of one commissioning: a coverage study over this many seeds, each with its own drawn
-    /// instrument errors, counting how often each 95 % interval covers the value the truth implies.
-    #[arg(long, requires = "scenario")]
+    /// Instead of one commissioning: a coverage study over this many seeds (1 to 100 000), each with its
+    /// own drawn instrument errors, counting how often each 95 % interval covers the value the truth
+    /// implies.
+    #[arg(long, requires = "scenario", value_parser = RangedU64ValueParser::<u64>::new().range(1..=MAX_COVERAGE_SEEDS))]
     pub coverage: Option<u64>,
     /// Your machine's spindle model (`millcomp identify spindle STEP.csv --save`), for a bundle from your
     /// own calibration records.
@@ -100,8 +195,14 @@ pub struct CommissionArgs {
 #[derive(Debug, Subcommand)]
 pub enum DoeCommand {
     /// Generate a treatment matrix.
+    #[command(
+        after_help = "Example:\n  millcomp doe design --design fractional --factors A,B,C,D --resolution 4 --seed 1"
+    )]
     Design(DoeDesignArgs),
     /// Analyse a response: effects, ANOVA, Lenth.
+    #[command(
+        after_help = "Example:\n  millcomp doe analyze datasets/data/clayton_doe.csv --response max_fx_n --factors depth_um,speed_rpm,upfeed_um"
+    )]
     Analyze(DoeAnalyzeArgs),
 }
 
@@ -123,14 +224,14 @@ pub struct DoeDesignArgs {
     /// Number of runs (LHS, D-optimal, Plackett-Burman).
     #[arg(long)]
     pub runs: Option<usize>,
-    /// Replicates of the whole design.
-    #[arg(long, default_value_t = 1)]
+    /// Replicates of the whole design (1 to 1000).
+    #[arg(long, default_value_t = 1, value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_REPLICATES))]
     pub replicates: usize,
-    /// Centre points (per block; default 4 for CCD, 3 for Box-Behnken, 0 otherwise).
-    #[arg(long)]
+    /// Centre points (per block; default 4 for CCD, 3 for Box-Behnken, 0 otherwise; at most 1000).
+    #[arg(long, value_parser = RangedU64ValueParser::<usize>::new().range(0..=MAX_CENTER_POINTS))]
     pub center_points: Option<usize>,
-    /// Number of blocks.
-    #[arg(long, default_value_t = 1)]
+    /// Number of blocks (1 to 64).
+    #[arg(long, default_value_t = 1, value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_BLOCKS))]
     pub blocks: usize,
     /// Seed of the randomised run order (and of LHS / D-optimal searches).
     #[arg(long)]
@@ -142,13 +243,13 @@ pub struct DoeDesignArgs {
     #[arg(long, default_value = "circumscribed")]
     pub ccd_variant: String,
     /// CCD alpha: rotatable | orthogonal | orthogonal-blocking | a number.
-    #[arg(long, default_value = "rotatable")]
+    #[arg(long, default_value = "rotatable", allow_negative_numbers = true)]
     pub alpha: String,
     /// Model a D-optimal design is optimal for: main | 2fi | quadratic | formula.
     #[arg(long)]
     pub model: Option<String>,
     /// Linear constraints for D-optimal designs, in coded units: "a + b <= 1.5; 2*A - B >= -1".
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub constraints: Option<String>,
     /// Write the matrix to FILE.csv or FILE.parquet.
     #[arg(long)]
@@ -174,7 +275,7 @@ pub struct DoeAnalyzeArgs {
     #[arg(long, default_value = "main")]
     pub model: String,
     /// Significance level for flags and backward elimination.
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = 0.05, allow_negative_numbers = true)]
     pub alpha: f64,
     /// Drop insignificant terms by backward elimination at --alpha.
     #[arg(long)]
@@ -219,10 +320,10 @@ pub struct IdentifyArgs {
     #[arg(long)]
     pub dead_time: bool,
     /// Stiffness: tilts (deg) at which to report the tilted-tool z-stiffness.
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub tilt_deg: Vec<f64>,
     /// Stiffness: machine stiffness (N/um) in series with the identified tool stiffness.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub machine_stiffness_n_per_um: Option<f64>,
     /// Force: parameters to fit (w_mpa, mu_rake, mu_flank, wearland_um, runout_um); default W only.
     #[arg(long, value_delimiter = ',')]
@@ -234,7 +335,7 @@ pub struct IdentifyArgs {
     #[arg(long)]
     pub relative_errors: bool,
     /// Wall: geometry `height_um,thickness_um,length_um` to derive the modulus.
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub wall_geometry: Vec<f64>,
     /// Read your own file's columns under the names this verb reads: `role=column,...`, e.g.
     /// `t_s=time_s,drift_um=disp_ch*_um,temp_c=temp_t*_C,speed_rpm=spindle_rpm`. A role may take several
@@ -249,8 +350,8 @@ pub struct IdentifyArgs {
     /// Thermal record / wear: predict this range (same forms as --train) and report the error.
     #[arg(long)]
     pub test: Option<String>,
-    /// Thermal record / wear: cross-validation blocks inside the training range.
-    #[arg(long, default_value_t = 3)]
+    /// Thermal record / wear: cross-validation blocks inside the training range (1 to 100).
+    #[arg(long, default_value_t = 3, value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_FOLDS))]
     pub folds: usize,
     /// Thermal record / wear / flutes: write SVG plots of measured vs predicted here.
     #[arg(long)]
@@ -265,14 +366,14 @@ pub struct IdentifyArgs {
     /// Wear: laws to try (linear, power, saturating, exponential; default all).
     #[arg(long, value_delimiter = ',')]
     pub laws: Vec<String>,
-    /// Flutes: number of flutes of the cutter.
-    #[arg(long)]
+    /// Flutes: number of flutes of the cutter (at most 64).
+    #[arg(long, value_parser = RangedU64ValueParser::<usize>::new().range(0..=MAX_FLUTES))]
     pub flutes: Option<usize>,
-    /// Flutes: spindle speed of the record (rpm).
-    #[arg(long)]
+    /// Flutes: spindle speed of the record (rpm; above 0, at most 1 000 000).
+    #[arg(long, allow_negative_numbers = true, value_parser = speed_rpm)]
     pub speed_rpm: Option<f64>,
-    /// Flutes: sample rate of the record (Hz).
-    #[arg(long)]
+    /// Flutes: sample rate of the record (Hz; above 0, at most 100 MHz).
+    #[arg(long, allow_negative_numbers = true, value_parser = sample_rate_hz)]
     pub sample_rate_hz: Option<f64>,
     /// Further files of the same layout: flutes analyses each the same way (e.g. the worn tool beside
     /// the fresh one); every other target reads each file as one unit (tool, part or machine; the file's
@@ -288,7 +389,7 @@ pub struct IdentifyArgs {
     #[arg(long)]
     pub at_vb_um: Option<f64>,
     /// Flutes: significance level of the flute-to-flute F-test.
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
     pub alpha: f64,
 }
 
@@ -351,7 +452,7 @@ pub struct DiagnoseArgs {
     /// Family-wise significance level of each round (for a session: the threshold on a family's p
     /// is the level's quantile of the round's smallest p under the null, simulated; with
     /// --record: Bonferroni over the candidates).
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
     pub alpha: f64,
     /// For a session: each round's threshold is --alpha over the shapes tried (Bonferroni,
     /// conservative) instead of the simulated family-wise one.
@@ -401,7 +502,7 @@ pub struct SimulateArgs {
     pub no_realtime: bool,
     /// Scenarios: the MPC cycle's time budget as a fraction of its period (default 0.5); a cycle
     /// whose plan is not ready within it emits the fallback and counts as a deadline miss.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub budget_fraction: Option<f64>,
 }
 
@@ -434,13 +535,23 @@ pub struct BatchArgs {
     /// JOB_COMPLETION_INDEX/MILLCOMP_SHARD_COUNT.
     #[arg(long)]
     pub shard: Option<String>,
-    /// Worker threads (default: all cores, or RAYON_NUM_THREADS).
-    #[arg(long)]
+    /// Worker threads (default: all cores, or RAYON_NUM_THREADS; 1 to 1024).
+    #[arg(long, value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_THREADS))]
     pub threads: Option<usize>,
     /// Read the --scenarios file's columns under the factor names: `factor=column,...` (unit suffixes
     /// checked).
     #[arg(long, requires = "scenarios")]
     pub columns: Option<String>,
+    /// Commissioning cache: each distinct commissioning computed once and kept here (default
+    /// OUT/cache). Slices of one batch may share a directory.
+    #[arg(long)]
+    pub cache: Option<PathBuf>,
+    /// No progress line.
+    #[arg(long)]
+    pub quiet: bool,
+    /// Print the plan's run count and an estimate of its time, and run nothing.
+    #[arg(long)]
+    pub dry_run: bool,
 }
 
 /// `millcomp parts`.
@@ -449,30 +560,31 @@ pub struct PartsArgs {
     /// Groove scenario (TOML). It is run commissioned (instruments and tool drawn, the controllers built
     /// from a commissioning of the plant) with the deliberate model errors below on top.
     pub scenario: PathBuf,
-    /// Parts cut in a row on each machine.
-    #[arg(long, default_value_t = 3)]
+    /// Parts cut in a row on each machine (1 to 1000).
+    #[arg(long, default_value_t = 3, value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_PARTS))]
     pub parts: usize,
-    /// Machines (seeds 1..=N): each its own tool, instruments, commissioning and error signs.
-    #[arg(long, default_value_t = 10)]
+    /// Machines (seeds 1..=N, N from 1 to 10 000): each its own tool, instruments, commissioning and
+    /// error signs.
+    #[arg(long, default_value_t = 10, value_parser = RangedU64ValueParser::<u64>::new().range(1..=MAX_MACHINES))]
     pub seeds: u64,
     /// Controllers, each learning from its own parts (plus the reference, an MPC given the true model).
     #[arg(long, default_value = "pid-tuned,pid-ff,mpc")]
     pub controllers: String,
     /// Size of the force-model errors on the commissioned model (relative; W, rake and flank friction,
     /// wearland each off by ± this).
-    #[arg(long, default_value_t = 0.15)]
+    #[arg(long, default_value_t = 0.15, allow_negative_numbers = true)]
     pub force_error: f64,
     /// Size of the stiffness error on the commissioned model (relative, ±).
-    #[arg(long, default_value_t = 0.10)]
+    #[arg(long, default_value_t = 0.10, allow_negative_numbers = true)]
     pub stiffness_error: f64,
     /// σ of the part-to-part force factor (relative).
-    #[arg(long, default_value_t = 0.02)]
+    #[arg(long, default_value_t = 0.02, allow_negative_numbers = true)]
     pub part_scatter: f64,
     /// Output directory (parts.csv, summary.json, parts.svg).
     #[arg(long, default_value = "millcomp-parts")]
     pub out: PathBuf,
-    /// Worker threads (default: all cores, or RAYON_NUM_THREADS).
-    #[arg(long)]
+    /// Worker threads (default: all cores, or RAYON_NUM_THREADS; 1 to 1024).
+    #[arg(long, value_parser = RangedU64ValueParser::<usize>::new().range(1..=MAX_THREADS))]
     pub threads: Option<usize>,
 }
 
@@ -480,6 +592,7 @@ pub struct PartsArgs {
 #[derive(Debug, Subcommand)]
 pub enum BatchCommand {
     /// Join the slices (output directories of `--shard K/N` runs) of one batch.
+    #[command(after_help = "Example:\n  millcomp batch merge slice-0 slice-1 --out merged")]
     Merge(BatchMergeArgs),
 }
 
@@ -498,10 +611,15 @@ pub struct BatchMergeArgs {
 #[derive(Debug, Subcommand)]
 pub enum DatasetsCommand {
     /// List the shipped tables: published, real measured records, synthetic runs.
+    #[command(after_help = "Example:\n  millcomp datasets list")]
     List,
     /// Print one table (a real record: its provenance and first rows).
+    #[command(after_help = "Example:\n  millcomp datasets show clayton_doe")]
     Show(DatasetsShowArgs),
     /// Validate your own CSV/Parquet file against a contract or a shipped table's schema.
+    #[command(
+        after_help = "Example:\n  millcomp datasets check my-grooves.csv --as measured-groove"
+    )]
     Check(DatasetsCheckArgs),
 }
 

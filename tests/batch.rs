@@ -89,7 +89,10 @@ fn four_shards_merge_to_the_single_run_and_resume_skips_done_runs() {
             String::from_utf8_lossy(&out.stderr)
         );
         let v: Value = serde_json::from_slice(&out.stdout).unwrap();
-        assert_eq!(v["n_runs"], 2, "8 runs round-robin over 4 shards");
+        assert_eq!(
+            v["n_runs"], 2,
+            "4 scenarios over 4 shards, both controllers each"
+        );
         assert_eq!(v["shard"]["index"], k);
         dirs.push(d);
     }
@@ -329,4 +332,384 @@ fn thin_wall_stage_runs_in_a_batch() {
         .stderr(contains("runs only on thin-wall"))
         .stderr(contains("row 2"));
     assert!(!tmp.path().join("mixed").join("results.csv").exists());
+}
+
+/// Six scenarios of very short grooves (0.2 mm: 0.12 s of machining) over two commissionings (tilt
+/// 20° and 40°; the controllers' stiffness error is not the commissioning's), with a depth step so
+/// the change bound's linear programme runs too.
+const SIX: &str = "\
+tilt_deg,stiffness_error_pct,depth_step,length_mm
+20,0,0,0.2
+40,0,1,0.2
+20,10,1,0.2
+40,10,0,0.2
+20,-10,1,0.2
+40,-10,0,0.2
+";
+
+/// The files of a batch's results (not `invocation.json`, which says how one call ran).
+fn result_files(dir: &std::path::Path) -> Vec<(String, Vec<u8>)> {
+    let mut names = vec![
+        "results.csv".to_string(),
+        "results.parquet".to_string(),
+        "summary.json".to_string(),
+    ];
+    let mut plots: Vec<String> = std::fs::read_dir(dir.join("plots"))
+        .unwrap()
+        .map(|e| format!("plots/{}", e.unwrap().file_name().to_string_lossy()))
+        .collect();
+    plots.sort();
+    names.extend(plots);
+    names
+        .into_iter()
+        .map(|n| {
+            let bytes = std::fs::read(dir.join(&n)).unwrap_or_else(|e| panic!("{n}: {e}"));
+            (n, bytes)
+        })
+        .collect()
+}
+
+fn assert_same_results(a: &std::path::Path, b: &std::path::Path, what: &str) {
+    let (x, y) = (result_files(a), result_files(b));
+    assert_eq!(
+        x.iter().map(|f| &f.0).collect::<Vec<_>>(),
+        y.iter().map(|f| &f.0).collect::<Vec<_>>(),
+        "{what}: the files"
+    );
+    for ((name, p), (_, q)) in x.iter().zip(&y) {
+        assert!(p == q, "{what}: {name} differs");
+    }
+}
+
+/// Every `.partial` file under `dir`.
+/// Whether process `pid` holds a file open for writing in `dir` that has no name yet: the atomic writer's
+/// unnamed temporary file (`O_TMPFILE` on Linux; /proc shows it as `DIR/#<inode> (deleted)`), which
+/// leaves no `.partial` a test could see.
+fn writing_unnamed_in(pid: u32, dir: &std::path::Path) -> bool {
+    let Ok(fds) = std::fs::read_dir(format!("/proc/{pid}/fd")) else {
+        return false;
+    };
+    let dir = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf());
+    fds.flatten().any(|fd| {
+        std::fs::read_link(fd.path()).is_ok_and(|target| {
+            let t = target.to_string_lossy();
+            t.ends_with(" (deleted)") && target.parent() == Some(dir.as_path())
+        })
+    })
+}
+
+fn partials(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).into_iter().flatten().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.to_string_lossy().ends_with(".partial") {
+                out.push(p);
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn the_same_bytes_with_or_without_the_cache_on_any_threads_and_shards() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = write(tmp.path(), "six.csv", SIX);
+    let cache = tmp.path().join("shared-cache");
+    let batch = |out: &std::path::Path, extra: &[&str]| {
+        let mut args = vec![
+            "batch",
+            "--scenarios",
+            s(&file),
+            "--controllers",
+            "pid,pid-tuned",
+            "--out",
+            s(out),
+        ];
+        args.extend_from_slice(extra);
+        run_json(&args)
+    };
+    // one thread, its own cache (OUT/cache): two commissionings for six scenarios
+    let one = tmp.path().join("one");
+    let a = batch(&one, &["--threads", "1"]);
+    assert_eq!(
+        (a["cache"]["computed"].as_u64(), a["threads"].as_u64()),
+        (Some(2), Some(1))
+    );
+    assert!(one.join("cache/commissioning").read_dir().unwrap().count() == 2);
+    // two threads, a new cache, then the same cache again: nothing commissioned the second time
+    let two = tmp.path().join("two");
+    let b = batch(&two, &["--threads", "2", "--cache", s(&cache)]);
+    assert_eq!(b["cache"]["computed"], 2);
+    let warm = tmp.path().join("warm");
+    let c = batch(&warm, &["--threads", "2", "--cache", s(&cache)]);
+    assert_eq!(
+        (
+            c["cache"]["computed"].as_u64(),
+            c["cache"]["from_disk"].as_u64()
+        ),
+        (Some(0), Some(2))
+    );
+    // three slices sharing the cache, merged
+    let mut dirs = Vec::new();
+    for k in 0..3 {
+        let d = tmp.path().join(format!("slice-{k}"));
+        batch(&d, &["--shard", &format!("{k}/3"), "--cache", s(&cache)]);
+        dirs.push(d);
+    }
+    let merged = tmp.path().join("merged");
+    let mut args = vec!["batch", "merge"];
+    args.extend(dirs.iter().map(|d| s(d)));
+    args.extend(["--out", s(&merged)]);
+    run_json(&args);
+    for (dir, what) in [
+        (&two, "two threads"),
+        (&warm, "the cache read back"),
+        (&merged, "three slices merged"),
+    ] {
+        assert_same_results(&one, dir, what);
+    }
+}
+
+/// When to stop a batch under test.
+#[derive(Debug, Clone, Copy)]
+enum Trigger {
+    /// Once this many runs are stored.
+    RunsStored(usize),
+    /// While a run's record is being written (a `.partial` in `runs/`).
+    WritingARun,
+    /// While the results are being written (`results.csv` there, a `.partial` beside it).
+    WritingTheResults,
+    /// After this many milliseconds.
+    After(u64),
+}
+
+#[test]
+fn a_killed_batch_resumes_and_writes_the_same_files() {
+    use rand_chacha::rand_core::{RngCore, SeedableRng};
+    use std::time::{Duration, Instant};
+
+    let tmp = tempfile::tempdir().unwrap();
+    let file = write(tmp.path(), "six.csv", SIX);
+    let cache = tmp.path().join("cache");
+    let args = |out: &std::path::Path| -> Vec<String> {
+        [
+            "batch",
+            "--scenarios",
+            s(&file),
+            "--controllers",
+            "pid,pid-tuned",
+            "--out",
+            s(out),
+            "--cache",
+            s(&cache),
+            "--threads",
+            "2",
+        ]
+        .iter()
+        .map(|a| a.to_string())
+        .collect()
+    };
+    let reference = tmp.path().join("reference");
+    let whole = run_json(
+        &args(&reference)
+            .iter()
+            .map(String::as_str)
+            .collect::<Vec<_>>(),
+    );
+    let total = whole["n_runs"].as_u64().unwrap() as usize;
+    let stored = |dir: &std::path::Path| {
+        std::fs::read_dir(dir.join("runs"))
+            .map(|d| {
+                d.flatten()
+                    .filter(|e| {
+                        let n = e.file_name().to_string_lossy().to_string();
+                        n.starts_with("run-") && n.ends_with(".json")
+                    })
+                    .count()
+            })
+            .unwrap_or(0)
+    };
+    // the moments: a seeded draw for the random ones (the batch takes about a second here)
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(48);
+    let mut kills = vec![
+        (libc::SIGKILL, Trigger::RunsStored(3), false),
+        (libc::SIGTERM, Trigger::RunsStored(3), false),
+        (libc::SIGKILL, Trigger::WritingARun, true),
+        (libc::SIGTERM, Trigger::WritingARun, true),
+        (libc::SIGKILL, Trigger::WritingTheResults, true),
+        (libc::SIGTERM, Trigger::WritingTheResults, true),
+    ];
+    for sig in [libc::SIGKILL, libc::SIGTERM, libc::SIGKILL, libc::SIGTERM] {
+        kills.push((sig, Trigger::After(50 + rng.next_u64() % 850), false));
+    }
+    let mut report = Vec::new();
+    for (i, (sig, trigger, slow)) in kills.iter().enumerate() {
+        let out = tmp.path().join(format!("killed-{i}"));
+        let mut cmd = std::process::Command::new(assert_cmd::cargo::cargo_bin("millcomp"));
+        cmd.args(args(&out))
+            .arg("--quiet")
+            .env_remove("SLURM_ARRAY_TASK_ID")
+            .env_remove("JOB_COMPLETION_INDEX")
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped());
+        if *slow {
+            // every batch file written as text pauses half-way: the kill lands inside a write
+            cmd.env("MILLCOMP_TEST_SLOW_WRITE_MS", "300");
+        }
+        let mut child = cmd.spawn().unwrap();
+        let start = Instant::now();
+        let mut fired = false;
+        while start.elapsed() < Duration::from_secs(120) {
+            if child.try_wait().unwrap().is_some() {
+                break;
+            }
+            let now = match trigger {
+                Trigger::RunsStored(n) => stored(&out) >= *n,
+                Trigger::WritingARun => {
+                    !partials(&out.join("runs")).is_empty()
+                        || writing_unnamed_in(child.id(), &out.join("runs"))
+                }
+                Trigger::WritingTheResults => {
+                    out.join("results.csv").exists()
+                        && (writing_unnamed_in(child.id(), &out)
+                            || std::fs::read_dir(&out)
+                                .unwrap()
+                                .flatten()
+                                .any(|e| e.file_name().to_string_lossy().ends_with(".partial")))
+                }
+                Trigger::After(ms) => start.elapsed() >= Duration::from_millis(*ms),
+            };
+            if now {
+                // SAFETY: signalling a child process this test started and has not reaped
+                unsafe {
+                    libc::kill(child.id() as i32, *sig);
+                }
+                fired = true;
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        let status = child.wait_with_output().unwrap();
+        if !matches!(trigger, Trigger::After(_)) {
+            assert!(fired, "kill {i} ({trigger:?}) never fired");
+        }
+        let code = status.status.code();
+        let stderr = String::from_utf8_lossy(&status.stderr).to_string();
+        if fired && *sig == libc::SIGTERM && code == Some(143) {
+            // stopped cleanly: the runs under way finished and were stored
+            assert!(stderr.contains("stopped by SIGTERM"), "{stderr}");
+            assert!(
+                partials(&out).is_empty(),
+                "SIGTERM left {:?}",
+                partials(&out)
+            );
+        }
+        let before = stored(&out);
+        // the same command again: it resumes, runs exactly what was missing, and writes the same files
+        let again = run_json(&args(&out).iter().map(String::as_str).collect::<Vec<_>>());
+        assert_eq!(again["n_resumed"].as_u64(), Some(before as u64), "kill {i}");
+        assert_eq!(
+            again["n_ran"].as_u64(),
+            Some((total - before) as u64),
+            "kill {i}: a run lost or done twice"
+        );
+        assert!(partials(&out).is_empty(), "kill {i}: {:?}", partials(&out));
+        assert_same_results(&reference, &out, &format!("kill {i} ({trigger:?})"));
+        report.push((i, *sig, *trigger, code, before));
+    }
+    // the kills landed at different moments: before any run, among the runs, in the final writes
+    assert!(report.iter().any(|r| r.4 > 0 && r.4 < total), "{report:?}");
+}
+
+#[test]
+fn dry_run_quiet_and_the_progress_line() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = write(tmp.path(), "six.csv", SIX);
+    let out = tmp.path().join("dry");
+    // --dry-run: the plan's size and an estimate, nothing run or written
+    let dry = millcomp()
+        .args([
+            "batch",
+            "--scenarios",
+            s(&file),
+            "--controllers",
+            "pid,mpc",
+            "--out",
+            s(&out),
+            "--dry-run",
+        ])
+        .output()
+        .unwrap();
+    assert!(dry.status.success());
+    let text = String::from_utf8_lossy(&dry.stdout);
+    assert!(
+        text.contains(
+            "batch: 12 runs (6 scenarios × 2 controllers in the plan), 0 finished already"
+        ),
+        "{text}"
+    );
+    assert!(text.contains("2 commissionings (0 in the cache)"), "{text}");
+    assert!(text.contains("core-s, about"), "{text}");
+    assert!(!out.exists(), "--dry-run wrote {}", out.display());
+    // not a terminal: a progress line every tenth of the runs on stderr (12 runs: at each run past a
+    // tenth), the last one saying it is done
+    let run = millcomp()
+        .args([
+            "batch",
+            "--scenarios",
+            s(&file),
+            "--controllers",
+            "pid,pid-tuned",
+            "--out",
+            s(&out),
+        ])
+        .output()
+        .unwrap();
+    assert!(run.status.success());
+    let err = String::from_utf8_lossy(&run.stderr);
+    let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("batch: ")).collect();
+    assert!(lines.len() >= 10 && lines.len() <= 13, "{err}");
+    assert!(lines[0].starts_with("batch: 0/12 runs"), "{err}");
+    let last = lines.last().unwrap();
+    assert!(
+        last.starts_with("batch: 12/12 runs | done in") && last.ends_with("simulated s per wall s"),
+        "{last}"
+    );
+    // --quiet: nothing on stderr; the dry run now finds every run finished
+    let quiet = millcomp()
+        .args([
+            "batch",
+            "--scenarios",
+            s(&file),
+            "--controllers",
+            "pid,pid-tuned",
+            "--out",
+            s(&out),
+            "--quiet",
+        ])
+        .output()
+        .unwrap();
+    assert!(quiet.status.success() && quiet.stderr.is_empty());
+    let again = millcomp()
+        .args([
+            "batch",
+            "--scenarios",
+            s(&file),
+            "--controllers",
+            "pid,pid-tuned",
+            "--out",
+            s(&out),
+            "--dry-run",
+        ])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&again.stdout);
+    assert!(
+        text.contains("12 finished already") && text.contains("to run: 0 runs"),
+        "{text}"
+    );
 }

@@ -59,8 +59,9 @@ fn parts_refuses_bad_options_and_stages() {
     millcomp()
         .args(["parts", s(&scenario), "--parts", "0"])
         .assert()
-        .code(1)
-        .stderr(predicate::str::contains("parts"));
+        .code(2)
+        .stderr(predicate::str::contains("--parts"))
+        .stderr(predicate::str::contains("1..=1000"));
     millcomp()
         .args(["parts", s(&scenario), "--stiffness-error", "0.9"])
         .assert()

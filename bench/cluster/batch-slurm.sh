@@ -9,7 +9,10 @@
 #     "millcomp batch merge results/shard-* --out results/merged"
 #
 # Arguments after the script are `millcomp batch` options (--doe "ARGS" or --scenarios FILE, --controllers,
-# --columns); this script adds --out and --json. Without arguments it runs the default plan: the design
+# --columns); this script adds --out, --json and --cache $MILLCOMP_RESULTS/cache (unless the arguments
+# give --cache): the slices share one commissioning cache, so a commissioning another slice already made
+# is read, not made again (slices that need one at the same moment both make it, and write the same
+# model). Without arguments it runs the default plan: the design
 #   --design fractional --factors tilt_deg=20:40,depth_um=60:100,upfeed_um=8:12,wearland_um=4:12,
 #     stiffness_error_pct=-10:10,force_model_error_pct=5:25,noise_scale=0.5:2 --resolution 5 --seed 1
 # (a 2^(7-1) fractional factorial: 64 scenarios) with --controllers pid,mpc, 128 runs.
@@ -42,6 +45,10 @@ fi
 results="${MILLCOMP_RESULTS:-results}"
 mkdir -p "$results"
 export RAYON_NUM_THREADS="${SLURM_CPUS_PER_TASK:-2}"
-millcomp batch "$@" \
+cache=(--cache "$results/cache")
+for a in "$@"; do
+  case "$a" in --cache | --cache=*) cache=() ;; esac
+done
+millcomp batch "$@" "${cache[@]}" \
   --out "$results/shard-${SLURM_ARRAY_TASK_ID}" \
   --json > "$results/shard-${SLURM_ARRAY_TASK_ID}.json"

@@ -67,7 +67,7 @@ fn errors_between<'a>(x_mm: &[f64], error_um: &'a [f64], a: f64, b: f64) -> &'a 
 
 /// The median of `v`, `None` when it is empty.
 fn median_of(v: &[f64]) -> Option<f64> {
-    (!v.is_empty()).then(|| crate::compare::median(&mut v.to_vec()))
+    (!v.is_empty()).then(|| crate::stats::median(&mut v.to_vec()))
 }
 
 /// What changes.

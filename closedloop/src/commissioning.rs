@@ -38,7 +38,7 @@ use std::collections::BTreeMap;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 use millcomp_doe::{DesignKind, DesignRequest, FactorSpec, Level, generate};
 use millcomp_identify::targets::Identified;
@@ -57,81 +57,9 @@ use millcomp_sim::groove::GrooveConfig;
 use millcomp_sim::sensors::{CapacitanceGauge, ForceSensor, InstrumentErrors};
 
 use crate::calibration::{G_N_PER_KG, StiffnessCalibration, axial_masses_g, radial_masses_g};
+pub use crate::commissioning_plan::CommissioningPlan;
 use crate::error::{ClosedLoopError, invalid};
 use crate::scenario::Scenario;
-
-/// The settings of a commissioning (`[commissioning]` of a scenario; every key optional).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct CommissioningPlan {
-    /// Depth levels of the force DOE (µm).
-    pub force_depths_um: Vec<f64>,
-    /// Upfeed levels of the force DOE (µm/rev).
-    pub force_upfeeds_um: Vec<f64>,
-    /// Replicates of the force DOE.
-    pub replicates: usize,
-    /// Revolutions cut per run (synchronously averaged).
-    pub revolutions: usize,
-    /// Force samples per revolution.
-    pub samples_per_rev: usize,
-    /// Force parameters fitted (the rest at the nominal values): names of `identify force --free`.
-    pub force_free: Vec<String>,
-    /// Bias voltage of the step test (V).
-    pub step_bias_v: f64,
-    /// Voltage step (V).
-    pub step_v: f64,
-    /// Duration of the step test after the step (s).
-    pub step_duration_s: f64,
-    /// Gauge sampling interval of the step test (s).
-    pub step_dt_s: f64,
-    /// The load–deflection test.
-    pub stiffness: StiffnessCalibration,
-    /// Samples of each sensor's record at rest (every `step_dt_s`).
-    pub noise_samples: usize,
-    /// Turning points of the hysteresis sweep (V), from rest at 0 V.
-    pub hysteresis_turning_v: Vec<f64>,
-    /// Rate of the hysteresis sweep (V/s): slow against the stack's dynamics.
-    pub hysteresis_rate_v_per_s: f64,
-    /// Gauge sampling interval of the hysteresis sweep (s).
-    pub hysteresis_dt_s: f64,
-    /// Acceptance: the largest relative standard error of a parameter that sets the deflection prediction
-    /// (the fitted force parameters and the two stiffnesses); above it the bundle carries a warning that
-    /// the experiment was too small for the model to be trusted.
-    pub accept_rel_se: f64,
-}
-
-impl Default for CommissioningPlan {
-    /// A 3×3 full factorial (depth 20/50/80 µm — the thesis' groove range; upfeed 5/10/15 µm/rev around
-    /// its 10 µm/rev), 2 replicates, 20 revolutions at 72 samples each; W, wearland and runout free (a fresh
-    /// tool's wearland and runout are not the catalogue's; the averaged traces show both); a 10 V step
-    /// from 20 V (≈ 0.5 µm, the thesis' step of Fig. 5-15) for 30 ms sampled at 20 kHz; the thesis'
-    /// hanging-mass calibration; a hysteresis sweep at 500 V/s through a major loop 20–900 V (the
-    /// gauge's 50 µm range holds ≈ 950 V of tip) and minor loops of 20–700 V amplitude (≈ 13 s, read
-    /// every ms); 2000 samples (0.1 s) of each sensor at rest.
-    fn default() -> Self {
-        Self {
-            force_depths_um: vec![20.0, 50.0, 80.0],
-            force_upfeeds_um: vec![5.0, 10.0, 15.0],
-            replicates: 2,
-            revolutions: 20,
-            samples_per_rev: 72,
-            force_free: vec!["w_mpa".into(), "wearland_um".into(), "runout_um".into()],
-            step_bias_v: 20.0,
-            step_v: 10.0,
-            step_duration_s: 0.03,
-            step_dt_s: 5e-5,
-            stiffness: StiffnessCalibration::default(),
-            noise_samples: 2000,
-            hysteresis_turning_v: vec![
-                900.0, 20.0, 700.0, 200.0, 600.0, 300.0, 500.0, 400.0, 460.0, 440.0, 900.0, 600.0,
-                750.0, 650.0, 700.0, 20.0, 300.0, 100.0, 200.0, 150.0,
-            ],
-            hysteresis_rate_v_per_s: 500.0,
-            hysteresis_dt_s: 1e-3,
-            accept_rel_se: 0.05,
-        }
-    }
-}
 
 /// The plant as the commissioning sees it: the truth and its instruments, with the sensors' noise levels.
 #[derive(Debug, Clone)]
@@ -269,20 +197,50 @@ pub fn commission(
     plan: &CommissioningPlan,
     seed: u64,
 ) -> Result<Commissioned, ClosedLoopError> {
+    commission_with(plant, plan, seed, true)
+}
+
+/// The bundle of [`commission`] alone — the same bundle, value for value — without the pseudo-true
+/// values: the force and spindle experiments are not run a second time without noise. What a run's
+/// controllers are built from (`crate::groove::groove_setup`).
+///
+/// # Errors
+/// As [`commission`].
+pub fn commission_bundle(
+    plant: &CommissioningPlant<'_>,
+    plan: &CommissioningPlan,
+    seed: u64,
+) -> Result<ModelBundle, ClosedLoopError> {
+    Ok(commission_with(plant, plan, seed, false)?.bundle)
+}
+
+/// [`commission`]; the force and spindle experiments are rerun without noise for their pseudo-true values
+/// only when `pseudo_true_wanted` (without, the map holds only the values that cost nothing).
+fn commission_with(
+    plant: &CommissioningPlant<'_>,
+    plan: &CommissioningPlan,
+    seed: u64,
+    pseudo_true_wanted: bool,
+) -> Result<Commissioned, ClosedLoopError> {
     validate_plan(plan)?;
     let mut pseudo_true = BTreeMap::new();
 
     let (force, force_desc) = force_experiment(plant, plan, seed, true)?;
-    let (force_ideal, _) = force_experiment(plant, plan, seed, false)?;
-    for (k, v) in &force_ideal.report.params {
-        pseudo_true.insert(format!("force.{k}"), *v);
+    if pseudo_true_wanted {
+        let (force_ideal, _) = force_experiment(plant, plan, seed, false)?;
+        for (k, v) in &force_ideal.report.params {
+            pseudo_true.insert(format!("force.{k}"), *v);
+        }
     }
 
     let (spindle, spindle_bic, spindle_desc, structure) =
         spindle_experiment(plant, plan, seed, true, None)?;
-    let (spindle_ideal, _, _, _) = spindle_experiment(plant, plan, seed, false, Some(structure))?;
-    for (k, v) in &spindle_ideal.report.params {
-        pseudo_true.insert(format!("spindle.{k}"), *v);
+    if pseudo_true_wanted {
+        let (spindle_ideal, _, _, _) =
+            spindle_experiment(plant, plan, seed, false, Some(structure))?;
+        for (k, v) in &spindle_ideal.report.params {
+            pseudo_true.insert(format!("spindle.{k}"), *v);
+        }
     }
 
     let (stiffness, stiffness_desc) = stiffness_experiment(plant, plan, seed)?;
@@ -540,94 +498,19 @@ fn force_experiment(
             })
             .collect()
     };
-    let spr = plan.samples_per_rev;
-    let rev_s = 60.0 / program.speed_rpm;
-    let (mut depth, mut upfeed, mut speed, mut tilt, mut rot, mut fz) =
-        (vec![], vec![], vec![], vec![], vec![], vec![]);
-    // the nominal model's force at the same samples, for the fit's starting W (below)
-    let mut base = nominal_force_model(plant.material)?;
-    let mut predicted = 0.0;
-    for (k, &(d, f)) in runs.iter().enumerate() {
-        let cond = CutConditions::new(d, f, program.speed_rpm, program.tilt_deg)?;
-        let prepared = plant.truth.force_model.prepare(&cond);
-        let nominal = base.prepare(&cond);
-        let mut sensor = if noisy {
-            ForceSensor::new(
-                plant.force_noise_n,
-                plant.force_noise_n,
-                seed.wrapping_mul(1009).wrapping_add(k as u64),
-            )?
-        } else {
-            ForceSensor::ideal()
-        };
-        let mut sum = vec![0.0; spr];
-        for r in 0..plan.revolutions {
-            for (j, s) in sum.iter_mut().enumerate() {
-                let phase = j as f64 / spr as f64;
-                let t = (r as f64 + phase) * rev_s;
-                let true_fz = prepared.forces(2.0 * std::f64::consts::PI * phase)[2];
-                *s += sensor.measure(plant.instruments.force_reading(true_fz, t));
-            }
-        }
-        for (j, s) in sum.iter().enumerate() {
-            depth.push(d);
-            upfeed.push(f);
-            speed.push(program.speed_rpm);
-            tilt.push(program.tilt_deg);
-            let rot_deg = 360.0 * j as f64 / spr as f64;
-            rot.push(rot_deg);
-            predicted += nominal.forces(rot_deg.to_radians())[2];
-            fz.push(s / plan.revolutions as f64);
-        }
-    }
-    let free = plan
-        .force_free
+    let cuts = runs
         .iter()
-        .map(|n| ForceParam::parse(n))
-        .collect::<Result<Vec<_>, _>>()
-        .map_err(|source| ClosedLoopError::Commissioning {
-            experiment: "force calibration",
-            source: Box::new(source),
-        })?;
-    // start W where the nominal model's mean force matches the measured mean (the model is close to
-    // proportional to W): a start 3–4× off (the groove's calibrated force scale) otherwise costs hundreds
-    // of trust-region steps
-    let measured: f64 = fz.iter().sum();
-    if predicted.is_finite() && predicted > 0.0 && measured > 0.0 {
-        base.material.w_mpa *= measured / predicted;
-    }
-    let mut common = millcomp_identify::targets::thermal::CommonOptions::default();
-    // identify's defaults (ftol 1e-14, gtol 1e-12) are meant for small fits; on ~1300 noisy trace samples
-    // the gradient cosine settles at its rounding floor above 1e-12 and the fit can stall at the optimum
-    // without meeting a tolerance. scipy's least_squares defaults (gtol 1e-8) stop it there; ftol 1e-10
-    // leaves a parameter error below √(1e-10·n)·SE ≈ 4e-4 SE.
-    common.nls.ftol = 1e-10;
-    common.nls.xtol = 1e-10;
-    common.nls.gtol = 1e-8;
-    common.nls.max_iter = common.nls.max_iter.max(1000);
-    let opts = ForceOptions {
-        base,
-        common,
-        free,
-        default_tilt_deg: program.tilt_deg,
-        ..ForceOptions::default()
-    };
-    let data = ForceData::Traces(ForceTraceData {
-        conditions: ForceConditions {
-            depth_um: &depth,
-            upfeed_um: &upfeed,
-            speed_rpm: Some(&speed),
-            tilt_deg: Some(&tilt),
-        },
-        rot_deg: &rot,
-        fx_n: None,
-        fy_n: None,
-        fz_n: Some(&fz),
-    });
-    let fit = identify_force(&data, &opts).map_err(|source| ClosedLoopError::Commissioning {
-        experiment: "force calibration",
-        source: Box::new(source),
-    })?;
+        .map(|&(d, f)| CutConditions::new(d, f, program.speed_rpm, program.tilt_deg))
+        .collect::<Result<Vec<_>, _>>()?;
+    let traces = record_force_calibration(
+        plant,
+        &cuts,
+        plan.revolutions,
+        plan.samples_per_rev,
+        seed,
+        noisy,
+    )?;
+    let fit = identify_force_traces(&traces, plant.material, &plan.force_free, program.tilt_deg)?;
     let desc = format!(
         "force: full factorial depth_um {} x upfeed_um {}, {} replicate(s), {} runs at {} rpm and tilt {} deg, \
          {} revolutions each synchronously averaged at {} samples/rev; free {}",
@@ -638,10 +521,150 @@ fn force_experiment(
         program.speed_rpm,
         program.tilt_deg,
         plan.revolutions,
-        spr,
+        plan.samples_per_rev,
         plan.force_free.join(", ")
     );
     Ok((fit, desc))
+}
+
+/// A force calibration as the dynamometer recorded it: for every sample of every run, the run's cut
+/// conditions, the rotation angle and the z-force synchronously averaged over the run's revolutions (the
+/// columns of `millcomp identify force` on traces).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ForceTraces {
+    /// Run of each sample (0-based, in the order cut).
+    pub run: Vec<usize>,
+    /// Programmed depth (µm).
+    pub depth_um: Vec<f64>,
+    /// Upfeed (µm/rev).
+    pub upfeed_um: Vec<f64>,
+    /// Spindle speed (rpm).
+    pub speed_rpm: Vec<f64>,
+    /// Tool tilt (deg).
+    pub tilt_deg: Vec<f64>,
+    /// Rotation angle of the sample (deg).
+    pub rot_deg: Vec<f64>,
+    /// Measured z-force averaged over the revolutions (N).
+    pub fz_n: Vec<f64>,
+}
+
+/// Cuts `cuts` on the plant, each for `revolutions` revolutions, the force sensor zeroed before the cut and
+/// sampled `samples_per_rev` times a revolution through the plant's instruments (gain, drift; with
+/// `noisy`, its noise and quantisation too), averaged synchronously over the revolutions.
+///
+/// # Errors
+/// The sensor's errors for a bad noise level.
+pub fn record_force_calibration(
+    plant: &CommissioningPlant<'_>,
+    cuts: &[CutConditions],
+    revolutions: usize,
+    samples_per_rev: usize,
+    seed: u64,
+    noisy: bool,
+) -> Result<ForceTraces, ClosedLoopError> {
+    let spr = samples_per_rev.max(1);
+    let mut out = ForceTraces::default();
+    for (k, cond) in cuts.iter().enumerate() {
+        let rev_s = 60.0 / cond.speed_rpm;
+        let prepared = plant.truth.force_model.prepare(cond);
+        let mut sensor = if noisy {
+            ForceSensor::new(
+                plant.force_noise_n,
+                plant.force_noise_n,
+                seed.wrapping_mul(1009).wrapping_add(k as u64),
+            )?
+        } else {
+            ForceSensor::ideal()
+        };
+        let mut sum = vec![0.0; spr];
+        for r in 0..revolutions {
+            for (j, s) in sum.iter_mut().enumerate() {
+                let phase = j as f64 / spr as f64;
+                let t = (r as f64 + phase) * rev_s;
+                let true_fz = prepared.forces(2.0 * std::f64::consts::PI * phase)[2];
+                *s += sensor.measure(plant.instruments.force_reading(true_fz, t));
+            }
+        }
+        for (j, s) in sum.iter().enumerate() {
+            out.run.push(k);
+            out.depth_um.push(cond.depth_um);
+            out.upfeed_um.push(cond.upfeed_um);
+            out.speed_rpm.push(cond.speed_rpm);
+            out.tilt_deg.push(cond.tilt_deg);
+            out.rot_deg.push(360.0 * j as f64 / spr as f64);
+            out.fz_n.push(s / revolutions.max(1) as f64);
+        }
+    }
+    Ok(out)
+}
+
+/// Identifies the force parameters `free` (names of `identify force --free`; the rest at the nominal
+/// values of `material`'s catalogue tool) from recorded force traces, as a commissioning does: the fit
+/// starts from the W at which the nominal model's mean force matches the measured mean, with tolerances
+/// for a trace fit of a thousand noisy samples.
+///
+/// # Errors
+/// [`ClosedLoopError::Commissioning`] naming the force calibration for an unknown parameter or a fit that
+/// fails; an unknown material.
+pub fn identify_force_traces(
+    traces: &ForceTraces,
+    material: &str,
+    free: &[String],
+    default_tilt_deg: f64,
+) -> Result<Identified, ClosedLoopError> {
+    // the nominal model's force at the same samples, for the fit's starting W (below)
+    let mut base = nominal_force_model(material)?;
+    let mut predicted = 0.0;
+    for i in 0..traces.fz_n.len() {
+        let cond = CutConditions::new(
+            traces.depth_um[i],
+            traces.upfeed_um[i],
+            traces.speed_rpm[i],
+            traces.tilt_deg[i],
+        )?;
+        predicted += base.prepare(&cond).forces(traces.rot_deg[i].to_radians())[2];
+    }
+    let free = free
+        .iter()
+        .map(|n| ForceParam::parse(n))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|source| ClosedLoopError::Commissioning {
+            experiment: "force calibration",
+            source: Box::new(source),
+        })?;
+    // start W where the nominal model's mean force matches the measured mean (the model is close to
+    // proportional to W): a start 3–4× off (the groove's calibrated force scale) otherwise costs hundreds
+    // of trust-region steps
+    let measured: f64 = traces.fz_n.iter().sum();
+    if predicted.is_finite() && predicted > 0.0 && measured > 0.0 {
+        base.material.w_mpa *= measured / predicted;
+    }
+    // identify's defaults: its gradient test stops at its own resolution (identify's nonlinear module),
+    // which the ~1300 trace samples reach in a few iterations
+    let common = millcomp_identify::targets::thermal::CommonOptions::default();
+    let opts = ForceOptions {
+        base,
+        common,
+        free,
+        default_tilt_deg,
+        ..ForceOptions::default()
+    };
+    let data = ForceData::Traces(ForceTraceData {
+        conditions: ForceConditions {
+            depth_um: &traces.depth_um,
+            upfeed_um: &traces.upfeed_um,
+            speed_rpm: Some(&traces.speed_rpm),
+            tilt_deg: Some(&traces.tilt_deg),
+        },
+        rot_deg: &traces.rot_deg,
+        fx_n: None,
+        fy_n: None,
+        fz_n: Some(&traces.fz_n),
+    });
+    identify_force(&data, &opts).map_err(|source| ClosedLoopError::Commissioning {
+        experiment: "force calibration",
+        source: Box::new(source),
+    })
 }
 
 /// Spindle structures tried, in order of complexity: (name, extra pole, dead time).
@@ -668,6 +691,42 @@ fn spindle_experiment(
     noisy: bool,
     structure: Option<usize>,
 ) -> Result<SpindleOutcome, ClosedLoopError> {
+    let rec = record_step_test(plant, plan, seed, noisy)?;
+    let (fit, bics, chosen) = identify_step_test(&rec, structure)?;
+    let desc = format!(
+        "spindle: step test in air, {} V -> {} V, {} s after the step sampled every {} s by the gauge; \
+         structure {} chosen by BIC",
+        plan.step_bias_v,
+        plan.step_bias_v + plan.step_v,
+        plan.step_duration_s,
+        plan.step_dt_s,
+        SPINDLE_STRUCTURES[chosen].0
+    );
+    Ok((fit, bics, desc, chosen))
+}
+
+/// A spindle step test as the gauge recorded it (the columns of `millcomp identify spindle`).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct StepRecord {
+    /// Time (s).
+    pub t_s: Vec<f64>,
+    /// Amplifier command (V).
+    pub u_v: Vec<f64>,
+    /// Gauge reading of the tool tip (µm).
+    pub y_um: Vec<f64>,
+}
+
+/// The step test in air: the stack settled at the plan's bias, then a step of `step_v`, the gauge (its
+/// zero offset; with `noisy`, its noise) sampled every `step_dt_s` before each interval's command.
+///
+/// # Errors
+/// The spindle's discretisation errors; a bad gauge noise level.
+pub fn record_step_test(
+    plant: &CommissioningPlant<'_>,
+    plan: &CommissioningPlan,
+    seed: u64,
+    noisy: bool,
+) -> Result<StepRecord, ClosedLoopError> {
     let mut sp = plant.truth.spindle.discretize(plan.step_dt_s)?;
     let pre = (0.005 / plan.step_dt_s).round() as usize;
     let post = (plan.step_duration_s / plan.step_dt_s).round() as usize;
@@ -684,7 +743,7 @@ fn spindle_experiment(
         )
     })?;
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5_7e9);
-    let (mut t, mut u, mut y) = (vec![], vec![], vec![]);
+    let mut rec = StepRecord::default();
     for k in 0..pre + post {
         let v = if k < pre {
             plan.step_bias_v
@@ -693,15 +752,33 @@ fn spindle_experiment(
         };
         // sample the gauge before applying this interval's command (ZOH: y[k] depends on u[..k])
         let tip = sp.tip_um();
-        t.push(k as f64 * plan.step_dt_s);
-        u.push(v);
-        y.push(tip + plant.instruments.gauge_offset_um + noise.sample(&mut rng));
+        rec.t_s.push(k as f64 * plan.step_dt_s);
+        rec.u_v.push(v);
+        rec.y_um
+            .push(tip + plant.instruments.gauge_offset_um + noise.sample(&mut rng));
         sp.step(v);
     }
+    Ok(rec)
+}
+
+/// A spindle fit from a step test: the fit kept, every structure's BIC (by name) and the index of the
+/// one kept ([`identify_step_test`]).
+pub type SpindleFit = (Identified, Vec<(String, f64)>, usize);
+
+/// Identifies the spindle from a step record: each structure of [`SPINDLE_STRUCTURES`] (or only
+/// `structure`) fitted, the one with the smallest BIC kept (its choice and the BICs noted in its
+/// warnings). Returns the fit, every structure's BIC and the index of the one kept.
+///
+/// # Errors
+/// [`ClosedLoopError::Commissioning`] naming the spindle step test when a fit fails.
+pub fn identify_step_test(
+    rec: &StepRecord,
+    structure: Option<usize>,
+) -> Result<SpindleFit, ClosedLoopError> {
     let data = SpindleData {
-        t_s: &t,
-        u_v: &u,
-        y_um: &y,
+        t_s: &rec.t_s,
+        u_v: &rec.u_v,
+        y_um: &rec.y_um,
     };
     let mut fits = Vec::new();
     let which: Vec<usize> = match structure {
@@ -742,16 +819,7 @@ fn spindle_experiment(
         ));
         fit.model.warnings = fit.report.warnings.clone();
     }
-    let desc = format!(
-        "spindle: step test in air, {} V -> {} V, {} s after the step sampled every {} s by the gauge; \
-         structure {} chosen by BIC",
-        plan.step_bias_v,
-        plan.step_bias_v + plan.step_v,
-        plan.step_duration_s,
-        plan.step_dt_s,
-        SPINDLE_STRUCTURES[chosen].0
-    );
-    Ok((fit, bics, desc, chosen))
+    Ok((fit, bics, chosen))
 }
 
 /// The hysteresis sweep: from rest at 0 V the drive voltage ramps through the plan's turning points at
@@ -761,6 +829,37 @@ fn hysteresis_experiment(
     plan: &CommissioningPlan,
     seed: u64,
 ) -> Result<(Identified, String), ClosedLoopError> {
+    let rec = record_hysteresis_sweep(plant, plan, seed)?;
+    let fit = identify_hysteresis_sweep(&rec)?;
+    let desc = format!(
+        "hysteresis: sweep in air from 0 V through {} V at {} V/s, the gauge read every {} s; \
+         Prandtl-Ishlinskii model, {} plays",
+        fmt_levels(&plan.hysteresis_turning_v),
+        plan.hysteresis_rate_v_per_s,
+        plan.hysteresis_dt_s,
+        fit.report.params.len() - 1
+    );
+    Ok((fit, desc))
+}
+
+/// A quasi-static sweep in air as the gauge recorded it (the columns of `millcomp identify hysteresis`).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SweepRecord {
+    /// Drive voltage (V).
+    pub u_v: Vec<f64>,
+    /// Gauge reading of the tool tip (µm).
+    pub y_um: Vec<f64>,
+}
+
+/// The hysteresis sweep of the plan on the plant's stack, read by its gauge (offset, noise, range).
+///
+/// # Errors
+/// The spindle's discretisation errors; a bad gauge.
+pub fn record_hysteresis_sweep(
+    plant: &CommissioningPlant<'_>,
+    plan: &CommissioningPlan,
+    seed: u64,
+) -> Result<SweepRecord, ClosedLoopError> {
     let dt = plan.hysteresis_dt_s;
     let mut sp = plant.truth.spindle.discretize(dt)?;
     let mut gauge = CapacitanceGauge::new(
@@ -771,7 +870,7 @@ fn hysteresis_experiment(
         seed ^ 0x4_7573,
     )?;
     let dv = plan.hysteresis_rate_v_per_s * dt;
-    let (mut u, mut y) = (Vec::new(), Vec::new());
+    let mut rec = SweepRecord::default();
     let mut v = 0.0f64;
     for &target in &plan.hysteresis_turning_v {
         let n = ((target - v).abs() / dv).ceil().max(1.0) as usize;
@@ -779,27 +878,29 @@ fn hysteresis_experiment(
         for k in 1..=n {
             v = from + (target - from) * k as f64 / n as f64;
             sp.step(v);
-            u.push(v);
-            y.push(gauge.measure_um(sp.tip_um()));
+            rec.u_v.push(v);
+            rec.y_um.push(gauge.measure_um(sp.tip_um()));
         }
     }
-    let fit = identify_hysteresis(
-        &HysteresisData { u_v: &u, y_um: &y },
+    Ok(rec)
+}
+
+/// Identifies the stack's Prandtl–Ishlinskii hysteresis from a sweep record.
+///
+/// # Errors
+/// [`ClosedLoopError::Commissioning`] naming the hysteresis sweep when the fit fails.
+pub fn identify_hysteresis_sweep(rec: &SweepRecord) -> Result<Identified, ClosedLoopError> {
+    identify_hysteresis(
+        &HysteresisData {
+            u_v: &rec.u_v,
+            y_um: &rec.y_um,
+        },
         &HysteresisOptions::default(),
     )
     .map_err(|source| ClosedLoopError::Commissioning {
         experiment: "hysteresis sweep",
         source: Box::new(source),
-    })?;
-    let desc = format!(
-        "hysteresis: sweep in air from 0 V through {} V at {} V/s, the gauge read every {} s; \
-         Prandtl-Ishlinskii model, {} plays",
-        fmt_levels(&plan.hysteresis_turning_v),
-        plan.hysteresis_rate_v_per_s,
-        dt,
-        fit.report.params.len() - 1
-    );
-    Ok((fit, desc))
+    })
 }
 
 fn stiffness_experiment(
@@ -808,9 +909,41 @@ fn stiffness_experiment(
     seed: u64,
 ) -> Result<(Identified, String), ClosedLoopError> {
     let cal = &plan.stiffness;
+    let rec = record_load_deflection(plant, cal, seed)?;
+    let fit = identify_load_deflection(&rec, &[plant.truth.program.tilt_deg])?;
+    let desc = format!(
+        "stiffness: hanging masses 100-1000 g axial, 50-1000 g radial, {} trial(s) each, dial indicator \
+         resolution {} um, noise {} um",
+        cal.trials, cal.indicator_resolution_um, cal.noise_um
+    );
+    Ok((fit, desc))
+}
+
+/// A load–deflection test as the dial indicator recorded it (the columns of `millcomp identify
+/// stiffness`).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LoadRecord {
+    /// Hanging load (N).
+    pub load_n: Vec<f64>,
+    /// Indicator reading (µm).
+    pub deflection_um: Vec<f64>,
+    /// `axial` or `radial`.
+    pub direction: Vec<String>,
+}
+
+/// The load–deflection test (`000_…txt` §5.2.3): the masses hung axially and radially, `cal.trials` times
+/// each, read by the dial indicator (its resolution and noise).
+///
+/// # Errors
+/// A bad indicator noise level.
+pub fn record_load_deflection(
+    plant: &CommissioningPlant<'_>,
+    cal: &StiffnessCalibration,
+    seed: u64,
+) -> Result<LoadRecord, ClosedLoopError> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(7));
     let noise = cal.noise()?;
-    let (mut load, mut defl, mut dir) = (vec![], vec![], vec![]);
+    let mut rec = LoadRecord::default();
     for (name, masses, k) in [
         (
             "axial",
@@ -826,33 +959,40 @@ fn stiffness_experiment(
         for m in masses {
             let f = m * 1e-3 * G_N_PER_KG;
             for _ in 0..cal.trials.max(1) {
-                load.push(f);
-                defl.push(cal.reading_um(f / k, &noise, &mut rng));
-                dir.push(name.to_string());
+                rec.load_n.push(f);
+                rec.deflection_um
+                    .push(cal.reading_um(f / k, &noise, &mut rng));
+                rec.direction.push(name.to_string());
             }
         }
     }
-    let fit = identify_stiffness(
+    Ok(rec)
+}
+
+/// Identifies the axial and radial stiffness from a load–deflection record, with the tilted tool's
+/// z-stiffness reported at `tilt_deg`.
+///
+/// # Errors
+/// [`ClosedLoopError::Commissioning`] naming the load–deflection test when the fit fails.
+pub fn identify_load_deflection(
+    rec: &LoadRecord,
+    tilt_deg: &[f64],
+) -> Result<Identified, ClosedLoopError> {
+    identify_stiffness(
         &StiffnessData {
-            load_n: &load,
-            deflection_um: &defl,
-            direction: Some(&dir),
+            load_n: &rec.load_n,
+            deflection_um: &rec.deflection_um,
+            direction: Some(&rec.direction),
         },
         &StiffnessOptions {
-            tilt_deg: vec![plant.truth.program.tilt_deg],
+            tilt_deg: tilt_deg.to_vec(),
             ..StiffnessOptions::default()
         },
     )
     .map_err(|source| ClosedLoopError::Commissioning {
         experiment: "load-deflection test",
         source: Box::new(source),
-    })?;
-    let desc = format!(
-        "stiffness: hanging masses 100-1000 g axial, 50-1000 g radial, {} trial(s) each, dial indicator \
-         resolution {} um, noise {} um",
-        cal.trials, cal.indicator_resolution_um, cal.noise_um
-    );
-    Ok((fit, desc))
+    })
 }
 
 /// The standard deviation of `N(0, σ²)` read through a quantiser of step `q` (σ when `q` is 0): the level
@@ -884,8 +1024,32 @@ fn noise_experiment(
     plan: &CommissioningPlan,
     seed: u64,
 ) -> Result<NoiseRecord, ClosedLoopError> {
-    use statrs::distribution::{ChiSquared, ContinuousCDF};
-    let n = plan.noise_samples;
+    let rec = record_sensors_at_rest(plant, plan.noise_samples, plan.step_dt_s, seed)?;
+    sensor_noise_at_rest(&rec)
+}
+
+/// The sensors recorded at rest (`t_s, force_n, gauge_um`).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RestRecord {
+    /// Sampling interval (s).
+    pub dt_s: f64,
+    /// The force channel, zeroed, spindle in air (N).
+    pub force_n: Vec<f64>,
+    /// The gauge, PZT held (µm).
+    pub gauge_um: Vec<f64>,
+}
+
+/// Each sensor recorded at rest for `samples` samples every `dt_s`: the force channel (zeroed, spindle in
+/// air) and the gauge (PZT held, the tip at mid-range), through the plant's instruments.
+///
+/// # Errors
+/// A bad noise level.
+pub fn record_sensors_at_rest(
+    plant: &CommissioningPlant<'_>,
+    samples: usize,
+    dt_s: f64,
+    seed: u64,
+) -> Result<RestRecord, ClosedLoopError> {
     let mut force = ForceSensor::new(plant.force_noise_n, plant.force_noise_n, seed ^ 0x0015_e0f0)?;
     let mut gauge = CapacitanceGauge::new(
         50.0,
@@ -894,12 +1058,38 @@ fn noise_experiment(
         plant.gauge_noise_um,
         seed ^ 0x0015_e06a,
     )?;
-    let (mut f, mut g) = (Vec::with_capacity(n), Vec::with_capacity(n));
-    for k in 0..n {
-        let t = k as f64 * plan.step_dt_s;
-        f.push(force.measure(plant.instruments.force_reading(0.0, t)));
-        g.push(gauge.measure_um(25.0));
+    let mut rec = RestRecord {
+        dt_s,
+        force_n: Vec::with_capacity(samples),
+        gauge_um: Vec::with_capacity(samples),
+    };
+    for k in 0..samples {
+        let t = k as f64 * dt_s;
+        rec.force_n
+            .push(force.measure(plant.instruments.force_reading(0.0, t)));
+        rec.gauge_um.push(gauge.measure_um(25.0));
     }
+    Ok(rec)
+}
+
+/// The sensors' noise levels from a record at rest: each channel's sample standard deviation with its
+/// standard error σ̂/√(2(n−1)) and its χ²(n−1) 95 % interval, as a saveable model (kind
+/// `sensor_noise`).
+///
+/// # Errors
+/// [`ClosedLoopError::InvalidConfig`] naming `commissioning.noise_samples` for fewer than 10 samples or
+/// channels of different lengths.
+pub fn sensor_noise_at_rest(rec: &RestRecord) -> Result<NoiseRecord, ClosedLoopError> {
+    use statrs::distribution::{ChiSquared, ContinuousCDF};
+    let n = rec.force_n.len();
+    if n < 10 || rec.gauge_um.len() != n {
+        return Err(invalid(
+            "commissioning.noise_samples",
+            n,
+            ">= 10 samples of each channel, as many of one as of the other",
+        ));
+    }
+    let (f, g) = (&rec.force_n, &rec.gauge_um);
     let sd = |x: &[f64]| {
         let m = x.iter().sum::<f64>() / x.len() as f64;
         (x.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (x.len() - 1) as f64).sqrt()
@@ -911,7 +1101,7 @@ fn noise_experiment(
     let mut params = BTreeMap::new();
     let mut std_err = BTreeMap::new();
     let mut ci95 = BTreeMap::new();
-    for (name, x) in [(SensorNoise::PARAMS[0], &f), (SensorNoise::PARAMS[1], &g)] {
+    for (name, x) in [(SensorNoise::PARAMS[0], f), (SensorNoise::PARAMS[1], g)] {
         let s = sd(x);
         params.insert(name.to_string(), s);
         std_err.insert(name.to_string(), s / (2.0 * dof).sqrt());
@@ -946,7 +1136,7 @@ fn noise_experiment(
     let description = format!(
         "sensor_noise: force channel (spindle in air) and gauge (PZT held) recorded at rest, {n} samples \
          every {} s each; sample standard deviations",
-        plan.step_dt_s
+        rec.dt_s
     );
     Ok(NoiseRecord {
         description,

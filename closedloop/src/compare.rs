@@ -14,7 +14,10 @@ use serde::Serialize;
 use crate::error::ClosedLoopError;
 use crate::report::RunReport;
 use crate::runner::run_scenario;
+pub use crate::scenario::commissioned;
 use crate::scenario::{ControllerKind, Scenario, StageKind};
+use crate::stats::median;
+pub use crate::stats::median_ci95;
 
 /// One metric of one controller on one scenario, over the seeds.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -127,52 +130,6 @@ pub fn metrics_of(s: &Scenario, r: &RunReport) -> Vec<(String, f64)> {
     }
 }
 
-/// The order-statistic interval of the median of `sorted` (ascending): ranks `k` and `n + 1 − k` with the
-/// largest `k` such that `P(Bin(n, ½) < k) ≤ 2.5 %`; NaN when no such `k ≥ 1` exists (n < 6).
-///
-/// # Examples
-/// ```
-/// use millcomp_closedloop::compare::median_ci95;
-/// let x: Vec<f64> = (1..=10).map(f64::from).collect();
-/// // n = 10: ranks 2 and 9 (coverage 97.9 %)
-/// assert_eq!(median_ci95(&x), [2.0, 9.0]);
-/// assert!(median_ci95(&x[..5])[0].is_nan());
-/// ```
-pub fn median_ci95(sorted: &[f64]) -> [f64; 2] {
-    let n = sorted.len();
-    // P(Bin(n, ½) ≤ j) by summing the probabilities
-    let mut cdf = 0.0;
-    let mut choose = 1.0f64; // C(n, j)
-    let mut k = 0usize;
-    for j in 0..n {
-        cdf += choose * 0.5f64.powi(n as i32);
-        if cdf <= 0.025 {
-            k = j + 1; // P(X ≤ j) = P(X < j + 1) ≤ 2.5 %: rank j + 1 is admissible
-        } else {
-            break;
-        }
-        choose *= (n - j) as f64 / (j + 1) as f64;
-    }
-    if k == 0 {
-        return [f64::NAN, f64::NAN];
-    }
-    [sorted[k - 1], sorted[n - k]]
-}
-
-/// Median of `v` (sorted in place; NaN when empty).
-pub(crate) fn median(v: &mut [f64]) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
 /// Run every scenario with every controller its stage has, for each seed of `seeds`, in parallel
 /// (rayon); `progress` is called after each run.
 ///
@@ -233,34 +190,4 @@ pub fn compare(
             }
         })
         .collect())
-}
-
-/// A scenario turned into its hard form. Grooves: instrument errors and a fresh tool drawn from the seed,
-/// a PZT stack with hysteresis and creep, the controllers built from the commissioning of the truth alone
-/// (the models it named, if any, dropped). Thin walls: every wall a real part drawn from the seed
-/// (`truth.draw_wall`: its modulus and force coefficient off the published wall the controllers' model
-/// keeps; the thin wall is not commissioned yet). Both: no deliberate force-model errors on top
-/// (`truth.force_error_max` 0, `truth.force_errors` dropped) — what the controllers get wrong comes from
-/// the plant, not from a perturbation laid on their model.
-pub fn commissioned(s: &Scenario) -> Scenario {
-    let mut s = s.clone();
-    match s.stage {
-        StageKind::Groove => {
-            s.truth.draw_instruments = true;
-            s.truth.draw_tool = true;
-            s.truth.pzt_nonlinear = true;
-            s.control.commission = true;
-            s.control.bundle = None;
-            s.control.spindle_model = None;
-            s.control.force_model = None;
-        }
-        StageKind::ThinWall => {
-            s.truth.draw_wall = true;
-        }
-        // always commissioned; its truth draws per seed
-        StageKind::NcAxis => {}
-    }
-    s.truth.force_error_max = 0.0;
-    s.truth.force_errors = None;
-    s
 }

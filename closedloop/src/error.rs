@@ -352,6 +352,42 @@ pub enum ClosedLoopError {
         /// One line per failed run: the run and its error chain.
         errors: Vec<String>,
     },
+    /// An error met once and shared by everyone who needed the same result (the commissioning of a
+    /// key several runs share, [`crate::cache`]): its message and causes are the original's.
+    #[error(transparent)]
+    Shared(std::sync::Arc<ClosedLoopError>),
+    /// A batch was stopped by a signal (SIGTERM, SIGINT) before its runs were done: the runs finished
+    /// are kept and the same command resumes.
+    #[error(
+        "stopped by {signal} after {done} of {planned} runs of this slice: the finished runs are kept in {}; \
+         run the same command to resume",
+        .dir.display()
+    )]
+    Interrupted {
+        /// The signal's name.
+        signal: String,
+        /// Runs finished (now or before).
+        done: usize,
+        /// Runs of the slice.
+        planned: usize,
+        /// The runs' directory.
+        dir: PathBuf,
+    },
+    /// A plot could not be drawn or written.
+    #[error("plot {}: {message}", .path.display())]
+    Plot {
+        /// The plot file.
+        path: PathBuf,
+        /// The drawing library's or the writer's message.
+        message: String,
+    },
+    /// The scenarios' design could not be generated.
+    #[error("generating the design")]
+    Design {
+        /// The design generator's error.
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync + 'static>,
+    },
     /// `batch merge` without directories.
     #[error("batch merge: give the slice directories to merge")]
     MergeNoDirs,
@@ -423,4 +459,37 @@ pub fn error_chain(e: &(dyn std::error::Error + 'static)) -> String {
         cause = c.source();
     }
     text
+}
+
+/// Checks that scenario key `key` holds a finite value > 0.
+pub(crate) fn finite_pos(key: &str, v: f64) -> Result<(), ClosedLoopError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(invalid(key, v, "finite and > 0"))
+    }
+}
+
+/// Checks that scenario key `key` holds a finite value >= 0.
+pub(crate) fn finite_nonneg(key: &str, v: f64) -> Result<(), ClosedLoopError> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(())
+    } else {
+        Err(invalid(key, v, "finite and >= 0"))
+    }
+}
+
+/// Sim's own check of a scenario table, its parameter names turned into scenario keys under `prefix`
+/// (`exit.x_mm` → `groove.exit.x_mm`, `e_factor` → `truth.wall.e_factor`).
+pub(crate) fn sim_keyed(
+    prefix: &'static str,
+) -> impl Fn(millcomp_sim::SimError) -> ClosedLoopError {
+    move |err| match err {
+        millcomp_sim::SimError::InvalidParameter {
+            name,
+            value,
+            allowed,
+        } => invalid(format!("{prefix}{name}"), value, allowed),
+        other => other.into(),
+    }
 }

@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use millcomp_sim::actuator::{BoucWenParams, LogCreepParams};
-use millcomp_sim::groove::{GrooveConfig, GrooveStage, GrooveStepOutput};
+use millcomp_sim::groove::{GrooveConfig, GrooveProgram, GrooveStage, GrooveStepOutput};
 use millcomp_sim::material::Material;
 use millcomp_sim::sensors::{CapacitanceGauge, InstrumentErrors, NoiseSpec};
 
@@ -26,13 +26,15 @@ use millcomp_mpc::identified::{
 use millcomp_mpc::pid::{AntiWindup, PidGains};
 use millcomp_mpc::predictor::ForcePredictor;
 
+use crate::cache::{CommissioningCache, CommissioningKey};
 use crate::changes::{ChangeKind, bound_window, excess, level_before, program_changes};
-use crate::commissioning::{CommissioningPlant, commission};
+use crate::commissioning::CommissioningPlant;
 use crate::error::{ClosedLoopError, invalid};
 use crate::faults::{SolverFailures, groove_measurement};
 use crate::model_errors::ForceErrors;
 use crate::model_files::{load_bundle, load_force_params, load_response_surface, load_spindle};
 use crate::optimum::{certainty_equivalent_pp, excess_lower_bound};
+use crate::profile::{Stage, timed};
 use crate::report::{Metrics, ModelSummary, RunOutput, RunReport, Trace};
 use crate::scenario::{ControllerKind, GrooveScenario, Scenario};
 use crate::touch_off::{REMANENCE_ALLOWANCE, TouchOffBias, auto_bias};
@@ -80,6 +82,35 @@ fn deepest(g: &GrooveScenario) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// The program a groove scenario cuts — what the NC program says (speed, feed and its changes, tilt,
+/// length, depth profile, approach, entry and exit) — from which the controllers plan. Not validated
+/// (the stage validates it against the tool).
+///
+/// ```
+/// use millcomp_closedloop::groove::groove_program;
+/// use millcomp_closedloop::Scenario;
+/// let s = Scenario::from_toml_str(
+///     include_str!("../../datasets/scenarios/groove_s7_20deg.toml"),
+///     "groove_s7_20deg.toml",
+/// )
+/// .unwrap();
+/// let p = groove_program(s.groove.as_ref().unwrap());
+/// assert_eq!((p.tilt_deg, p.length_mm, p.upfeed_um), (20.0, 20.0, 10.0));
+/// ```
+pub fn groove_program(g: &GrooveScenario) -> GrooveProgram {
+    let mut p = GrooveProgram::thesis(g.tilt_deg);
+    p.speed_rpm = g.speed_rpm;
+    p.upfeed_um = g.upfeed_um;
+    p.length_mm = g.length_mm;
+    p.depth_profile = g.depth.clone();
+    p.feed_changes = g.feed_steps.clone();
+    p.feed_accel_mm_s2 = g.feed_accel_mm_s2;
+    p.exit = g.exit;
+    p.approach_mm = g.approach_mm;
+    p.entry_length_mm = g.entry_length_mm;
+    p
+}
+
 /// The truth plant of a groove scenario: thesis plant, the scenario's program and material, the tool's
 /// deviations from the catalogue tool (`truth.tool` / `truth.draw_tool`), sensor noise, instrument errors
 /// and (when asked) the force scale calibrated to the uncompensated deflection.
@@ -93,15 +124,7 @@ pub fn groove_truth(s: &Scenario) -> Result<GrooveConfig, ClosedLoopError> {
         .ok_or_else(|| invalid("groove", "missing", "a [groove] table"))?;
     let mut truth = GrooveConfig::thesis(g.tilt_deg, g.wearland_um)?;
     truth.force_model.material = Material::by_name(&g.material)?;
-    truth.program.speed_rpm = g.speed_rpm;
-    truth.program.upfeed_um = g.upfeed_um;
-    truth.program.length_mm = g.length_mm;
-    truth.program.depth_profile = g.depth.clone();
-    truth.program.feed_changes = g.feed_steps.clone();
-    truth.program.feed_accel_mm_s2 = g.feed_accel_mm_s2;
-    truth.program.exit = g.exit;
-    truth.program.approach_mm = g.approach_mm;
-    truth.program.entry_length_mm = g.entry_length_mm;
+    truth.program = groove_program(g);
     match (s.truth.tool, s.truth.draw_tool) {
         (Some(t), _) => t.apply(&mut truth.force_model)?,
         (None, true) => millcomp_sim::tool_variation::ToolVariation::draw(s.seed)
@@ -156,18 +179,37 @@ pub fn groove_truth(s: &Scenario) -> Result<GrooveConfig, ClosedLoopError> {
 /// [`ClosedLoopError::InvalidConfig`] without a `[groove]` table or with two force predictors; bundle and
 /// model-file errors naming the file and key; commissioning and physics errors.
 pub fn groove_setup(s: &Scenario) -> Result<GrooveSetup, ClosedLoopError> {
+    groove_setup_with(s, None)
+}
+
+/// [`groove_setup`], the commissioning's bundle taken from `cache` when given (computed once per
+/// commissioning key and shared, [`crate::cache`]) — the same setup, value for value.
+///
+/// # Errors
+/// As [`groove_setup`].
+pub fn groove_setup_with(
+    s: &Scenario,
+    cache: Option<&CommissioningCache>,
+) -> Result<GrooveSetup, ClosedLoopError> {
     let g = s
         .groove
         .as_ref()
         .ok_or_else(|| invalid("groove", "missing", "a [groove] table"))?;
-    let truth = groove_truth(s)?;
+    let truth = timed(Stage::Scenario, || groove_truth(s))?;
     let nominal_tool = NominalTool::thesis_ball_end(&g.material);
     let (bundle, origin) = match &s.control.bundle {
-        Some(path) => (load_bundle(path)?, PathBuf::from(path)),
+        Some(path) => (
+            std::sync::Arc::new(timed(Stage::CacheRead, || load_bundle(path))?),
+            PathBuf::from(path),
+        ),
         None => {
             let plant = CommissioningPlant::of_scenario(s, &truth);
-            let c = commission(&plant, &s.commissioning, s.seed.wrapping_add(11))?;
-            (c.bundle, PathBuf::from("<commissioned>"))
+            let key = CommissioningKey::new(&plant, &s.commissioning, s.seed.wrapping_add(11));
+            let bundle = match cache {
+                Some(c) => c.bundle(&key)?,
+                None => std::sync::Arc::new(timed(Stage::Commission, || key.commission())?),
+            };
+            (bundle, PathBuf::from("<commissioned>"))
         }
     };
     bundle.check_material(&g.material, &origin)?;
@@ -413,10 +455,49 @@ fn touch_off(
 pub fn run_groove(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, ClosedLoopError> {
     let wall = Instant::now();
     let setup = groove_setup(s)?;
-    let plan = deflection_plan(&setup, 0.01)?;
+    let plan = timed(Stage::Setup, || deflection_plan(&setup, 0.01))?;
     let mut out = run_groove_with(s, &setup, &plan, kind)?;
     out.report.wall_clock_s = wall.elapsed().as_secs_f64();
     Ok(out)
+}
+
+/// Which process changes get their lower bound ([`crate::optimum::excess_lower_bound`], a linear
+/// programme each — the costliest reference of a run).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum BoundScope {
+    /// Every change (`simulate`, `compare`: the report lists each change with its bound).
+    #[default]
+    EveryChange,
+    /// Only the change where the run's excess is largest — the one a batch's `change_bound_um`
+    /// reports ([`crate::batch::store::RunMetrics::from_report`]); the others' `bound_um` stay empty.
+    LargestExcess,
+}
+
+/// What a groove run computes besides its errors and metrics.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RunOptions {
+    /// Keep the decimated time trace (`simulate --out`, plots); a batch does not.
+    pub trace: bool,
+    /// Which changes get their bound.
+    pub bounds: BoundScope,
+}
+
+impl Default for RunOptions {
+    /// The trace and every change's bound, as `simulate` reports them.
+    fn default() -> Self {
+        Self {
+            trace: true,
+            bounds: BoundScope::EveryChange,
+        }
+    }
+}
+
+impl RunOptions {
+    /// What a batch keeps of a run: its metrics, and the bound of the change where its excess is largest.
+    pub const BATCH: RunOptions = RunOptions {
+        trace: false,
+        bounds: BoundScope::LargestExcess,
+    };
 }
 
 /// Run one controller on a prepared setup (truth plant and the controllers' models) with the
@@ -432,6 +513,21 @@ pub fn run_groove_with(
     setup: &GrooveSetup,
     plan: &DeflectionPlan,
     kind: ControllerKind,
+) -> Result<RunOutput, ClosedLoopError> {
+    run_groove_opts(s, setup, plan, kind, RunOptions::default())
+}
+
+/// [`run_groove_with`], computing what `opts` asks for: the same errors, metrics and bounds (of the
+/// changes it bounds) value for value.
+///
+/// # Errors
+/// As [`run_groove_with`].
+pub fn run_groove_opts(
+    s: &Scenario,
+    setup: &GrooveSetup,
+    plan: &DeflectionPlan,
+    kind: ControllerKind,
+    opts: RunOptions,
 ) -> Result<RunOutput, ClosedLoopError> {
     let wall = Instant::now();
     let t = &setup.truth;
@@ -621,6 +717,12 @@ pub fn run_groove_with(
     let mut force_log = ForcePeakChain::new(t.program.speed_rpm, dt)?;
     let decimate = 20usize;
     let mut k = 0usize;
+    // the profile: everything before the loop is the run's set-up; the truth's steps are timed every
+    // `TRUTH_SAMPLE`th step (a prime: no aliasing with the MPC's cycle)
+    crate::profile::add(Stage::Setup, wall.elapsed().as_secs_f64());
+    crate::profile::add(Stage::Solve, millcomp_mpc::stats::take_qp_solve_s());
+    let loop_start = Instant::now();
+    let mut truth_sampled_s = 0.0;
     loop {
         let obs = last
             .as_ref()
@@ -635,7 +737,14 @@ pub fn run_groove_with(
             in_limits = false;
         }
         let force_peak = force_log.step(obs.map(|x| x.force_meas_n).unwrap_or(0.0));
-        let o = stage.step(v);
+        let o = if k % TRUTH_SAMPLE == 0 {
+            let t0 = Instant::now();
+            let o = stage.step(v);
+            truth_sampled_s += t0.elapsed().as_secs_f64();
+            o
+        } else {
+            stage.step(v)
+        };
         // the approach in air: where the tool tip is against the programmed depth before it enters
         // (the entry's level before, `changes::level_before`)
         if o.engagement == 0.0 && o.x_mm < 0.0 {
@@ -663,7 +772,7 @@ pub fn run_groove_with(
         }
         travel += (o.pzt_tip_um - prev_tip).abs();
         prev_tip = o.pzt_tip_um;
-        if k % decimate == 0 {
+        if opts.trace && k % decimate == 0 {
             trace.rows.push(vec![
                 o.t_s,
                 o.x_mm,
@@ -686,16 +795,37 @@ pub fn run_groove_with(
             break;
         }
     }
+    {
+        let loop_s = loop_start.elapsed().as_secs_f64();
+        let solve_s = millcomp_mpc::stats::take_qp_solve_s();
+        let truth_s = (TRUTH_SAMPLE as f64 * truth_sampled_s).min(loop_s - solve_s);
+        crate::profile::add(Stage::Solve, solve_s);
+        crate::profile::add(Stage::Truth, truth_s.max(0.0));
+        crate::profile::add(Stage::Controller, (loop_s - solve_s - truth_s).max(0.0));
+    }
+    let after_loop = Instant::now();
     let kz_model = setup
         .model_stiffness
         .stiffness()
         .z_stiffness_n_per_um(t.program.tilt_deg)?;
     let kz_truth = t.stiffness.z_stiffness_n_per_um(t.program.tilt_deg)?;
     let mut changes = excess(&program_changes(&t.program), &error_x, &errors);
-    let limits = TruthLimits::of(t, dt)?;
     for c in &mut changes {
         if c.kind == ChangeKind::Entry {
             c.level_before_um = level_before(c.kind, c.x_mm, &approach_x, &approach_errors);
+        }
+    }
+    // the change a batch reports the bound of: the largest excess (the last of equals, as `max_by`)
+    let largest = changes
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.excess_um.total_cmp(&b.1.excess_um))
+        .map(|(i, _)| i);
+    let bounds_start = Instant::now();
+    let limits = TruthLimits::of(t, dt)?;
+    for (i, c) in changes.iter_mut().enumerate() {
+        if opts.bounds == BoundScope::LargestExcess && Some(i) != largest {
+            continue;
         }
         let w = bound_window(c.kind, c.x_mm, &error_x);
         c.bound_um = excess_lower_bound(
@@ -712,6 +842,12 @@ pub fn run_groove_with(
         });
     // the controllers' deflection per measured newton over the truth's deflection per newton
     let knowledge = kz_truth / kz_model * t.instruments.force_gain;
+    let stroke_bound_um =
+        (defl_max >= defl_min).then(|| (defl_max - defl_min - limits.reach_z_um).max(0.0));
+    let optimum_pp_um = (!deflections.is_empty())
+        .then(|| certainty_equivalent_pp(&deflections, limits.reach_z_um, knowledge));
+    let bounds_s = bounds_start.elapsed().as_secs_f64();
+    crate::profile::add(Stage::Bounds, bounds_s);
     let report = RunReport {
         scenario: s.name.clone(),
         stage: "groove".into(),
@@ -719,10 +855,8 @@ pub fn run_groove_with(
         metrics: Metrics {
             exit_overcut_um: exit_window.map(|_| exit_overcut),
             exit_floor_tip_um: floor_tip.is_finite().then_some(floor_tip),
-            stroke_bound_um: (defl_max >= defl_min)
-                .then(|| (defl_max - defl_min - limits.reach_z_um).max(0.0)),
-            optimum_pp_um: (!deflections.is_empty())
-                .then(|| certainty_equivalent_pp(&deflections, limits.reach_z_um, knowledge)),
+            stroke_bound_um,
+            optimum_pp_um,
             change_excess_um: changes.iter().map(|c| c.excess_um).reduce(f64::max),
             ..Metrics::from_errors(&errors, travel)
         },
@@ -746,5 +880,64 @@ pub fn run_groove_with(
         wall_clock_s: wall.elapsed().as_secs_f64(),
         notes,
     };
+    crate::profile::add(
+        Stage::Metrics,
+        (after_loop.elapsed().as_secs_f64() - bounds_s).max(0.0),
+    );
     Ok(RunOutput { report, trace })
+}
+
+/// Every how many stage steps the profile times the truth's step (a prime, so no controller's cycle
+/// aliases with it).
+const TRUTH_SAMPLE: usize = 7;
+
+/// A groove scenario prepared once for the controllers that run on it: its truth plant, the
+/// controllers' models (one commissioning, or its bundle from a cache) and their preview — what
+/// [`run_groove`] builds for every run, shared.
+#[derive(Debug, Clone)]
+pub struct PreparedGroove {
+    /// The scenario (validated).
+    pub scenario: Scenario,
+    /// The truth plant and the controllers' models.
+    pub setup: GrooveSetup,
+    /// The controllers' preview.
+    pub plan: DeflectionPlan,
+}
+
+impl PreparedGroove {
+    /// Validates `scenario` and prepares it, the commissioning's bundle from `cache` when given.
+    ///
+    /// # Errors
+    /// The scenario's validation errors and those of [`groove_setup`] and [`deflection_plan`].
+    pub fn new(
+        scenario: Scenario,
+        cache: Option<&CommissioningCache>,
+    ) -> Result<Self, ClosedLoopError> {
+        scenario.validate()?;
+        let setup = groove_setup_with(&scenario, cache)?;
+        let plan = timed(Stage::Setup, || deflection_plan(&setup, 0.01))?;
+        Ok(Self {
+            scenario,
+            setup,
+            plan,
+        })
+    }
+
+    /// One controller's run: [`crate::run_scenario_with_trace`]'s report, value for value, with what
+    /// `opts` asks for (the real-time scope as the scenario says).
+    ///
+    /// # Errors
+    /// As [`run_groove_with`].
+    pub fn run(
+        &self,
+        kind: ControllerKind,
+        opts: RunOptions,
+    ) -> Result<RunOutput, ClosedLoopError> {
+        let wall = Instant::now();
+        let rt = crate::realtime::Scope::enter(self.scenario.control.realtime);
+        let mut out = run_groove_opts(&self.scenario, &self.setup, &self.plan, kind, opts)?;
+        out.report.realtime = rt.active();
+        out.report.wall_clock_s = wall.elapsed().as_secs_f64();
+        Ok(out)
+    }
 }

@@ -23,6 +23,9 @@
 //! - [`faults`]: force spikes, stuck sensors and solver failures injected into what the controllers see;
 //! - [`recording`]: the spindle MPC's QPs recorded in closed loop (`bench/mpc-vs-casadi`,
 //!   `benches/solve.rs`);
+//! - [`machine`]: the simulated machine of `millcomp demo`, drawn once from a seed and only measured
+//!   (its calibration records, profilometer sessions and closed-loop cuts with controllers from a
+//!   user's bundle); the truth stays inside;
 //! - [`batch`]: controllers compared over designed conditions — plan and fingerprint, shards, resume,
 //!   the results table, the ANOVA of every metric with the controller as a factor, and the controllers
 //!   paired scenario by scenario.
@@ -45,24 +48,31 @@
 #![warn(missing_docs)]
 
 pub mod batch;
+pub mod cache;
 pub mod calibration;
 pub mod changes;
 pub mod commissioning;
+pub mod commissioning_plan;
 pub mod compare;
 pub mod error;
 pub mod faults;
 pub mod groove;
+pub mod machine;
 pub mod model_errors;
 pub mod model_files;
 pub mod nc_axis;
 pub mod nc_axis_bound;
+pub mod nc_axis_scenario;
 pub mod optimum;
 pub mod parts;
+pub mod plot;
+pub mod profile;
 pub mod realtime;
 pub mod recording;
 pub mod report;
 pub mod runner;
 pub mod scenario;
+pub mod stats;
 pub mod thin_wall;
 pub mod touch_off;
 

@@ -39,12 +39,13 @@ use millcomp_sim::groove::GrooveConfig;
 use millcomp_sim::sensors::{InstrumentErrors, NoiseSpec, PROFILOMETER_SIGMA_UM};
 use nalgebra::DMatrix;
 
-use crate::compare::{commissioned, median, median_ci95};
 use crate::error::{ClosedLoopError, invalid};
 use crate::groove::{GrooveSetup, deflection_plan, groove_setup, run_groove_with};
 use crate::model_errors::ForceErrors;
 use crate::report::Trace;
+use crate::scenario::commissioned;
 use crate::scenario::{ControllerKind, Scenario, StageKind};
+use crate::stats::{median, median_ci95};
 
 /// Name of the reference rows: the MPC given the true model.
 pub const REFERENCE: &str = "mpc-true-model";

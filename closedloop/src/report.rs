@@ -140,7 +140,7 @@ pub struct RunReport {
     pub touch_off: Option<millcomp_mpc::groove::TouchOff>,
     /// NC stage: the wall's metrics, the commissioned models against the truth, the seed's draw.
     #[serde(skip_serializing_if = "Option::is_none", default)]
-    pub nc_axis: Option<crate::nc_axis::NcAxisReport>,
+    pub nc_axis: Option<NcAxisReport>,
     /// Simulated duration (s).
     pub simulated_s: f64,
     /// The run's thread had real-time priority (`[control] realtime`, [`crate::realtime`]).
@@ -184,6 +184,122 @@ pub struct RunOutput {
     pub report: RunReport,
     /// The trace.
     pub trace: Trace,
+}
+
+// ---- The NC feed-axis stage's part (`crate::nc_axis`) ------------------------------------------
+
+/// The NC stage's part of a run report.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NcAxisReport {
+    /// The wall's metrics.
+    pub wall: NcWallMetrics,
+    /// What the commissioning identified (estimate ± SE) and the truth's values, for the record.
+    pub models: Vec<NcModelLine>,
+    /// The truth's draw of this seed.
+    pub draw: NcTruthDraw,
+}
+
+/// One identified quantity against the truth.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NcModelLine {
+    /// Name.
+    pub name: String,
+    /// Estimate.
+    pub estimate: f64,
+    /// Standard error.
+    pub std_err: f64,
+    /// The truth's value where it has one of the same structure (NaN otherwise).
+    pub truth: f64,
+}
+
+/// The metrics of the measured wall (µm; + = material left, − = undersize).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct NcWallMetrics {
+    /// Mean |wall error| over the constant-condition windows (measured contour).
+    pub static_error_um: f64,
+    /// Mean of the deflection part over the same windows: what the same run's wall would show
+    /// uncompensated (a model output of the truth, for the record).
+    pub static_uncompensated_um: f64,
+    /// `100·(1 − static_error/static_uncompensated)`.
+    pub static_removed_pct: f64,
+    /// The deflection step at the first feed change (model output): mean deflection part after it minus
+    /// before it (its constant windows).
+    pub deflection_step_um: Option<f64>,
+    /// Largest |error| from 2 mm before to 15 mm after the first feed change (003 Fig. 6's peak).
+    pub feed_step_peak_um: Option<f64>,
+    /// Its sign: the error at that point.
+    pub feed_step_peak_signed_um: Option<f64>,
+    /// Largest |error − settled error| over the same span, the settled error being the wall's mean
+    /// over 7–2 mm before the change (before it) and 10–20 mm after it (after it): the transient a
+    /// controller adds over its own static error (issue 14's excess).
+    pub feed_step_excess_um: Option<f64>,
+    /// RMS of the executed correction (the y axis' encoder) about its 60 ms centred moving average from
+    /// 40 to 340 ms after the feed change starts (after the rise): the oscillation a controller cuts
+    /// into the wall (003 §3.2: the notch chain's "decaying oscillation … also found in the actuating
+    /// values"); 0 without compensation.
+    pub feed_step_oscillation_um: Option<f64>,
+    /// Largest undersize (−error, ≥ 0) over the exit: from one radius plus 1 mm before the edge to it.
+    pub exit_undersize_um: f64,
+    /// Smallest and largest error over the exit.
+    pub exit_min_um: f64,
+    /// Largest error over the exit.
+    pub exit_max_um: f64,
+    /// The windows of constant conditions used (mm).
+    pub windows_mm: Vec<[f64; 2]>,
+    /// The physical limit of [`Self::feed_step_peak_um`]: the smallest peak |error| over the same
+    /// window of this run's measured contour any controller correcting the y reference once per NC
+    /// cycle could leave, through the true axis, knowing the truth's deflection in advance
+    /// ([`crate::nc_axis_bound`]); a lower bound of every controller's peak on this seed.
+    #[serde(default)]
+    pub feed_step_peak_bound_um: Option<f64>,
+    /// The same for [`Self::feed_step_excess_um`]: about a free settled level before and one after
+    /// the change.
+    #[serde(default)]
+    pub feed_step_excess_bound_um: Option<f64>,
+    /// The smallest largest |error| over the exit window any controller could leave: no controller
+    /// keeps the exit's wall within ± less than this (a lower bound of `max(exit_undersize_um,
+    /// exit_max_um)`).
+    #[serde(default)]
+    pub exit_bound_um: Option<f64>,
+    /// The certainty-equivalent reference of the same run (module doc of [`crate::nc_axis_bound`]):
+    /// the wall of a controller that cancels, at every tooth pass, the deflection it sees — the
+    /// orthogonal force known in advance exactly as the platform measures it, noise-free, over the
+    /// commissioned stiffness. The axis allows it (the physical limit is ≈ 0); what is left is what no
+    /// force feedback sees: the load–deflection tests' errors, the machine stiffness between them and
+    /// the platform gain's error. Not a lower bound (a controller can be wrong the other way).
+    #[serde(default)]
+    pub certainty_equivalent: Option<NcReferenceWall>,
+}
+
+/// The figures of a reference wall ([`NcWallMetrics::certainty_equivalent`]), as
+/// [`NcWallMetrics`] measures a controller's.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+pub struct NcReferenceWall {
+    /// Mean |error| over the constant-condition windows (µm).
+    pub static_error_um: f64,
+    /// The feed step's peak |error| (µm).
+    pub feed_step_peak_um: Option<f64>,
+    /// The feed step's excess over the settled wall (µm).
+    pub feed_step_excess_um: Option<f64>,
+    /// The exit's undersize (µm).
+    pub exit_undersize_um: f64,
+    /// The largest error over the exit window (µm).
+    pub exit_max_um: f64,
+    /// Peak-to-peak of the measured contour over the blank (µm).
+    pub pp_um: f64,
+}
+
+/// What a seed draws for the truth.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct NcTruthDraw {
+    /// Force factor (material lot, tool).
+    pub force_factor: f64,
+    /// Platform gain.
+    pub platform_gain: f64,
+    /// Runout angle (deg).
+    pub runout_phase_deg: f64,
+    /// Spindle angle at the start (rad).
+    pub spindle_phase_rad: f64,
 }
 
 #[cfg(test)]

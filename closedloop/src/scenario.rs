@@ -16,7 +16,7 @@ use millcomp_mpc::config::MAX_HORIZON;
 use millcomp_mpc::{MpcConfig, MpcError};
 
 use crate::calibration::StiffnessCalibration;
-use crate::commissioning::CommissioningPlan;
+use crate::commissioning_plan::CommissioningPlan;
 use crate::error::{ClosedLoopError, invalid};
 use crate::model_errors::ForceErrors;
 use crate::touch_off::TouchOffBias;
@@ -492,6 +492,7 @@ impl ControlSpec {
         millcomp_mpc::config::CycleBudget {
             fraction: self.budget_fraction,
             enforced: self.realtime,
+            max_iter: None,
         }
     }
 }
@@ -569,7 +570,7 @@ pub struct Scenario {
     pub thin_wall: Option<ThinWallScenario>,
     /// NC feed-axis settings (stage = "nc_axis", `crate::nc_axis`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub nc_axis: Option<crate::nc_axis::NcAxisScenario>,
+    pub nc_axis: Option<crate::nc_axis_scenario::NcAxisScenario>,
     /// Truth vs model.
     #[serde(default)]
     pub truth: TruthSpec,
@@ -608,21 +609,25 @@ impl Scenario {
     }
 }
 
-pub(crate) fn finite_pos(key: &str, v: f64) -> Result<(), ClosedLoopError> {
-    if v.is_finite() && v > 0.0 {
+/// The longest groove or thin wall a scenario may cut: 1 m, fifty times the published 20 mm groove and
+/// beyond the travel of a micro-milling machine. Checked before anything is allocated (a plan of
+/// `length_mm = 1e9` asked for 800 GB).
+pub const MAX_LENGTH_MM: f64 = 1000.0;
+
+/// The most control steps one closed-loop groove run may take: 10 million (the published groove is
+/// 240 000 steps at 20 kHz; 10 million take about a minute and 0.5 GB of trace).
+pub const MAX_RUN_STEPS: f64 = 1e7;
+
+/// Finite, > 0 and at most `max`.
+fn finite_pos_at_most(key: &str, v: f64, max: f64) -> Result<(), ClosedLoopError> {
+    if v.is_finite() && v > 0.0 && v <= max {
         Ok(())
     } else {
-        Err(invalid(key, v, "finite and > 0"))
+        Err(invalid(key, v, format!("0 < value <= {max}")))
     }
 }
 
-pub(crate) fn finite_nonneg(key: &str, v: f64) -> Result<(), ClosedLoopError> {
-    if v.is_finite() && v >= 0.0 {
-        Ok(())
-    } else {
-        Err(invalid(key, v, "finite and >= 0"))
-    }
-}
+pub(crate) use crate::error::{finite_nonneg, finite_pos, sim_keyed};
 
 impl Scenario {
     /// Parse TOML text (`path` is only used in messages) and validate.
@@ -740,7 +745,7 @@ impl Scenario {
                 finite_nonneg("groove.wearland_um", g.wearland_um)?;
                 finite_pos("groove.speed_rpm", g.speed_rpm)?;
                 finite_pos("groove.upfeed_um", g.upfeed_um)?;
-                finite_pos("groove.length_mm", g.length_mm)?;
+                finite_pos_at_most("groove.length_mm", g.length_mm, MAX_LENGTH_MM)?;
                 g.depth.validate(400.0).map_err(|e| {
                     invalid(
                         "groove.depth",
@@ -790,7 +795,7 @@ impl Scenario {
                 finite_pos("thin_wall.ae_um", t.ae_um)?;
                 finite_pos("thin_wall.ap_um", t.ap_um)?;
                 finite_pos("thin_wall.fz_um", t.fz_um)?;
-                finite_pos("thin_wall.length_mm", t.length_mm)?;
+                finite_pos_at_most("thin_wall.length_mm", t.length_mm, MAX_LENGTH_MM)?;
             }
             StageKind::NcAxis => {
                 self.nc()?;
@@ -852,8 +857,28 @@ impl Scenario {
         finite_nonneg("truth.force_noise_n", tr.force_noise_n)?;
         finite_nonneg("truth.gauge_noise_um", tr.gauge_noise_um)?;
         let c = &self.control;
-        if !(c.dt_s.is_finite() && c.dt_s > 0.0 && c.dt_s <= 1e-3) {
-            return Err(invalid("control.dt_s", c.dt_s, "0 < dt_s <= 1e-3"));
+        if !(c.dt_s.is_finite() && c.dt_s >= 1e-6 && c.dt_s <= 1e-3) {
+            return Err(invalid("control.dt_s", c.dt_s, "1e-6 <= dt_s <= 1e-3"));
+        }
+        if let Some(g) = &self.groove {
+            // the run's length in control steps, at its slowest feed, before anything is allocated
+            let upfeed = g
+                .feed_steps
+                .iter()
+                .map(|f| f.upfeed_um)
+                .fold(g.upfeed_um, f64::min);
+            let steps = g.length_mm / (g.speed_rpm / 60.0 * upfeed / 1000.0) / c.dt_s;
+            if steps.is_nan() || steps > MAX_RUN_STEPS {
+                return Err(invalid(
+                    "groove.length_mm",
+                    g.length_mm,
+                    format!(
+                        "a run of at most {MAX_RUN_STEPS:e} control steps: at {} rpm, {upfeed} um/rev and \
+                         dt_s = {} s this groove takes {steps:.3e}",
+                        g.speed_rpm, c.dt_s
+                    ),
+                ));
+            }
         }
         if c.mpc_every == 0 {
             return Err(invalid("control.mpc_every", 0, ">= 1"));
@@ -917,19 +942,34 @@ impl Scenario {
     }
 }
 
-/// Sim's own check of a scenario table, its parameter names turned into scenario keys under `prefix`
-/// (`exit.x_mm` → `groove.exit.x_mm`, `e_factor` → `truth.wall.e_factor`).
-pub(crate) fn sim_keyed(
-    prefix: &'static str,
-) -> impl Fn(millcomp_sim::SimError) -> ClosedLoopError {
-    move |err| match err {
-        millcomp_sim::SimError::InvalidParameter {
-            name,
-            value,
-            allowed,
-        } => invalid(format!("{prefix}{name}"), value, allowed),
-        other => other.into(),
+/// A scenario turned into its hard form. Grooves: instrument errors and a fresh tool drawn from the seed,
+/// a PZT stack with hysteresis and creep, the controllers built from the commissioning of the truth alone
+/// (the models it named, if any, dropped). Thin walls: every wall a real part drawn from the seed
+/// (`truth.draw_wall`: its modulus and force coefficient off the published wall the controllers' model
+/// keeps; the thin wall is not commissioned yet). Both: no deliberate force-model errors on top
+/// (`truth.force_error_max` 0, `truth.force_errors` dropped) — what the controllers get wrong comes from
+/// the plant, not from a perturbation laid on their model.
+pub fn commissioned(s: &Scenario) -> Scenario {
+    let mut s = s.clone();
+    match s.stage {
+        StageKind::Groove => {
+            s.truth.draw_instruments = true;
+            s.truth.draw_tool = true;
+            s.truth.pzt_nonlinear = true;
+            s.control.commission = true;
+            s.control.bundle = None;
+            s.control.spindle_model = None;
+            s.control.force_model = None;
+        }
+        StageKind::ThinWall => {
+            s.truth.draw_wall = true;
+        }
+        // always commissioned; its truth draws per seed
+        StageKind::NcAxis => {}
     }
+    s.truth.force_error_max = 0.0;
+    s.truth.force_errors = None;
+    s
 }
 
 #[cfg(test)]

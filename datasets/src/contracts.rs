@@ -3,7 +3,9 @@
 //!
 //! * The **measured-groove CSV** (one row per measured point, [`MEASURED_GROOVE_COLUMNS`] plus the
 //!   optional `spindle_temp_c`): what `millcomp simulate SESSION` writes and `millcomp diagnose`
-//!   reads, as [`GroovePoint`]s.
+//!   reads, as [`GroovePoint`]s. Its columns and rules are defined once, beside the row type, in
+//!   `millcomp_sim::session` (`MEASURED_GROOVE`, `check_groove_points`: the one validator, which
+//!   diagnose also applies to points from any source); this module reads and writes files by them.
 //! * The **flute force trace** (`NAME.forces.csv`, [`FORCE_TRACE_COLUMNS`]): per measured point the
 //!   peak z-force of each flute, as [`FluteForcePoint`]s; every row must match a measured point by
 //!   `groove_id` and `x_mm`.
@@ -29,45 +31,31 @@
 use std::path::Path;
 
 use millcomp_sim::SimError;
-use millcomp_sim::session::{FluteForcePoint, GroovePoint, check_groove_points};
+use millcomp_sim::session::{
+    FluteForcePoint, GroovePoint, MEASURED_GROOVE, MeasuredKind, check_groove_points,
+};
 
 use crate::error::DatasetError;
 use crate::table::{
     Column, ColumnData, ColumnKind, ColumnSpec, Schema, Table, read_csv_str, read_table,
 };
 
-/// Name, kind and meaning of every required measured-groove column, in contract order.
-const MEASURED_GROOVE: [(&str, ColumnKind, &str); 11] = [
-    ("groove_id", ColumnKind::Int, "groove number"),
-    (
-        "t_s",
-        ColumnKind::Float,
-        "session clock when this point was cut",
-    ),
-    ("x_mm", ColumnKind::Float, "position along the groove"),
-    (
-        "cut_length_mm",
-        ColumnKind::Float,
-        "cumulative engaged length of the tool",
-    ),
-    ("speed_rpm", ColumnKind::Float, "spindle speed"),
-    ("feed_mm_min", ColumnKind::Float, "feed rate"),
-    ("upfeed_um", ColumnKind::Float, "feed per revolution"),
-    ("tilt_deg", ColumnKind::Float, "tool tilt"),
-    ("coolant_on", ColumnKind::Flag, "coolant flowing (0/1)"),
-    ("depth_cmd_um", ColumnKind::Float, "programmed depth"),
-    ("depth_meas_um", ColumnKind::Float, "measured groove depth"),
-];
-
-/// The optional measured-groove column (written when a point has a spindle temperature).
-pub const SPINDLE_TEMP_COLUMN: &str = "spindle_temp_c";
-
-/// Version of the measured-groove contract this build writes. Version 2 renamed `spindle_rpm` to
-/// `speed_rpm` (one name per quantity across millcomp); files of version 1 are still read.
-pub const MEASURED_GROOVE_VERSION: u32 = 2;
-
 /// Columns renamed since version 1 of the measured-groove contract: (version-1 name, current name).
-pub const MEASURED_GROOVE_V1_NAMES: [(&str, &str); 1] = [("spindle_rpm", "speed_rpm")];
+pub use millcomp_sim::session::MEASURED_GROOVE_V1_NAMES;
+/// Version of the measured-groove contract this build writes (version 2 renamed `spindle_rpm` to
+/// `speed_rpm`; files of version 1 are still read).
+pub use millcomp_sim::session::MEASURED_GROOVE_VERSION;
+/// The optional measured-groove column (written when a point has a spindle temperature).
+pub use millcomp_sim::session::SPINDLE_TEMP_COLUMN;
+
+/// The cell type a measured-groove column of the contract has (`millcomp_sim::session::MEASURED_GROOVE`).
+fn kind_of(k: MeasuredKind) -> ColumnKind {
+    match k {
+        MeasuredKind::Int => ColumnKind::Int,
+        MeasuredKind::Float => ColumnKind::Float,
+        MeasuredKind::Flag => ColumnKind::Flag,
+    }
+}
 
 /// Name, kind and meaning of every force-trace column, in contract order.
 const FORCE_TRACE: [(&str, ColumnKind, &str); 4] = [
@@ -107,7 +95,15 @@ const fn names<const N: usize>(
 
 /// Columns of the measured-groove CSV, in contract order (what `diagnose` reads and `simulate`
 /// writes), without the optional [`SPINDLE_TEMP_COLUMN`].
-pub const MEASURED_GROOVE_COLUMNS: [&str; 11] = names(&MEASURED_GROOVE);
+pub const MEASURED_GROOVE_COLUMNS: [&str; 11] = {
+    let mut out = [""; 11];
+    let mut i = 0;
+    while i < 11 {
+        out[i] = MEASURED_GROOVE[i].0;
+        i += 1;
+    }
+    out
+};
 
 /// Columns of the flute force trace, in contract order.
 pub const FORCE_TRACE_COLUMNS: [&str; 4] = names(&FORCE_TRACE);
@@ -120,9 +116,9 @@ pub fn measured_groove_schema() -> Schema {
         .iter()
         .map(|(name, kind, what)| {
             if MEASURED_GROOVE_V1_NAMES.iter().any(|(_, new)| new == name) {
-                ColumnSpec::optional(name, *kind, what)
+                ColumnSpec::optional(name, kind_of(*kind), what)
             } else {
-                ColumnSpec::required(name, *kind, what)
+                ColumnSpec::required(name, kind_of(*kind), what)
             }
         })
         .collect();
@@ -130,7 +126,7 @@ pub fn measured_groove_schema() -> Schema {
         let kind = MEASURED_GROOVE
             .iter()
             .find(|(n, ..)| *n == new)
-            .map_or(ColumnKind::Float, |(_, k, _)| *k);
+            .map_or(ColumnKind::Float, |(_, k, _)| kind_of(*k));
         columns.push(ColumnSpec::optional(
             old,
             kind,
@@ -247,6 +243,19 @@ pub fn read_measured_groove(path: &Path) -> Result<MeasuredGroove, DatasetError>
     measured_groove_from(path, table)
 }
 
+/// A measured-groove table held in memory (a Python caller's frame) into points, validated as
+/// [`read_measured_groove`] validates a file; `origin` names it in messages.
+///
+/// # Errors
+/// As [`read_measured_groove`].
+pub fn measured_groove_from_dataframe(
+    origin: &str,
+    df: &polars::prelude::DataFrame,
+) -> Result<MeasuredGroove, DatasetError> {
+    let table = crate::table::read_dataframe(origin, df, &measured_groove_schema())?;
+    measured_groove_from(Path::new(origin), table)
+}
+
 /// Reads measured-groove CSV text (embedded data, tests) into points; `origin` names it in messages.
 ///
 /// # Errors
@@ -257,7 +266,8 @@ pub fn read_measured_groove_str(origin: &str, text: &str) -> Result<MeasuredGroo
 }
 
 fn measured_groove_from(path: &Path, mut table: Table) -> Result<MeasuredGroove, DatasetError> {
-    let notes = upgrade_v1(path, &mut table)?;
+    let mut notes = std::mem::take(&mut table.notes);
+    notes.extend(upgrade_v1(path, &mut table)?);
     Ok(MeasuredGroove {
         points: groove_points(path, &table)?,
         ignored_columns: table.ignored_columns,
@@ -265,8 +275,9 @@ fn measured_groove_from(path: &Path, mut table: Table) -> Result<MeasuredGroove,
     })
 }
 
-/// The points of a validated measured-groove table, checked as a measurement (sim's
-/// `check_groove_points`: time strictly increasing within a groove).
+/// The points of a typed measured-groove table, checked by the contract's rules (the one validator,
+/// `millcomp_sim::session::check_groove_points`: finite values, physical ranges, time strictly
+/// increasing within a groove).
 fn groove_points(path: &Path, t: &Table) -> Result<Vec<GroovePoint>, DatasetError> {
     let ids = t.i64s("groove_id")?;
     let f = |name: &str| t.f64s(name);
@@ -306,6 +317,7 @@ fn groove_points(path: &Path, t: &Table) -> Result<Vec<GroovePoint>, DatasetErro
     Ok(points)
 }
 
+/// sim's rule error as the reader's, naming the file (rows are counted alike, from 1).
 fn invalid(path: &Path, e: SimError) -> DatasetError {
     match e {
         SimError::Point {
@@ -315,14 +327,12 @@ fn invalid(path: &Path, e: SimError) -> DatasetError {
         } => DatasetError::Invalid {
             file: path.to_path_buf(),
             column: column.to_string(),
-            row: row + 1,
+            row,
             message,
         },
-        other => DatasetError::Invalid {
+        other => DatasetError::Contract {
             file: path.to_path_buf(),
-            column: String::new(),
-            row: 0,
-            message: other.to_string(),
+            source: other,
         },
     }
 }

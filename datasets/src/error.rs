@@ -1,14 +1,47 @@
 //! The one error type of this crate.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use millcomp_models::ModelError;
 use polars::error::PolarsError;
 
+/// How every millcomp message numbers the rows of a user's table: **row 1 is the first data row**, the
+/// one under the header, counted from 1 whatever the format; in a CSV file, row `n` is line `n + 1` (the
+/// header is line 1), which messages about a CSV file say too: `row 3 (line 4)`. The libraries that see
+/// columns rather than files (identify, doe, diagnose) count their rows the same way, from 1.
+///
+/// ```
+/// use std::path::Path;
+/// assert_eq!(millcomp_datasets::error::row_at(Path::new("step.csv"), &3), "row 3 (line 4)");
+/// assert_eq!(millcomp_datasets::error::row_at(Path::new("step.parquet"), &3), "row 3");
+/// ```
+pub fn row_at(file: &Path, row: &usize) -> String {
+    let parquet = file
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("parquet") || e.eq_ignore_ascii_case("pq"));
+    if parquet {
+        format!("row {row}")
+    } else {
+        format!("row {row} (line {})", row + 1)
+    }
+}
+
+/// What to change about a cell that is not a number, when it looks like something else that means one.
+fn hint(value: &str) -> &'static str {
+    if crate::decode::is_missing_marker(value) {
+        " (a missing value: every row needs a number here; fill it in or delete the row)"
+    } else if value.contains(',') && value.replace(',', ".").parse::<f64>().is_ok() {
+        " (a decimal comma among decimal points: write the column with one decimal mark)"
+    } else {
+        ""
+    }
+}
+
 /// Everything that can go wrong loading, validating or writing a table.
 ///
-/// Every variant names the file and, where there is one, the column and the 1-based data row
-/// (the header is not counted, so data row 1 is line 2 of a CSV file). Where an underlying error
+/// Every variant names the file and, where there is one, the column and the row, numbered as
+/// [`row_at`] says (row 1 is the first data row, line 2 of a CSV file). Where an underlying error
 /// (I/O, polars, the atomic writer) is the cause, it is kept as the error's source, not copied into
 /// the message.
 #[derive(Debug, thiserror::Error)]
@@ -22,6 +55,38 @@ pub enum DatasetError {
         /// The underlying I/O error.
         #[source]
         source: std::io::Error,
+    },
+    /// The path is a directory (or another thing that is not a file).
+    #[error("{file}: is a directory, not a file")]
+    NotAFile {
+        /// The path.
+        file: PathBuf,
+    },
+    /// The file's bytes are not text in an encoding the reader knows ([`crate::decode`]).
+    #[error("{file}: {message}")]
+    NotText {
+        /// The file.
+        file: PathBuf,
+        /// What is wrong and what to change.
+        message: String,
+    },
+    /// A CSV row has more fields than the header.
+    #[error(
+        "{file}: {} has {fields} fields but the header has {expected} (separated by {delimiter}): a \
+         cell holding the delimiter must be in double quotes",
+        row_at(.file, .row)
+    )]
+    RaggedRow {
+        /// The file.
+        file: PathBuf,
+        /// 1-based data row.
+        row: usize,
+        /// The fields of that row (at least).
+        fields: usize,
+        /// The fields of the header.
+        expected: usize,
+        /// `commas`, `semicolons` or `tabs`.
+        delimiter: &'static str,
     },
     /// The file is empty or holds a header but no data rows.
     #[error("{file}: the file is empty (no {what})")]
@@ -72,7 +137,7 @@ pub enum DatasetError {
         column: String,
     },
     /// A cell is empty where a value is required.
-    #[error("{file}: column `{column}`, row {row}: empty cell (a value is required)")]
+    #[error("{file}: column `{column}`, {}: empty cell (a value is required)", row_at(.file, .row))]
     EmptyCell {
         /// The file.
         file: PathBuf,
@@ -82,7 +147,7 @@ pub enum DatasetError {
         row: usize,
     },
     /// A cell does not parse as the column's type.
-    #[error("{file}: column `{column}`, row {row}: `{value}` is not {expected}")]
+    #[error("{file}: column `{column}`, {}: `{value}` is not {expected}{}", row_at(.file, .row), hint(.value))]
     BadCell {
         /// The file.
         file: PathBuf,
@@ -96,7 +161,7 @@ pub enum DatasetError {
         expected: &'static str,
     },
     /// A numeric cell is NaN or infinite.
-    #[error("{file}: column `{column}`, row {row}: `{value}` is not a finite number")]
+    #[error("{file}: column `{column}`, {}: `{value}` is not a finite number{}", row_at(.file, .row), hint(.value))]
     NonFinite {
         /// The file.
         file: PathBuf,
@@ -108,7 +173,7 @@ pub enum DatasetError {
         value: String,
     },
     /// A value breaks a rule of the schema other than its type (range, monotonicity, …).
-    #[error("{file}: column `{column}`, row {row}: {message}")]
+    #[error("{file}: column `{column}`, {}: {message}", row_at(.file, .row))]
     Invalid {
         /// The file.
         file: PathBuf,
@@ -118,6 +183,15 @@ pub enum DatasetError {
         row: usize,
         /// What rule was broken.
         message: String,
+    },
+    /// Points that break a rule of their contract other than one of a row (kept as the source).
+    #[error("{file}: not a valid measurement")]
+    Contract {
+        /// The file.
+        file: PathBuf,
+        /// The contract's error.
+        #[source]
+        source: millcomp_sim::SimError,
     },
     /// The requested column is not in the table.
     #[error("table `{table}` has no column `{column}`")]

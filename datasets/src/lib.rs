@@ -21,6 +21,7 @@
 
 pub mod adapters;
 pub mod contracts;
+pub mod decode;
 pub mod error;
 pub mod mapping;
 pub mod real;

@@ -190,7 +190,7 @@ fn bad_map(spec: &str, message: impl Into<String>) -> DatasetError {
 fn valid_name(s: &str) -> bool {
     !s.is_empty()
         && s.chars()
-            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '.' || c == '-')
+            .all(|c| c.is_alphanumeric() || matches!(c, '_' | '.' | '-' | '°'))
 }
 
 impl ColumnMap {

@@ -179,6 +179,9 @@ pub struct Table {
     pub columns: Vec<Column>,
     /// Columns present in the file but not in the schema, which were ignored.
     pub ignored_columns: Vec<String>,
+    /// How the file was read, when not as plain UTF-8 CSV with commas and decimal points (its encoding,
+    /// delimiter, decimal commas: [`crate::decode`]), for the reader to print.
+    pub notes: Vec<String>,
 }
 
 impl Table {
@@ -215,6 +218,7 @@ impl Table {
             origin: origin.to_string(),
             columns,
             ignored_columns: Vec::new(),
+            notes: Vec::new(),
         })
     }
 
@@ -350,11 +354,11 @@ impl Table {
 /// let t = read_table(&path, &schema).unwrap();
 /// assert_eq!(t.f64s("depth_um").unwrap(), [40.5, 80.0]);
 /// assert_eq!(t.ignored_columns, ["operator"]);
-/// // A bad cell is named by column and 1-based data row.
+/// // A bad cell is named by column, 1-based data row and the file's line.
 /// std::fs::write(&path, "pass,depth_um\n1,40.5\n2,deep\n").unwrap();
 /// let e = read_table(&path, &schema).unwrap_err();
 /// assert!(matches!(&e, DatasetError::BadCell { row: 2, .. }));
-/// assert!(e.to_string().ends_with("column `depth_um`, row 2: `deep` is not a number"));
+/// assert!(e.to_string().contains("column `depth_um`, row 2 (line 3): `deep` is not a number"), "{e}");
 /// ```
 ///
 /// # Errors
@@ -402,51 +406,153 @@ pub fn read_any(path: &Path) -> Result<Table, DatasetError> {
 /// As [`read_any`], without [`DatasetError::Io`].
 pub fn read_any_str(origin: &str, text: &str) -> Result<Table, DatasetError> {
     let path = PathBuf::from(origin);
-    let raw = read_csv_raw(&path, std::io::Cursor::new(text.as_bytes().to_vec()))?;
+    let raw = read_csv_bytes(&path, text.as_bytes())?;
     typed(&path, raw)
 }
 
 /// Types every column of a raw table: all-finite-number columns as floats, the others as text.
 fn typed(path: &Path, raw: RawTable) -> Result<Table, DatasetError> {
-    if raw.names.is_empty() {
+    let RawTable {
+        names,
+        cells,
+        notes,
+    } = raw;
+    if names.is_empty() {
         return Err(DatasetError::Empty {
             file: path.to_path_buf(),
             what: "header",
         });
     }
-    if raw.cells.first().is_none_or(Vec::is_empty) {
+    if cells.first().is_none_or(Vec::is_empty) {
         return Err(DatasetError::Empty {
             file: path.to_path_buf(),
             what: "data rows",
         });
     }
-    let columns = raw
-        .names
+    let columns = names
         .into_iter()
-        .zip(raw.cells)
-        .map(|(name, cells)| {
-            let numbers: Option<Vec<f64>> = cells
-                .iter()
-                .map(|c| {
-                    c.as_deref()
-                        .and_then(|t| t.parse::<f64>().ok())
-                        .filter(|x| x.is_finite())
-                })
-                .collect();
-            let data = match numbers {
-                Some(v) => ColumnData::Float(v),
-                None => {
-                    ColumnData::Text(cells.into_iter().map(Option::unwrap_or_default).collect())
-                }
-            };
-            Column { name, data }
-        })
+        .zip(cells)
+        .map(|(name, cells)| typed_column(name, cells))
         .collect();
     Ok(Table {
         origin: path.display().to_string(),
         columns,
         ignored_columns: Vec::new(),
+        notes,
     })
+}
+
+/// One column typed as [`read_any`] types it: all finite numbers → floats, anything else text.
+fn typed_column(name: String, cells: Vec<Option<String>>) -> Column {
+    let numbers: Option<Vec<f64>> = cells
+        .iter()
+        .map(|c| {
+            c.as_deref()
+                .and_then(|t| t.parse::<f64>().ok())
+                .filter(|x| x.is_finite())
+        })
+        .collect();
+    let data = match numbers {
+        Some(v) => ColumnData::Float(v),
+        None => ColumnData::Text(cells.into_iter().map(Option::unwrap_or_default).collect()),
+    };
+    Column { name, data }
+}
+
+/// A data frame in memory (a Python caller's, through Arrow) typed as [`read_any`] types a file with
+/// the same cells: a numeric column without nulls and with finite values only becomes a float column
+/// directly (no text in between); any other column is typed from its cells as text, by the same rule
+/// as a file's (a text column whose cells all read as finite numbers becomes floats, a number column
+/// with a null or NaN stays text, so the consumer names the cell). `origin` names the frame in errors
+/// (`frame`, the argument's name).
+///
+/// ```
+/// use polars::prelude::*;
+/// let df = df!("depth_um" => [100i64, 200], "fx_n" => [1.5, f64::NAN], "note" => ["a", "b"]).unwrap();
+/// let t = millcomp_datasets::table::from_dataframe("frame", &df).unwrap();
+/// assert_eq!(t.f64s("depth_um").unwrap(), [100.0, 200.0]);
+/// assert_eq!(t.strings("fx_n").unwrap(), ["1.5", "NaN"]); // kept as text: NaN is not a number
+/// assert!(millcomp_datasets::table::from_dataframe("frame", &DataFrame::empty()).is_err());
+/// ```
+///
+/// # Errors
+/// [`DatasetError::Empty`] (no columns, no rows), [`DatasetError::DuplicateColumn`],
+/// [`DatasetError::UnreadableColumn`] (a column polars cannot show as text).
+pub fn from_dataframe(origin: &str, df: &DataFrame) -> Result<Table, DatasetError> {
+    let path = PathBuf::from(origin);
+    let mut columns: Vec<Column> = Vec::with_capacity(df.width());
+    for col in df.columns() {
+        let name = col.name().to_string();
+        if columns.iter().any(|c| c.name == name) {
+            return Err(DatasetError::DuplicateColumn {
+                file: path,
+                column: name,
+            });
+        }
+        let floats = col
+            .dtype()
+            .is_primitive_numeric()
+            .then(|| col.cast(&DataType::Float64).ok())
+            .flatten()
+            .filter(|c| c.null_count() == 0)
+            .and_then(|c| {
+                c.f64()
+                    .ok()
+                    .map(|ca| ca.into_no_null_iter().collect::<Vec<f64>>())
+            })
+            .filter(|v| v.iter().all(|x| x.is_finite()));
+        match floats {
+            Some(v) => columns.push(Column {
+                name,
+                data: ColumnData::Float(v),
+            }),
+            None => {
+                let one = DataFrame::new(col.len(), vec![col.clone()]).map_err(|source| {
+                    DatasetError::UnreadableColumn {
+                        file: path.clone(),
+                        column: name.clone(),
+                        source,
+                    }
+                })?;
+                let mut raw = raw_from_dataframe(&path, &one, Vec::new())?;
+                columns.push(typed_column(name, raw.cells.remove(0)));
+            }
+        }
+    }
+    if columns.is_empty() {
+        return Err(DatasetError::Empty {
+            file: path,
+            what: "header",
+        });
+    }
+    if df.height() == 0 {
+        return Err(DatasetError::Empty {
+            file: path,
+            what: "data rows",
+        });
+    }
+    Ok(Table {
+        origin: origin.to_string(),
+        columns,
+        ignored_columns: Vec::new(),
+        notes: Vec::new(),
+    })
+}
+
+/// A data frame in memory validated against `schema` as [`read_table`] validates a file with the
+/// same cells (every cell read as text, then parsed by the schema's kind); `origin` names the frame in
+/// errors.
+///
+/// # Errors
+/// As [`read_table`], without [`DatasetError::Io`].
+pub fn read_dataframe(
+    origin: &str,
+    df: &DataFrame,
+    schema: &Schema,
+) -> Result<Table, DatasetError> {
+    let path = PathBuf::from(origin);
+    let raw = raw_from_dataframe(&path, df, Vec::new())?;
+    validate(&path, raw, schema)
 }
 
 /// Reads embedded CSV text (a shipped dataset) and validates it against `schema`; `origin` names it in
@@ -467,7 +573,7 @@ fn typed(path: &Path, raw: RawTable) -> Result<Table, DatasetError> {
 /// As [`read_table`], without [`DatasetError::Io`].
 pub fn read_csv_str(origin: &str, text: &str, schema: &Schema) -> Result<Table, DatasetError> {
     let path = PathBuf::from(origin);
-    let raw = read_csv_raw(&path, std::io::Cursor::new(text.as_bytes().to_vec()))?;
+    let raw = read_csv_bytes(&path, text.as_bytes())?;
     validate(&path, raw, schema)
 }
 
@@ -516,14 +622,19 @@ pub(crate) fn read_table_renamed(
         names.push(name);
         cells.push(vec![Some(x.to_string()); n_rows]);
     }
-    raw = RawTable { names, cells };
+    raw = RawTable {
+        names,
+        cells,
+        notes: raw.notes,
+    };
     validate(path, raw, schema)
 }
 
-/// Every column of a file as text cells (`None` = empty/null), in file order.
+/// Every column of a file as text cells (`None` = empty/null), in file order, and how the file was read.
 struct RawTable {
     names: Vec<String>,
     cells: Vec<Vec<Option<String>>>,
+    notes: Vec<String>,
 }
 
 fn is_parquet(path: &Path) -> bool {
@@ -534,18 +645,23 @@ fn is_parquet(path: &Path) -> bool {
 }
 
 fn read_raw(path: &Path) -> Result<RawTable, DatasetError> {
-    let file = File::open(path).map_err(|source| DatasetError::Io {
+    let io = |source| DatasetError::Io {
         file: path.to_path_buf(),
         source,
-    })?;
-    let len = file.metadata().map(|m| m.len()).unwrap_or(0);
-    if len == 0 {
-        return Err(DatasetError::Empty {
+    };
+    if std::fs::metadata(path).map_err(io)?.is_dir() {
+        return Err(DatasetError::NotAFile {
             file: path.to_path_buf(),
-            what: "header",
         });
     }
     if is_parquet(path) {
+        let file = File::open(path).map_err(io)?;
+        if file.metadata().map(|m| m.len()).unwrap_or(0) == 0 {
+            return Err(DatasetError::Empty {
+                file: path.to_path_buf(),
+                what: "header",
+            });
+        }
         let df = ParquetReader::new(file)
             .finish()
             .map_err(|source| DatasetError::Parse {
@@ -553,27 +669,57 @@ fn read_raw(path: &Path) -> Result<RawTable, DatasetError> {
                 format: "Parquet",
                 source,
             })?;
-        raw_from_dataframe(path, &df)
+        raw_from_dataframe(path, &df, Vec::new())
     } else {
-        read_csv_raw(path, file)
+        // read whole (also from a pipe, whose size the file system does not know), then decoded
+        let bytes = std::fs::read(path).map_err(io)?;
+        read_csv_bytes(path, &bytes)
     }
 }
 
-fn read_csv_raw<R: polars::io::mmap::MmapBytesReader>(
-    path: &Path,
-    reader: R,
-) -> Result<RawTable, DatasetError> {
+/// A CSV file's bytes as text cells: decoded ([`crate::decode::decode_text`]), split on the delimiter
+/// of its header line ([`crate::decode::sniff_delimiter`]) by polars, every cell read as text, then the
+/// numbers of each column normalised ([`crate::decode::normalise_columns`]). What was not plain UTF-8 with
+/// commas and decimal points is noted.
+fn read_csv_bytes(path: &Path, bytes: &[u8]) -> Result<RawTable, DatasetError> {
+    let empty = || DatasetError::Empty {
+        file: path.to_path_buf(),
+        what: "header",
+    };
+    let (text, encoding) =
+        crate::decode::decode_text(bytes).map_err(|e| DatasetError::NotText {
+            file: path.to_path_buf(),
+            message: e.message,
+        })?;
+    if text.trim().is_empty() {
+        return Err(empty());
+    }
+    let delimiter = crate::decode::sniff_delimiter(&text);
+    let mut notes: Vec<String> = encoding.note().into_iter().collect();
+    if delimiter != b',' {
+        notes.push(format!(
+            "columns separated by {}",
+            crate::decode::delimiter_name(delimiter)
+        ));
+    }
     let df = CsvReadOptions::default()
         .with_has_header(true)
         .with_infer_schema_length(Some(0))
-        .into_reader_with_file_handle(reader)
+        .map_parse_options(|o| o.with_separator(delimiter))
+        .into_reader_with_file_handle(std::io::Cursor::new(text.as_bytes()))
         .finish()
         .map_err(|source| {
-            if source.to_string().contains("empty") {
-                DatasetError::Empty {
+            if let Some((row, fields, expected)) = ragged_row(&text, delimiter) {
+                return DatasetError::RaggedRow {
                     file: path.to_path_buf(),
-                    what: "header",
-                }
+                    row,
+                    fields,
+                    expected,
+                    delimiter: crate::decode::delimiter_name(delimiter),
+                };
+            }
+            if source.to_string().contains("empty") {
+                empty()
             } else {
                 DatasetError::Parse {
                     file: path.to_path_buf(),
@@ -582,15 +728,122 @@ fn read_csv_raw<R: polars::io::mmap::MmapBytesReader>(
                 }
             }
         })?;
-    raw_from_dataframe(path, &df)
+    // polars renames a repeated header name (`a`, `a_duplicated_0`): the header as written decides
+    if let Some(column) = repeated_header(&text, delimiter) {
+        return Err(DatasetError::DuplicateColumn {
+            file: path.to_path_buf(),
+            column,
+        });
+    }
+    let mut raw = raw_from_dataframe(path, &df, notes)?;
+    let comma_by_default = delimiter != b',';
+    // on a contradiction nothing is changed: the cells are still as written
+    match crate::decode::normalise_columns(&mut raw.cells, comma_by_default) {
+        Ok(marks) => {
+            for (name, mark) in raw.names.iter().zip(marks) {
+                if let Some(mark) = mark {
+                    raw.notes.push(crate::decode::number_note(name, mark));
+                }
+            }
+        }
+        Err((j, i)) => {
+            let cells = &raw.cells[j];
+            let other = cells
+                .iter()
+                .take(i)
+                .filter_map(|c| c.as_deref())
+                .find(|c| c.contains([',', '.']))
+                .unwrap_or("")
+                .to_string();
+            return Err(DatasetError::Invalid {
+                file: path.to_path_buf(),
+                column: raw.names[j].clone(),
+                row: i + 1,
+                message: format!(
+                    "`{}` uses the other decimal mark than `{other}` above it: write every number \
+                     of the column with the same decimal mark (and no digit groups)",
+                    cells[i].as_deref().unwrap_or("")
+                ),
+            });
+        }
+    }
+    Ok(raw)
 }
 
-fn raw_from_dataframe(path: &Path, df: &DataFrame) -> Result<RawTable, DatasetError> {
-    let mut names = Vec::new();
-    let mut cells = Vec::new();
+/// The first name the header line repeats, read as written (polars renames repeats).
+fn repeated_header(text: &str, delimiter: u8) -> Option<String> {
+    let df = CsvReadOptions::default()
+        .with_has_header(false)
+        .with_n_rows(Some(1))
+        .with_infer_schema_length(Some(0))
+        .map_parse_options(|o| o.with_separator(delimiter).with_truncate_ragged_lines(true))
+        .into_reader_with_file_handle(std::io::Cursor::new(text.as_bytes()))
+        .finish()
+        .ok()?;
+    let mut seen = std::collections::HashSet::with_capacity(df.width());
     for col in df.columns() {
-        let name = col.name().to_string();
-        if names.contains(&name) {
+        let name = col.str().ok()?.get(0).unwrap_or("").trim().to_string();
+        if !seen.insert(name.clone()) {
+            return Some(name);
+        }
+    }
+    None
+}
+
+/// The first data row (1-based) with more fields than the header, with its field count and the header's,
+/// read by polars with room for one more column; `None` when no row has more (the parse error was
+/// something else).
+fn ragged_row(text: &str, delimiter: u8) -> Option<(usize, usize, usize)> {
+    let header = crate::decode::header_fields(text, delimiter);
+    // generous room: a row may have many more fields (a decimal comma in every cell)
+    let width = header * 2 + 1;
+    let schema: polars::prelude::Schema = (0..width)
+        .map(|i| Field::new(format!("c{i}").into(), DataType::String))
+        .collect();
+    let df = CsvReadOptions::default()
+        .with_has_header(false)
+        .with_skip_rows(1)
+        .with_schema(Some(std::sync::Arc::new(schema)))
+        .map_parse_options(|o| o.with_separator(delimiter).with_truncate_ragged_lines(true))
+        .into_reader_with_file_handle(std::io::Cursor::new(text.as_bytes()))
+        .finish()
+        .ok()?;
+    let extra = df.column(&format!("c{header}")).ok()?.str().ok()?.clone();
+    let row = extra.iter().position(|v| v.is_some())?;
+    let fields = (0..width)
+        .rev()
+        .find(|&c| {
+            df.column(&format!("c{c}"))
+                .ok()
+                .and_then(|col| col.str().ok().map(|ca| ca.get(row).is_some()))
+                .unwrap_or(false)
+        })
+        .map_or(header + 1, |c| c + 1);
+    Some((row + 1, fields, header))
+}
+
+fn raw_from_dataframe(
+    path: &Path,
+    df: &DataFrame,
+    notes: Vec<String>,
+) -> Result<RawTable, DatasetError> {
+    let mut names = Vec::with_capacity(df.width());
+    let mut cells = Vec::with_capacity(df.width());
+    let mut notes = notes;
+    // a set, not a scan of the names so far: a file of 100 000 columns is read in linear time
+    let mut seen = std::collections::HashSet::with_capacity(df.width());
+    let given: std::collections::HashSet<&str> =
+        df.columns().iter().map(|c| c.name().as_str()).collect();
+    for col in df.columns() {
+        let mut name = col.name().to_string();
+        // `y_µm` as millcomp spells it, `y_um` (unless the file has both)
+        if let Some(ascii) = crate::decode::ascii_unit_name(&name)
+            && !given.contains(ascii.as_str())
+        {
+            notes.push(format!("column `{name}` read as `{ascii}`"));
+            name = ascii;
+        }
+        if !seen.insert(name.clone()) {
             return Err(DatasetError::DuplicateColumn {
                 file: path.to_path_buf(),
                 column: name,
@@ -610,7 +863,11 @@ fn raw_from_dataframe(path: &Path, df: &DataFrame) -> Result<RawTable, DatasetEr
         );
         names.push(name);
     }
-    Ok(RawTable { names, cells })
+    Ok(RawTable {
+        names,
+        cells,
+        notes,
+    })
 }
 
 fn parse_cell(
@@ -749,6 +1006,7 @@ fn validate(path: &Path, raw: RawTable, schema: &Schema) -> Result<Table, Datase
         origin: path.display().to_string(),
         columns,
         ignored_columns: ignored,
+        notes: raw.notes,
     })
 }
 
@@ -1002,6 +1260,132 @@ mod tests {
         let writer = e.source().unwrap();
         assert!(writer.to_string().contains("temporary file"), "{writer}");
         assert!(writer.source().is_some(), "{writer}");
+    }
+
+    /// The step response as written, and the numbers read from it.
+    fn plain() -> (String, Vec<f64>) {
+        let text = "t_s,u_v,y_um\n0.00000,0,0.239249\n0.00005,100,1.252192\n0.00010,100,1234.5\n"
+            .to_string();
+        (text, vec![0.239249, 1.252192, 1234.5])
+    }
+
+    #[test]
+    fn what_european_and_windows_instruments_write_reads_as_the_plain_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let (text, y) = plain();
+        let reference = read_any_str("plain.csv", &text).unwrap();
+        assert!(reference.notes.is_empty(), "{:?}", reference.notes);
+        let mut utf16le = vec![0xFF, 0xFE];
+        utf16le.extend(text.encode_utf16().flat_map(|u| u.to_le_bytes()));
+        let mut utf16be = vec![0xFE, 0xFF];
+        utf16be.extend(text.encode_utf16().flat_map(|u| u.to_be_bytes()));
+        let no_bom: Vec<u8> = text.encode_utf16().flat_map(|u| u.to_le_bytes()).collect();
+        let mut bom = b"\xEF\xBB\xBF".to_vec();
+        bom.extend(text.as_bytes());
+        let semicolons = text.replace(',', ";").replace('.', ",");
+        // digit groups as a German instrument writes them
+        let grouped = semicolons.replace("1234,5", "1.234,5");
+        let english = text.replace("1234.5", "\"1,234.5\"");
+        let tabs = text.replace(',', "\t").replace('\n', "\r\n");
+        for (what, bytes) in [
+            ("utf16le", utf16le),
+            ("utf16be", utf16be),
+            ("utf16-no-bom", no_bom),
+            ("bom", bom),
+            ("semicolons", semicolons.into_bytes()),
+            ("grouped", grouped.into_bytes()),
+            ("english-groups", english.into_bytes()),
+            ("tabs", tabs.into_bytes()),
+        ] {
+            let p = dir.path().join(format!("{what}.csv"));
+            std::fs::write(&p, bytes).unwrap();
+            let t = read_any(&p).unwrap();
+            assert_eq!(t.names(), ["t_s", "u_v", "y_um"], "{what}");
+            assert_eq!(t.f64s("y_um").unwrap(), y, "{what}");
+            assert_eq!(
+                t.f64s("t_s").unwrap(),
+                reference.f64s("t_s").unwrap(),
+                "{what}"
+            );
+        }
+        // a Windows-1252 header: µ is byte B5
+        let p = dir.path().join("win.csv");
+        std::fs::write(&p, b"t_s,y_\xB5m\n0,1.5\n").unwrap();
+        let t = read_any(&p).unwrap();
+        assert_eq!(t.names(), ["t_s", "y_um"]);
+        assert!(
+            t.notes.iter().any(|n| n.contains("Windows-1252")),
+            "{:?}",
+            t.notes
+        );
+    }
+
+    #[test]
+    fn what_cannot_be_read_is_named_with_what_to_change() {
+        let dir = tempfile::tempdir().unwrap();
+        // a directory, once
+        let e = read_any(dir.path()).unwrap_err();
+        assert!(matches!(e, DatasetError::NotAFile { .. }), "{e}");
+        // a row with more fields than the header
+        let e = read_csv_str("r.csv", "a_um,n\n1,2\n3,4,5\n", &schema()).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                DatasetError::RaggedRow {
+                    row: 2,
+                    fields: 3,
+                    expected: 2,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        assert!(e.to_string().contains("row 2 (line 3)"), "{e}");
+        // a missing-value marker where a number is needed
+        let e = read_csv_str("m.csv", "a_um,n\n1,2\nNA,3\n", &schema()).unwrap_err();
+        assert!(e.to_string().contains("missing value"), "{e}");
+        // one decimal point among decimal commas
+        let e = read_csv_str("d.csv", "a_um;n\n1,5;2\n2.5;3\n", &schema()).unwrap_err();
+        assert!(
+            matches!(&e, DatasetError::Invalid { row: 2, column, .. } if column == "a_um"),
+            "{e}"
+        );
+        // a binary file
+        let p = dir.path().join("sheet.csv");
+        std::fs::write(&p, b"PK\x03\x04\x14\x00\x06\x00\x08\x00\x00\x00").unwrap();
+        let e = read_any(&p).unwrap_err();
+        assert!(e.to_string().contains("not a text file"), "{e}");
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_pipe_is_read_as_a_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("fifo.csv");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if !made.is_ok_and(|s| s.success()) {
+            eprintln!("skipped: no mkfifo here");
+            return;
+        }
+        let writer = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || std::fs::write(fifo, "x_um\n1\n2\n").unwrap())
+        };
+        let t = read_any(&fifo).unwrap();
+        writer.join().unwrap();
+        assert_eq!(t.f64s("x_um").unwrap(), [1.0, 2.0]);
+    }
+
+    #[test]
+    fn a_hundred_thousand_columns_and_their_duplicates() {
+        // read once (the duplicate check was quadratic: 29.5 s for this file, issue 51)
+        let n = 100_000;
+        let header: Vec<String> = (0..n).map(|i| format!("c{i}")).collect();
+        let text = format!("{}\n{}\n", header.join(","), vec!["1"; n].join(","));
+        let t = read_any_str("wide.csv", &text).unwrap();
+        assert_eq!(t.columns.len(), n);
+        let e = read_any_str("dup.csv", "a,b,a\n1,2,3\n").unwrap_err();
+        assert!(e.to_string().contains("`a`"), "{e}");
     }
 
     #[test]

@@ -35,24 +35,25 @@ pub enum DiagnoseError {
         source: SimError,
     },
     /// A force-trace value is NaN or infinite.
-    #[error("{origin}: column `{column}` row {row}: value {value} is not finite (NaN or infinite)")]
+    #[error("{origin}: column `{column}`, row {}: value {value} is not finite (NaN or infinite)", row + 1)]
     NonFinite {
         /// The force-trace file or label.
         origin: String,
         /// Offending column.
         column: &'static str,
-        /// 0-based row.
+        /// 0-based index of the row (messages count rows from 1, as `millcomp-datasets` does).
         row: usize,
         /// The value found.
         value: f64,
     },
     /// The measured data do not belong to the session (different grooves, points or conditions).
-    /// `row` is the 0-based data row, `None` when the whole file is at fault.
-    #[error("measured data do not match the session: {}column `{column}`: {message}", row.map(|r| format!("row {r}, ")).unwrap_or_default())]
+    /// `row` is the 0-based index of the data row, `None` when the whole file is at fault; the message
+    /// counts rows from 1, as `millcomp-datasets` does (row 1 is the first data row).
+    #[error("measured data do not match the session: {}column `{column}`: {message}", row.map(|r| format!("row {}, ", r + 1)).unwrap_or_default())]
     SessionMismatch {
         /// Offending column (`rows` when the row counts differ).
         column: String,
-        /// 0-based data row, if one row is at fault.
+        /// 0-based index of the data row, if one row is at fault.
         row: Option<usize>,
         /// What differs, with both values.
         message: String,

@@ -19,7 +19,7 @@
 
 use millcomp_sim::effects::{EffectContext, FluteRunout, first_order_response};
 
-use crate::nominal::SessionModel;
+use crate::nominal::{SessionFacts, SessionModel};
 
 /// A nonlinear parameter of a shape: bounds and the grid its search starts from.
 #[derive(Debug, Clone, PartialEq)]
@@ -156,9 +156,15 @@ impl Shape {
     /// The shape's columns at every point for nonlinear parameters `phi`: one per coefficient,
     /// or, for a fixed shape, the one column that enters with coefficient 1.
     pub fn columns(&self, sm: &SessionModel, phi: &[f64]) -> Vec<Vec<f64>> {
+        self.columns_with(sm, &sm.facts, phi)
+    }
+
+    /// [`Self::columns`] at the points of `sm` with the facts `f` the shape is scaled by (the X
+    /// range, the engaged length at the end, the largest force, the coolant and spindle histories) —
+    /// those of another session, e.g. the one a shape was fitted on ([`crate::fitted`]).
+    pub fn columns_with(&self, sm: &SessionModel, f: &SessionFacts, phi: &[f64]) -> Vec<Vec<f64>> {
         let pts = sm.points();
         let n = pts.len();
-        let f = &sm.facts;
         let lag = |events: &[(f64, f64)], tau: f64| lag_column(pts, events, tau);
         let u = |x: f64| f.along_x(x);
         match self.kind {
@@ -269,8 +275,13 @@ impl Shape {
     /// Offsets (µm) of the shape at every point for parameters `theta` (coefficients, then
     /// nonlinear parameters).
     pub fn offsets(&self, sm: &SessionModel, theta: &[f64]) -> Vec<f64> {
+        self.offsets_with(sm, &sm.facts, theta)
+    }
+
+    /// [`Self::offsets`] with the facts `f` of another session ([`Self::columns_with`]).
+    pub fn offsets_with(&self, sm: &SessionModel, f: &SessionFacts, theta: &[f64]) -> Vec<f64> {
         let nl = self.linear.len();
-        let cols = self.columns(sm, &theta[nl..]);
+        let cols = self.columns_with(sm, f, &theta[nl..]);
         if self.is_fixed() {
             return cols.into_iter().next().unwrap_or_default();
         }

@@ -103,15 +103,16 @@ fn points_that_are_not_a_measurement_are_named() {
     };
     let mut nan = m.clone();
     nan.points[0].depth_meas_um = f64::NAN;
+    // rows counted from 1 (the first point is row 1)
     assert_eq!(
         point(&diagnose(&s, &nan, &opts()).unwrap_err()),
-        (0, "depth_meas_um")
+        (1, "depth_meas_um")
     );
     let mut back = m.clone();
     back.points[3].t_s = back.points[1].t_s;
     assert_eq!(
         point(&diagnose(&s, &back, &opts()).unwrap_err()),
-        (3, "t_s")
+        (4, "t_s")
     );
 }
 

@@ -237,6 +237,30 @@ pub enum DoeError {
         /// Description, with the alternative when there is one.
         what: String,
     },
+
+    /// One option of a [`crate::DesignOptions`] or [`crate::AnalyzeOptions`] is wrong: shown as the CLI flag (`--factors`), the
+    /// cause below it. A face with other spellings (Python's `factors=`) renders `option` itself.
+    #[error("--{}", option.replace('_', "-"))]
+    BadOption {
+        /// The option's name, `snake_case` (`factors`, `ccd_variant`).
+        option: &'static str,
+        /// What is wrong with it.
+        #[source]
+        source: Box<DoeError>,
+    },
+
+    /// A step of an analysis of a named table failed (`FILE: preparing the analysis`), the cause
+    /// below it.
+    #[error("{origin}: {step}")]
+    AnalysisStep {
+        /// The table (its file, or the argument it came from).
+        origin: String,
+        /// The step: `preparing the analysis`, `backward elimination`, ``analysing `y` ``.
+        step: String,
+        /// What went wrong.
+        #[source]
+        source: Box<DoeError>,
+    },
 }
 
 /// Shorthand result type.

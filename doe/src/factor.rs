@@ -107,6 +107,7 @@ impl FactorSpec {
     /// assert_eq!(f.range(), Some((10000.0, 20000.0)));
     /// assert_eq!(FactorSpec::parse("coolant=off:on").unwrap().kind(), "label");
     /// assert!(FactorSpec::parse("depth_um=100").is_err()); // one level
+    /// assert!(FactorSpec::parse("depth_um=nan:1").is_err()); // not a label: a number gone wrong
     /// ```
     ///
     /// # Errors
@@ -148,6 +149,15 @@ impl FactorSpec {
                 name: name.to_string(),
                 level: parts[0].to_string(),
             });
+        }
+        // `nan` or `inf` is a number gone wrong, not a label: refused, not read as a category
+        if let Some(p) = parts
+            .iter()
+            .find(|p| p.parse::<f64>().is_ok_and(|v| !v.is_finite()))
+        {
+            return Err(bad(&format!(
+                "level `{p}` is not a finite number (a factor's levels are finite numbers or labels)"
+            )));
         }
         let nums: Option<Vec<f64>> = parts
             .iter()

@@ -51,14 +51,14 @@ pub mod model;
 pub mod surface;
 
 pub use analysis::{
-    Analysis, AnalysisInput, BOOKKEEPING_COLUMNS, CoefRow, Diagnostics, Elimination,
-    EliminationStep, FactorCoding, LackOfFit, Lenth, LenthTerm, PowerReport, RunDiagnostic,
-    TermPower, TermRow, analyze, backward_eliminate, f_test_power, lenth, noncentral_f_cdf,
-    noncentral_f_sf, power,
+    Analysis, AnalysisInput, AnalyzeOptions, AnalyzeOutcome, BOOKKEEPING_COLUMNS, CoefRow,
+    Diagnostics, Elimination, EliminationStep, FactorCoding, LackOfFit, Lenth, LenthTerm,
+    PowerReport, RunDiagnostic, TermPower, TermRow, analyze, backward_eliminate, f_test_power,
+    lenth, noncentral_f_cdf, noncentral_f_sf, power,
 };
 pub use design::{
-    AliasEntry, CcdAlpha, CcdVariant, Design, DesignCriteria, DesignKind, DesignRequest,
-    LinearConstraint, Run, generate, resolution_roman,
+    AliasEntry, CcdAlpha, CcdVariant, Design, DesignCriteria, DesignKind, DesignOptions,
+    DesignRequest, LinearConstraint, Run, generate, resolution_roman,
 };
 pub use error::{DoeError, Result};
 pub use factor::{

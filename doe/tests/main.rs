@@ -4,6 +4,7 @@
 mod common;
 
 mod clayton_anova;
+mod design_claims;
 mod designs;
 mod errors;
 mod fractional;

@@ -200,16 +200,39 @@ struct Picker<'a> {
     cols: &'a Columns,
     used: BTreeSet<String>,
     target: &'static str,
+    /// The first optional column asked for as numbers but present as text.
+    bad: Option<IdentifyError>,
 }
 
 impl<'a> Picker<'a> {
     fn req(&mut self, name: &str) -> Result<&'a [f64]> {
+        self.not_text(name)?;
         self.opt(name).ok_or_else(|| IdentifyError::MissingColumn {
             column: name.into(),
             reason: format!("required by `identify {}`", self.target),
         })
     }
+    /// A column present as text where numbers are needed is not missing: its first cell that is not a
+    /// finite number is named.
+    fn not_text(&self, name: &str) -> Result<()> {
+        let Some(cells) = self.cols.text.get(name) else {
+            return Ok(());
+        };
+        let bad = cells
+            .iter()
+            .position(|c| c.trim().parse::<f64>().map_or(true, |x| !x.is_finite()))
+            .unwrap_or(0);
+        Err(IdentifyError::NotANumber {
+            column: name.into(),
+            row: bad + 1,
+            value: cells.get(bad).cloned().unwrap_or_default(),
+            reason: format!("needed by `identify {}`", self.target),
+        })
+    }
     fn opt(&mut self, name: &str) -> Option<&'a [f64]> {
+        if let Err(e) = self.not_text(name) {
+            self.bad.get_or_insert(e);
+        }
         let v = self.cols.numeric.get(name)?;
         self.used.insert(name.to_string());
         Some(v.as_slice())
@@ -218,6 +241,10 @@ impl<'a> Picker<'a> {
         let v = self.cols.text.get(name)?;
         self.used.insert(name.to_string());
         Some(v.as_slice())
+    }
+    /// An optional column that was present as text where numbers are needed.
+    fn ok(&mut self) -> Result<()> {
+        self.bad.take().map_or(Ok(()), Err)
     }
     fn notes(&self) -> Vec<String> {
         self.cols
@@ -268,6 +295,7 @@ pub fn identify_columns(
         cols,
         used: BTreeSet::new(),
         target: name,
+        bad: None,
     };
     let mut out = match target {
         Target::Spindle => {
@@ -282,6 +310,7 @@ pub fn identify_columns(
                 dead_time: opts.spindle_dead_time,
                 ..Default::default()
             };
+            p.ok()?;
             identify_spindle(&d, &o)?
         }
         Target::Hysteresis => {
@@ -289,6 +318,7 @@ pub fn identify_columns(
                 u_v: p.req("u_v")?,
                 y_um: p.req("y_um")?,
             };
+            p.ok()?;
             identify_hysteresis(&d, &HysteresisOptions::default())?
         }
         Target::Stiffness => {
@@ -302,6 +332,7 @@ pub fn identify_columns(
                 tilt_deg: opts.tilt_deg.clone(),
                 machine_stiffness_n_per_um: opts.machine_stiffness_n_per_um,
             };
+            p.ok()?;
             identify_stiffness(&d, &o)?
         }
         Target::Thermal => {
@@ -311,6 +342,7 @@ pub fn identify_columns(
                 speed_rpm: p.opt("speed_rpm"),
                 temp_c: p.opt("temp_c"),
             };
+            p.ok()?;
             identify_thermal(&d, opts.thermal_model, &common)?
         }
         Target::Wall => {
@@ -322,6 +354,7 @@ pub fn identify_columns(
                 common,
                 geometry: opts.wall_geometry,
             };
+            p.ok()?;
             identify_wall(&d, &o)?
         }
         Target::Part => {
@@ -361,6 +394,7 @@ pub fn identify_columns(
                     });
                 }
             };
+            p.ok()?;
             identify_part(
                 &PartData {
                     part: &parts,
@@ -385,9 +419,9 @@ pub fn identify_columns(
             let constant = |name: &str, col: Option<&[f64]>| -> Result<Option<f64>> {
                 let Some(c) = col else { return Ok(None) };
                 match c.iter().position(|v| *v != c[0] || !v.is_finite()) {
-                    Some(row) => Err(IdentifyError::InvalidParameter {
-                        name: format!("{name} (row {row})"),
-                        value: c[row],
+                    Some(i) => Err(IdentifyError::InvalidParameter {
+                        name: format!("{name} (row {})", i + 1),
+                        value: c[i],
                         allowed: "one tool per file: the same finite value in every row",
                     }),
                     None => Ok(c.first().copied()),
@@ -409,6 +443,7 @@ pub fn identify_columns(
             if let Some(v) = constant("helix_deg", p.opt("helix_deg"))? {
                 o.tool.helix_deg = v;
             }
+            p.ok()?;
             identify_kienzle(&d, &o)?
         }
         Target::FeedAxis => {
@@ -417,6 +452,7 @@ pub fn identify_columns(
                 reference_um: p.req("reference_um")?,
                 position_um: p.req("position_um")?,
             };
+            p.ok()?;
             identify_feed_axis(&d, &FeedAxisOptions { common })?
         }
         Target::Force => {
@@ -460,6 +496,7 @@ pub fn identify_columns(
                         }
                     })?;
             }
+            p.ok()?;
             identify_force(&data, &o)?
         }
     };

@@ -48,23 +48,23 @@ pub enum IdentifyError {
         expected: usize,
     },
     /// A NaN or infinite value in the data.
-    #[error("column `{column}` row {row}: value {value} is not finite (NaN or infinite)")]
+    #[error("column `{column}`, row {row}: value {value} is not finite (NaN or infinite)")]
     NonFinite {
         /// Offending column.
         column: String,
-        /// 0-based data row.
+        /// Row, counted from 1.
         row: usize,
         /// The value found.
         value: f64,
     },
     /// Time (or another ordering column) does not strictly increase.
     #[error(
-        "column `{column}` row {row}: value {value} does not increase (previous row {prev}); time must be strictly increasing"
+        "column `{column}`, row {row}: value {value} does not increase (previous row: {prev}); time must be strictly increasing"
     )]
     NonMonotoneTime {
         /// Offending column.
         column: String,
-        /// 0-based data row where the order breaks.
+        /// Row where the order breaks, counted from 1.
         row: usize,
         /// Value at `row - 1`.
         prev: f64,
@@ -177,11 +177,37 @@ pub enum IdentifyError {
         #[source]
         source: SimError,
     },
+    /// A text cell holds a label the target does not know (a stiffness `direction` other than axial or
+    /// radial).
+    #[error("column `{column}`, row {row}: `{value}` is not one of {allowed}")]
+    InvalidLabel {
+        /// The column.
+        column: String,
+        /// Row, counted from 1.
+        row: usize,
+        /// The label found.
+        value: String,
+        /// The labels allowed, comma separated.
+        allowed: String,
+    },
+    /// A numeric input column holds a cell that is not a number (a text column where numbers are
+    /// needed).
+    #[error("column `{column}`, row {row}: `{value}` is not a number ({reason})")]
+    NotANumber {
+        /// The column.
+        column: String,
+        /// Row, counted from 1.
+        row: usize,
+        /// The cell as written (empty for an empty cell).
+        value: String,
+        /// Why the column is needed (`required by identify spindle`).
+        reason: String,
+    },
     /// A row's cut conditions are outside what the physics crate's force model accepts (depth beyond the
     /// ball radius, tilt ≥ 90°, …).
     #[error("row {row}: cut conditions the force model does not accept")]
     RejectedConditions {
-        /// 0-based data row.
+        /// Row, counted from 1.
         row: usize,
         /// The physics crate's error, naming the parameter and its allowed range.
         #[source]

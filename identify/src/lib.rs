@@ -31,7 +31,7 @@ pub mod validate;
 pub use columns::{Columns, IdentifyOptions, Target, identify_columns};
 pub use curve::CurveFit;
 pub use error::{IdentifyError, Result};
-pub use jacobian_check::{JacobianCheck, check_jacobian, fd_jacobian};
+pub use jacobian_check::{JacobianCheck, check_jacobian, fd_jacobian, fd_jacobian_within};
 pub use linear::{LinearFit, LinearMethod, fit_linear};
 pub use nonlinear::{NlsOptions, NonlinearFit, ParamSpec, ResidualModel, fit_nonlinear};
 pub use report::{FitReport, FitStatus, NamedMatrix, ResidualDiagnostics, RmsResidual};

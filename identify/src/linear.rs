@@ -405,6 +405,6 @@ mod tests {
             "t",
             "um",
         );
-        assert!(matches!(e, Err(IdentifyError::NonFinite { row: 1, .. })));
+        assert!(matches!(e, Err(IdentifyError::NonFinite { row: 2, .. })));
     }
 }

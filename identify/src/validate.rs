@@ -1,16 +1,17 @@
 //! Input checks shared by the targets: lengths, finiteness, monotone time, constant regressors.
 //!
-//! Every check names the column and the 0-based data row it rejects.
+//! Every check names the column and the row it rejects, counted from 1 (the first value is row 1: in
+//! a file, the first data row, as `millcomp-datasets` numbers rows).
 
 use crate::error::{IdentifyError, Result};
 
 /// Fails with [`IdentifyError::NonFinite`] at the first NaN/infinite value of `values`.
 pub fn finite(column: &str, values: &[f64]) -> Result<()> {
     match values.iter().position(|v| !v.is_finite()) {
-        Some(row) => Err(IdentifyError::NonFinite {
+        Some(i) => Err(IdentifyError::NonFinite {
             column: column.to_string(),
-            row,
-            value: values[row],
+            row: i + 1,
+            value: values[i],
         }),
         None => Ok(()),
     }
@@ -33,14 +34,14 @@ pub fn same_len(column: &str, values: &[f64], reference: &str, expected: usize) 
 /// Fails with [`IdentifyError::NonMonotoneTime`] at the first row where `values` does not strictly
 /// increase.
 pub fn strictly_increasing(column: &str, values: &[f64]) -> Result<()> {
-    for row in 1..values.len() {
+    for i in 1..values.len() {
         // `!(a > b)` also rejects NaN, though `finite` normally runs first.
-        if values[row].partial_cmp(&values[row - 1]) != Some(std::cmp::Ordering::Greater) {
+        if values[i].partial_cmp(&values[i - 1]) != Some(std::cmp::Ordering::Greater) {
             return Err(IdentifyError::NonMonotoneTime {
                 column: column.to_string(),
-                row,
-                prev: values[row - 1],
-                value: values[row],
+                row: i + 1,
+                prev: values[i - 1],
+                value: values[i],
             });
         }
     }
@@ -92,10 +93,10 @@ pub fn sqrt_weights(weights: Option<&[f64]>, n: usize) -> Result<Vec<f64>> {
     };
     same_len("weights", w, "y", n)?;
     finite("weights", w)?;
-    if let Some(row) = w.iter().position(|&v| v <= 0.0) {
+    if let Some(i) = w.iter().position(|&v| v <= 0.0) {
         return Err(IdentifyError::InvalidParameter {
-            name: format!("weights[{row}]"),
-            value: w[row],
+            name: format!("weights, row {}", i + 1),
+            value: w[i],
             allowed: "> 0 (inverse variance)",
         });
     }
@@ -110,15 +111,15 @@ mod tests {
     fn finite_names_row() {
         let e = finite("y_um", &[1.0, 2.0, f64::NAN]).unwrap_err();
         assert!(
-            matches!(e, IdentifyError::NonFinite { row: 2, ref column, .. } if column == "y_um")
+            matches!(e, IdentifyError::NonFinite { row: 3, ref column, .. } if column == "y_um")
         );
-        assert!(e.to_string().contains("`y_um` row 2"));
+        assert!(e.to_string().contains("`y_um`, row 3"));
     }
 
     #[test]
     fn monotone_names_row() {
         let e = strictly_increasing("t_s", &[0.0, 1.0, 1.0, 2.0]).unwrap_err();
-        assert!(matches!(e, IdentifyError::NonMonotoneTime { row: 2, .. }));
+        assert!(matches!(e, IdentifyError::NonMonotoneTime { row: 3, .. }));
         assert!(strictly_increasing("t_s", &[0.0, 1.0, 3.0]).is_ok());
     }
 

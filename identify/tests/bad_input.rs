@@ -32,12 +32,13 @@ fn thermal_errors() {
     y[5] = f64::NAN;
     let e = thermal(&t, &y).unwrap_err();
     assert!(
-        matches!(e, IdentifyError::NonFinite { row: 5, ref column, .. } if column == "drift_um"),
+        matches!(e, IdentifyError::NonFinite { row: 6, ref column, .. } if column == "drift_um"),
         "{e}"
     );
+    // rows counted from 1: index 5 is row 6
     assert_eq!(
         e.to_string(),
-        "column `drift_um` row 5: value NaN is not finite (NaN or infinite)"
+        "column `drift_um`, row 6: value NaN is not finite (NaN or infinite)"
     );
     let mut t2 = t.clone();
     t2[3] = t2[2];
@@ -47,10 +48,10 @@ fn thermal_errors() {
         .collect();
     let e = thermal(&t2, &y).unwrap_err();
     assert!(
-        matches!(e, IdentifyError::NonMonotoneTime { row: 3, .. }),
+        matches!(e, IdentifyError::NonMonotoneTime { row: 4, .. }),
         "{e}"
     );
-    assert!(e.to_string().contains("`t_s` row 3"));
+    assert!(e.to_string().contains("`t_s`, row 4"));
     let e = thermal(&t[..3], &y[..3]).unwrap_err();
     assert!(
         e.to_string()
@@ -119,7 +120,7 @@ fn spindle_errors() {
         &SpindleOptions::default(),
     )
     .unwrap_err();
-    assert!(matches!(e, IdentifyError::NonFinite { row: 42, .. }), "{e}");
+    assert!(matches!(e, IdentifyError::NonFinite { row: 43, .. }), "{e}");
     let mut t2 = t.clone();
     t2[50] = t2[10];
     let e = identify_spindle(
@@ -132,7 +133,7 @@ fn spindle_errors() {
     )
     .unwrap_err();
     assert!(
-        matches!(e, IdentifyError::NonMonotoneTime { row: 50, .. }),
+        matches!(e, IdentifyError::NonMonotoneTime { row: 51, .. }),
         "{e}"
     );
     let e = identify_spindle(
@@ -202,7 +203,7 @@ fn stiffness_errors_name_the_direction() {
         &StiffnessOptions::default(),
     )
     .unwrap_err();
-    assert!(matches!(e, IdentifyError::NonFinite { row: 2, .. }), "{e}");
+    assert!(matches!(e, IdentifyError::NonFinite { row: 3, .. }), "{e}");
 }
 
 #[test]
@@ -230,7 +231,7 @@ fn force_errors() {
         matches!(
             e,
             IdentifyError::RejectedConditions {
-                row: 2,
+                row: 3,
                 source: millcomp_sim::SimError::InvalidParameter {
                     name: "depth_um",
                     ..
@@ -239,14 +240,14 @@ fn force_errors() {
         ),
         "{e:?}"
     );
-    assert!(e.to_string().contains("row 2"), "{e}");
+    assert!(e.to_string().contains("row 3"), "{e}");
     let e = identify_force(
         &data(&[100.0, 200.0, 150.0], &[1.0, f64::NAN, 3.0]),
         &ForceOptions::default(),
     )
     .unwrap_err();
     assert!(
-        matches!(e, IdentifyError::NonFinite { row: 1, ref column, .. } if column == "max_fx_n"),
+        matches!(e, IdentifyError::NonFinite { row: 2, ref column, .. } if column == "max_fx_n"),
         "{e}"
     );
     // Three parameters from two distinct conditions: refused.

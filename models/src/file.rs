@@ -4,6 +4,8 @@
 //! (temporary file + rename: nothing half-written). Schema and examples: `models/MODEL.md`.
 
 use std::io::Write as _;
+
+pub use crate::atomic::write_atomic;
 use std::path::{Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
 
@@ -210,6 +212,7 @@ impl<B: Serialize + DeserializeOwned> ModelFile<B> {
         };
         let doc: toml::Table = toml::from_str(text).map_err(parse_err)?;
         check_header(&doc, origin, kinds)?;
+        check_numbers(&doc, origin)?;
         toml::from_str(text).map_err(parse_err)
     }
 
@@ -230,8 +233,13 @@ impl<B: Serialize + DeserializeOwned> ModelFile<B> {
     /// Writes the file atomically: to a temporary file in the same directory, then renamed over `path`
     /// (an example with [`ModelFile::load`] is on [`ModelFile`]).
     ///
+    /// A model holding a number the format does not allow — NaN or infinite anywhere but where
+    /// [`check_numbers`] allows it (an S = inf fit, a NaN covariance) — is refused before anything is
+    /// written, naming the key: it would drive a controller with garbage.
+    ///
     /// # Errors
-    /// [`ModelError::Serialize`], or [`ModelError::Io`] naming the file; nothing is left half-written.
+    /// [`ModelError::InvalidValue`] naming the first non-finite key; [`ModelError::Serialize`], or
+    /// [`ModelError::Io`] naming the file; nothing is left half-written.
     pub fn save(&self, path: &Path) -> Result<()> {
         let text = self.to_toml().map_err(|e| match e {
             ModelError::Serialize { source, .. } => ModelError::Serialize {
@@ -240,7 +248,166 @@ impl<B: Serialize + DeserializeOwned> ModelFile<B> {
             },
             other => other,
         })?;
+        // check what will be on disk: the text read back
+        let doc: toml::Table = toml::from_str(&text).map_err(|source| ModelError::Parse {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        check_numbers(&doc, path)?;
         write_atomic(path, |f| f.write_all(text.as_bytes()))
+    }
+}
+
+/// Checks that every number of a model file is finite, except where the format says a fit could not
+/// determine a value (`models/MODEL.md`): `std_err.<name> = inf` for a parameter the data do not
+/// determine, and `nan` in the covariance rows and columns of such parameters (and in a derived
+/// quantity's `std_err`/`ci95` that depends on one). Any other NaN or infinity — an S = inf fit, a NaN
+/// covariance of a determined parameter, an estimate that overflowed — is refused naming its key.
+///
+/// ```
+/// use std::path::Path;
+/// use millcomp_models::{file::check_numbers, ModelError};
+/// let ok: toml::Table = toml::from_str(r#"
+/// [model]
+/// params = { a = 1.0, b = 2.0 }
+/// std_err = { a = 0.1, b = inf }
+/// covariance = { names = ["a", "b"], values = [[0.01, nan], [nan, nan]] }
+/// "#).unwrap();
+/// assert!(check_numbers(&ok, Path::new("m.toml")).is_ok());
+/// let bad: toml::Table = toml::from_str(r#"
+/// [model]
+/// params = { a = 1.0 }
+/// std_err = { a = 0.1 }
+/// covariance = { names = ["a"], values = [[nan]] }
+/// "#).unwrap();
+/// let e = check_numbers(&bad, Path::new("m.toml")).unwrap_err();
+/// assert!(matches!(&e, ModelError::InvalidValue { key, .. } if key == "model.covariance.values[0][0]"));
+/// ```
+///
+/// # Errors
+/// [`ModelError::InvalidValue`] naming the first non-finite key not allowed to be.
+pub fn check_numbers(doc: &toml::Table, origin: &Path) -> Result<()> {
+    walk_table(doc, "", &[], origin)
+}
+
+/// The parameters a fit table (one with `std_err`) could not determine: those with `std_err = inf`.
+fn undetermined(t: &toml::Table) -> Vec<String> {
+    match t.get("std_err") {
+        Some(toml::Value::Table(se)) => se
+            .iter()
+            .filter(|(_, v)| matches!(v, toml::Value::Float(x) if *x == f64::INFINITY))
+            .map(|(k, _)| k.clone())
+            .collect(),
+        _ => Vec::new(),
+    }
+}
+
+fn walk_table(t: &toml::Table, at: &str, loose: &[String], origin: &Path) -> Result<()> {
+    let own = undetermined(t);
+    let loose: Vec<String> = if own.is_empty() { loose.to_vec() } else { own };
+    for (k, v) in t {
+        let key = if at.is_empty() {
+            k.clone()
+        } else {
+            format!("{at}.{k}")
+        };
+        match (k.as_str(), v) {
+            // the standard error of an undetermined parameter
+            ("std_err", toml::Value::Table(se)) => {
+                for (name, x) in se {
+                    check_float(x, &format!("{key}.{name}"), origin, |x| x == f64::INFINITY)?;
+                }
+            }
+            ("covariance", toml::Value::Table(c)) => {
+                let names: Vec<&str> = match c.get("names") {
+                    Some(toml::Value::Array(a)) => a.iter().filter_map(|v| v.as_str()).collect(),
+                    _ => Vec::new(),
+                };
+                let free = |i: usize| names.get(i).is_some_and(|n| loose.iter().any(|l| l == n));
+                for (ck, cv) in c {
+                    let ckey = format!("{key}.{ck}");
+                    match (ck.as_str(), cv) {
+                        ("values", toml::Value::Array(rows)) => {
+                            for (i, row) in rows.iter().enumerate() {
+                                let cells: &[toml::Value] = match row {
+                                    toml::Value::Array(r) => r,
+                                    other => std::slice::from_ref(other),
+                                };
+                                for (j, x) in cells.iter().enumerate() {
+                                    check_float(x, &format!("{ckey}[{i}][{j}]"), origin, |x| {
+                                        x.is_nan() && (free(i) || free(j))
+                                    })?;
+                                }
+                            }
+                        }
+                        _ => walk_value(cv, &ckey, &loose, origin)?,
+                    }
+                }
+            }
+            // a derived quantity of an undetermined parameter has no finite uncertainty
+            ("derived", toml::Value::Table(d)) if !loose.is_empty() => {
+                for (name, q) in d {
+                    let qkey = format!("{key}.{name}");
+                    match q {
+                        toml::Value::Table(q) => {
+                            for (qk, qv) in q {
+                                let allowed = matches!(qk.as_str(), "std_err" | "ci95");
+                                walk_value_allowing(qv, &format!("{qkey}.{qk}"), origin, allowed)?;
+                            }
+                        }
+                        other => walk_value(other, &qkey, &loose, origin)?,
+                    }
+                }
+            }
+            _ => walk_value(v, &key, &loose, origin)?,
+        }
+    }
+    Ok(())
+}
+
+fn walk_value(v: &toml::Value, key: &str, loose: &[String], origin: &Path) -> Result<()> {
+    match v {
+        toml::Value::Table(t) => walk_table(t, key, loose, origin),
+        toml::Value::Array(a) => {
+            for (i, x) in a.iter().enumerate() {
+                walk_value(x, &format!("{key}[{i}]"), loose, origin)?;
+            }
+            Ok(())
+        }
+        other => check_float(other, key, origin, |_| false),
+    }
+}
+
+fn walk_value_allowing(v: &toml::Value, key: &str, origin: &Path, allowed: bool) -> Result<()> {
+    match v {
+        toml::Value::Array(a) => {
+            for (i, x) in a.iter().enumerate() {
+                walk_value_allowing(x, &format!("{key}[{i}]"), origin, allowed)?;
+            }
+            Ok(())
+        }
+        toml::Value::Table(t) => walk_table(t, key, &[], origin),
+        other => check_float(other, key, origin, |_| allowed),
+    }
+}
+
+fn check_float(
+    v: &toml::Value,
+    key: &str,
+    origin: &Path,
+    allowed: impl Fn(f64) -> bool,
+) -> Result<()> {
+    match v {
+        toml::Value::Float(x) if !x.is_finite() && !allowed(*x) => Err(ModelError::InvalidValue {
+            path: origin.to_path_buf(),
+            key: key.to_string(),
+            value: format!("{x}"),
+            allowed:
+                "a finite number (a model file holds no NaN or infinity but a `std_err = inf` \
+                      of a parameter the data do not determine, and NaN in its covariance)"
+                    .into(),
+        }),
+        _ => Ok(()),
     }
 }
 
@@ -341,53 +508,6 @@ pub fn read_header(path: &Path) -> Result<Header> {
     check_header(&doc, path, &[])?;
     let h: OnlyHeader = toml::from_str(&text).map_err(parse_err)?;
     Ok(h.header)
-}
-
-/// Writes `path` atomically: `fill` writes a temporary file in the same directory, which is synced and
-/// renamed over `path` only when `fill` succeeded. The one atomic writer of millcomp (tables, text and
-/// model files all go through it).
-///
-/// ```
-/// use std::io::Write;
-/// let dir = tempfile::tempdir().unwrap();
-/// let path = dir.path().join("notes.txt");
-/// millcomp_models::write_atomic(&path, |f| f.write_all(b"18 um")).unwrap();
-/// assert_eq!(std::fs::read_to_string(&path).unwrap(), "18 um");
-/// let e = millcomp_models::write_atomic(&path, |_| Err(std::io::Error::other("disk full"))).unwrap_err();
-/// assert!(e.to_string().ends_with("notes.txt: writing"));
-/// assert_eq!(std::fs::read_to_string(&path).unwrap(), "18 um"); // the old file is untouched
-/// ```
-///
-/// # Errors
-/// [`ModelError::Io`] naming `path`; the temporary file is removed on failure.
-pub fn write_atomic<F>(path: &Path, fill: F) -> Result<()>
-where
-    F: FnOnce(&mut std::fs::File) -> std::io::Result<()>,
-{
-    let io_err = |action: String, source| ModelError::Io {
-        path: path.to_path_buf(),
-        action,
-        source,
-    };
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".millcomp-")
-        .suffix(".partial")
-        .tempfile_in(&dir)
-        .map_err(|e| io_err(format!("creating a temporary file in {}", dir.display()), e))?;
-    fill(tmp.as_file_mut()).map_err(|e| io_err("writing".into(), e))?;
-    tmp.as_file_mut()
-        .flush()
-        .map_err(|e| io_err("writing".into(), e))?;
-    tmp.as_file()
-        .sync_all()
-        .map_err(|e| io_err("syncing".into(), e))?;
-    tmp.persist(path)
-        .map_err(|e| io_err("renaming the temporary file".into(), e.error))?;
-    Ok(())
 }
 
 /// Lower-case hex SHA-256 of `bytes`.
@@ -500,6 +620,33 @@ mod tests {
         assert!(e.to_string().contains("header.format"), "{e}");
         let e = ModelFile::<Body>::from_toml("[model]\na_um = 1.0\n", p, &[]).unwrap_err();
         assert!(e.to_string().contains("`header`"), "{e}");
+    }
+
+    #[test]
+    fn a_non_finite_number_is_never_saved_nor_loaded() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.toml");
+        for (bad, written) in [
+            (f64::NAN, "nan"),
+            (f64::INFINITY, "inf"),
+            (f64::NEG_INFINITY, "-inf"),
+        ] {
+            let mut f = file();
+            f.model.a_um = bad;
+            let e = f.save(&path).unwrap_err();
+            assert!(
+                matches!(&e, ModelError::InvalidValue { key, .. } if key == "model.a_um"),
+                "{e}"
+            );
+            assert!(!path.exists(), "nothing written for {bad}");
+            // a file written by hand is refused on load, naming the key
+            let text = file()
+                .to_toml()
+                .unwrap()
+                .replace("a_um = 1.5", &format!("a_um = {written}"));
+            let e = ModelFile::<Body>::from_toml(&text, &path, &[]).unwrap_err();
+            assert!(e.to_string().contains("key `model.a_um`"), "{e}");
+        }
     }
 
     #[test]

@@ -17,10 +17,12 @@ use crate::error::{ModelError, Result};
 pub enum FitStatus {
     /// Converged (a tolerance was met) or solved exactly (linear, full rank).
     Converged,
-    /// Stopped because float64 cannot resolve further progress: the model predicts a reduction
-    /// below the cost's rounding, or every step longer than the step tolerance fails to reduce
-    /// the cost (MINPACK's "no further reduction possible"). A success: the estimate is as good
-    /// as the arithmetic allows.
+    /// Stopped because no step reduces the cost any more (the model predicts a reduction below the
+    /// cost's rounding, or every step longer than the step tolerance fails: MINPACK's "no further
+    /// reduction possible") while a reduction the residuals could show is still left — a stop at the
+    /// residuals' own resolution is `Converged` (identify's nonlinear module). Counted a success (the
+    /// estimate is the best point found), but the steps failed for a reason the arithmetic does not
+    /// explain: a Jacobian that is not the residuals' derivative, for one.
     StalledAtRoundingLevel,
     /// Not converged: the iteration limit was reached before any tolerance was met (files
     /// written before this status was named carry `max_iter`, read as this).
@@ -120,7 +122,9 @@ pub struct IdentifiedModel {
     pub dof: usize,
     /// RMS residual in `residual_unit`.
     pub rms_residual: f64,
-    /// Unit of the residuals (`um`, `n`).
+    /// Unit of the residuals: one of [`IdentifiedModel::RESIDUAL_UNITS`] (a file with another is
+    /// refused on load, naming the key).
+    #[serde(deserialize_with = "residual_unit")]
     pub residual_unit: String,
     /// Fit warnings, for the record.
     #[serde(default)]
@@ -139,7 +143,27 @@ pub struct IdentifiedModel {
     pub covariance: NamedMatrix,
 }
 
+/// Reads `residual_unit`, refusing a unit millcomp does not write: the residual RMS of a model is compared
+/// with sensor noise levels in µm and N, so `mm` or `kN` would silently be read 1000× off.
+fn residual_unit<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<String, D::Error> {
+    let unit = String::deserialize(d)?;
+    if IdentifiedModel::RESIDUAL_UNITS.contains(&unit.as_str()) {
+        Ok(unit)
+    } else {
+        Err(serde::de::Error::custom(format!(
+            "residual_unit `{unit}`: allowed {} (µm, newtons, or none for a model fitted to no residuals)",
+            IdentifiedModel::RESIDUAL_UNITS
+                .map(|u| format!("`{u}`"))
+                .join(", ")
+        )))
+    }
+}
+
 impl IdentifiedModel {
+    /// The units `residual_unit` may hold: `um` (every displacement fit), `n` (force fits) and `none`
+    /// (a sensor-noise record, which fits nothing).
+    pub const RESIDUAL_UNITS: [&'static str; 3] = ["um", "n", "none"];
+
     /// A parameter or fixed input by name.
     pub fn get(&self, name: &str) -> Option<f64> {
         self.params
@@ -221,6 +245,21 @@ fn finite_positive(v: f64) -> bool {
     v.is_finite() && v > 0.0
 }
 
+/// The model's residuals must be in `unit` (a spindle's in µm, a force model's in N): a model of the right
+/// kind fitted in another unit is refused naming `model.residual_unit`.
+fn require_unit(m: &IdentifiedModel, origin: &Path, unit: &str, kind: &str) -> Result<()> {
+    if m.residual_unit == unit {
+        Ok(())
+    } else {
+        Err(ModelError::InvalidValue {
+            path: origin.to_path_buf(),
+            key: "model.residual_unit".into(),
+            value: format!("`{}`", m.residual_unit),
+            allowed: format!("`{unit}` for a `{kind}` model"),
+        })
+    }
+}
+
 /// The PZT-actuated spindle as identified from a step response (kind `spindle`):
 /// `G(s) = K ωn² [p/(s+p)] e^{−sTd} / (s² + 2ζωn s + ωn²)`, volts → tool-tip µm (`000_…txt` §5.2.4).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -276,6 +315,7 @@ impl SpindleModel {
     /// assert_eq!(s.pole_rad_s, None);
     /// ```
     pub fn from_identified(m: &IdentifiedModel, origin: &Path) -> Result<Self> {
+        require_unit(m, origin, "um", "spindle")?;
         let need = |name: &str| {
             m.require_valid(name, origin, "spindle", finite_positive, "finite and > 0")
         };
@@ -468,6 +508,7 @@ impl ForceModelParams {
     /// assert!(ForceModelParams::from_identified(&m, Path::new("force.toml")).is_err());
     /// ```
     pub fn from_identified(m: &IdentifiedModel, origin: &Path) -> Result<Self> {
+        require_unit(m, origin, "n", "force")?;
         for (name, v) in &m.params {
             if !Self::PARAMETERS.contains(&name.as_str()) {
                 return Err(ModelError::InvalidValue {
@@ -516,6 +557,7 @@ impl StiffnessModel {
     /// [`ModelError::MissingKey`] naming `model.params.axial_stiffness_n_per_um` or
     /// `…radial…`; [`ModelError::InvalidValue`] for a non-positive stiffness.
     pub fn from_identified(m: &IdentifiedModel, origin: &Path) -> Result<Self> {
+        require_unit(m, origin, "um", "stiffness")?;
         let need = |name: &str| {
             m.require_valid(name, origin, "stiffness", finite_positive, "finite and > 0")
         };
@@ -646,14 +688,61 @@ mod tests {
         );
     }
 
+    fn force(params: &[(&str, f64)]) -> IdentifiedModel {
+        IdentifiedModel {
+            residual_unit: "n".into(),
+            ..model(params)
+        }
+    }
+
     #[test]
     fn force_view_refuses_unknown_parameters() {
-        let m = model(&[("w_mpa", 2000.0), ("k_c", 1.0)]);
+        let m = force(&[("w_mpa", 2000.0), ("k_c", 1.0)]);
         let e = ForceModelParams::from_identified(&m, Path::new("f.toml")).unwrap_err();
         assert!(e.to_string().contains("model.params.k_c"), "{e}");
-        let ok = ForceModelParams::from_identified(&model(&[("w_mpa", 2000.0)]), Path::new("f"))
+        let ok = ForceModelParams::from_identified(&force(&[("w_mpa", 2000.0)]), Path::new("f"))
             .unwrap();
         assert_eq!(ok.fitted["w_mpa"], 2000.0);
+    }
+
+    #[test]
+    fn a_model_in_another_unit_than_its_kind_is_refused_naming_the_key() {
+        // a force model whose residuals are in µm, a spindle in N: read 1000× or unit-confused
+        let e = ForceModelParams::from_identified(&model(&[("w_mpa", 2000.0)]), Path::new("f"))
+            .unwrap_err();
+        assert!(e.to_string().contains("model.residual_unit"), "{e}");
+        let e = SpindleModel::from_identified(
+            &force(&[
+                ("gain_um_per_v", 0.05),
+                ("zeta", 0.46),
+                ("wn_rad_s", 1302.0),
+            ]),
+            Path::new("s"),
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("`um` for a `spindle` model"), "{e}");
+    }
+
+    #[test]
+    fn a_residual_unit_millcomp_does_not_write_is_refused_on_load() {
+        let text = |unit: &str| {
+            format!(
+                "status = \"converged\"\nn_obs = 8\ndof = 6\nrms_residual = 0.2\nresidual_unit = \"{unit}\"\n\
+                 params = {{ k = 1.0 }}\nstd_err = {{ k = 0.1 }}\ncovariance = {{ names = [\"k\"], values = [[0.01]] }}\n"
+            )
+        };
+        for unit in IdentifiedModel::RESIDUAL_UNITS {
+            assert!(
+                toml::from_str::<IdentifiedModel>(&text(unit)).is_ok(),
+                "{unit}"
+            );
+        }
+        let e = toml::from_str::<IdentifiedModel>(&text("mm")).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("residual_unit `mm`: allowed `um`, `n`, `none`"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -51,6 +51,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod atomic;
 pub mod bundle;
 pub mod error;
 pub mod file;

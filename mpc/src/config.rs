@@ -304,8 +304,11 @@ pub struct SolverConfig {
 /// ```
 /// use millcomp_mpc::config::{CycleBudget, SolverConfig};
 /// let mut s = SolverConfig::default();
-/// CycleBudget { fraction: Some(0.2), enforced: true }.apply(&mut s);
+/// CycleBudget { fraction: Some(0.2), enforced: true, max_iter: None }.apply(&mut s);
 /// assert_eq!((s.budget_fraction, s.enforce_budget), (0.2, true));
+/// // a deterministic budget: an iteration cap, whatever the clock says
+/// CycleBudget { max_iter: Some(30), ..CycleBudget::default() }.apply(&mut s);
+/// assert_eq!(s.max_iter, 30);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CycleBudget {
@@ -313,6 +316,9 @@ pub struct CycleBudget {
     pub fraction: Option<f64>,
     /// Sets `solver.enforce_budget` (a configuration that enforces it keeps it).
     pub enforced: bool,
+    /// Overrides `solver.max_iter` when given: the iteration-count budget (deterministic — a replay
+    /// gives the same commands on any machine).
+    pub max_iter: Option<u32>,
 }
 
 impl CycleBudget {
@@ -322,6 +328,9 @@ impl CycleBudget {
             s.budget_fraction = f;
         }
         s.enforce_budget |= self.enforced;
+        if let Some(m) = self.max_iter {
+            s.max_iter = m;
+        }
     }
 }
 

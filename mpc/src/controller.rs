@@ -96,6 +96,28 @@ pub struct MpcStep {
     pub iterations: u32,
 }
 
+/// What one control cycle did, without its command: what [`MpcController::step_into`] returns (no
+/// allocation).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct MpcCycle {
+    /// QP status of this cycle.
+    pub status: QpStatus,
+    /// True if the fallback was used.
+    pub fallback: bool,
+    /// Time for update + solve, µs (0 if the solver was not called).
+    pub solve_us: f64,
+    /// Wall time of the whole cycle, from its start (the measurement) to the emitted command, µs.
+    pub cycle_us: f64,
+    /// The fresh plan was not ready within the cycle's budget.
+    pub deadline_miss: bool,
+    /// Interior-point iterations.
+    pub iterations: u32,
+}
+
+/// The QP statuses a controller counts (room reserved for all of them: counting a new one does not
+/// allocate).
+const N_STATUSES: usize = 9;
+
 /// Linear offset-free MPC with preview, solved by Clarabel.
 #[derive(Debug)]
 pub struct MpcController {
@@ -202,12 +224,57 @@ impl MpcController {
             deadline_misses: 0,
             budget_s,
             iteration_s: 0.0,
-            status_counts: Vec::new(),
+            status_counts: Vec::with_capacity(N_STATUSES),
             inject_failures: 0,
             injecting: false,
-            offsets_buf: Vec::new(),
-            reference_buf: Vec::new(),
+            offsets_buf: Vec::with_capacity(
+                (cfg.horizon + cfg.intersample_rows())
+                    * ny
+                    * usize::from(cfg.intersample.is_some()),
+            ),
+            reference_buf: Vec::with_capacity(
+                (cfg.horizon + cfg.intersample_rows())
+                    * ny
+                    * usize::from(cfg.intersample.is_some()),
+            ),
         })
+    }
+
+    /// Room for the cycle times of `cycles` solves ([`Self::solve_times_us`]): a run that solves at
+    /// most that many QPs does not allocate in its cycles. (A run beyond it still works; a cycle that
+    /// outgrows the storage allocates it anew.)
+    pub fn reserve_cycle_times(&mut self, cycles: usize) {
+        self.times_us
+            .reserve_exact(cycles.saturating_sub(self.times_us.len()));
+    }
+
+    /// Back to the state right after construction: the estimate at zero, the previous command and the
+    /// plan at the limits' zero, the statistics, the fallback's age and a pending fault injection
+    /// cleared. The problem data and the solver stay.
+    ///
+    /// # Errors
+    /// [`MpcError::SolverSetup`] when Clarabel refuses the configured settings back (after a fault
+    /// injection).
+    pub fn reset(&mut self) -> Result<(), MpcError> {
+        if self.injecting {
+            self.qp.set_max_iter_override(None)?;
+            self.injecting = false;
+        }
+        self.inject_failures = 0;
+        self.kf.restart();
+        for (i, u) in self.u_prev.iter_mut().enumerate() {
+            *u = 0.0f64.clamp(self.cfg.limits.u_min[i], self.cfg.limits.u_max[i]);
+        }
+        for (k, p) in self.plan.iter_mut().enumerate() {
+            *p = self.u_prev[k % self.nu];
+        }
+        self.plan_age = 0;
+        self.times_us.clear();
+        self.fallbacks = 0;
+        self.deadline_misses = 0;
+        self.iteration_s = 0.0;
+        self.status_counts.clear();
+        Ok(())
     }
 
     /// Set the previous command (e.g. the actuator's current value before the first cycle); clamped.
@@ -278,7 +345,39 @@ impl MpcController {
         y: &[f64],
         window: &PreviewWindow,
     ) -> Result<MpcStep, MpcError> {
+        let mut u = vec![0.0; self.nu];
+        let c = self.step_into(cycle_start, y, window, &mut u)?;
+        Ok(MpcStep {
+            u,
+            status: c.status,
+            fallback: c.fallback,
+            solve_us: c.solve_us,
+            cycle_us: c.cycle_us,
+            deadline_miss: c.deadline_miss,
+            iterations: c.iterations,
+        })
+    }
+
+    /// [`Self::step_from`] with the command written into `u` (n_inputs): with the cycle times' storage
+    /// reserved ([`Self::reserve_cycle_times`]), nothing is allocated — what a real-time loop calls.
+    ///
+    /// # Errors
+    /// As [`Self::step`]; [`MpcError::DimensionMismatch`] also when `u` is not n_inputs long.
+    pub fn step_into(
+        &mut self,
+        cycle_start: Instant,
+        y: &[f64],
+        window: &PreviewWindow,
+        u: &mut [f64],
+    ) -> Result<MpcCycle, MpcError> {
         let ny = self.model.n_outputs();
+        if u.len() != self.nu {
+            return Err(MpcError::DimensionMismatch {
+                what: "command (n_inputs)".into(),
+                expected: self.nu,
+                found: u.len(),
+            });
+        }
         if y.len() != ny || window.offset_now.len() != ny {
             return Err(MpcError::DimensionMismatch {
                 what: "measurement / offset_now (n_outputs)".into(),
@@ -290,7 +389,7 @@ impl MpcController {
                 },
             });
         }
-        let xa = self.kf.correct(y, &window.offset_now).clone();
+        let xa = self.kf.correct(y, &window.offset_now);
         // fault injection toggles the real solver setting
         let want_inject = self.inject_failures > 0;
         if want_inject != self.injecting {
@@ -339,10 +438,10 @@ impl MpcController {
                 buf.extend_from_slice(between);
             }
             self.qp
-                .update(&xa, &self.u_prev, &self.offsets_buf, &self.reference_buf)?
+                .update(xa, &self.u_prev, &self.offsets_buf, &self.reference_buf)?
         } else {
             self.qp
-                .update(&xa, &self.u_prev, &window.offsets, &window.reference)?
+                .update(xa, &self.u_prev, &window.offsets, &window.reference)?
         };
         let (status, solve_us, iterations) = if finite {
             let st = self.qp.solve_by(deadline);
@@ -361,7 +460,6 @@ impl MpcController {
             self.inject_failures -= 1;
         }
         self.count_status(status);
-        let mut u = vec![0.0; self.nu];
         // a plan that is not ready within the budget is not used: the fallback is what went out
         // (not enforced: the miss is counted, the plan used all the same)
         let late = cycle_start.elapsed() > budget;
@@ -397,8 +495,8 @@ impl MpcController {
             v = v.clamp(self.cfg.limits.u_min[i], self.cfg.limits.u_max[i]);
             *ui = v;
         }
-        self.kf.predict(&u);
-        self.u_prev.copy_from_slice(&u);
+        self.kf.predict(u);
+        self.u_prev.copy_from_slice(u);
         let cycle_us = cycle_start.elapsed().as_secs_f64() * 1e6;
         // a command that went out after the deadline (the cycle's tail overran) is a miss too
         deadline_miss |= cycle_us > self.budget_s * 1e6;
@@ -408,8 +506,7 @@ impl MpcController {
         if finite {
             self.times_us.push(cycle_us);
         }
-        Ok(MpcStep {
-            u,
+        Ok(MpcCycle {
             status,
             fallback,
             solve_us,
@@ -469,6 +566,11 @@ impl MpcController {
     /// Number of disturbance states.
     pub fn n_disturbances(&self) -> usize {
         self.model.n_dist
+    }
+
+    /// The previous command (what the next cycle's slew limit is around).
+    pub fn previous_input(&self) -> &[f64] {
+        &self.u_prev
     }
 
     /// The last accepted plan (N·n_inputs, step-major).

@@ -28,12 +28,12 @@ use millcomp_sim::SimError;
 use millcomp_sim::feed::FeedProfile;
 use millcomp_sim::filters::{Biquad, FirstOrderFilter, PeakHold, SlidingMax};
 use millcomp_sim::force::CutConditions;
-use millcomp_sim::groove::GrooveProgram;
+use millcomp_sim::groove::{GrooveProgram, PathOffset};
 use nalgebra::DMatrix;
 
 use crate::config::CycleBudget;
 use crate::config::{DisturbanceCoupling, Intersample, MpcConfig};
-use crate::controller::{MpcController, PreviewWindow};
+use crate::controller::{MpcController, MpcCycle, PreviewWindow};
 use crate::error::MpcError;
 use crate::pid::{AntiWindup, Pid, PidGains};
 use crate::predictor::ForcePredictor;
@@ -70,6 +70,9 @@ fn within_spans(spans: &[(f64, f64)], x_mm: f64) -> bool {
 pub struct ForcePeakChain {
     low_pass: Biquad,
     peak: SlidingMax,
+    /// The pre-filter as built and the peak's window (samples): what [`Self::reset`] returns to.
+    initial: Biquad,
+    window: usize,
 }
 
 impl ForcePeakChain {
@@ -84,10 +87,19 @@ impl ForcePeakChain {
 
     /// `low_pass`, then the one-revolution sliding peak at `speed_rpm`, sampled every `dt_s`.
     fn with_low_pass(low_pass: Biquad, speed_rpm: f64, dt_s: f64) -> Self {
+        let window = samples_per_rev(speed_rpm, dt_s);
         Self {
             low_pass,
-            peak: SlidingMax::new(samples_per_rev(speed_rpm, dt_s)),
+            peak: SlidingMax::new(window),
+            initial: low_pass,
+            window,
         }
+    }
+
+    /// Back to the state as built: the filter at rest, the peak's window empty.
+    pub fn reset(&mut self) {
+        self.low_pass = self.initial;
+        self.peak = SlidingMax::new(self.window);
     }
 
     /// The chain with the [`BUTTERWORTH_PREFILTER_HZ`] Butterworth (damping 0.707) instead of the
@@ -276,6 +288,9 @@ pub struct DeflectionPlan {
     waveform: Vec<f64>,
     /// Tabulated points where the force predictor extrapolated beyond its fitted range.
     pub extrapolated_points: usize,
+    /// A depth offset along the path the controllers were told of (µm, + = deeper; empty: none):
+    /// an identified effect the deflection model lacks ([`Self::with_path_offset`]).
+    path_offset: PathOffset,
 }
 
 impl DeflectionPlan {
@@ -420,6 +435,7 @@ impl DeflectionPlan {
             flute_ratio: 1.0,
             waveform: Vec::new(),
             extrapolated_points: 0,
+            path_offset: PathOffset::default(),
         })
     }
 
@@ -667,15 +683,31 @@ impl DeflectionPlan {
         tooth_s: f64,
         pass_s: f64,
     ) -> Vec<f64> {
+        let mut out = vec![0.0; times_s.len()];
+        self.deflections_phased_into(cache, times_s, rev_s, tooth_s, pass_s, &mut out);
+        out
+    }
+
+    /// [`Self::deflections_phased_cached`] written into `out` (as long as `times_s`): with the cache's
+    /// storage reserved ([`PulseCache::with_capacity`]) and `times_s` ascending, nothing is allocated.
+    pub fn deflections_phased_into(
+        &self,
+        cache: &mut PulseCache,
+        times_s: &[f64],
+        rev_s: f64,
+        tooth_s: f64,
+        pass_s: f64,
+        out: &mut [f64],
+    ) {
         let (Some(&first), Some(&last)) = (times_s.first(), times_s.last()) else {
-            return Vec::new();
+            return;
         };
         let n = self.waveform.len();
         if n == 0 {
-            return times_s
-                .iter()
-                .map(|&t| self.deflection_at_time_phased(t, rev_s, tooth_s, pass_s))
-                .collect();
+            for (o, &t) in out.iter_mut().zip(times_s) {
+                *o = self.deflection_at_time_phased(t, rev_s, tooth_s, pass_s);
+            }
+            return;
         }
         let dt = rev_s / n as f64;
         // pulse samples τ_i = pass + i·dt, waveform index i mod n (index 0 = the peak)
@@ -707,7 +739,7 @@ impl DeflectionPlan {
         }
         let pulses = cache.pulses.make_contiguous();
         let pulses = &pulses[..((i1 - i0 + 1).max(0) as usize).min(pulses.len())];
-        window_maxima(pulses, times_s, rev_s, &mut cache.best)
+        window_maxima_into(pulses, times_s, rev_s, &mut cache.best, out);
     }
 
     /// The deflection at `t_s` when the larger flute last passed `phi_s` ago; `hint` is where the
@@ -790,6 +822,60 @@ impl DeflectionPlan {
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
                 (a.min(v), b.max(v))
             })
+    }
+
+    /// The plan with an additive depth offset along the path (µm, + = deeper) that the deflection model
+    /// lacks — an identified effect tabulated along this program (e.g. a guideway's straightness that
+    /// `millcomp diagnose` named, evaluated at the groove's machine X). The controllers that follow the
+    /// plan take it into account: the open-loop compensation (and `pid-ff`'s feedforward) subtract it
+    /// from the correction they command, the MPC adds it to its error channel's prediction, preview,
+    /// measurement and stroke band. The deflection itself (and the MPC's online plan scale, which
+    /// compares it with the measured force) is unchanged.
+    ///
+    /// ```
+    /// use millcomp_mpc::groove::DeflectionPlan;
+    /// use millcomp_sim::groove::{GrooveProgram, PathOffset};
+    /// let program = GrooveProgram::thesis(30.0);
+    /// let plan = DeflectionPlan::reference(&program, 400.0, 0.01, 0.5, |c| Ok(0.1 * c.depth_um))
+    ///     .unwrap()
+    ///     .with_path_offset(PathOffset::new(vec![(0.0, 0.0), (20.0, -2.0)]).unwrap());
+    /// assert!((plan.path_offset_at(10.0) + 1.0).abs() < 1e-12);
+    /// // the deflection is the model's alone; what the actuator must make up is the deflection less
+    /// // the offset: 4 µm + 2 µm at the deep end
+    /// assert!((plan.deflection_at(20.0) - 4.0).abs() < 1e-9);
+    /// assert!((plan.range_um().1 - 4.0).abs() < 1e-9);
+    /// assert!((plan.required_range_um(1.0).1 - 6.0).abs() < 1e-9);
+    /// ```
+    pub fn with_path_offset(mut self, offset: PathOffset) -> Self {
+        self.path_offset = offset;
+        self
+    }
+
+    /// The path offset the plan was given (empty: none).
+    pub fn path_offset(&self) -> &PathOffset {
+        &self.path_offset
+    }
+
+    /// The path offset (µm, + = deeper) at `x_mm`; 0 without one.
+    pub fn path_offset_at(&self, x_mm: f64) -> f64 {
+        self.path_offset.at(x_mm)
+    }
+
+    /// The smallest and largest correction the actuator must make over the cut (µm): the planned
+    /// deflection scaled by `scale` less the path offset, at every tabulated point (the deflection's
+    /// range times `scale` without an offset).
+    pub fn required_range_um(&self, scale: f64) -> (f64, f64) {
+        if self.path_offset.is_empty() {
+            let (a, b) = self.range_um();
+            return (scale * a, scale * b);
+        }
+        self.xs_mm.iter().zip(&self.values_um).fold(
+            (f64::INFINITY, f64::NEG_INFINITY),
+            |(a, b), (&x, &v)| {
+                let r = scale * v - self.path_offset.at(x);
+                (a.min(r), b.max(r))
+            },
+        )
     }
 }
 
@@ -882,23 +968,26 @@ fn flute_ratio(
 /// maximum (a deque of the pulses that can still be a window's largest), so each pulse is pushed and
 /// popped once: linear in pulses + times, where searching every window was times × pulses per revolution
 /// (a third of the preview's time at 57 times and 120 pulses per revolution). `best` is the deque's
-/// storage, kept by the caller so a cycle does not allocate it.
-fn window_maxima(
+/// storage, kept by the caller so a cycle does not allocate it; the maxima go into `out` (as long as
+/// `times_s`).
+fn window_maxima_into(
     pulses: &[(f64, f64)],
     times_s: &[f64],
     rev_s: f64,
     best: &mut std::collections::VecDeque<usize>,
-) -> Vec<f64> {
+    out: &mut [f64],
+) {
     if !times_s.is_sorted() {
-        return times_s
-            .iter()
-            .map(|&t| window_maxima(pulses, &[t], rev_s, best)[0])
-            .collect();
+        for (o, &t) in out.iter_mut().zip(times_s) {
+            let mut one = [0.0];
+            window_maxima_into(pulses, &[t], rev_s, best, &mut one);
+            *o = one[0];
+        }
+        return;
     }
     best.clear();
-    let mut out = Vec::with_capacity(times_s.len());
     let mut next = 0;
-    for &t in times_s {
+    for (o, &t) in out.iter_mut().zip(times_s) {
         while next < pulses.len() && pulses[next].0 <= t {
             while best.back().is_some_and(|&j| pulses[j].1 <= pulses[next].1) {
                 best.pop_back();
@@ -910,9 +999,8 @@ fn window_maxima(
         while best.front().is_some_and(|&j| pulses[j].0 <= start) {
             best.pop_front();
         }
-        out.push(best.front().map_or(0.0, |&j| pulses[j].1.max(0.0)));
+        *o = best.front().map_or(0.0, |&j| pulses[j].1.max(0.0));
     }
-    out
 }
 
 /// The planned pulses of the last window of [`DeflectionPlan::deflections_phased_cached`].
@@ -926,6 +1014,26 @@ pub struct PulseCache {
     pulses: std::collections::VecDeque<(f64, f64)>,
     /// Storage of [`window_maxima`]'s deque (its content does not outlive a call).
     best: std::collections::VecDeque<usize>,
+}
+
+impl PulseCache {
+    /// A cache with room for `pulses` planned pulses (the pulses of a window: one revolution before
+    /// its first time to its last), so that a controller's cycle does not allocate.
+    pub fn with_capacity(pulses: usize) -> Self {
+        Self {
+            pulses: std::collections::VecDeque::with_capacity(pulses),
+            best: std::collections::VecDeque::with_capacity(pulses),
+            ..Self::default()
+        }
+    }
+
+    /// Empty, as new (the storage kept).
+    pub fn reset(&mut self) {
+        self.key = (0, 0);
+        self.first = 0;
+        self.pulses.clear();
+        self.best.clear();
+    }
 }
 
 /// Angles per revolution of the plan's force waveform: 120, the samples of a revolution at 10 000 rpm
@@ -991,6 +1099,19 @@ pub trait GrooveController {
     fn command(&mut self, last: Option<&GrooveMeasurement>, t_s: f64) -> f64;
     /// The tool was touched off at `at` (before the first [`Self::command`]).
     fn touched_off(&mut self, at: TouchOff);
+    /// Back to the state right after construction, before the touch-off: every filter, integrator,
+    /// estimator and plan of the controller (what construction computed — models, plan, gains — stays).
+    /// A runtime touches the tool off again after it.
+    ///
+    /// # Errors
+    /// [`MpcError::SolverSetup`] when the MPC's solver refuses its settings back (after a fault
+    /// injection).
+    fn reset(&mut self) -> Result<(), MpcError>;
+    /// What the MPC did in the last [`Self::command`], when it planned in it (`None` for the steps it
+    /// holds its command in, and for controllers without a QP).
+    fn last_cycle(&self) -> Option<MpcCycle> {
+        None
+    }
     /// QP statistics (MPC only).
     fn solver_stats(&self) -> Option<SolverStats> {
         None
@@ -1006,6 +1127,14 @@ impl<C: GrooveController + ?Sized> GrooveController for Box<C> {
 
     fn touched_off(&mut self, at: TouchOff) {
         (**self).touched_off(at);
+    }
+
+    fn reset(&mut self) -> Result<(), MpcError> {
+        (**self).reset()
+    }
+
+    fn last_cycle(&self) -> Option<MpcCycle> {
+        (**self).last_cycle()
     }
 
     fn solver_stats(&self) -> Option<SolverStats> {
@@ -1045,6 +1174,15 @@ impl<C: GrooveController> GrooveController for Compensated<C> {
         self.inner.touched_off(TouchOff { bias_v, ..at });
     }
 
+    fn reset(&mut self) -> Result<(), MpcError> {
+        self.compensator.reset();
+        self.inner.reset()
+    }
+
+    fn last_cycle(&self) -> Option<MpcCycle> {
+        self.inner.last_cycle()
+    }
+
     fn solver_stats(&self) -> Option<SolverStats> {
         self.inner.solver_stats()
     }
@@ -1067,6 +1205,11 @@ impl GrooveController for NoneController {
 
     fn touched_off(&mut self, at: TouchOff) {
         self.hold_v = at.bias_v;
+    }
+
+    fn reset(&mut self) -> Result<(), MpcError> {
+        self.hold_v = 0.0;
+        Ok(())
     }
 }
 
@@ -1130,15 +1273,29 @@ impl OpenLoopController {
     fn volts_for(&self, deflection_um: f64) -> f64 {
         deflection_um * self.tip_per_z * self.v_per_um
     }
+
+    /// The voltage by which the plan's path offset at `t_s` reduces the correction (0 without one).
+    fn offset_volts_at(&self, t_s: f64) -> f64 {
+        if self.plan.path_offset.is_empty() {
+            return 0.0;
+        }
+        self.volts_for(self.plan.path_offset_at(self.plan.x_at(t_s)))
+    }
 }
 
 impl GrooveController for OpenLoopController {
     fn command(&mut self, _: Option<&GrooveMeasurement>, t_s: f64) -> f64 {
-        (self.bias_v + self.volts_at(t_s)).clamp(0.0, self.v_max)
+        (self.bias_v + self.volts_at(t_s) - self.offset_volts_at(t_s)).clamp(0.0, self.v_max)
     }
 
     fn touched_off(&mut self, at: TouchOff) {
         self.bias_v = at.bias_v;
+    }
+
+    /// Stateless but for the touch-off's bias.
+    fn reset(&mut self) -> Result<(), MpcError> {
+        self.bias_v = 0.0;
+        Ok(())
     }
 }
 
@@ -1153,6 +1310,8 @@ pub struct PidController {
     tip_per_n: f64,
     dt_s: f64,
     touch_off: TouchOff,
+    /// The signal chain as built (at rest): what a reset returns to.
+    initial: (Biquad, Biquad, PeakHold, FirstOrderFilter),
 }
 
 impl PidController {
@@ -1171,11 +1330,16 @@ impl PidController {
         voltage_max_v: f64,
         dt_s: f64,
     ) -> Result<Self, MpcError> {
+        let force_lp = Biquad::low_pass(500.0, std::f64::consts::FRAC_1_SQRT_2, dt_s)?;
+        let gauge_lp = Biquad::low_pass(500.0, std::f64::consts::FRAC_1_SQRT_2, dt_s)?;
+        let peak = PeakHold::thesis(program.speed_rpm)?;
+        let smooth = FirstOrderFilter::thesis(dt_s)?;
         Ok(Self {
-            force_lp: Biquad::low_pass(500.0, std::f64::consts::FRAC_1_SQRT_2, dt_s)?,
-            gauge_lp: Biquad::low_pass(500.0, std::f64::consts::FRAC_1_SQRT_2, dt_s)?,
-            peak: PeakHold::thesis(program.speed_rpm)?,
-            smooth: FirstOrderFilter::thesis(dt_s)?,
+            force_lp,
+            gauge_lp,
+            peak,
+            smooth,
+            initial: (force_lp, gauge_lp, peak, smooth),
             pid: Pid::new(
                 gains,
                 anti_windup,
@@ -1197,6 +1361,13 @@ impl GrooveController for PidController {
     fn touched_off(&mut self, at: TouchOff) {
         self.touch_off = at;
         self.pid.start_at(at.bias_v);
+    }
+
+    fn reset(&mut self) -> Result<(), MpcError> {
+        (self.force_lp, self.gauge_lp, self.peak, self.smooth) = self.initial;
+        self.pid.reset();
+        self.touch_off = TouchOff::default();
+        Ok(())
     }
 
     fn command(&mut self, last: Option<&GrooveMeasurement>, _: f64) -> f64 {
@@ -1318,6 +1489,13 @@ impl GrooveController for TunedPidController {
         self.tip_zero_um = at.gauge_um;
         self.pid.start_at(at.bias_v);
     }
+
+    fn reset(&mut self) -> Result<(), MpcError> {
+        self.force.reset();
+        self.pid.reset();
+        self.tip_zero_um = 0.0;
+        Ok(())
+    }
 }
 
 /// The spindle's mean delay (s): the first moment of its identified impulse response, `2ζ/ωn` of the
@@ -1348,6 +1526,9 @@ pub struct FeedforwardPidController {
     peak_bias: Option<PeakNoiseBias>,
     /// Where the tool rides on its wear land ([`Self::with_read_features`]; empty otherwise).
     rubbing_mm: Vec<(f64, f64)>,
+    /// The planned pulses of the last revolution, kept between steps (the plan is read every stage
+    /// step; [`DeflectionPlan::deflections_phased_cached`], the same values bit for bit).
+    pulses: PulseCache,
 }
 
 impl FeedforwardPidController {
@@ -1365,7 +1546,8 @@ impl FeedforwardPidController {
         force_noise_n: f64,
     ) -> Self {
         let dt_s = feedback.dt_s;
-        let phase = SpindlePhase::new(program.speed_rpm, &plan.waveform, force_noise_n);
+        let mut phase = SpindlePhase::new(program.speed_rpm, &plan.waveform, force_noise_n);
+        phase.reserve_samples(samples_per_rev(program.speed_rpm, dt_s) + 2);
         Self {
             feedback,
             plan: OpenLoopController::new(plan, program, model_spindle, voltage_max_v),
@@ -1377,6 +1559,8 @@ impl FeedforwardPidController {
             tooth_s: 60.0 / program.speed_rpm / flutes.max(1) as f64,
             peak_bias: None,
             rubbing_mm: Vec::new(),
+            // the plan is read one revolution back from one time a step
+            pulses: PulseCache::with_capacity(WAVEFORM_SAMPLES + 4),
         }
     }
 
@@ -1401,6 +1585,7 @@ impl FeedforwardPidController {
         )?);
         self.rubbing_mm = self.plan.plan.rubbing_spans_mm();
         self.plan.plan = self.plan.plan.clone().with_flank_push();
+        self.pulses.reset();
         Ok(self)
     }
 
@@ -1431,17 +1616,21 @@ impl GrooveController for FeedforwardPidController {
         // the plan timed by the spindle's angle once the force shows it, as the MPC's is
         let v_ff = rho
             * match self.phase.pass_s() {
-                Some(p) => self.plan.volts_for(
-                    self.plan
-                        .plan
-                        .deflections_phased(&[t_ff], self.rev_s, self.tooth_s, p)
-                        .first()
-                        .copied()
-                        .unwrap_or(0.0),
-                ),
+                Some(p) => {
+                    let mut d = [0.0];
+                    self.plan.plan.deflections_phased_into(
+                        &mut self.pulses,
+                        &[t_ff],
+                        self.rev_s,
+                        self.tooth_s,
+                        p,
+                        &mut d,
+                    );
+                    self.plan.volts_for(d[0])
+                }
                 None => self.plan.volts_at(t_ff),
             };
-        let v_ff = v_ff + self.plan.bias_v;
+        let v_ff = v_ff - self.plan.offset_volts_at(t_ff) + self.plan.bias_v;
         let x_now = self.plan.plan.x_at(t_s);
         let rubbing = within_spans(&self.rubbing_mm, x_now);
         let plan_tip = rubbing.then(|| rho * self.plan.plan.deflection_at(x_now) / self.sin_a);
@@ -1460,6 +1649,17 @@ impl GrooveController for FeedforwardPidController {
     fn touched_off(&mut self, at: TouchOff) {
         self.plan.bias_v = at.bias_v;
         self.feedback.tip_zero_um = at.gauge_um;
+    }
+
+    fn reset(&mut self) -> Result<(), MpcError> {
+        self.feedback.reset()?;
+        self.plan.reset()?;
+        if let Some(s) = &mut self.scale {
+            s.reset();
+        }
+        self.phase.reset();
+        self.pulses.reset();
+        Ok(())
     }
 }
 
@@ -1682,6 +1882,13 @@ impl PlanScale {
         self.sxx = self.lambda * self.sxx + planned_um * planned_um;
     }
 
+    /// Back to nothing measured (the commissioned model as it is).
+    pub fn reset(&mut self) {
+        self.sxy = 0.0;
+        self.sxx = 0.0;
+        self.skips = 0;
+    }
+
     /// The estimated ratio, measured over planned.
     pub fn ratio(&self) -> f64 {
         ((self.sxy + Self::PRIOR_UM2) / (self.sxx + Self::PRIOR_UM2)).clamp(0.5, 2.0)
@@ -1869,6 +2076,25 @@ impl SpindlePhase {
         }
     }
 
+    /// Room for `samples` force samples a revolution (the samples of a step's period), so that
+    /// [`Self::update`] does not allocate.
+    pub fn reserve_samples(&mut self, samples: usize) {
+        self.samples
+            .reserve_exact(samples.saturating_sub(self.samples.len()));
+    }
+
+    /// Back to no revolution seen: the phase unknown.
+    pub fn reset(&mut self) {
+        self.rev_index = i64::MIN;
+        self.best_force = f64::NEG_INFINITY;
+        self.best_t = 0.0;
+        self.sum_cos = 0.0;
+        self.sum_sin = 0.0;
+        self.weight = 0.0;
+        self.revolutions = 0;
+        self.samples.clear();
+    }
+
     /// One force sample `force_n` (N) taken at `t_s`.
     pub fn update(&mut self, t_s: f64, force_n: f64) {
         if !force_n.is_finite() || !t_s.is_finite() {
@@ -1985,6 +2211,10 @@ impl StaleDetector {
         }
     }
 
+    fn reset(&mut self) {
+        *self = Self::new(self.limit);
+    }
+
     fn stale(&mut self, x: f64) -> bool {
         if x == self.last {
             self.repeats += 1;
@@ -2022,7 +2252,11 @@ pub struct MpcGrooveController {
     scale: PlanScale,
     phase: SpindlePhase,
     times_buf: Vec<f64>,
+    /// The plan at `times_buf` (storage kept between cycles).
+    planned_buf: Vec<f64>,
     pulses: PulseCache,
+    /// What the MPC did in the last step, when it planned in it.
+    last: Option<MpcCycle>,
     /// The plan's deflection range over the cut (µm) and the actuator's z-reach on the controllers'
     /// spindle model (µm), for the stroke band.
     plan_range_um: (f64, f64),
@@ -2031,6 +2265,9 @@ pub struct MpcGrooveController {
     z_zero_um: f64,
     /// The last cycle at which the preview saw a change ([`GrooveMpcFeatures::quiet_revolutions`]).
     last_change_s: f64,
+    /// The required correction's range over the cut for the last plan scale, with a path offset:
+    /// `(scale, (min, max))` ([`DeflectionPlan::required_range_um`]).
+    required_range: (f64, (f64, f64)),
     /// MPC cycles in a spindle revolution ([`GrooveMpcFeatures::quiet_revolutions`]).
     cycles_per_rev: usize,
 }
@@ -2069,14 +2306,30 @@ impl MpcGrooveController {
         } else {
             None
         };
-        let mpc = groove_mpc(model_spindle, model_stiffness, program.tilt_deg, settings)?;
+        let mut mpc = groove_mpc(model_spindle, model_stiffness, program.tilt_deg, settings)?;
         let dt = settings.dt_s;
         let n = mpc.config().horizon;
+        let tc = dt * settings.mpc_every as f64;
+        // the cycles of the program (and its approach) and some to spare: the cycle times' storage
+        mpc.reserve_cycle_times((program.duration_s() / tc).ceil() as usize + 1024);
         let window = PreviewWindow::zeros_for(mpc.config(), 2);
         let sp = model_spindle.plant();
         let sin_a = program.tilt_deg.to_radians().sin();
         let plan_range_um = plan.range_um();
-        let phase = SpindlePhase::new(program.speed_rpm, &plan.waveform, settings.force_noise_n);
+        let mut phase =
+            SpindlePhase::new(program.speed_rpm, &plan.waveform, settings.force_noise_n);
+        phase.reserve_samples(samples_per_rev(program.speed_rpm, dt) + 2);
+        // the preview's times: now, the sub-steps of the first cycles, then the cycles
+        let (between, substeps) = mpc
+            .config()
+            .intersample
+            .map_or((0, 1), |i| (i.cycles, i.substeps));
+        let n_times = 1 + between * substeps + n;
+        // the planned pulses from a revolution before now to the horizon's end, at the waveform's
+        // spacing
+        let rev_s = 60.0 / program.speed_rpm;
+        let n_pulses =
+            ((n as f64 * tc + rev_s) / (rev_s / WAVEFORM_SAMPLES as f64)).ceil() as usize + 8;
         Ok(Self {
             mpc,
             plan,
@@ -2103,12 +2356,15 @@ impl MpcGrooveController {
             features: settings.features,
             scale: PlanScale::new(dt * settings.mpc_every as f64, PLAN_SCALE_TIME_CONSTANT_S),
             phase,
-            times_buf: Vec::with_capacity(n + 1),
-            pulses: PulseCache::default(),
+            times_buf: Vec::with_capacity(n_times),
+            planned_buf: Vec::with_capacity(n_times),
+            pulses: PulseCache::with_capacity(n_pulses),
+            last: None,
             plan_range_um,
             reach_z_um: sp.gain_um_per_v * sp.voltage_max_v * sin_a,
             z_zero_um: 0.0,
             last_change_s: f64::NEG_INFINITY,
+            required_range: (f64::NAN, plan_range_um),
             cycles_per_rev: samples_per_rev(program.speed_rpm, dt * settings.mpc_every as f64),
         })
     }
@@ -2134,12 +2390,19 @@ impl MpcGrooveController {
     pub fn mpc(&self) -> &MpcController {
         &self.mpc
     }
+
+    /// The preview window of the last cycle (what the QP was given besides the state estimate and
+    /// the previous command).
+    pub fn window(&self) -> &PreviewWindow {
+        &self.window
+    }
 }
 
 impl GrooveController for MpcGrooveController {
     fn command(&mut self, last: Option<&GrooveMeasurement>, t_s: f64) -> f64 {
         // the cycle's budget counts from here: sensor chain, preview and solve
         let cycle_start = std::time::Instant::now();
+        self.last = None;
         let (force, gauge) = last
             .map(|o| (o.force_meas_n, o.gauge_um))
             .unwrap_or((0.0, 0.0));
@@ -2185,16 +2448,30 @@ impl GrooveController for MpcGrooveController {
                 between * m + j - between
             }
         };
-        let planned: Vec<f64> = match pass {
-            Some(p) => self
-                .plan
-                .deflections_phased_cached(&mut self.pulses, times, rev, tooth, p),
-            None => times
-                .iter()
-                .map(|&t| self.plan.deflection_at_time(t, rev, tooth))
-                .collect(),
-        };
+        let planned = &mut self.planned_buf;
+        planned.clear();
+        planned.resize(times.len(), 0.0);
+        match pass {
+            Some(p) => {
+                self.plan
+                    .deflections_phased_into(&mut self.pulses, times, rev, tooth, p, planned)
+            }
+            None => {
+                for (d, &t) in planned.iter_mut().zip(times.iter()) {
+                    *d = self.plan.deflection_at_time(t, rev, tooth);
+                }
+            }
+        }
+        let planned = &self.planned_buf;
         let planned_now = planned[0];
+        // a path offset the plan was given (an identified effect: + = deeper) enters the error channel
+        // beside the deflection: the error is z − δ + o
+        let offsets: Option<Vec<f64>> = (!self.plan.path_offset.is_empty()).then(|| {
+            times
+                .iter()
+                .map(|&t| self.plan.path_offset_at(self.plan.x_at(t)))
+                .collect()
+        });
         // away from the changes the preview sees, the force once per revolution
         let mut skip_force = false;
         if self.features.quiet_revolutions {
@@ -2211,34 +2488,47 @@ impl GrooveController for MpcGrooveController {
             self.scale.update(planned_now, self.compliance * fpk);
         }
         let rho = self.plan_scale();
+        let offset = |i: usize| offsets.as_ref().map_or(0.0, |o| o[i]);
         // the z the stack must stand at for a deflection is the deflection above the touch-off's tip
         let z0 = self.z_zero_um;
         let band = if self.features.stroke_aware {
-            StrokeBand::from_range(
-                rho * self.plan_range_um.0 + z0,
-                rho * self.plan_range_um.1 + z0,
-                self.reach_z_um,
-            )
+            let (lo, hi) = if offsets.is_some() {
+                if (self.required_range.0 - rho).abs() > 1e-4 || self.required_range.0.is_nan() {
+                    self.required_range = (rho, self.plan.required_range_um(rho));
+                }
+                self.required_range.1
+            } else {
+                (rho * self.plan_range_um.0, rho * self.plan_range_um.1)
+            };
+            StrokeBand::from_range(lo + z0, hi + z0, self.reach_z_um)
         } else {
             StrokeBand::from_range(0.0, 0.0, f64::INFINITY)
         };
         // the error channel's disturbance carries the deflection the plan misses now; the scale applies
         // to what the plan says will change over the horizon
-        self.window.offset_now[OUT_ERROR] = -(planned_now + z0);
+        self.window.offset_now[OUT_ERROR] = -(planned_now + z0) + offset(0);
         let preview = self.preview;
-        let ahead = |i: usize| if preview { planned[i] } else { planned_now };
+        let ahead = |i: usize| {
+            if preview {
+                (planned[i], offset(i))
+            } else {
+                (planned_now, offset(0))
+            }
+        };
         for j in 0..n {
-            let a = ahead(at_cycle(j + 1));
-            self.window.offsets[j * 2 + OUT_ERROR] = -(planned_now + z0 + rho * (a - planned_now));
-            self.window.reference[j * 2 + OUT_ERROR] = band.target_error_um(rho * a + z0);
+            let (a, o) = ahead(at_cycle(j + 1));
+            self.window.offsets[j * 2 + OUT_ERROR] =
+                -(planned_now + z0 + rho * (a - planned_now)) + o;
+            self.window.reference[j * 2 + OUT_ERROR] = band.target_error_um(rho * a + z0 - o);
         }
         // between the cycles: sub-step s after cycle k (0-based)
         for k in 0..between {
             for s in 1..m {
-                let a = ahead(k * m + s);
+                let (a, o) = ahead(k * m + s);
                 let r = (k * (m - 1) + s - 1) * 2 + OUT_ERROR;
-                self.window.intersample_offsets[r] = -(planned_now + z0 + rho * (a - planned_now));
-                self.window.intersample_reference[r] = band.target_error_um(rho * a + z0);
+                self.window.intersample_offsets[r] =
+                    -(planned_now + z0 + rho * (a - planned_now)) + o;
+                self.window.intersample_reference[r] = band.target_error_um(rho * a + z0 - o);
             }
         }
         // a stale sensor is left out of the measurement update (prediction from the model and the plan),
@@ -2250,14 +2540,37 @@ impl GrooveController for MpcGrooveController {
             if gauge_stale || force_stale || rubbing || skip_force {
                 f64::NAN
             } else {
-                self.sin_a * gauge - z0 - self.compliance * fpk
+                self.sin_a * gauge - z0 - self.compliance * fpk + offset(0)
             },
         ];
         // dimension errors cannot happen here (window built for this controller); on one, hold
-        if let Ok(s) = self.mpc.step_from(cycle_start, &y, &self.window) {
-            self.v_hold = s.u[0];
+        let mut u = [self.v_hold];
+        if let Ok(c) = self.mpc.step_into(cycle_start, &y, &self.window, &mut u) {
+            self.v_hold = u[0];
+            self.last = Some(c);
         }
         self.v_hold
+    }
+
+    fn reset(&mut self) -> Result<(), MpcError> {
+        self.mpc.reset()?;
+        self.force.reset();
+        self.k = 0;
+        self.v_hold = 0.0;
+        for s in &mut self.stale {
+            s.reset();
+        }
+        self.scale.reset();
+        self.phase.reset();
+        self.pulses.reset();
+        self.last = None;
+        self.z_zero_um = 0.0;
+        self.last_change_s = f64::NEG_INFINITY;
+        Ok(())
+    }
+
+    fn last_cycle(&self) -> Option<MpcCycle> {
+        self.last
     }
 
     fn solver_stats(&self) -> Option<SolverStats> {

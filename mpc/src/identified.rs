@@ -164,6 +164,8 @@ pub struct HysteresisCompensator {
     last_v: f64,
     /// The inverse's corner list, kept between cycles (no allocation in a cycle).
     corners: Vec<f64>,
+    /// The operator at rest, as identified (what a reset returns to).
+    initial: PrandtlIshlinskii,
 }
 
 impl HysteresisCompensator {
@@ -176,8 +178,16 @@ impl HysteresisCompensator {
             gain_um_per_v: p.gain_um_per_v,
             v_max: p.voltage_max_v,
             last_v: 0.0,
-            corners: Vec::new(),
+            // two corners a play
+            corners: Vec::with_capacity(2 * hysteresis.0.thresholds_v().len()),
+            initial: hysteresis.0.clone(),
         }
+    }
+
+    /// Back to the stack at rest at 0 V (the operator as identified).
+    pub fn reset(&mut self) {
+        self.model.clone_from(&self.initial);
+        self.last_v = 0.0;
     }
 
     /// The voltage to emit for a request of `u_v` volts of the linear model.

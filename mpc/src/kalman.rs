@@ -245,7 +245,21 @@ pub struct KalmanFilter {
     pub skipped_measurements: usize,
     /// Output-cycles rejected by the innovation gate.
     pub gated_outputs: usize,
+    /// The gain of each proper subset of the outputs (indexed by the bit mask of the outputs used;
+    /// `None`: the subset's innovation covariance is singular), computed once for up to
+    /// [`SUBSET_GAINS_MAX_OUTPUTS`] outputs so a cycle with a skipped output does not allocate.
+    subset_gains: Vec<Option<DMatrix<f64>>>,
+    /// A cycle's scratch: the predicted outputs, the innovations, the correction and the next state.
+    yhat_buf: DVector<f64>,
+    innov_buf: DVector<f64>,
+    used_buf: Vec<usize>,
+    dx_buf: DVector<f64>,
+    next_buf: DVector<f64>,
+    bu_buf: DVector<f64>,
 }
+
+/// Up to this many outputs, the gains of the output subsets are computed at construction.
+pub const SUBSET_GAINS_MAX_OUTPUTS: usize = 6;
 
 /// Iteration cap and relative tolerance of the structured doubling algorithm.
 const SDA_MAX_ITER: usize = 100;
@@ -358,7 +372,7 @@ impl KalmanFilter {
                 detail: "not finite".into(),
             });
         }
-        Ok(Self {
+        let mut kf = Self {
             a: model.a.clone(),
             b: model.b.clone(),
             c: model.c.clone(),
@@ -374,7 +388,49 @@ impl KalmanFilter {
             reacquire: vec![false; ny],
             skipped_measurements: 0,
             gated_outputs: 0,
-        })
+            subset_gains: Vec::new(),
+            yhat_buf: DVector::zeros(ny),
+            innov_buf: DVector::zeros(ny),
+            used_buf: Vec::with_capacity(ny),
+            dx_buf: DVector::zeros(n),
+            next_buf: DVector::zeros(n),
+            bu_buf: DVector::zeros(n),
+        };
+        if ny <= SUBSET_GAINS_MAX_OUTPUTS {
+            let mut used = Vec::with_capacity(ny);
+            kf.subset_gains = (0..(1usize << ny))
+                .map(|mask| {
+                    used.clear();
+                    used.extend((0..ny).filter(|i| mask & (1 << i) != 0));
+                    if used.is_empty() || used.len() == ny {
+                        None
+                    } else {
+                        kf.subset_gain(&used)
+                    }
+                })
+                .collect();
+        }
+        Ok(kf)
+    }
+
+    /// The gain of the outputs `used` (a proper subset): `L_s = P C_sᵀ (C_s P C_sᵀ + R_s)⁻¹`; `None`
+    /// when the subset's innovation covariance is singular.
+    fn subset_gain(&self, used: &[usize]) -> Option<DMatrix<f64>> {
+        let cs = DMatrix::from_fn(used.len(), self.c.ncols(), |r, j| self.c[(used[r], j)]);
+        let rs = DMatrix::from_fn(used.len(), used.len(), |r, q| self.r[(used[r], used[q])]);
+        let s = &cs * &self.covariance * cs.transpose() + rs;
+        s.try_inverse()
+            .map(|s_inv| &self.covariance * cs.transpose() * s_inv)
+    }
+
+    /// Back to the state after construction: the estimate at zero, the gate's counts cleared.
+    pub fn restart(&mut self) {
+        self.x_pred.fill(0.0);
+        self.x_filt.fill(0.0);
+        self.consecutive_skips.fill(0);
+        self.reacquire.fill(false);
+        self.skipped_measurements = 0;
+        self.gated_outputs = 0;
     }
 
     /// Enable innovation gating: per-output absolute gates (empty: off) and the maximum number of
@@ -403,11 +459,13 @@ impl KalmanFilter {
             self.skipped_measurements += 1;
             return &self.x_filt;
         }
-        let yhat = &self.c * &self.x_pred;
-        let mut used = Vec::with_capacity(ny);
-        let mut innov = Vec::with_capacity(ny);
+        // no allocation: the products go into the filter's scratch (the same arithmetic as `*`)
+        self.c.mul_to(&self.x_pred, &mut self.yhat_buf);
+        let mut used = std::mem::take(&mut self.used_buf);
+        used.clear();
+        let mut k = 0;
         for i in 0..ny {
-            let v = y[i] - w[i] - yhat[i];
+            let v = y[i] - w[i] - self.yhat_buf[i];
             if !v.is_finite() {
                 continue;
             }
@@ -427,25 +485,31 @@ impl KalmanFilter {
             }
             self.consecutive_skips[i] = 0;
             used.push(i);
-            innov.push(v);
+            self.innov_buf[k] = v;
+            k += 1;
         }
         if used.len() < ny {
             self.skipped_measurements += 1;
         }
         if used.is_empty() {
+            self.used_buf = used;
             return &self.x_filt;
         }
+        let innov = self.innov_buf.rows(0, k);
         if used.len() == ny {
-            self.x_filt += &self.gain * DVector::from_vec(innov);
-        } else {
-            let cs = DMatrix::from_fn(used.len(), self.c.ncols(), |r, j| self.c[(used[r], j)]);
-            let rs = DMatrix::from_fn(used.len(), used.len(), |r, q| self.r[(used[r], used[q])]);
-            let s = &cs * &self.covariance * cs.transpose() + rs;
-            if let Some(s_inv) = s.try_inverse() {
-                let l = &self.covariance * cs.transpose() * s_inv;
-                self.x_filt += l * DVector::from_vec(innov);
+            self.gain.mul_to(&innov, &mut self.dx_buf);
+            self.x_filt += &self.dx_buf;
+        } else if !self.subset_gains.is_empty() {
+            let mask = used.iter().fold(0usize, |m, &i| m | (1 << i));
+            if let Some(l) = &self.subset_gains[mask] {
+                l.mul_to(&innov, &mut self.dx_buf);
+                self.x_filt += &self.dx_buf;
             }
+        } else if let Some(l) = self.subset_gain(&used) {
+            l.mul_to(&innov, &mut self.dx_buf);
+            self.x_filt += &self.dx_buf;
         }
+        self.used_buf = used;
         if !self.x_filt.iter().all(|v| v.is_finite()) {
             self.x_filt.copy_from(&self.x_pred);
         }
@@ -454,10 +518,13 @@ impl KalmanFilter {
 
     /// Time update with the input actually applied: `ξ̂⁻ ← A ξ̂ + B u`.
     pub fn predict(&mut self, u: &[f64]) {
-        let ud = DVector::from_column_slice(u);
-        let next = &self.a * &self.x_filt + &self.b * ud;
-        if next.iter().all(|v| v.is_finite()) {
-            self.x_pred = next;
+        let ud = nalgebra::DVectorView::from_slice(u, u.len());
+        // no allocation: the products go into the filter's scratch (the same arithmetic as `*`)
+        self.a.mul_to(&self.x_filt, &mut self.next_buf);
+        self.b.mul_to(&ud, &mut self.bu_buf);
+        self.next_buf += &self.bu_buf;
+        if self.next_buf.iter().all(|v| v.is_finite()) {
+            self.x_pred.copy_from(&self.next_buf);
         }
     }
 

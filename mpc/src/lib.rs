@@ -85,6 +85,6 @@ pub mod thin_wall;
 pub mod tuning;
 
 pub use config::MpcConfig;
-pub use controller::{MpcController, MpcStep, PreviewWindow};
+pub use controller::{MpcController, MpcCycle, MpcStep, PreviewWindow};
 pub use error::MpcError;
 pub use stats::SolverStats;

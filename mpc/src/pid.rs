@@ -188,6 +188,16 @@ impl Pid {
         }
     }
 
+    /// Back to the state after construction: the integrator, the derivative's filter and the
+    /// saturation count at zero, the next step the first.
+    pub fn reset(&mut self) {
+        self.integral = 0.0;
+        self.d_state = 0.0;
+        self.prev_e = 0.0;
+        self.started = false;
+        self.saturated_cycles = 0;
+    }
+
     /// Current integrator state (controller units).
     pub fn integral(&self) -> f64 {
         self.integral

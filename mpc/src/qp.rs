@@ -135,6 +135,10 @@ pub struct CondensedQp {
     q: Vec<f64>,
     b: Vec<f64>,
     c_buf: DVector<f64>,
+    /// A cycle's scratch for q: the deviation `c − r` and the two products (no allocation per cycle).
+    dev_buf: DVector<f64>,
+    qdev_buf: DVector<f64>,
+    qup_buf: DVector<f64>,
     solver: DefaultSolver<f64>,
     settings: DefaultSettings<f64>,
     /// Origin of [`Self::deadline_ns`].
@@ -513,6 +517,9 @@ impl CondensedQp {
             q,
             b,
             c_buf: DVector::zeros(n_rows),
+            dev_buf: DVector::zeros(n_rows),
+            qdev_buf: DVector::zeros(nv),
+            qup_buf: DVector::zeros(nv),
             solver,
             settings,
             epoch,
@@ -577,13 +584,22 @@ impl CondensedQp {
             *ci += wi;
         }
         // q_v = 2 GbᵀQ̄ (c − r) − 2EᵀR̄e₀ u_prev + q_const
-        let mut dev = self.c_buf.clone();
-        for (di, ri) in dev.iter_mut().zip(reference) {
+        // (the products into the scratch: the same arithmetic as `a * x + b * u + q_const`)
+        self.dev_buf.copy_from(&self.c_buf);
+        for (di, ri) in self.dev_buf.iter_mut().zip(reference) {
             *di -= ri;
         }
-        let up = DVector::from_column_slice(u_prev);
-        let qv = &self.q_map * dev + &self.q_uprev * up + &self.q_const;
-        self.q[..self.nv].copy_from_slice(qv.as_slice());
+        let up = nalgebra::DVectorView::from_slice(u_prev, u_prev.len());
+        self.q_map.mul_to(&self.dev_buf, &mut self.qdev_buf);
+        self.q_uprev.mul_to(&up, &mut self.qup_buf);
+        for (((qi, a), b), c) in self.q[..self.nv]
+            .iter_mut()
+            .zip(self.qdev_buf.iter())
+            .zip(self.qup_buf.iter())
+            .zip(self.q_const.iter())
+        {
+            *qi = (a + b) + c;
+        }
         for j in 0..self.ns {
             self.q[self.nv + j] = self.slack_linear;
         }
@@ -632,7 +648,9 @@ impl CondensedQp {
                 .min(u64::MAX as u128) as u64
         });
         self.deadline_ns.store(ns, Ordering::Relaxed);
+        let t0 = Instant::now();
         self.solver.solve();
+        crate::stats::add_qp_solve(t0.elapsed());
         let st = QpStatus::from_clarabel(self.solver.solution.status);
         if st.is_ok() && !self.solver.solution.x.iter().all(|v| v.is_finite()) {
             return QpStatus::NonFiniteSolution;

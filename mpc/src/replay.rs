@@ -86,7 +86,126 @@ impl CscJson {
     }
 }
 
+impl CscJson {
+    /// The matrix as Clarabel's CSC type after checking the structure Clarabel's constructor assumes and
+    /// does not check (it indexes by `colptr`/`rowval` and panics or reads out of range otherwise):
+    /// `colptr` of `n + 1` non-decreasing entries from 0 to `nnz`, row indices below `m` and strictly
+    /// increasing within each column, `rowval` and `nzval` of equal length, finite values, and — for
+    /// `upper` (P) — no entry below the diagonal. `name` (`p` or `a`) goes into the message.
+    fn to_clarabel(
+        &self,
+        name: &str,
+        upper: bool,
+    ) -> Result<clarabel::algebra::CscMatrix<f64>, MpcError> {
+        let bad = |what: &str| MpcError::InvalidConfig {
+            key: name.to_string(),
+            value: format!("{}x{} matrix, {} entries", self.m, self.n, self.nzval.len()),
+            allowed: format!("a CSC matrix: {what}"),
+        };
+        if self.colptr.len() != self.n + 1 || self.colptr.first() != Some(&0) {
+            return Err(bad("colptr holds n + 1 entries starting at 0"));
+        }
+        // Clarabel's own check: equal lengths, colptr monotone and ending at nnz, rows sorted and in range.
+        let mat = clarabel::algebra::CscMatrix {
+            m: self.m,
+            n: self.n,
+            colptr: self.colptr.clone(),
+            rowval: self.rowval.clone(),
+            nzval: self.nzval.clone(),
+        };
+        mat.check_format().map_err(|e| bad(&e.to_string()))?;
+        if let Some(k) = self.nzval.iter().position(|v| !v.is_finite()) {
+            return Err(bad(&format!(
+                "finite values (entry {} is {})",
+                k + 1,
+                self.nzval[k]
+            )));
+        }
+        if upper {
+            for col in 0..self.n {
+                if self.rowval[self.colptr[col]..self.colptr[col + 1]]
+                    .iter()
+                    .any(|&r| r > col)
+                {
+                    return Err(bad(
+                        "the upper triangle only (an entry lies below the diagonal)",
+                    ));
+                }
+            }
+        }
+        Ok(mat)
+    }
+}
+
 impl QpSequence {
+    /// Checks what replaying the sequence needs before any solver sees it (a recorded file is user
+    /// input): P square and upper-triangular, A with P's columns, the cone covering A's rows, every
+    /// cycle's `q` of length n and `b` of length m with finite entries, at least one cycle, the first
+    /// move inside z.
+    ///
+    /// # Errors
+    /// [`MpcError::InvalidConfig`] or [`MpcError::DimensionMismatch`] naming the key (`p`, `a`,
+    /// `q[k]`, `b[k]`, `nonneg_rows`, `first_move_index`; cycles counted from 1).
+    pub fn validate(&self) -> Result<(), MpcError> {
+        self.matrices().map(|_| ())
+    }
+
+    fn matrices(
+        &self,
+    ) -> Result<
+        (
+            clarabel::algebra::CscMatrix<f64>,
+            clarabel::algebra::CscMatrix<f64>,
+        ),
+        MpcError,
+    > {
+        let p = self.p.to_clarabel("p", true)?;
+        let a = self.a.to_clarabel("a", false)?;
+        let n = self.p.n;
+        let dim = |what: String, expected: usize, found: usize| {
+            if expected == found {
+                Ok(())
+            } else {
+                Err(MpcError::DimensionMismatch {
+                    what,
+                    expected,
+                    found,
+                })
+            }
+        };
+        dim("p (rows of a square P)".into(), n, self.p.m)?;
+        dim("a (columns, as P's)".into(), n, self.a.n)?;
+        dim("nonneg_rows (rows of A)".into(), self.a.m, self.nonneg_rows)?;
+        if self.q.is_empty() || self.q.len() != self.b.len() {
+            return Err(MpcError::DimensionMismatch {
+                what: "recorded cycles (q and b, at least one)".into(),
+                expected: self.q.len().max(1),
+                found: self.b.len(),
+            });
+        }
+        for (k, (q, b)) in self.q.iter().zip(&self.b).enumerate() {
+            dim(format!("q[{}]", k + 1), n, q.len())?;
+            dim(format!("b[{}]", k + 1), self.a.m, b.len())?;
+            for (key, v) in [("q", q), ("b", b)] {
+                if let Some(v) = v.iter().find(|v| !v.is_finite()) {
+                    return Err(MpcError::InvalidConfig {
+                        key: format!("{key}[{}]", k + 1),
+                        value: v.to_string(),
+                        allowed: "finite numbers".into(),
+                    });
+                }
+            }
+        }
+        if self.first_move_index >= n {
+            return Err(MpcError::InvalidConfig {
+                key: "first_move_index".into(),
+                value: self.first_move_index.to_string(),
+                allowed: format!("an index into z (below {n})"),
+            });
+        }
+        Ok((p, a))
+    }
+
     /// A sequence from the fixed data of a controller's QP ([`QpData`], e.g. of its first cycle) and the
     /// per-cycle `q`, `b`; every row of A is in the nonnegative cone, the first move is `z[0]`.
     pub fn from_cycles(
@@ -123,33 +242,14 @@ pub struct ReplaySolver<'a> {
 
 impl<'a> ReplaySolver<'a> {
     /// Build the solver once (presolve off) with the sequence's first cycle data.
+    ///
+    /// # Errors
+    /// The sequence fails [`QpSequence::validate`], or Clarabel refuses its data.
     pub fn new(seq: &'a QpSequence) -> Result<Self, MpcError> {
-        let p = clarabel::algebra::CscMatrix::new(
-            seq.p.m,
-            seq.p.n,
-            seq.p.colptr.clone(),
-            seq.p.rowval.clone(),
-            seq.p.nzval.clone(),
-        );
-        let a = clarabel::algebra::CscMatrix::new(
-            seq.a.m,
-            seq.a.n,
-            seq.a.colptr.clone(),
-            seq.a.rowval.clone(),
-            seq.a.nzval.clone(),
-        );
+        let (p, a) = seq.matrices()?;
         let settings = clarabel_settings(&seq.solver);
         let cones: Vec<SupportedConeT<f64>> = vec![NonnegativeConeT(seq.nonneg_rows)];
-        let (q0, b0) = match (seq.q.first(), seq.b.first()) {
-            (Some(q), Some(b)) if seq.q.len() == seq.b.len() => (q, b),
-            _ => {
-                return Err(MpcError::DimensionMismatch {
-                    what: "recorded cycles (q and b, at least one)".into(),
-                    expected: seq.q.len().max(1),
-                    found: seq.b.len(),
-                });
-            }
-        };
+        let (q0, b0) = (&seq.q[0], &seq.b[0]);
         let solver = DefaultSolver::new(&p, q0, &a, b0, &cones, settings).map_err(|e| {
             MpcError::SolverSetup {
                 what: "DefaultSolver::new",

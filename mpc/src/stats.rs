@@ -1,6 +1,32 @@
 //! Per-run solver statistics (the `solver` object of the simulate JSON contract).
 
+use std::cell::Cell;
+use std::time::Duration;
+
 use serde::{Deserialize, Serialize};
+
+thread_local! {
+    /// Nanoseconds this thread spent inside Clarabel's QP solves ([`take_qp_solve_s`]).
+    static QP_SOLVE_NS: Cell<u64> = const { Cell::new(0) };
+}
+
+/// Adds one QP solve's duration to this thread's total.
+pub(crate) fn add_qp_solve(d: Duration) {
+    let ns = u64::try_from(d.as_nanos()).unwrap_or(u64::MAX);
+    QP_SOLVE_NS.with(|c| c.set(c.get().saturating_add(ns)));
+}
+
+/// Seconds this thread spent inside QP solves (every controller's, [`crate::qp::CondensedQp`]) since the
+/// last call, and starts counting again from 0 — for a harness's profile of where a run's time went
+/// (a run executes on one thread).
+///
+/// ```
+/// // nothing solved on this thread yet
+/// assert_eq!(millcomp_mpc::stats::take_qp_solve_s(), 0.0);
+/// ```
+pub fn take_qp_solve_s() -> f64 {
+    QP_SOLVE_NS.with(|c| c.replace(0)) as f64 * 1e-9
+}
 
 /// Solver statistics of one controller run: `{"solves", "median_us", "p99_us", "max_us", "fallbacks",
 /// "budget_us", "deadline_misses", "budget_enforced"}`. Times are wall time per control cycle, from the cycle's start (the

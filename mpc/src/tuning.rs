@@ -62,10 +62,38 @@ fn frequencies() -> Vec<f64> {
         .collect()
 }
 
+#[cfg(test)]
 fn max_sensitivity(s: &PztSpindle, kp: f64, ki: f64, delay_s: f64, ws: &[f64]) -> f64 {
-    ws.iter()
-        .map(|&w| {
-            let (gr, gi) = plant(s, w, delay_s);
+    max_sensitivity_on(&Response::of(s, delay_s, ws), kp, ki)
+}
+
+/// The plant's frequency response at each frequency of a grid: computed once per design, so the gain
+/// search evaluates only the controller and the loop (the trigonometry of the delay is the cost).
+struct Response {
+    /// (ω, Re G(jω), Im G(jω)).
+    points: Vec<(f64, f64, f64)>,
+}
+
+impl Response {
+    fn of(s: &PztSpindle, delay_s: f64, ws: &[f64]) -> Self {
+        Self {
+            points: ws
+                .iter()
+                .map(|&w| {
+                    let (gr, gi) = plant(s, w, delay_s);
+                    (w, gr, gi)
+                })
+                .collect(),
+        }
+    }
+}
+
+/// `max_ω |1/(1 + C(jω) G(jω))|` over the grid of `g`, for `C = kp + ki/s`: the same arithmetic, value
+/// for value, as evaluating the plant at each frequency anew.
+fn max_sensitivity_on(g: &Response, kp: f64, ki: f64) -> f64 {
+    g.points
+        .iter()
+        .map(|&(w, gr, gi)| {
             // C = kp − j ki/w
             let (cr, ci) = (kp, -ki / w);
             let (lr, li) = (cr * gr - ci * gi, cr * gi + ci * gr);
@@ -109,6 +137,7 @@ fn pi_max_sensitivity_of(s: &PztSpindle, ms_max: f64, dt_s: f64) -> Result<PiDes
     }
     let delay = 1.5 * dt_s;
     let ws = frequencies();
+    let response = Response::of(s, delay, &ws);
     // scale of the gains: the P-only gain that puts |G| kp = 1 at the plant's natural frequency
     let g_wn = {
         let (a, b) = plant(s, s.wn_rad_s, delay);
@@ -121,7 +150,7 @@ fn pi_max_sensitivity_of(s: &PztSpindle, ms_max: f64, dt_s: f64) -> Result<PiDes
     let mut best: Option<PiDesign> = None;
     for i in 0..=200 {
         let kp = kp_scale * 2.0 * i as f64 / 200.0;
-        if max_sensitivity(s, kp, 0.0, delay, &ws) > ms_max {
+        if max_sensitivity_on(&response, kp, 0.0) > ms_max {
             break;
         }
         // ki from tiny upwards in 2 % steps to the first violation, then bisect
@@ -129,7 +158,7 @@ fn pi_max_sensitivity_of(s: &PztSpindle, ms_max: f64, dt_s: f64) -> Result<PiDes
         let mut hi = kp_scale * 1.0;
         let mut violated = false;
         for _ in 0..2000 {
-            if max_sensitivity(s, kp, hi, delay, &ws) > ms_max {
+            if max_sensitivity_on(&response, kp, hi) > ms_max {
                 violated = true;
                 break;
             }
@@ -141,7 +170,7 @@ fn pi_max_sensitivity_of(s: &PztSpindle, ms_max: f64, dt_s: f64) -> Result<PiDes
         }
         for _ in 0..40 {
             let mid = 0.5 * (lo + hi);
-            if max_sensitivity(s, kp, mid, delay, &ws) <= ms_max {
+            if max_sensitivity_on(&response, kp, mid) <= ms_max {
                 lo = mid;
             } else {
                 hi = mid;
@@ -151,7 +180,7 @@ fn pi_max_sensitivity_of(s: &PztSpindle, ms_max: f64, dt_s: f64) -> Result<PiDes
             best = Some(PiDesign {
                 kp_v_per_um: kp,
                 ki_v_per_um_s: lo,
-                ms: max_sensitivity(s, kp, lo, delay, &ws),
+                ms: max_sensitivity_on(&response, kp, lo),
                 crossover_rad_s: 0.0,
             });
         }

@@ -74,11 +74,11 @@ pub enum SimError {
         /// What is wrong.
         message: String,
     },
-    /// A measured point is not a valid measurement (non-finite value, flag not 0/1, time going
-    /// backwards within a groove).
-    #[error("point {row}, `{column}`: {message}")]
+    /// A measured point is not a valid measurement (non-finite value, flag not 0/1, a value out of its
+    /// physical range, time going backwards within a groove).
+    #[error("row {row}, column `{column}`: {message}")]
     Point {
-        /// 0-based index of the point.
+        /// The point's row, counted from 1 (the first point is row 1).
         row: usize,
         /// The offending field (the measured-groove column name).
         column: &'static str,

@@ -4,8 +4,9 @@
 //! Per step of `dt_s`:
 //! 1. the PZT spindle receives the actuator command (V) and moves the tool tip radially by `tip_um`
 //!    (+ = towards the work); its z-component is `tip_um · sin α` (eq. 26);
-//! 2. the actual depth at the tool's x is `d = d_cmd − δz + tip_um·sin α`, clamped to `[0, R]`
-//!    (**sign convention: every term in µm, + = deeper groove**);
+//! 2. the actual depth at the tool's x is `d = d_cmd − δz + tip_um·sin α + o(x)`, clamped to `[0, R]`
+//!    (**sign convention: every term in µm, + = deeper groove**), with `o(x)` the machine's own depth
+//!    offset along the path ([`PathOffset`]: a guideway that is not straight; none by default);
 //! 3. the cutting force at the current rotation angle follows from the force model at depth `d`;
 //! 4. the z-deflection `δz = Fz,peak/kz` uses the peak z-force over the last revolution — the thesis'
 //!    assumption that "the maximum force corresponds to the maximum deflection, or maximum error" (§6.2) —
@@ -32,6 +33,85 @@ use crate::tool::BallEndTool;
 
 /// Static calibration from the spindle transducer's y-reading to the axial tool force (eq. 31, 2.28).
 pub const SPINDLE_Y_CALIBRATION: f64 = 2.28;
+
+/// An additive depth offset along the groove path (µm, **+ = deeper**), tabulated at increasing `x` (mm)
+/// and linear between the points, constant before the first and after the last: a depth the cut gains
+/// or loses at each position whatever the tool does — a guideway that is not straight under the path,
+/// in the truth ([`GrooveConfig::path_offset`]); or what a controller was told of such an effect (a
+/// diagnosed one, tabulated along its program). Empty: no offset.
+///
+/// # Examples
+/// ```
+/// use millcomp_sim::groove::PathOffset;
+/// let o = PathOffset::new(vec![(0.0, 0.0), (2.0, -1.0), (4.0, 0.0)]).unwrap();
+/// assert_eq!(o.at(1.0), -0.5);
+/// assert_eq!(o.at(-3.0), 0.0); // constant beyond the ends
+/// assert_eq!(PathOffset::default().at(1.0), 0.0);
+/// assert!(PathOffset::new(vec![(1.0, 0.0), (0.5, 1.0)]).is_err()); // not increasing
+/// ```
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct PathOffset {
+    /// `(x_mm, offset_um)`, strictly increasing in x.
+    points: Vec<(f64, f64)>,
+}
+
+impl PathOffset {
+    /// A table of `(x_mm, offset_um)` points.
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] (`path_offset`) for a non-finite value or x that does not strictly
+    /// increase.
+    pub fn new(points: Vec<(f64, f64)>) -> Result<Self, SimError> {
+        let o = Self { points };
+        o.validate()?;
+        Ok(o)
+    }
+
+    /// Checks the table (finite values, strictly increasing x).
+    ///
+    /// # Errors
+    /// As [`Self::new`].
+    pub fn validate(&self) -> Result<(), SimError> {
+        for (i, &(x, v)) in self.points.iter().enumerate() {
+            check_finite("path_offset", x)?;
+            check_finite("path_offset", v)?;
+            if i > 0 && x <= self.points[i - 1].0 {
+                return Err(SimError::InvalidParameter {
+                    name: "path_offset",
+                    value: x,
+                    allowed: "x_mm strictly increasing along the table",
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// No offset anywhere.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// The table's points.
+    pub fn points(&self) -> &[(f64, f64)] {
+        &self.points
+    }
+
+    /// The offset (µm) at `x_mm`.
+    pub fn at(&self, x_mm: f64) -> f64 {
+        let p = &self.points;
+        match p.len() {
+            0 => 0.0,
+            _ if x_mm <= p[0].0 => p[0].1,
+            n if x_mm >= p[n - 1].0 => p[n - 1].1,
+            _ => {
+                // first point with x > x_mm (1 ≤ i ≤ n − 1 here)
+                let i = p.partition_point(|q| q.0 <= x_mm);
+                let ((x0, y0), (x1, y1)) = (p[i - 1], p[i]);
+                y0 + (y1 - y0) * (x_mm - x0) / (x1 - x0)
+            }
+        }
+    }
+}
 
 /// Programmed depth along a groove.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -240,6 +320,10 @@ pub struct GrooveConfig {
     /// gain and drift, touch-off, gauge zero); exact by default.
     #[serde(default)]
     pub instruments: InstrumentErrors,
+    /// The machine's own depth offset along the path (a guideway that is not straight under it), added to
+    /// the depth cut at every x; none by default.
+    #[serde(default, skip_serializing_if = "PathOffset::is_empty")]
+    pub path_offset: PathOffset,
 }
 
 /// Default feed-axis acceleration (mm/s²) for feed changes: 100 mm/s² (≈ 0.01 g), the path acceleration of
@@ -405,6 +489,7 @@ impl GrooveConfig {
             force_noise: None,
             gauge_noise: None,
             instruments: InstrumentErrors::default(),
+            path_offset: PathOffset::default(),
         };
         c.validate()?;
         Ok(c)
@@ -420,6 +505,7 @@ impl GrooveConfig {
         self.stiffness.validate()?;
         self.spindle.validate()?;
         self.instruments.validate()?;
+        self.path_offset.validate()?;
         self.program.validate(self.force_model.tool.radius_um)
     }
 
@@ -675,8 +761,10 @@ impl GrooveStage {
         let engagement = self.cfg.engagement(x);
         let d_cmd = self.cfg.program.depth_at(x);
         let pzt_z = (tip_um - self.tip_zero_um) * self.sin_a;
-        let d_cut = (d_cmd + self.cfg.instruments.touch_off_um - self.deflection_um + pzt_z)
-            .clamp(0.0, self.cfg.force_model.tool.radius_um);
+        let d_cut = (d_cmd + self.cfg.instruments.touch_off_um - self.deflection_um
+            + pzt_z
+            + self.cfg.path_offset.at(x))
+        .clamp(0.0, self.cfg.force_model.tool.radius_um);
         if (d_cut - self.prepared_depth).abs() > 1e-3
             || (upfeed - self.prepared_upfeed).abs() > 1e-4 * self.prepared_upfeed
         {

@@ -404,12 +404,91 @@ pub struct FluteForcePoint {
     pub fz_peak_flute2_n: f64,
 }
 
-/// Checks measured-groove points as a measurement: every value finite, `coolant_on` 0 or 1, and
-/// `t_s` strictly increasing within each groove. The error ([`SimError::Point`]) names the 0-based
-/// point index and the field.
+/// The type of a measured-groove column's cells.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MeasuredKind {
+    /// An integer (`groove_id`).
+    Int,
+    /// A finite number.
+    Float,
+    /// 0 or 1 (`coolant_on`).
+    Flag,
+}
+
+/// **The measured-groove contract** (DESIGN.md "Measured groove session"), defined once, here beside its
+/// row type [`GroovePoint`]: every required column in contract order with the type of its cells and
+/// what it holds. The rules a file of it must keep are [`check_groove_points`]; `millcomp-datasets`
+/// reads and writes files by both (its `contracts` module), `millcomp-diagnose` checks points from any
+/// source by the same function.
+pub const MEASURED_GROOVE: [(&str, MeasuredKind, &str); 11] = [
+    ("groove_id", MeasuredKind::Int, "groove number"),
+    (
+        "t_s",
+        MeasuredKind::Float,
+        "session clock when this point was cut",
+    ),
+    ("x_mm", MeasuredKind::Float, "position along the groove"),
+    (
+        "cut_length_mm",
+        MeasuredKind::Float,
+        "cumulative engaged length of the tool",
+    ),
+    ("speed_rpm", MeasuredKind::Float, "spindle speed"),
+    ("feed_mm_min", MeasuredKind::Float, "feed rate"),
+    ("upfeed_um", MeasuredKind::Float, "feed per revolution"),
+    ("tilt_deg", MeasuredKind::Float, "tool tilt"),
+    ("coolant_on", MeasuredKind::Flag, "coolant flowing (0/1)"),
+    ("depth_cmd_um", MeasuredKind::Float, "programmed depth"),
+    (
+        "depth_meas_um",
+        MeasuredKind::Float,
+        "measured groove depth",
+    ),
+];
+
+/// The optional measured-groove column (written when a point has a spindle temperature).
+pub const SPINDLE_TEMP_COLUMN: &str = "spindle_temp_c";
+
+/// Version of the measured-groove contract this build writes. Version 2 renamed `spindle_rpm` to
+/// `speed_rpm` (one name per quantity across millcomp); files of version 1 are still read.
+pub const MEASURED_GROOVE_VERSION: u32 = 2;
+
+/// Columns renamed since version 1 of the measured-groove contract: (version-1 name, current name).
+pub const MEASURED_GROOVE_V1_NAMES: [(&str, &str); 1] = [("spindle_rpm", "speed_rpm")];
+
+/// The rules of the measured-groove contract — the one validator, whether the points were read from a
+/// file or built by a program: every value finite; `coolant_on` 0 or 1; a cut's `speed_rpm`,
+/// `feed_mm_min` and `upfeed_um` > 0 (a negative speed or feed is a sign error, not a cut);
+/// 0 ≤ `tilt_deg` < 90; `cut_length_mm` and `depth_cmd_um` ≥ 0; and `t_s` strictly increasing within
+/// each groove. The error ([`SimError::Point`]) names the row — counted from 1, the first point being
+/// row 1 (in a file, the first data row: `millcomp-datasets` numbers rows so) — and the column.
+///
+/// ```
+/// use millcomp_sim::SimError;
+/// use millcomp_sim::session::{check_groove_points, GroovePoint};
+/// let p = GroovePoint {
+///     groove_id: 0, t_s: 0.0, x_mm: 0.0, cut_length_mm: 0.0, speed_rpm: 10_000.0,
+///     feed_mm_min: 100.0, upfeed_um: 10.0, tilt_deg: 20.0, coolant_on: 1,
+///     depth_cmd_um: 0.0, depth_meas_um: 0.1, spindle_temp_c: None,
+/// };
+/// let later = GroovePoint { t_s: 0.6, x_mm: 1.0, ..p };
+/// assert!(check_groove_points(&[p, later]).is_ok());
+/// let reversed = GroovePoint { speed_rpm: -10_000.0, ..later };
+/// let e = check_groove_points(&[p, reversed]).unwrap_err();
+/// assert!(matches!(e, SimError::Point { row: 2, column: "speed_rpm", .. }), "{e}");
+/// ```
+///
+/// # Errors
+/// [`SimError::Point`] for the first row and column that break a rule.
 pub fn check_groove_points(points: &[GroovePoint]) -> Result<(), SimError> {
     let mut last: std::collections::HashMap<i64, f64> = std::collections::HashMap::new();
-    for (row, p) in points.iter().enumerate() {
+    for (i, p) in points.iter().enumerate() {
+        let row = i + 1;
+        let fail = |column: &'static str, message: String| SimError::Point {
+            row,
+            column,
+            message,
+        };
         let fields = [
             ("t_s", p.t_s),
             ("x_mm", p.x_mm),
@@ -420,36 +499,56 @@ pub fn check_groove_points(points: &[GroovePoint]) -> Result<(), SimError> {
             ("tilt_deg", p.tilt_deg),
             ("depth_cmd_um", p.depth_cmd_um),
             ("depth_meas_um", p.depth_meas_um),
-            ("spindle_temp_c", p.spindle_temp_c.unwrap_or(0.0)),
+            (SPINDLE_TEMP_COLUMN, p.spindle_temp_c.unwrap_or(0.0)),
         ];
         for (column, v) in fields {
             if !v.is_finite() {
-                return Err(SimError::Point {
-                    row,
-                    column,
-                    message: format!("{v} is not a finite number"),
-                });
+                return Err(fail(column, format!("{v} is not a finite number")));
             }
         }
         if p.coolant_on > 1 {
-            return Err(SimError::Point {
-                row,
-                column: "coolant_on",
-                message: format!("{} is not 0 or 1", p.coolant_on),
-            });
+            return Err(fail(
+                "coolant_on",
+                format!("{} is not 0 or 1", p.coolant_on),
+            ));
         }
-        if let Some(&prev) = last.get(&p.groove_id) {
-            if p.t_s <= prev {
-                return Err(SimError::Point {
-                    row,
-                    column: "t_s",
-                    message: format!(
-                        "time {} s is not after the previous point of groove {} ({prev} s); \
-                         t_s must increase within a groove",
-                        p.t_s, p.groove_id
-                    ),
-                });
+        for (column, v, what) in [
+            ("speed_rpm", p.speed_rpm, "a spindle speed"),
+            ("feed_mm_min", p.feed_mm_min, "a feed rate"),
+            ("upfeed_um", p.upfeed_um, "a feed per revolution"),
+        ] {
+            if v <= 0.0 {
+                return Err(fail(
+                    column,
+                    format!("{v}: {what} of a cut is > 0 (a sign or unit error?)"),
+                ));
             }
+        }
+        if !(0.0..90.0).contains(&p.tilt_deg) {
+            return Err(fail(
+                "tilt_deg",
+                format!("{}: allowed 0 <= tilt_deg < 90", p.tilt_deg),
+            ));
+        }
+        for (column, v) in [
+            ("cut_length_mm", p.cut_length_mm),
+            ("depth_cmd_um", p.depth_cmd_um),
+        ] {
+            if v < 0.0 {
+                return Err(fail(column, format!("{v}: allowed >= 0")));
+            }
+        }
+        if let Some(&prev) = last.get(&p.groove_id)
+            && p.t_s <= prev
+        {
+            return Err(fail(
+                "t_s",
+                format!(
+                    "time {} s is not after the previous point of groove {} ({prev} s); \
+                     t_s must increase within a groove",
+                    p.t_s, p.groove_id
+                ),
+            ));
         }
         last.insert(p.groove_id, p.t_s);
     }
@@ -1183,4 +1282,54 @@ pub fn simulate_session(
         });
     }
     Ok(out)
+}
+
+/// One groove of a simulated or measured session in numbers: its points, start time and depth error
+/// (measured − commanded). Fields in alphabetical order, as `simulate --json` has always printed them.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GrooveSummary {
+    /// The groove.
+    pub groove_id: i64,
+    /// The error of largest magnitude (µm, signed).
+    pub max_error_um: f64,
+    /// The mean error (µm).
+    pub mean_error_um: f64,
+    /// Points of the groove.
+    pub n_points: usize,
+    /// Time of its first point (s).
+    pub t_start_s: f64,
+}
+
+/// Per groove (by id, ascending): points, start time and the depth error (`simulate SESSION`'s table,
+/// the Python package's `simulate_session`).
+///
+/// ```
+/// use millcomp_sim::session::{Session, SimOptions, groove_summaries, simulate_session};
+/// let s = Session::from_path(concat!(env!("CARGO_MANIFEST_DIR"), "/../datasets/sessions/example.toml")).unwrap();
+/// let pts = simulate_session(&s, &SimOptions::default()).unwrap();
+/// let g = groove_summaries(&pts);
+/// assert_eq!(g.iter().map(|g| g.n_points).sum::<usize>(), pts.len());
+/// assert!(g.windows(2).all(|w| w[0].groove_id < w[1].groove_id));
+/// ```
+pub fn groove_summaries(points: &[GroovePoint]) -> Vec<GrooveSummary> {
+    let mut ids: Vec<i64> = points.iter().map(|p| p.groove_id).collect();
+    ids.sort_unstable();
+    ids.dedup();
+    ids.iter()
+        .map(|&id| {
+            let g: Vec<&GroovePoint> = points.iter().filter(|p| p.groove_id == id).collect();
+            let err: Vec<f64> = g.iter().map(|p| p.depth_meas_um - p.depth_cmd_um).collect();
+            let max = err
+                .iter()
+                .fold(0.0_f64, |m, e| if e.abs() > m.abs() { *e } else { m });
+            let mean = err.iter().sum::<f64>() / err.len() as f64;
+            GrooveSummary {
+                groove_id: id,
+                max_error_um: max,
+                mean_error_um: mean,
+                n_points: g.len(),
+                t_start_s: g[0].t_s,
+            }
+        })
+        .collect()
 }

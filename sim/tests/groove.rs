@@ -58,3 +58,25 @@ fn more_deflection_at_30_than_20_degrees() {
         .unwrap();
     assert!(d30 > d20);
 }
+
+#[test]
+fn a_path_offset_adds_to_the_depth_cut_where_the_tool_is() {
+    // a constant 40 µm groove, 4 mm long; the machine cuts 2 µm deeper from x = 2 mm on (a guideway
+    // step under the path), and nothing else changes: the depth cut there is 2 µm deeper than without,
+    // up to the small extra deflection the deeper cut's force makes (loop gain ≈ 0.2, so < 0.5 µm)
+    use millcomp_sim::groove::{DepthProfile, PathOffset};
+    let mut cfg = GrooveConfig::thesis(20.0, 8.0).unwrap();
+    cfg.program.length_mm = 4.0;
+    cfg.program.depth_profile = DepthProfile::Constant { depth_um: 40.0 };
+    let plain = GrooveStage::new(cfg.clone(), 5e-5).unwrap().run(|_| 0.0);
+    cfg.path_offset = PathOffset::new(vec![(1.999, 0.0), (2.0, 2.0)]).unwrap();
+    let offset = GrooveStage::new(cfg, 5e-5).unwrap().run(|_| 0.0);
+    assert_eq!(plain.len(), offset.len());
+    let at = |run: &[millcomp_sim::groove::GrooveStepOutput], x: f64| {
+        run.iter().find(|o| o.x_mm >= x).unwrap().depth_cut_um
+    };
+    // before the step: identical
+    assert_eq!(at(&plain, 1.5), at(&offset, 1.5));
+    let gain = at(&offset, 3.5) - at(&plain, 3.5);
+    assert!(gain > 1.5 && gain < 2.0, "{gain}");
+}

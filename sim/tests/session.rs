@@ -111,15 +111,23 @@ fn measured_points_are_checked_as_a_measurement() {
         Err(SimError::Point { row, column, .. }) => (row, column),
         other => panic!("expected a point error, got {other:?}"),
     };
+    // rows are counted from 1: index 5 is row 6
     let mut back = pts.clone();
     back[5].t_s = back[4].t_s;
-    assert_eq!(point_err(&back), (5, "t_s"));
+    assert_eq!(point_err(&back), (6, "t_s"));
     let mut nan = pts.clone();
     nan[7].depth_meas_um = f64::NAN;
-    assert_eq!(point_err(&nan), (7, "depth_meas_um"));
+    assert_eq!(point_err(&nan), (8, "depth_meas_um"));
     let mut flag = pts.clone();
     flag[0].coolant_on = 2;
-    assert_eq!(point_err(&flag), (0, "coolant_on"));
+    assert_eq!(point_err(&flag), (1, "coolant_on"));
+    // a negative speed or feed is not a cut
+    let mut speed = pts.clone();
+    speed[3].speed_rpm = -speed[3].speed_rpm;
+    assert_eq!(point_err(&speed), (4, "speed_rpm"));
+    let mut feed = pts.clone();
+    feed[2].feed_mm_min = 0.0;
+    assert_eq!(point_err(&feed), (3, "feed_mm_min"));
 }
 
 #[test]

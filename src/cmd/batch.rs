@@ -1,21 +1,21 @@
 //! `millcomp batch`: every scenario × controller closed-loop run, in parallel, resumable and shardable;
-//! `millcomp batch merge DIR...` joins the slices. The engine is `millcomp_closedloop::batch`; here the
-//! arguments are parsed (including `--doe "ARGS"`, the `doe design` options given as one string) and
-//! the results are printed and plotted (`present::batch`).
-
-use std::io::IsTerminal;
-use std::path::Path;
+//! `millcomp batch merge DIR...` joins the slices. The batch is one library call
+//! (`millcomp_closedloop::batch::run_batch`); here the arguments are parsed (including `--doe "ARGS"`,
+//! the `doe design` options given as one string) and the summary is printed (`present::batch`).
 
 use anyhow::Context;
 use clap::Parser;
-use millcomp_closedloop::batch::exec::{MpcClosedLoop, ShardOutcome, run_shard};
-use millcomp_closedloop::batch::plan::{Plan, Shard, parse_controllers};
-use millcomp_closedloop::batch::results::{BatchSummary, merge, new_summary};
+use millcomp_closedloop::ClosedLoopError;
+use millcomp_closedloop::batch::plan::Shard;
+use millcomp_closedloop::batch::{
+    BatchRequest, BatchSummary, ProgressMode, ScenarioSource, estimate_request, merge_batch,
+    run_plan, signals,
+};
 use millcomp_datasets::Table;
 
 use crate::cli::{BatchArgs, BatchCommand, DoeDesignArgs};
 use crate::cmd::print_json;
-use crate::present::batch::{print_summary, write_results};
+use crate::present::batch::{print_estimate, print_summary};
 
 /// `--doe "ARGS"` parsed with the same options as `millcomp doe design`.
 #[derive(Debug, Parser)]
@@ -28,55 +28,89 @@ struct DoeWrap {
 /// Runs the verb.
 pub fn run(args: BatchArgs, json: bool) -> anyhow::Result<()> {
     if let Some(BatchCommand::Merge(m)) = &args.command {
-        let start = std::time::Instant::now();
-        let merged = merge(&m.dirs, &m.out)?;
-        let mut summary = write_results(&merged.plan, &merged.records, &m.out, merged.summary)?;
-        summary.invocation.wall_clock_s = start.elapsed().as_secs_f64();
+        // the merged results must not overwrite a slice's
+        if let Some(d) = m
+            .dirs
+            .iter()
+            .find(|d| crate::cmd::guard::same_file(d, &m.out))
+        {
+            anyhow::bail!(
+                "--out {}: that is the slice {} — the merged results would overwrite it; merge into \
+                 another directory",
+                m.out.display(),
+                d.display()
+            );
+        }
+        let summary = merge_batch(&m.dirs, &m.out, true)?;
         return show(&summary, json, &format!("merged {} slices", m.dirs.len()));
     }
     let shard = match &args.shard {
         Some(s) => Shard::parse(s)?,
         None => Shard::from_env(|k| std::env::var(k).ok())?.unwrap_or(Shard::ALL),
     };
-    let plan = make_plan(
-        args.scenarios.as_deref(),
-        args.doe.as_deref(),
-        &args.controllers,
-        args.columns.as_deref(),
-    )?;
-    let progress = !json && std::io::stderr().is_terminal();
-    let outcome = with_threads(args.threads, || {
-        Ok(run_shard(
-            &plan,
-            shard,
-            &args.out,
-            &MpcClosedLoop,
-            progress,
-        )?)
-    })?;
-    let mut summary = outcome_summary(&plan, &outcome, (shard != Shard::ALL).then_some(shard));
-    summary.invocation.throughput_per_core = (outcome.n_ran > 0 && outcome.wall_clock_s > 0.0)
-        .then(|| outcome.simulated_s / outcome.wall_clock_s / outcome.threads.max(1) as f64);
-    let summary = write_results(&plan, &outcome.records, &args.out, summary)?;
-    let what = if shard == Shard::ALL {
-        "batch".to_string()
-    } else {
-        format!("shard {}/{}", shard.index, shard.count)
+    // the output directory's files are not the scenario file
+    crate::cmd::guard::Inputs::new()
+        .add_opt("--scenarios", args.scenarios.as_deref())
+        .check_dir("--out", &args.out, |rel| {
+            [
+                "results.csv",
+                "results.parquet",
+                "summary.json",
+                "invocation.json",
+            ]
+            .iter()
+            .any(|n| rel == std::path::Path::new(n))
+                || rel.starts_with("plots")
+                || rel.starts_with("runs")
+        })?;
+    let scenarios = match (&args.scenarios, &args.doe) {
+        (Some(path), None) => ScenarioSource::File {
+            path: path.clone(),
+            columns: args.columns.clone(),
+        },
+        (None, Some(d)) => ScenarioSource::Table(design_table(d)?),
+        _ => anyhow::bail!("give either --scenarios FILE or --doe \"DESIGN ARGS\" (one of them)"),
     };
-    show(&summary, json, &what)
-}
-
-/// The summary of a shard's run: its records, what ran now and what was resumed, the simulated and
-/// wall-clock time, the threads.
-pub fn outcome_summary(plan: &Plan, outcome: &ShardOutcome, shard: Option<Shard>) -> BatchSummary {
-    let mut summary = new_summary(plan, outcome.records.len(), shard);
-    let i = &mut summary.invocation;
-    i.n_ran = outcome.n_ran;
-    i.n_resumed = outcome.n_resumed;
-    i.simulated_s = outcome.simulated_s;
-    i.threads = outcome.threads;
-    i.wall_clock_s = outcome.wall_clock_s;
-    summary
+    let mut req = BatchRequest::new(scenarios, &args.controllers, &args.out);
+    req.shard = shard;
+    req.threads = args.threads;
+    req.cache = args.cache.clone();
+    req.progress = if json || args.quiet {
+        ProgressMode::Quiet
+    } else {
+        ProgressMode::Auto
+    };
+    req.stop_on_signals = true;
+    let (plan, estimate) = estimate_request(&req).with_context(|| match &args.scenarios {
+        Some(p) => format!("reading the scenarios {}", p.display()),
+        None => "--doe: the scenarios of the design".to_string(),
+    })?;
+    if args.dry_run {
+        if json {
+            return print_json(&serde_json::json!({
+                "fingerprint": plan.fingerprint,
+                "estimate": estimate,
+            }));
+        }
+        print_estimate(&plan, &estimate, shard);
+        return Ok(());
+    }
+    match run_plan(&plan, &req) {
+        Ok(summary) => {
+            let what = if shard == Shard::ALL {
+                "batch".to_string()
+            } else {
+                format!("shard {}/{}", shard.index, shard.count)
+            };
+            show(&summary, json, &what)
+        }
+        // stopped by SIGTERM or SIGINT: the runs are stored; end as the signal would have
+        Err(e @ ClosedLoopError::Interrupted { .. }) => {
+            eprintln!("batch: {e}");
+            std::process::exit(signals::exit_status().map_or(1, i32::from));
+        }
+        Err(e) => Err(e.into()),
+    }
 }
 
 /// Splits a command line into words: whitespace separates, single and double quotes group.
@@ -114,41 +148,22 @@ pub fn split_words(text: &str) -> anyhow::Result<Vec<String>> {
     Ok(out)
 }
 
-/// The scenario table of a design generated from `doe design` arguments given as one string.
+/// The scenario table of a design generated from `doe design` arguments given as one string (its
+/// `--out`, if given, written).
 pub fn design_table(doe_args: &str) -> anyhow::Result<Table> {
     let words = split_words(doe_args).context("--doe")?;
     let args = DoeWrap::try_parse_from(&words)
         .map_err(|e| anyhow::anyhow!("--doe `{doe_args}`: {}", e.render().to_string().trim()))?
         .args;
     let req = crate::cmd::doe::design_request(&args).context("--doe")?;
-    let design = millcomp_doe::generate(&req).context("--doe: generating the design")?;
-    let table = millcomp_datasets::adapters::table_from_doe("--doe design", design.columns())?;
+    let table = ScenarioSource::Design(req)
+        .table()
+        .context("--doe: generating the design")?;
     if let Some(out) = &args.out {
         millcomp_datasets::write_table(&table, out)
             .with_context(|| format!("--doe --out {}", out.display()))?;
     }
     Ok(table)
-}
-
-/// The plan of a batch from a scenario file (its columns read through `--columns`) or `doe design`
-/// arguments, and a controller list.
-pub fn make_plan(
-    scenarios: Option<&Path>,
-    doe: Option<&str>,
-    controllers: &str,
-    columns: Option<&str>,
-) -> anyhow::Result<Plan> {
-    let controllers = parse_controllers(controllers)?;
-    let table = match (scenarios, doe) {
-        (Some(p), None) => {
-            crate::cmd::record::read_mapped(p, columns)
-                .with_context(|| format!("reading the scenarios {}", p.display()))?
-                .0
-        }
-        (None, Some(d)) => design_table(d)?,
-        _ => anyhow::bail!("give either --scenarios FILE or --doe \"DESIGN ARGS\" (one of them)"),
-    };
-    Ok(Plan::from_table(&table, controllers)?)
 }
 
 /// Runs `f` on a rayon pool of `threads` workers (the global pool when `None`).

@@ -7,10 +7,12 @@ use millcomp_closedloop::Scenario;
 use millcomp_closedloop::commissioning::{CommissioningPlant, commission, coverage_study};
 use millcomp_closedloop::groove::groove_truth;
 use millcomp_closedloop::scenario::StageKind;
-use millcomp_models::{InputFile, ModelBundle, ModelFile};
+use millcomp_models::{IdentifiedModel, InputFile, ModelBundle, ModelFile};
+use millcomp_sim::material::Material;
 use serde_json::json;
 
 use crate::cli::CommissionArgs;
+use crate::cmd::guard::{Inputs, with_scenario_models};
 use crate::cmd::{print_json, progress_bar, provenance};
 use crate::present::commission::{bundle_text, commissioning_text, coverage_text};
 
@@ -19,6 +21,8 @@ pub fn run(args: CommissionArgs, json: bool) -> anyhow::Result<()> {
         return from_files(&args, json);
     };
     let s = Scenario::load(&scenario)?;
+    with_scenario_models(Inputs::new().add("SCENARIO", &scenario), &s)
+        .check_opt("--out", args.out.as_deref())?;
     if s.stage != StageKind::Groove {
         bail!(
             "{}: stage: commissioning is implemented for groove scenarios (the thin wall is not commissioned yet)",
@@ -35,6 +39,13 @@ pub fn run(args: CommissionArgs, json: bool) -> anyhow::Result<()> {
     if let Some(n) = args.coverage {
         if n == 0 {
             bail!("--coverage: give at least 1 seed");
+        }
+        if seed.checked_add(n).is_none() {
+            bail!(
+                "--seed {seed} with --coverage {n}: the seeds would pass {} (the largest seed); give a \
+                 smaller --seed",
+                u64::MAX
+            );
         }
         let bar = progress_bar(n, "commissionings", json);
         let rows = coverage_study(
@@ -81,10 +92,33 @@ pub fn run(args: CommissionArgs, json: bool) -> anyhow::Result<()> {
 
 /// A bundle assembled from the user's own identified models (`--spindle/--force/--stiffness`).
 fn from_files(args: &CommissionArgs, json: bool) -> anyhow::Result<()> {
-    let material = args
+    Inputs::new()
+        .add_opt("--spindle", args.spindle.as_deref())
+        .add_opt("--force", args.force.as_deref())
+        .add_opt("--stiffness", args.stiffness.as_deref())
+        .check_opt("--out", args.out.as_deref())?;
+    let given = args
         .material
         .as_deref()
         .context("--material: give the workpiece material the force model was identified on")?;
+    // a material the physics crate knows (its canonical name is recorded), and the one the force model
+    // was identified for: its modulus is a fixed input of that fit
+    let known = Material::by_name(given).map_err(|e| anyhow::anyhow!("--material: {e}"))?;
+    if let Some(path) = &args.force {
+        let f = ModelFile::<IdentifiedModel>::load(path, &["force"])?;
+        if let Some(e) = f.model.fixed.get("e_gpa")
+            && (e - known.e_gpa).abs() > 1e-9 * known.e_gpa
+        {
+            bail!(
+                "--material {given}: the force model {} was identified with e_gpa = {e} (a material of \
+                 that modulus), not {}'s {} GPa; give the material it was identified on",
+                path.display(),
+                known.name,
+                known.e_gpa
+            );
+        }
+    }
+    let material = known.name.as_str();
     let bundle = ModelBundle::from_files(
         material,
         args.spindle.as_deref(),

@@ -44,7 +44,7 @@ fn check(
             ),
         }
     };
-    for n in &notes {
+    for n in table.notes.iter().chain(&notes) {
         eprintln!("note: {}: {n}", file.display());
     }
     if json {

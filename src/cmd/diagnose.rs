@@ -10,12 +10,30 @@ use millcomp_diagnose::{DiagnoseOptions, Measured, Multiplicity, diagnose};
 use millcomp_sim::session::Session;
 
 use crate::cli::DiagnoseArgs;
+use std::path::Path;
+
+use crate::cmd::guard::{Inputs, svg_starting};
 use crate::cmd::print_json;
 use crate::present;
 
 pub fn run(args: DiagnoseArgs, json: bool) -> anyhow::Result<()> {
     if !(args.alpha > 0.0 && args.alpha < 1.0) {
         bail!("--alpha must be in (0, 1), got {}", args.alpha);
+    }
+    let inputs = Inputs::new()
+        .add_opt("SESSION", args.session.as_deref())
+        .add_opt("MEASURED", args.measured.as_deref())
+        .add_opt("--record", args.record.as_deref())
+        .add_opt("--forces", args.forces.as_deref());
+    inputs.check_opt("--next-plan", args.next_plan.as_deref())?;
+    if let Some(dir) = &args.report {
+        inputs.check_dir("--report", dir, |rel| {
+            rel == Path::new("diagnose.txt")
+                || svg_starting(
+                    rel,
+                    &["measured_vs_simulated", "residual_step", "diagnose_"],
+                )
+        })?;
     }
     if args.record.is_some() {
         return crate::cmd::record::diagnose(args, json);

@@ -4,12 +4,10 @@
 use std::path::Path;
 
 use anyhow::{Context, bail};
-use millcomp_doe::{
-    AnalysisInput, CcdAlpha, CcdVariant, DesignKind, DesignRequest, FactorSpec, LinearConstraint,
-    ModelSpec,
-};
+use millcomp_doe::{AnalyzeOptions, AnalyzeOutcome, DesignOptions, DesignRequest};
 
 use crate::cli::{DoeAnalyzeArgs, DoeCommand, DoeDesignArgs};
+use crate::cmd::guard::Inputs;
 use crate::cmd::print_json;
 
 pub fn run(cmd: DoeCommand, json: bool) -> anyhow::Result<()> {
@@ -19,78 +17,123 @@ pub fn run(cmd: DoeCommand, json: bool) -> anyhow::Result<()> {
     }
 }
 
-/// The design request of `doe design` arguments (also used by `batch --doe`).
+/// The design request of `doe design` arguments (also used by `batch --doe`): the library's
+/// [`DesignOptions`] (one place, shared with the Python package).
 pub fn design_request(args: &DoeDesignArgs) -> anyhow::Result<DesignRequest> {
-    let factors = FactorSpec::parse_list(&args.factors).context("--factors")?;
-    let mut kind: DesignKind = args.design.parse().context("--design")?;
-    if let DesignKind::Ccd { variant, alpha } = &mut kind {
-        if args.design == "ccd" {
-            *variant = args
-                .ccd_variant
-                .parse::<CcdVariant>()
-                .context("--ccd-variant")?;
-        }
-        *alpha = args.alpha.parse::<CcdAlpha>().context("--alpha")?;
-    }
-    let mut req = DesignRequest::new(kind, factors);
-    req.resolution = args.resolution;
-    req.generators = args.generators.clone();
-    req.runs = args.runs;
-    req.replicates = args.replicates;
-    req.center_points = args.center_points;
-    req.blocks = args.blocks;
-    req.seed = args.seed;
-    req.randomize = !args.no_randomize;
-    if let Some(m) = &args.model {
-        req.model = Some(ModelSpec::parse(m).context("--model")?);
-    }
-    if let Some(c) = &args.constraints {
-        req.constraints = LinearConstraint::parse_list(c, &req.factors).context("--constraints")?;
-    }
-    Ok(req)
+    let options = DesignOptions {
+        design: args.design.clone(),
+        factors: args.factors.clone(),
+        resolution: args.resolution,
+        generators: args.generators.clone(),
+        runs: args.runs,
+        replicates: args.replicates,
+        center_points: args.center_points,
+        blocks: args.blocks,
+        seed: args.seed,
+        randomize: !args.no_randomize,
+        ccd_variant: args.ccd_variant.clone(),
+        alpha: args.alpha.clone(),
+        model: args.model.clone(),
+        constraints: args.constraints.clone(),
+    };
+    Ok(options.request()?)
 }
 
 fn design(args: &DoeDesignArgs, json: bool) -> anyhow::Result<()> {
     let req = design_request(args)?;
     let design = millcomp_doe::generate(&req)?;
+    // everything that is printed is made before anything is written: a failure leaves no file
+    let report = if json {
+        serde_json::to_string_pretty(&design)?
+    } else {
+        crate::present::doe::design_text(&design)
+    };
     if let Some(out) = &args.out {
         let table = millcomp_datasets::adapters::table_from_doe("design", design.columns())?;
         millcomp_datasets::write_table(&table, out)
             .with_context(|| format!("writing the design to {}", out.display()))?;
     }
     if json {
-        print_json(&design)
+        println!("{report}");
     } else {
-        print!("{}", crate::present::doe::design_text(&design));
+        print!("{report}");
         if let Some(out) = &args.out {
             println!("\nwritten: {}", out.display());
         }
-        Ok(())
     }
+    Ok(())
+}
+
+/// A fit whose numbers are not finite is refused where it is made, before it is printed as a table of
+/// `inf` or saved as a model that would drive a controller: the first non-finite quantity is named.
+fn check_finite(a: &millcomp_doe::Analysis, file: &Path) -> anyhow::Result<()> {
+    let mut checks: Vec<(String, f64)> = vec![
+        ("the residual sum of squares".into(), a.residual_sum_sq),
+        ("R²".into(), a.r_squared),
+    ];
+    if let Some(s) = a.sigma {
+        checks.push(("S".into(), s));
+    }
+    for t in &a.terms {
+        checks.push((format!("the sum of squares of `{}`", t.term), t.sum_sq));
+        if let Some(c) = t.coef {
+            checks.push((format!("the coefficient of `{}`", t.term), c));
+        }
+    }
+    for c in &a.coefficients {
+        checks.push((format!("the coefficient `{}`", c.name), c.coef));
+        if let Some(se) = c.std_err {
+            checks.push((format!("the standard error of `{}`", c.name), se));
+        }
+    }
+    let Some((what, v)) = checks.into_iter().find(|(_, v)| !v.is_finite()) else {
+        return Ok(());
+    };
+    if a.r_squared.is_nan() && a.residual_sum_sq == 0.0 {
+        bail!(
+            "{}: `{}` has the same value in every run: there is no effect to analyse",
+            file.display(),
+            a.response
+        );
+    }
+    bail!(
+        "{}: the fit of `{}` is not finite ({what} = {v}): its values are too large to square in double \
+         precision; rescale the column (another unit) and analyse again",
+        file.display(),
+        a.response
+    )
 }
 
 fn analyze(args: &DoeAnalyzeArgs, json: bool) -> anyhow::Result<()> {
     if !(args.alpha > 0.0 && args.alpha < 1.0) {
         bail!("--alpha must be in (0, 1), got {}", args.alpha);
     }
+    let inputs = Inputs::new().add("FILE", &args.file);
+    inputs.check_opt("--save", args.save.as_deref())?;
+    if let Some(dir) = &args.plots {
+        inputs.check_dir("--plots", dir, |rel| {
+            crate::present::doe::DOE_PLOTS
+                .iter()
+                .any(|n| rel == Path::new(n))
+        })?;
+    }
     let (table, notes) = crate::cmd::record::read_mapped(&args.file, args.columns.as_deref())?;
     for n in &notes {
         eprintln!("note: {}: {n}", args.file.display());
     }
     let columns = millcomp_datasets::adapters::doe_columns(&table);
-    let model = ModelSpec::parse(&args.model).context("--model")?;
-    let factors = (!args.factors.is_empty()).then_some(args.factors.as_slice());
-    let input = AnalysisInput::from_table(&columns, &args.response, factors, model)
-        .with_context(|| format!("{}: preparing the analysis", args.file.display()))?;
-    let (analysis, elimination) = if args.reduce {
-        let e = millcomp_doe::backward_eliminate(&input, args.alpha)
-            .with_context(|| format!("{}: backward elimination", args.file.display()))?;
-        (e.analysis.clone(), Some(e))
-    } else {
-        let a = millcomp_doe::analyze(&input)
-            .with_context(|| format!("{}: analysing `{}`", args.file.display(), args.response))?;
-        (a, None)
+    let options = AnalyzeOptions {
+        response: args.response.clone(),
+        factors: Some(args.factors.clone()),
+        model: args.model.clone(),
+        alpha: args.alpha,
+        reduce: args.reduce,
     };
+    let AnalyzeOutcome {
+        analysis,
+        elimination,
+    } = options.run(&args.file.display().to_string(), &columns)?;
+    check_finite(&analysis, &args.file)?;
     if let Some(path) = &args.save {
         save_model(&analysis, &args.file, path)?;
     }

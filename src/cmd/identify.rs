@@ -9,9 +9,22 @@ use millcomp_identify::units::{UNIT_ROLE, identify_units, one_unit_note};
 use millcomp_identify::{Columns, FitReport, Identified, IdentifyOptions, Target, identify_columns};
 
 use crate::cli::{IdentifyArgs, IdentifyWhat};
+use crate::cmd::guard::{Inputs, svg_starting};
 use crate::cmd::print_json;
 
 pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
+    let mut inputs = Inputs::new()
+        .add("FILE", &args.file)
+        .add_opt("--join", args.join.as_deref());
+    for a in &args.also {
+        inputs = inputs.add("--also", a);
+    }
+    inputs.check_opt("--save", args.save.as_deref())?;
+    if let Some(dir) = &args.plots {
+        inputs.check_dir("--plots", dir, |rel| {
+            svg_starting(rel, &["thermal_", "wear_", "flutes_"])
+        })?;
+    }
     let record_study = matches!(args.what, IdentifyWhat::Wear | IdentifyWhat::Flutes)
         || (matches!(args.what, IdentifyWhat::Thermal)
             && crate::cmd::record::is_thermal_study(&args));
@@ -141,14 +154,12 @@ fn print_fit(fit: &Identified) {
 }
 
 fn options(args: &IdentifyArgs) -> anyhow::Result<IdentifyOptions> {
-    let thermal_model = match args.model.as_deref().unwrap_or("exponential") {
-        "exponential" => ThermalModel::Exponential,
-        "linear-temperature" => ThermalModel::LinearTemperature,
-        "speed-dependent" => ThermalModel::SpeedDependent,
-        other => {
-            bail!("--model `{other}`: allowed exponential, linear-temperature, speed-dependent")
-        }
-    };
+    let thermal_model: ThermalModel = args
+        .model
+        .as_deref()
+        .unwrap_or("exponential")
+        .parse()
+        .context("--model")?;
     let force_free = args
         .free
         .iter()

@@ -9,6 +9,7 @@ mod datasets;
 mod demo;
 mod diagnose;
 mod doe;
+pub(crate) mod guard;
 mod identify;
 mod parts;
 pub(crate) mod record;
@@ -66,6 +67,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Datasets(c) => datasets::run(c, json),
         Command::Demo(a) => demo::run(a, json),
+        Command::Pipeline(a) => demo::run_plan(a, json),
         Command::Doe(c) => doe::run(c, json),
         Command::Identify(a) => identify::run(a, json),
         Command::Diagnose(a) => diagnose::run(a, json),

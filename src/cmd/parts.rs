@@ -11,11 +11,21 @@ use serde_json::json;
 
 use crate::cli::PartsArgs;
 use crate::cmd::batch::with_threads;
+use crate::cmd::guard::{Inputs, with_scenario_models};
 use crate::cmd::{print_json, progress_bar};
 use crate::present::parts::{parts_plot, parts_text};
 
 pub fn run(args: PartsArgs, json: bool) -> anyhow::Result<()> {
     let s = Scenario::load(&args.scenario)?;
+    with_scenario_models(Inputs::new().add("SCENARIO", &args.scenario), &s).check_dir(
+        "--out",
+        &args.out,
+        |rel| {
+            ["parts.csv", "summary.json", "parts.svg"]
+                .iter()
+                .any(|n| rel == std::path::Path::new(n))
+        },
+    )?;
     let controllers: Vec<ControllerKind> = parse_controllers(&args.controllers)?
         .iter()
         .map(|n| n.parse())

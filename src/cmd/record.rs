@@ -106,9 +106,16 @@ pub fn read_mapped_full(
         None => ColumnMap::default(),
     };
     let mut table = millcomp_datasets::read_any(path)?;
-    let mut notes = Vec::new();
+    // how the file was read (its encoding, delimiter, decimal commas), then the mapping's notes
+    let mut notes = std::mem::take(&mut table.notes);
     if let Some((other, key)) = join {
         let right = millcomp_datasets::read_any(other)?;
+        notes.extend(
+            right
+                .notes
+                .iter()
+                .map(|n| format!("{} (the --join file {})", n, other.display())),
+        );
         let (joined, n) = join_on(&table, &right, key)?;
         table = joined;
         notes.extend(n);

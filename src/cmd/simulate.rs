@@ -4,7 +4,7 @@
 use anyhow::{Context, bail};
 use millcomp_datasets::contracts::measured_groove_table;
 use millcomp_sim::sensors::NoiseSpec;
-use millcomp_sim::session::{GroovePoint, Session, SimOptions, simulate_session};
+use millcomp_sim::session::{GroovePoint, Session, SimOptions, groove_summaries, simulate_session};
 use serde_json::json;
 
 use std::path::Path;
@@ -12,6 +12,7 @@ use std::path::Path;
 use millcomp_closedloop::{ControllerKind, Scenario, run_scenario_with_trace};
 
 use crate::cli::SimulateArgs;
+use crate::cmd::guard::{Inputs, same_file, with_scenario_models};
 use crate::cmd::print_json;
 use crate::present::plot::{Series, line_plot};
 
@@ -22,6 +23,7 @@ pub fn run(args: SimulateArgs, json: bool) -> anyhow::Result<()> {
     if args.controller.is_some() || is_scenario(&args.file)? {
         return run_scenario(&args, json);
     }
+    check_outputs(&args, Inputs::new().add("FILE", &args.file))?;
     let session = Session::from_path(&args.file)
         .with_context(|| format!("reading session {}", args.file.display()))?;
     let options = SimOptions {
@@ -49,7 +51,7 @@ pub fn run(args: SimulateArgs, json: bool) -> anyhow::Result<()> {
     if let Some(plot) = &args.plot {
         plot_profiles(plot, &session.name, &points)?;
     }
-    let summary = summarise(&points);
+    let summary = groove_summaries(&points);
     if json {
         return print_json(&json!({
             "session": session.name,
@@ -72,11 +74,7 @@ pub fn run(args: SimulateArgs, json: bool) -> anyhow::Result<()> {
     for g in &summary {
         println!(
             "{:>6} {:>7} {:>12.1} {:>16.3} {:>16.3}",
-            g["groove_id"].as_i64().unwrap_or(-1),
-            g["n_points"].as_u64().unwrap_or(0),
-            g["t_start_s"].as_f64().unwrap_or(f64::NAN),
-            g["max_error_um"].as_f64().unwrap_or(f64::NAN),
-            g["mean_error_um"].as_f64().unwrap_or(f64::NAN)
+            g.groove_id, g.n_points, g.t_start_s, g.max_error_um, g.mean_error_um
         );
     }
     if let Some(out) = &args.out {
@@ -88,24 +86,16 @@ pub fn run(args: SimulateArgs, json: bool) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Per groove: number of points, start time, and the depth error (measured − commanded).
-fn summarise(points: &[GroovePoint]) -> Vec<serde_json::Value> {
-    let mut ids: Vec<i64> = points.iter().map(|p| p.groove_id).collect();
-    ids.dedup();
-    ids.sort_unstable();
-    ids.dedup();
-    ids.iter()
-        .map(|&id| {
-            let g: Vec<&GroovePoint> = points.iter().filter(|p| p.groove_id == id).collect();
-            let err: Vec<f64> = g.iter().map(|p| p.depth_meas_um - p.depth_cmd_um).collect();
-            let max = err
-                .iter()
-                .fold(0.0_f64, |m, e| if e.abs() > m.abs() { *e } else { m });
-            let mean = err.iter().sum::<f64>() / err.len() as f64;
-            json!({"groove_id": id, "n_points": g.len(), "t_start_s": g[0].t_s,
-                   "max_error_um": max, "mean_error_um": mean})
-        })
-        .collect()
+/// `--out` and `--plot` are neither an input nor each other.
+fn check_outputs(args: &SimulateArgs, inputs: Inputs) -> anyhow::Result<()> {
+    inputs.check_opt("--out", args.out.as_deref())?;
+    inputs.check_opt("--plot", args.plot.as_deref())?;
+    if let (Some(o), Some(p)) = (&args.out, &args.plot)
+        && same_file(o, p)
+    {
+        bail!("--out and --plot name the same file {}", o.display());
+    }
+    Ok(())
 }
 
 fn plot_profiles(path: &std::path::Path, name: &str, points: &[GroovePoint]) -> anyhow::Result<()> {
@@ -146,6 +136,10 @@ fn is_scenario(path: &Path) -> anyhow::Result<bool> {
 /// `simulate SCENARIO --controller K`: one closed-loop run on the truth plant of the scenario.
 fn run_scenario(args: &SimulateArgs, json: bool) -> anyhow::Result<()> {
     let mut scenario = Scenario::load(&args.file)?;
+    check_outputs(
+        args,
+        with_scenario_models(Inputs::new().add("FILE", &args.file), &scenario),
+    )?;
     scenario.control.realtime = !args.no_realtime;
     if args.budget_fraction.is_some() {
         scenario.control.budget_fraction = args.budget_fraction;

@@ -1,139 +1,41 @@
-//! Batch results for people: the plots of a batch (each metric by controller, the peak-to-peak error by
-//! each varying factor) and the text summary `millcomp batch` prints. The numbers come from
-//! `millcomp_closedloop::batch`.
+//! Batch results for people: the text summary `millcomp batch` prints and its `--dry-run` estimate.
+//! The numbers, the tables and the plots come from `millcomp_closedloop::batch`.
 
-use std::path::{Path, PathBuf};
+use millcomp_closedloop::batch::Estimate;
+use millcomp_closedloop::batch::exec::METRICS;
+use millcomp_closedloop::batch::plan::{Plan, Shard};
+use millcomp_closedloop::batch::progress::duration;
+use millcomp_closedloop::batch::results::BatchSummary;
 
-use anyhow::Context;
-use millcomp_closedloop::batch::exec::{METRICS, RunRecord};
-use millcomp_closedloop::batch::factors::FactorValue;
-use millcomp_closedloop::batch::plan::Plan;
-use millcomp_closedloop::batch::results::{
-    BatchSummary, is_label, varying_factors, write_summary, write_tables,
-};
-
-use crate::present::plot::{Series, line_plot};
-
-/// Writes the results of a batch into `out`: the tables, the plots (`out/plots/`), `summary.json` and
-/// `invocation.json`, whose `files` lists them in that order.
-pub fn write_results(
-    plan: &Plan,
-    records: &[RunRecord],
-    out: &Path,
-    summary: BatchSummary,
-) -> anyhow::Result<BatchSummary> {
-    let mut summary = write_tables(plan, records, out, summary)?;
-    for p in plots(plan, records, &out.join("plots"))? {
-        summary.invocation.files.push(p.display().to_string());
-    }
-    Ok(write_summary(out, summary)?)
-}
-
-/// Plots: each metric by controller (sorted values over the scenarios), and the peak-to-peak error by
-/// each varying factor (mean per level and controller).
-pub fn plots(plan: &Plan, records: &[RunRecord], dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let mut files = Vec::new();
-    for metric in METRICS.iter().filter(|m| **m != "solver_fallbacks") {
-        let series: Vec<Series> = plan
-            .controllers
-            .iter()
-            .map(|c| {
-                let mut v: Vec<f64> = records
-                    .iter()
-                    .filter(|r| &r.controller == c)
-                    .filter_map(|r| r.metrics.get(metric))
-                    .collect();
-                v.sort_by(f64::total_cmp);
-                let n = v.len().max(1) as f64;
-                Series {
-                    label: c.clone(),
-                    points: v
-                        .iter()
-                        .enumerate()
-                        .map(|(i, y)| ((i as f64 + 0.5) / n, *y))
-                        .collect(),
-                }
-            })
-            .collect();
-        if series.iter().all(|s| s.points.is_empty()) {
-            continue; // no run has this metric (a change excess without a change)
-        }
-        let path = dir.join(format!("{metric}_by_controller.svg"));
-        line_plot(
-            &path,
-            &format!("{metric} by controller (sorted over scenarios)"),
-            "fraction of scenarios",
-            metric,
-            &series,
-        )?;
-        files.push(path);
-    }
-    for f in varying_factors(plan, records) {
-        let label = is_label(plan, &f);
-        let mut levels: Vec<FactorValue> = Vec::new();
-        for s in &plan.scenarios {
-            if let Some(v) = s.factors.get(&f)
-                && !levels.contains(v)
-            {
-                levels.push(v.clone());
-            }
-        }
-        levels.sort_by(|a, b| match (a, b) {
-            (FactorValue::Num(x), FactorValue::Num(y)) => x.total_cmp(y),
-            _ => a.text().cmp(&b.text()),
-        });
-        let x_of = |v: &FactorValue, i: usize| match v {
-            FactorValue::Num(x) if !label => *x,
-            _ => i as f64,
-        };
-        let series: Vec<Series> = plan
-            .controllers
-            .iter()
-            .map(|c| Series {
-                label: c.clone(),
-                points: levels
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(i, lv)| {
-                        let v: Vec<f64> = records
-                            .iter()
-                            .filter(|r| {
-                                &r.controller == c
-                                    && plan.scenarios[r.scenario].factors.get(&f) == Some(lv)
-                            })
-                            .map(|r| r.metrics.pp_error_um)
-                            .collect();
-                        (!v.is_empty())
-                            .then(|| (x_of(lv, i), v.iter().sum::<f64>() / v.len() as f64))
-                    })
-                    .collect(),
-            })
-            .collect();
-        let x_label = if label {
-            format!(
-                "{f} ({})",
-                levels
-                    .iter()
-                    .enumerate()
-                    .map(|(i, l)| format!("{i}={}", l.text()))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
-        } else {
-            f.clone()
-        };
-        let path = dir.join(format!("pp_error_um_by_{f}.svg"));
-        line_plot(
-            &path,
-            &format!("mean pp_error_um by {f}"),
-            &x_label,
-            "pp_error_um",
-            &series,
-        )?;
-        files.push(path);
-    }
-    Ok(files)
+/// Prints what a plan will cost (`batch --dry-run`).
+pub fn print_estimate(plan: &Plan, e: &Estimate, shard: Shard) {
+    let what = if shard == Shard::ALL {
+        "batch".to_string()
+    } else {
+        format!("shard {}/{}", shard.index, shard.count)
+    };
+    println!(
+        "{what}: {} runs ({} scenarios × {} controllers in the plan), {} finished already   fingerprint {}",
+        e.runs,
+        plan.scenarios.len(),
+        plan.controllers.len(),
+        e.finished,
+        plan.fingerprint
+    );
+    println!(
+        "to run: {} runs on {} scenarios, {:.0} s of machining; {} commissionings ({} in the cache)",
+        e.runs - e.finished,
+        e.scenarios,
+        e.simulated_s,
+        e.commissionings,
+        e.commissionings_cached
+    );
+    println!(
+        "estimate: {:.0} core-s, about {} on {} threads (from the per-controller costs measured on the reference machine: 2 cores, AMD EPYC)",
+        e.core_s,
+        duration(e.wall_s),
+        e.threads
+    );
 }
 
 /// Prints the summary of a batch (`what`: `batch`, `shard K/N`, `merged N slices`): runs, throughput,
@@ -255,6 +157,16 @@ pub fn print_summary(summary: &BatchSummary, what: &str) {
     }
     for n in &s.notes {
         println!("note: {n}");
+    }
+    for f in &s.failed {
+        println!(
+            "failed: run {} (scenario {}, row {}), controller {}: {}",
+            f.run,
+            f.scenario,
+            f.scenario + 1,
+            f.controller,
+            f.reason
+        );
     }
     println!();
     for f in &i.files {

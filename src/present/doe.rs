@@ -73,20 +73,37 @@ pub fn design_text(d: &Design) -> String {
     for n in &d.notes {
         let _ = writeln!(s, "Note: {n}");
     }
-    let w: Vec<usize> = d.factors.iter().map(|f| f.name.len().max(8)).collect();
+    let w: Vec<usize> = d
+        .factors
+        .iter()
+        .map(|f| f.name.chars().count().max(8))
+        .collect();
     let _ = write!(s, "{:>5} {:>5} {:>5}", "run", "std", "block");
     for (f, w) in d.factors.iter().zip(&w) {
-        let _ = write!(s, " {:>w$}", f.name);
+        let _ = write!(s, " {}", pad_left(&f.name, *w));
     }
     let _ = writeln!(s);
     for r in &d.runs {
         let _ = write!(s, "{:>5} {:>5} {:>5}", r.run_order, r.std_order, r.block);
         for (v, w) in r.actual.iter().zip(&w) {
-            let _ = write!(s, " {:>w$}", v.to_string());
+            let _ = write!(s, " {}", pad_left(&v.to_string(), *w));
         }
         let _ = writeln!(s);
     }
     s
+}
+
+/// `text` right-aligned in `width` characters. Padding is built here rather than by `format!`'s width,
+/// which panics beyond 65 535 (a user's 70 000-character column name).
+fn pad_left(text: &str, width: usize) -> String {
+    let n = text.chars().count();
+    format!("{}{text}", " ".repeat(width.saturating_sub(n)))
+}
+
+/// `text` left-aligned in `width` characters (see [`pad_left`]).
+fn pad_right(text: &str, width: usize) -> String {
+    let n = text.chars().count();
+    format!("{text}{}", " ".repeat(width.saturating_sub(n)))
 }
 
 /// The steps of a backward elimination, one line per removed term with its p-value (`-` when it was pooled
@@ -121,14 +138,21 @@ pub fn analysis_text(a: &Analysis) -> String {
     let tw = a
         .terms
         .iter()
-        .map(|t| t.term.len())
+        .map(|t| t.term.chars().count())
         .max()
         .unwrap_or(4)
         .max(9);
     let _ = writeln!(
         s,
-        "{:<tw$} {:>11} {:>11} {:>10} {:>3} {:>12} {:>10} {:>10}",
-        "Term", "Effect", "Coef", "SE Coef", "DF", "Sum Sq", "F", "p-value"
+        "{} {:>11} {:>11} {:>10} {:>3} {:>12} {:>10} {:>10}",
+        pad_right("Term", tw),
+        "Effect",
+        "Coef",
+        "SE Coef",
+        "DF",
+        "Sum Sq",
+        "F",
+        "p-value"
     );
     for t in &a.terms {
         let star = match t.p_value {
@@ -138,8 +162,8 @@ pub fn analysis_text(a: &Analysis) -> String {
         };
         let _ = writeln!(
             s,
-            "{:<tw$} {} {} {} {:>3} {:>12.6} {} {}{star}",
-            t.term,
+            "{} {} {} {} {:>3} {:>12.6} {} {}{star}",
+            pad_right(&t.term, tw),
             opt(t.effect, 11, 5),
             opt(t.coef, 11, 5),
             opt(t.std_err, 10, 5),
@@ -151,8 +175,13 @@ pub fn analysis_text(a: &Analysis) -> String {
     }
     let _ = writeln!(
         s,
-        "{:<tw$} {:>11} {:>11} {:>10} {:>3} {:>12.6}",
-        "Residual", "", "", "", a.residual_df, a.residual_sum_sq
+        "{} {:>11} {:>11} {:>10} {:>3} {:>12.6}",
+        pad_right("Residual", tw),
+        "",
+        "",
+        "",
+        a.residual_df,
+        a.residual_sum_sq
     );
     let _ = writeln!(
         s,
@@ -631,21 +660,24 @@ fn residuals(a: &Analysis, path: &Path) -> Result<bool> {
     Ok(true)
 }
 
+/// The files [`write_doe_plots`] writes into its directory.
+pub const DOE_PLOTS: [&str; 5] = [
+    "half_normal.svg",
+    "pareto.svg",
+    "main_effects.svg",
+    "interactions.svg",
+    "residuals.svg",
+];
+
 /// Writes `half_normal.svg`, `pareto.svg`, `main_effects.svg`, `interactions.svg` and `residuals.svg` into
 /// `dir` (created if missing) and returns the paths written (a plot that does not apply is skipped, e.g. the
 /// half-normal plot without two-level effects).
 pub fn write_doe_plots(a: &Analysis, dir: &Path) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     type PlotFn = fn(&Analysis, &Path) -> Result<bool>;
-    let plots: [(&str, PlotFn); 5] = [
-        ("half_normal.svg", half_normal),
-        ("pareto.svg", pareto),
-        ("main_effects.svg", main_effects),
-        ("interactions.svg", interactions),
-        ("residuals.svg", residuals),
-    ];
+    let plots: [PlotFn; 5] = [half_normal, pareto, main_effects, interactions, residuals];
     let mut out = Vec::new();
-    for (name, f) in plots {
+    for (name, f) in DOE_PLOTS.into_iter().zip(plots) {
         let p = dir.join(name);
         if f(a, &p)? {
             out.push(p);

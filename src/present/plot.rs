@@ -1,59 +1,15 @@
-//! The one plotting module: SVG line plots (groove profiles, residuals, batch results), written atomically.
+//! The CLI's plots, written atomically: the SVG line plots (groove profiles, residuals, batch results)
+//! of `millcomp_closedloop::plot`, and the plots over the point index (diagnose) and the DOE's.
 
 use std::path::Path;
 
 use anyhow::Context;
 use plotters::prelude::*;
 
-/// One named series of (x, y) points.
-pub struct Series {
-    /// Legend label.
-    pub label: String,
-    /// Points in drawing order.
-    pub points: Vec<(f64, f64)>,
-}
+pub use millcomp_closedloop::plot::{PALETTE, Series};
 
-const PALETTE: [RGBColor; 8] = [
-    RGBColor(31, 119, 180),
-    RGBColor(214, 39, 40),
-    RGBColor(44, 160, 44),
-    RGBColor(255, 127, 14),
-    RGBColor(148, 103, 189),
-    RGBColor(140, 86, 75),
-    RGBColor(227, 119, 194),
-    RGBColor(127, 127, 127),
-];
-
-fn bounds(series: &[Series]) -> (f64, f64, f64, f64) {
-    let pts = series
-        .iter()
-        .flat_map(|s| s.points.iter())
-        .filter(|(x, y)| x.is_finite() && y.is_finite());
-    let (mut x0, mut x1, mut y0, mut y1) = (
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-    );
-    for &(x, y) in pts {
-        x0 = x0.min(x);
-        x1 = x1.max(x);
-        y0 = y0.min(y);
-        y1 = y1.max(y);
-    }
-    if !x0.is_finite() {
-        return (0.0, 1.0, 0.0, 1.0);
-    }
-    let pad = |a: f64, b: f64| {
-        let span = (b - a).abs().max(1e-9);
-        (a - 0.05 * span, b + 0.05 * span)
-    };
-    let (x0, x1) = pad(x0, x1);
-    let (y0, y1) = pad(y0, y1);
-    (x0, x1, y0, y1)
-}
-
-/// Draws the series as lines on one chart and writes the SVG to `path` atomically.
+/// Draws the series as lines on one chart and writes the SVG to `path` atomically
+/// (`millcomp_closedloop::plot::line_plot`, the batch's plots' too).
 pub fn line_plot(
     path: &Path,
     title: &str,
@@ -61,46 +17,9 @@ pub fn line_plot(
     y_label: &str,
     series: &[Series],
 ) -> anyhow::Result<()> {
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (960, 540)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
-        let (x0, x1, y0, y1) = bounds(series);
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 22))
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(60)
-            .build_cartesian_2d(x0..x1, y0..y1)
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        chart
-            .configure_mesh()
-            .x_desc(x_label)
-            .y_desc(y_label)
-            .draw()
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        for (i, s) in series.iter().enumerate() {
-            let color = PALETTE[i % PALETTE.len()];
-            chart
-                .draw_series(LineSeries::new(
-                    s.points.iter().copied(),
-                    color.stroke_width(2),
-                ))
-                .map_err(|e| anyhow::anyhow!("{e}"))?
-                .label(s.label.clone())
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
-                });
-        }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
-    }
-    write_svg(path, &svg)
+    Ok(millcomp_closedloop::plot::line_plot(
+        path, title, x_label, y_label, series,
+    )?)
 }
 
 /// Writes an SVG document to `path` atomically (temporary file + rename).

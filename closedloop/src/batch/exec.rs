@@ -1,97 +1,40 @@
-//! Running the plan: one closed-loop run per scenario × controller, in parallel (rayon), each result
-//! written atomically to `DIR/runs/run-NNNNNN.json` as soon as it finishes, so an interrupted batch
-//! resumes where it stopped and a partial file is never taken for a result.
+//! Running the plan: every run of a slice not finished yet, in parallel (rayon). The runs of one
+//! scenario share what does not depend on the controller — the scenario, its truth, the commissioning
+//! (from a cache, [`crate::cache`]) and the controllers' preview ([`ClosedLoop::prepare`]) — and each
+//! run's result is written atomically to `DIR/runs/run-NNNNNN.json` as soon as it finishes, so an
+//! interrupted batch resumes where it stopped and a partial file is never taken for a result. A run
+//! that fails (an error, a panic) is recorded with its reason (`run-NNNNNN.failed.json`) and the
+//! others go on.
 
-use std::path::{Path, PathBuf};
+use std::panic::AssertUnwindSafe;
+use std::path::Path;
 use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
 
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 use super::factors::{ScenarioSpec, build_scenario};
 use super::plan::{Plan, RunId, Shard};
+use super::progress::{Progress, ProgressMode};
+pub use super::store::{
+    FailedRun, METRICS, RunMetrics, RunOutcome, RunRecord, claim_dir, load_outcome, load_record,
+    read_plan, read_shard, runs_dir,
+};
+use super::store::{failed_file, remove_partials, run_file, write_text};
+use crate::cache::{CacheCounts, CommissioningCache};
 use crate::error::{ClosedLoopError, error_chain};
+use crate::groove::{PreparedGroove, RunOptions};
+use crate::profile::{Stage, StageTimes, timed};
 use crate::runner::run_scenario;
-use crate::scenario::ControllerKind;
+use crate::scenario::{ControllerKind, Scenario, StageKind};
 
-/// The error metrics of one closed-loop run (µm), as the runner reports them.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RunMetrics {
-    /// Peak-to-peak error.
-    pub pp_error_um: f64,
-    /// RMS error.
-    pub rms_error_um: f64,
-    /// Largest error.
-    pub max_error_um: f64,
-    /// Smallest error.
-    pub min_error_um: f64,
-    /// Total actuator travel.
-    pub actuator_travel_um: f64,
-    /// MPC only: QP solves that fell back (did not converge); 0 for other controllers.
-    pub solver_fallbacks: usize,
-    /// The largest transient excess at the program's changes (`crate::changes`); absent without one.
-    #[serde(default)]
-    pub change_excess_um: Option<f64>,
-    /// Grooves: the stroke bound (`Metrics::stroke_bound_um`): > 0 where the PZT's range cannot cover the
-    /// deflection met — no controller can get below it.
-    #[serde(default)]
-    pub stroke_bound_um: Option<f64>,
-    /// Grooves: the whole cut's optimum (`Metrics::optimum_pp_um`, `crate::optimum`).
-    #[serde(default)]
-    pub optimum_pp_um: Option<f64>,
-    /// The smallest excess any controller could leave at the change where this run's excess is largest
-    /// (`crate::optimum::excess_lower_bound`); absent without a change. NC rows: the smallest feed-step
-    /// peak any controller could leave (`crate::nc_axis_bound`), a lower bound of their
-    /// `change_excess_um` (the larger of the feed step's peak and the exit's undersize).
-    #[serde(default)]
-    pub change_bound_um: Option<f64>,
-    /// MPC only: median QP solve time of the run (µs) — wall-clock, so informative: not in the results
-    /// table ([`METRICS`]), whose rows must not depend on the machine.
-    #[serde(default)]
-    pub solve_median_us: Option<f64>,
-    /// MPC only: 99th-percentile QP solve time of the run (µs), informative as above.
-    #[serde(default)]
-    pub solve_p99_us: Option<f64>,
-    /// MPC only: the run's longest cycle (µs), informative as above.
-    #[serde(default)]
-    pub solve_max_us: Option<f64>,
-    /// MPC only: cycles over the budget (timed, not enforced in a batch), informative as above.
-    #[serde(default)]
-    pub deadline_misses: Option<usize>,
-}
-
-/// Metric names, in table order (the numeric result columns).
-pub const METRICS: [&str; 10] = [
-    "pp_error_um",
-    "change_excess_um",
-    "stroke_bound_um",
-    "optimum_pp_um",
-    "change_bound_um",
-    "rms_error_um",
-    "max_error_um",
-    "min_error_um",
-    "actuator_travel_um",
-    "solver_fallbacks",
-];
-
-impl RunMetrics {
-    /// Value of metric `name` (one of [`METRICS`]).
-    pub fn get(&self, name: &str) -> Option<f64> {
-        Some(match name {
-            "pp_error_um" => self.pp_error_um,
-            "rms_error_um" => self.rms_error_um,
-            "max_error_um" => self.max_error_um,
-            "min_error_um" => self.min_error_um,
-            "actuator_travel_um" => self.actuator_travel_um,
-            "solver_fallbacks" => self.solver_fallbacks as f64,
-            "change_excess_um" => return self.change_excess_um,
-            "stroke_bound_um" => return self.stroke_bound_um,
-            "optimum_pp_um" => return self.optimum_pp_um,
-            "change_bound_um" => return self.change_bound_um,
-            _ => return None,
-        })
-    }
+/// What the runs of a batch share besides the plan: the commissioning cache.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct RunContext<'a> {
+    /// Where commissioned bundles are kept (none: every scenario commissions its own).
+    pub cache: Option<&'a CommissioningCache>,
 }
 
 /// A closed-loop simulation of one scenario with one controller.
@@ -105,9 +48,49 @@ pub trait ClosedLoop: Sync {
         scenario: &ScenarioSpec,
         controller: &str,
     ) -> Result<(RunMetrics, f64), ClosedLoopError>;
+
+    /// Prepares `scenario` for its controllers' runs: what they share is done once here. The default
+    /// prepares nothing and calls [`ClosedLoop::run`] for each.
+    ///
+    /// # Errors
+    /// Whatever keeps every run of the scenario from completing (its errors are each run's failure).
+    fn prepare<'a>(
+        &'a self,
+        scenario: &'a ScenarioSpec,
+        cx: &RunContext<'a>,
+    ) -> Result<Box<dyn Condition + 'a>, ClosedLoopError> {
+        let _ = cx;
+        Ok(Box::new(RunByRun {
+            runner: self,
+            scenario,
+        }))
+    }
 }
 
-/// The real closed loop: [`run_scenario`] on the published scenario with the factors applied.
+/// A scenario prepared for its controllers ([`ClosedLoop::prepare`]).
+pub trait Condition: Sync {
+    /// Runs `controller` on the prepared scenario: its metrics and the simulated seconds.
+    ///
+    /// # Errors
+    /// As [`ClosedLoop::run`].
+    fn run(&self, controller: &str) -> Result<(RunMetrics, f64), ClosedLoopError>;
+}
+
+/// [`ClosedLoop::prepare`]'s default: nothing shared.
+struct RunByRun<'a, T: ?Sized> {
+    runner: &'a T,
+    scenario: &'a ScenarioSpec,
+}
+
+impl<T: ClosedLoop + ?Sized> Condition for RunByRun<'_, T> {
+    fn run(&self, controller: &str) -> Result<(RunMetrics, f64), ClosedLoopError> {
+        self.runner.run(self.scenario, controller)
+    }
+}
+
+/// The real closed loop: the published scenario with the factors applied, run as `simulate` runs it
+/// ([`run_scenario`]); prepared once per scenario for its controllers ([`PreparedGroove`]: one
+/// commissioning, one preview), with the same metrics value for value.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct MpcClosedLoop;
 
@@ -120,53 +103,64 @@ impl ClosedLoop for MpcClosedLoop {
         let s = build_scenario(scenario)?;
         let kind: ControllerKind = controller.parse()?;
         let r = run_scenario(&s, kind)?;
-        let m = &r.metrics;
-        let metrics = RunMetrics {
-            pp_error_um: m.pp_error_um,
-            rms_error_um: m.rms_error_um,
-            max_error_um: m.max_error_um,
-            min_error_um: m.min_error_um,
-            actuator_travel_um: m.actuator_travel_um,
-            solver_fallbacks: r.solver.map_or(0, |s| s.fallbacks),
-            change_excess_um: m.change_excess_um,
-            stroke_bound_um: m.stroke_bound_um,
-            optimum_pp_um: m.optimum_pp_um,
-            change_bound_um: r
-                .changes
-                .iter()
-                .max_by(|a, b| a.excess_um.total_cmp(&b.excess_um))
-                .and_then(|c| c.bound_um)
-                .or_else(|| {
-                    r.nc_axis
-                        .as_ref()
-                        .and_then(|n| n.wall.feed_step_peak_bound_um)
-                }),
-            solve_median_us: r.solver.map(|s| s.median_us),
-            solve_p99_us: r.solver.map(|s| s.p99_us),
-            solve_max_us: r.solver.map(|s| s.max_us),
-            deadline_misses: r.solver.map(|s| s.deadline_misses),
-        };
-        Ok((metrics, r.simulated_s))
+        Ok((RunMetrics::from_report(&r), r.simulated_s))
+    }
+
+    fn prepare<'a>(
+        &'a self,
+        scenario: &'a ScenarioSpec,
+        cx: &RunContext<'a>,
+    ) -> Result<Box<dyn Condition + 'a>, ClosedLoopError> {
+        let s = timed(Stage::Scenario, || build_scenario(scenario))?;
+        Ok(match s.stage {
+            StageKind::Groove => Box::new(GrooveCondition(PreparedGroove::new(s, cx.cache)?)),
+            StageKind::ThinWall | StageKind::NcAxis => Box::new(OtherCondition(s)),
+        })
     }
 }
 
-/// The stored result of one run (`DIR/runs/run-NNNNNN.json`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RunRecord {
-    /// Fingerprint of the plan it belongs to.
-    pub fingerprint: String,
-    /// Global run index.
-    pub run: usize,
-    /// Scenario index.
-    pub scenario: usize,
-    /// Controller name.
-    pub controller: String,
-    /// Metrics.
-    pub metrics: RunMetrics,
-    /// Simulated machining time (s).
-    pub simulated_s: f64,
-    /// Wall-clock time of the run (s) — informative, not part of the results table.
-    pub wall_clock_s: f64,
+/// A groove scenario prepared once for its controllers.
+struct GrooveCondition(PreparedGroove);
+
+impl Condition for GrooveCondition {
+    fn run(&self, controller: &str) -> Result<(RunMetrics, f64), ClosedLoopError> {
+        let kind: ControllerKind = controller.parse()?;
+        let r = self.0.run(kind, RunOptions::BATCH)?.report;
+        Ok((RunMetrics::from_report(&r), r.simulated_s))
+    }
+}
+
+/// A thin-wall or NC scenario: each controller's run sets itself up (the profile counts its loop as the
+/// controller's, its QP solves apart).
+struct OtherCondition(Scenario);
+
+impl Condition for OtherCondition {
+    fn run(&self, controller: &str) -> Result<(RunMetrics, f64), ClosedLoopError> {
+        let kind: ControllerKind = controller.parse()?;
+        let t0 = Instant::now();
+        let r = run_scenario(&self.0, kind)?;
+        let solve = millcomp_mpc::stats::take_qp_solve_s();
+        crate::profile::add(Stage::Solve, solve);
+        crate::profile::add(
+            Stage::Controller,
+            (t0.elapsed().as_secs_f64() - solve).max(0.0),
+        );
+        Ok((RunMetrics::from_report(&r), r.simulated_s))
+    }
+}
+
+/// How [`run_shard_with`] reports and shares.
+#[derive(Debug, Default)]
+pub struct ShardOptions<'a> {
+    /// Where the progress goes.
+    pub progress: ProgressMode,
+    /// The commissioning cache the runs share.
+    pub cache: Option<&'a CommissioningCache>,
+    /// Any of these set (by a signal handler, another thread): stop — runs not started are left for
+    /// the next call, runs under way finish and are stored.
+    pub stop: Vec<&'a AtomicBool>,
+    /// How to name the stop in [`ClosedLoopError::Interrupted`] (`SIGTERM`, …).
+    pub stop_reason: Option<fn() -> Option<&'static str>>,
 }
 
 /// What [`run_shard`] did.
@@ -174,127 +168,33 @@ pub struct RunRecord {
 pub struct ShardOutcome {
     /// Runs of this shard.
     pub n_runs: usize,
-    /// Runs executed now.
+    /// Runs executed now (failed ones included).
     pub n_ran: usize,
-    /// Runs found finished from an earlier attempt and not run again.
+    /// Runs found finished (or failed) from an earlier attempt and not run again.
     pub n_resumed: usize,
-    /// Records of every run of the shard, in run order.
+    /// Records of every run of the shard that finished with a result, in run order.
     #[serde(skip)]
     pub records: Vec<RunRecord>,
+    /// Every run of the shard that failed (now or before), in run order.
+    pub failed: Vec<FailedRun>,
     /// Simulated machining seconds of the runs executed now.
     pub simulated_s: f64,
     /// Wall-clock seconds of this call.
     pub wall_clock_s: f64,
     /// Threads used.
     pub threads: usize,
+    /// Where this call's time went, summed over the threads (seconds).
+    #[serde(skip)]
+    pub profile: StageTimes,
+    /// How the commissioned bundles were found.
+    pub cache: CacheCounts,
 }
 
-/// `DIR/runs`.
-pub fn runs_dir(out: &Path) -> PathBuf {
-    out.join("runs")
-}
-
-fn run_file(out: &Path, run: usize) -> PathBuf {
-    runs_dir(out).join(format!("run-{run:06}.json"))
-}
-
-/// `DIR/plan.json` — writes it, or checks that an existing one is the same batch.
+/// Runs every run of `shard` not already finished in `out` ([`run_shard_with`]) with a progress line
+/// on stderr when `progress` is true and the commissioning cache in `out/cache`.
 ///
 /// # Errors
-/// [`ClosedLoopError::AnotherBatch`] when `out` holds a different batch; I/O errors naming the file.
-pub fn claim_dir(out: &Path, plan: &Plan, shard: Shard) -> Result<(), ClosedLoopError> {
-    std::fs::create_dir_all(runs_dir(out)).map_err(|source| ClosedLoopError::CreateDir {
-        path: runs_dir(out),
-        source,
-    })?;
-    let path = out.join("plan.json");
-    if path.exists() {
-        let old = read_plan(out)?;
-        if old.fingerprint != plan.fingerprint {
-            return Err(ClosedLoopError::AnotherBatch {
-                path,
-                old: old.fingerprint,
-                new: plan.fingerprint.clone(),
-            });
-        }
-    }
-    #[derive(Serialize)]
-    struct PlanFile<'a> {
-        #[serde(flatten)]
-        plan: &'a Plan,
-        shard: Shard,
-    }
-    let text = serde_json::to_string_pretty(&PlanFile { plan, shard })?;
-    write_text(&path, &text)
-}
-
-/// Writes `text` to `path` atomically.
-pub(crate) fn write_text(path: &Path, text: &str) -> Result<(), ClosedLoopError> {
-    millcomp_datasets::write_text_atomic(path, text).map_err(|source| ClosedLoopError::Write {
-        path: path.to_path_buf(),
-        source,
-    })
-}
-
-/// Reads `DIR/plan.json` and checks its fingerprint against its content.
-///
-/// # Errors
-/// [`ClosedLoopError::ReadPlan`], [`ClosedLoopError::ParsePlan`], and
-/// [`ClosedLoopError::PlanEdited`] when the fingerprint does not match the content.
-pub fn read_plan(dir: &Path) -> Result<Plan, ClosedLoopError> {
-    let path = dir.join("plan.json");
-    let text = match std::fs::read_to_string(&path) {
-        Ok(t) => t,
-        Err(source) => return Err(ClosedLoopError::ReadPlan { path, source }),
-    };
-    let plan: Plan = match serde_json::from_str(&text) {
-        Ok(p) => p,
-        Err(source) => return Err(ClosedLoopError::ParsePlan { path, source }),
-    };
-    let fp = plan.compute_fingerprint()?;
-    if fp != plan.fingerprint {
-        return Err(ClosedLoopError::PlanEdited {
-            path,
-            stored: plan.fingerprint,
-            computed: fp,
-        });
-    }
-    Ok(plan)
-}
-
-/// Reads the shard number stored in `DIR/plan.json`.
-///
-/// # Errors
-/// [`ClosedLoopError::Read`], [`ClosedLoopError::Json`], [`ClosedLoopError::NoShard`].
-pub fn read_shard(dir: &Path) -> Result<Shard, ClosedLoopError> {
-    let path = dir.join("plan.json");
-    let text = match std::fs::read_to_string(&path) {
-        Ok(t) => t,
-        Err(source) => return Err(ClosedLoopError::Read { path, source }),
-    };
-    let v: serde_json::Value = serde_json::from_str(&text)?;
-    serde_json::from_value(v.get("shard").cloned().unwrap_or_default())
-        .map_err(|source| ClosedLoopError::NoShard { path, source })
-}
-
-/// The finished record of run `run` in `dir`, if there is a valid one for this plan.
-pub fn load_record(dir: &Path, plan: &Plan, run: RunId) -> Option<RunRecord> {
-    let text = std::fs::read_to_string(run_file(dir, run.index)).ok()?;
-    let r: RunRecord = serde_json::from_str(&text).ok()?;
-    (r.fingerprint == plan.fingerprint
-        && r.run == run.index
-        && r.scenario == run.scenario
-        && r.controller == plan.controllers[run.controller])
-        .then_some(r)
-}
-
-/// Runs every run of `shard` not already finished in `out`, in parallel (the current rayon pool), with
-/// a progress bar on stderr when `progress` is true. Each finished run is stored at once in
-/// `out/runs/run-NNNNNN.json`; a second call resumes.
-///
-/// # Errors
-/// Those of [`claim_dir`], and [`ClosedLoopError::RunsFailed`] listing every run that failed (the
-/// others are kept and not run again).
+/// As [`run_shard_with`].
 ///
 /// # Examples
 /// ```
@@ -308,6 +208,8 @@ pub fn load_record(dir: &Path, plan: &Plan, run: RunId) -> Option<RunRecord> {
 /// let dir = std::env::temp_dir().join(format!("millcomp-run-shard-doc-{}", std::process::id()));
 /// let first = run_shard(&plan, Shard::ALL, &dir, &MpcClosedLoop, false).unwrap();
 /// assert_eq!((first.n_runs, first.n_ran, first.n_resumed), (2, 2, 0));
+/// // one commissioning for both controllers
+/// assert_eq!(first.cache.computed, 1);
 /// // 0.3 mm at 1.667 mm/s: 0.18 s of machining per run
 /// assert!((first.simulated_s - 2.0 * 0.18).abs() < 1e-3, "{}", first.simulated_s);
 /// // a second call finds both runs finished: it resumes, nothing runs again
@@ -323,93 +225,199 @@ pub fn run_shard(
     runner: &dyn ClosedLoop,
     progress: bool,
 ) -> Result<ShardOutcome, ClosedLoopError> {
-    let start = std::time::Instant::now();
+    let cache = CommissioningCache::on_disk(&out.join("cache"));
+    let opts = ShardOptions {
+        progress: if progress {
+            ProgressMode::Auto
+        } else {
+            ProgressMode::Quiet
+        },
+        cache: Some(&cache),
+        ..ShardOptions::default()
+    };
+    run_shard_with(plan, shard, out, runner, &opts)
+}
+
+/// Runs every run of `shard` not already finished in `out`, in parallel (the current rayon pool):
+/// scenario by scenario, each prepared once for its controllers ([`ClosedLoop::prepare`]), its runs
+/// then in parallel too. Each finished run is stored at once in `out/runs/`; a second call resumes.
+/// Temporary files a killed writer left in `out` and `out/runs` are removed first.
+///
+/// # Errors
+/// Those of [`claim_dir`]; [`ClosedLoopError::Write`] when a run's record cannot be stored (the runs
+/// stop); [`ClosedLoopError::Interrupted`] when `opts.stop` was set before every run was done (the
+/// finished ones are stored). A failed run is not an error: it is in [`ShardOutcome::failed`].
+pub fn run_shard_with(
+    plan: &Plan,
+    shard: Shard,
+    out: &Path,
+    runner: &dyn ClosedLoop,
+    opts: &ShardOptions<'_>,
+) -> Result<ShardOutcome, ClosedLoopError> {
+    let start = Instant::now();
     claim_dir(out, plan, shard)?;
+    remove_partials(out);
+    remove_partials(&runs_dir(out));
     let runs = plan.shard_runs(shard);
-    let mut done: Vec<RunRecord> = Vec::new();
-    let mut todo: Vec<RunId> = Vec::new();
+    let (mut done, mut failed, mut todo) = (Vec::new(), Vec::new(), Vec::new());
     for r in &runs {
-        match load_record(out, plan, *r) {
-            Some(rec) => done.push(rec),
+        match load_outcome(out, plan, *r) {
+            Some(RunOutcome::Done(rec)) => done.push(rec),
+            Some(RunOutcome::Failed(f)) => failed.push(f),
             None => todo.push(*r),
         }
     }
-    let n_resumed = done.len();
-    let bar = if progress {
-        let b =
-            ProgressBar::with_draw_target(Some(runs.len() as u64), ProgressDrawTarget::stderr());
-        if let Ok(style) = ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} runs (eta {eta}) {msg}",
-        ) {
-            b.set_style(style);
+    let n_resumed = done.len() + failed.len();
+    // the runs left, by scenario (runs are numbered scenario-major, so a scenario's are adjacent)
+    let mut groups: Vec<Vec<RunId>> = Vec::new();
+    for r in todo {
+        match groups.last_mut() {
+            Some(g) if g[0].scenario == r.scenario => g.push(r),
+            _ => groups.push(vec![r]),
         }
-        b.set_position(n_resumed as u64);
-        b
-    } else {
-        ProgressBar::hidden()
+    }
+    let progress = Progress::start(&opts.progress, runs.len(), n_resumed);
+    let stopped = || opts.stop.iter().any(|s| s.load(Ordering::Relaxed));
+    let cx = RunContext { cache: opts.cache };
+    let fresh: Mutex<Vec<RunRecord>> = Mutex::new(Vec::new());
+    let fresh_failed: Mutex<Vec<FailedRun>> = Mutex::new(Vec::new());
+    let profile: Mutex<StageTimes> = Mutex::new(StageTimes::default());
+    let write_error: Mutex<Option<ClosedLoopError>> = Mutex::new(None);
+    let absorb = || {
+        let t = crate::profile::take();
+        lock(&profile).absorb(&t);
     };
-    let errors: Mutex<Vec<String>> = Mutex::new(Vec::new());
-    let fresh: Vec<RunRecord> = todo
-        .par_iter()
-        .filter_map(|r| {
-            let controller = &plan.controllers[r.controller];
-            let scenario = &plan.scenarios[r.scenario];
-            let t0 = std::time::Instant::now();
-            let result = runner
-                .run(scenario, controller)
-                .and_then(|(metrics, sim_s)| {
-                    let rec = RunRecord {
-                        fingerprint: plan.fingerprint.clone(),
-                        run: r.index,
-                        scenario: r.scenario,
-                        controller: controller.clone(),
-                        metrics,
-                        simulated_s: sim_s,
-                        wall_clock_s: t0.elapsed().as_secs_f64(),
-                    };
-                    let path = run_file(out, r.index);
-                    write_text(&path, &serde_json::to_string_pretty(&rec)?)?;
-                    Ok(rec)
+    let store = |r: RunId, result: Result<(RunMetrics, f64), String>, wall_s: f64| {
+        let controller = plan.controllers[r.controller].clone();
+        let stored = match result {
+            Ok((metrics, simulated_s)) => {
+                let rec = RunRecord {
+                    fingerprint: plan.fingerprint.clone(),
+                    run: r.index,
+                    scenario: r.scenario,
+                    controller,
+                    metrics,
+                    simulated_s,
+                    wall_clock_s: wall_s,
+                };
+                let written = timed(Stage::Writing, || {
+                    write_text(
+                        &run_file(out, r.index),
+                        &serde_json::to_string_pretty(&rec)?,
+                    )
                 });
-            bar.inc(1);
-            match result {
-                Ok(rec) => Some(rec),
-                Err(e) => {
-                    let msg = format!(
-                        "scenario {} (row {}), controller {controller}: {}",
-                        r.scenario,
-                        r.scenario + 1,
-                        error_chain(&e)
-                    );
-                    if let Ok(mut v) = errors.lock() {
-                        v.push(msg);
-                    }
-                    None
+                written.map(|()| {
+                    progress.run_done(rec.simulated_s, false);
+                    lock(&fresh).push(rec);
+                })
+            }
+            Err(reason) => {
+                let f = FailedRun {
+                    fingerprint: plan.fingerprint.clone(),
+                    run: r.index,
+                    scenario: r.scenario,
+                    controller,
+                    reason,
+                };
+                let written = timed(Stage::Writing, || {
+                    write_text(
+                        &failed_file(out, r.index),
+                        &serde_json::to_string_pretty(&f)?,
+                    )
+                });
+                written.map(|()| {
+                    progress.run_done(0.0, true);
+                    lock(&fresh_failed).push(f);
+                })
+            }
+        };
+        if let Err(e) = stored {
+            lock(&write_error).get_or_insert(e);
+        }
+    };
+    let halted = || stopped() || lock(&write_error).is_some();
+    groups.par_iter().for_each(|group| {
+        if halted() {
+            return;
+        }
+        let spec = &plan.scenarios[group[0].scenario];
+        let prepared = caught(|| runner.prepare(spec, &cx));
+        absorb();
+        match prepared {
+            Err(reason) => {
+                for r in group {
+                    store(*r, Err(format!("preparing the scenario: {reason}")), 0.0);
                 }
             }
-        })
-        .collect();
-    bar.finish_and_clear();
-    let errors = errors.into_inner().unwrap_or_default();
-    if !errors.is_empty() {
-        return Err(ClosedLoopError::RunsFailed {
-            failed: errors.len(),
-            attempted: todo.len(),
+            Ok(condition) => group.par_iter().for_each(|r| {
+                if halted() {
+                    return;
+                }
+                let t0 = Instant::now();
+                let result = caught(|| condition.run(&plan.controllers[r.controller]));
+                store(*r, result, t0.elapsed().as_secs_f64());
+                absorb();
+            }),
+        }
+    });
+    progress.finish();
+    if let Some(e) = write_error.into_inner().unwrap_or_else(|e| e.into_inner()) {
+        return Err(e);
+    }
+    let fresh = fresh.into_inner().unwrap_or_else(|e| e.into_inner());
+    let fresh_failed = fresh_failed.into_inner().unwrap_or_else(|e| e.into_inner());
+    let n_ran = fresh.len() + fresh_failed.len();
+    if stopped() && n_resumed + n_ran < runs.len() {
+        return Err(ClosedLoopError::Interrupted {
+            signal: opts
+                .stop_reason
+                .and_then(|f| f())
+                .unwrap_or("a stop request")
+                .to_string(),
+            done: n_resumed + n_ran,
+            planned: runs.len(),
             dir: runs_dir(out),
-            errors,
         });
     }
     let simulated_s = fresh.iter().map(|r| r.simulated_s).sum();
-    let n_ran = fresh.len();
     done.extend(fresh);
     done.sort_by_key(|r| r.run);
+    failed.extend(fresh_failed);
+    failed.sort_by_key(|f| f.run);
     Ok(ShardOutcome {
         n_runs: runs.len(),
         n_ran,
         n_resumed,
         records: done,
+        failed,
         simulated_s,
         wall_clock_s: start.elapsed().as_secs_f64(),
         threads: rayon::current_num_threads(),
+        profile: profile.into_inner().unwrap_or_else(|e| e.into_inner()),
+        cache: opts
+            .cache
+            .map(CommissioningCache::counts)
+            .unwrap_or_default(),
     })
+}
+
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// `f`'s value, or why it has none: its error chain, or the message of a panic (a bug met on one
+/// run does not stop the others).
+fn caught<T>(f: impl FnOnce() -> Result<T, ClosedLoopError>) -> Result<T, String> {
+    match std::panic::catch_unwind(AssertUnwindSafe(f)) {
+        Ok(Ok(v)) => Ok(v),
+        Ok(Err(e)) => Err(error_chain(&e)),
+        Err(panic) => Err(format!(
+            "panicked: {}",
+            panic
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "(no message)".to_string())
+        )),
+    }
 }

@@ -4,11 +4,12 @@ use std::collections::BTreeMap;
 
 use millcomp_datasets::{ColumnData, Table};
 use millcomp_sim::groove::DepthProfile;
-use serde::{Deserialize, Serialize};
 
+pub use super::spec::{FactorValue, ScenarioSpec};
+use super::spec::{bad, num};
 use crate::error::ClosedLoopError;
 use crate::model_errors::ForceErrors;
-use crate::scenario::{FeedStep, Scenario, StageKind, ThinWallScenario};
+use crate::scenario::{FeedStep, Scenario, StageKind, ThinWallScenario, commissioned};
 
 /// The published scenario unnamed factors take their values from: the S7 groove at 20° tilt,
 /// 0–80 µm over 20 mm (`000_…txt` ch. 6–7), shipped as `datasets/scenarios/groove_s7_20deg.toml`.
@@ -137,35 +138,6 @@ pub const BOOKKEEPING: &[&str] = &[
     "point_type",
 ];
 
-/// One factor value: a number or a label.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(untagged)]
-pub enum FactorValue {
-    /// A numeric level.
-    Num(f64),
-    /// A label (`material`, `stage`).
-    Text(String),
-}
-
-impl FactorValue {
-    /// Display text (numbers in their shortest round-trip form).
-    pub fn text(&self) -> String {
-        match self {
-            FactorValue::Num(x) => format!("{x}"),
-            FactorValue::Text(s) => s.clone(),
-        }
-    }
-}
-
-/// One scenario of a batch: its factor values (name → value, in the plan's factor order).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ScenarioSpec {
-    /// 0-based scenario index in the plan.
-    pub index: usize,
-    /// Factor values by name.
-    pub factors: BTreeMap<String, FactorValue>,
-}
-
 fn is_label_factor(name: &str) -> bool {
     matches!(name, "material" | "stage")
 }
@@ -256,22 +228,6 @@ pub fn scenarios_from_table(
     Ok((names, specs))
 }
 
-/// The error of a factor value the scenario cannot take.
-pub(crate) fn bad(factor: &str, message: String) -> ClosedLoopError {
-    ClosedLoopError::InvalidFactor {
-        factor: factor.to_string(),
-        message,
-    }
-}
-
-pub(crate) fn num(spec: &ScenarioSpec, name: &str) -> Result<Option<f64>, ClosedLoopError> {
-    match spec.factors.get(name) {
-        None => Ok(None),
-        Some(FactorValue::Num(x)) if x.is_finite() => Ok(Some(*x)),
-        Some(v) => Err(bad(name, format!("`{}` is not a finite number", v.text()))),
-    }
-}
-
 /// The published base scenario with this scenario's factors applied (validated).
 ///
 /// # Errors
@@ -292,9 +248,9 @@ pub(crate) fn num(spec: &ScenarioSpec, name: &str) -> Result<Option<f64>, Closed
 /// ```
 pub fn build_scenario(spec: &ScenarioSpec) -> Result<Scenario, ClosedLoopError> {
     if matches!(spec.factors.get("stage"), Some(FactorValue::Text(t)) if t == "nc_axis") {
-        return crate::nc_axis::build_nc_scenario(spec);
+        return super::nc_factors::build_nc_scenario(spec);
     }
-    for f in crate::nc_axis::NC_ONLY_FACTORS {
+    for f in super::nc_factors::NC_ONLY_FACTORS {
         if spec.factors.contains_key(*f) {
             return Err(bad(f, "applies to stage = nc_axis only".into()));
         }
@@ -451,7 +407,7 @@ pub fn build_scenario(spec: &ScenarioSpec) -> Result<Scenario, ClosedLoopError> 
     }
     match num(spec, "commissioned")? {
         None | Some(0.0) => {}
-        Some(1.0) => s = crate::compare::commissioned(&s),
+        Some(1.0) => s = commissioned(&s),
         Some(x) => return Err(bad("commissioned", format!("{x} is not 0 or 1"))),
     }
     match spec.factors.get("stage") {

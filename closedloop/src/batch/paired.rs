@@ -5,7 +5,7 @@
 //! For each metric where smaller is better (`pp_error_um`, `change_excess_um`) and each controller
 //! against the reference (`pid-tuned` when it ran, else the first controller): the differences
 //! `controller − reference` over the scenarios both have, their median with the distribution-free 95 %
-//! interval ([`crate::compare::median_ci95`]), the paired t-test and the sign test (two-sided), and the
+//! interval ([`crate::stats::median_ci95`]), the paired t-test and the sign test (two-sided), and the
 //! median difference at each level of each varying factor — which names the conditions where the
 //! controller does not help; the pseudo-factor `stroke` (`limited` / `covers`) splits the scenarios by
 //! whether the reference run met more deflection than the PZT's range (its stroke bound).
@@ -15,11 +15,10 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 use statrs::distribution::{Binomial, ContinuousCDF, DiscreteCDF, StudentsT};
 
-use super::exec::RunRecord;
 use super::factors::FactorValue;
 use super::plan::Plan;
-use super::results::varying_factors;
-use crate::compare::{median, median_ci95};
+use super::store::RunRecord;
+use crate::stats::{median, median_ci95};
 
 /// Metrics compared (smaller is better).
 pub const PAIRED_METRICS: [&str; 2] = ["pp_error_um", "change_excess_um"];
@@ -67,6 +66,24 @@ pub struct PairedEntry {
     pub worse: usize,
     /// Median difference per level of each varying factor.
     pub by_level: Vec<LevelDiff>,
+}
+
+/// Factors that vary over the scenarios of these records.
+pub fn varying_factors(plan: &Plan, records: &[RunRecord]) -> Vec<String> {
+    plan.factor_names
+        .iter()
+        .filter(|f| {
+            let mut vals: Vec<String> = records
+                .iter()
+                .filter_map(|r| plan.scenarios[r.scenario].factors.get(*f))
+                .map(FactorValue::text)
+                .collect();
+            vals.sort();
+            vals.dedup();
+            vals.len() > 1
+        })
+        .cloned()
+        .collect()
 }
 
 /// The paired comparisons of a batch (empty with fewer than two controllers or no reference).

@@ -167,14 +167,13 @@ impl Plan {
         }
     }
 
-    /// The runs of shard `k` of `n`, in global order: run (scenario `s`, controller `c`) goes to shard
-    /// `(s + c) mod n`, so every shard holds every controller on 1/n of the scenarios and slices take
-    /// similar time (a plain round robin over the run index would give each slice one controller when
-    /// the number of controllers divides the number of slices).
+    /// The runs of shard `k` of `n`, in global order: whole scenarios, scenario `s` with every
+    /// controller in shard `s mod n` — every shard holds every controller on 1/n of the scenarios, so
+    /// slices take similar time, and a scenario is prepared (commissioned, previewed) in one slice only.
     pub fn shard_runs(&self, shard: Shard) -> Vec<RunId> {
         (0..self.n_runs())
             .map(|i| self.run_id(i))
-            .filter(|r| (r.scenario + r.controller) % shard.count == shard.index)
+            .filter(|r| r.scenario % shard.count == shard.index)
             .collect()
     }
 }
@@ -331,7 +330,7 @@ mod tests {
     #[test]
     fn every_shard_holds_every_controller() {
         // 16 scenarios × 2 controllers in 4 slices (the Slurm self-test's shape): a round robin over the
-        // run index would give slices 0 and 2 only the first controller
+        // run index would give slices 0 and 2 only the first controller; whole scenarios do not
         let scen = (0..16)
             .map(|index| ScenarioSpec {
                 index,

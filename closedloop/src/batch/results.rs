@@ -10,12 +10,17 @@ use millcomp_datasets::{Column, ColumnData, Table};
 use millcomp_doe::{AnalysisInput, DoeError, ModelSpec, TermRow};
 use serde::Serialize;
 
-use super::exec::{METRICS, RunRecord, load_record, read_plan, read_shard, write_text};
 use super::factors::FactorValue;
+pub use super::paired::varying_factors;
 use super::paired::{PairedEntry, paired};
 use super::plan::{Plan, Shard};
-use crate::compare::median;
+use super::store::{
+    FailedRun, METRICS, RunOutcome, RunRecord, load_outcome, read_plan, read_shard, write_text,
+};
+use crate::cache::CacheCounts;
 use crate::error::{ClosedLoopError, error_chain};
+use crate::profile::{Stage, StageTimes, timed};
+use crate::stats::median;
 
 /// The ANOVA of one metric.
 #[derive(Debug, Clone, Serialize)]
@@ -69,6 +74,9 @@ pub struct BatchResults {
     pub paired: Vec<PairedEntry>,
     /// Notes (analyses that could not be made, and why).
     pub notes: Vec<String>,
+    /// Runs that failed, with their reasons (not in the tables; absent when none failed).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub failed: Vec<FailedRun>,
 }
 
 /// How one call of a batch ran (`DIR/invocation.json`): wall-clock and machine-dependent, so kept apart
@@ -90,8 +98,24 @@ pub struct BatchInvocation {
     pub throughput_per_core: Option<f64>,
     /// Worker threads.
     pub threads: usize,
+    /// Where this call's time went (seconds summed over the threads, by stage; `waiting`: the
+    /// threads' time without work, `threads × wall-clock −` the rest).
+    pub profile_s: StageTimes,
+    /// The commissioning cache: its directory and how the bundles were found.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cache: Option<CacheUse>,
     /// Files written (paths as given with `--out`).
     pub files: Vec<String>,
+}
+
+/// How a batch used its commissioning cache.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CacheUse {
+    /// The directory (`--cache`, or `DIR/cache`).
+    pub dir: String,
+    /// How the bundles were found.
+    #[serde(flatten)]
+    pub counts: CacheCounts,
 }
 
 /// QP solve times of one controller over a batch (µs).
@@ -239,24 +263,6 @@ pub fn by_controller(
     out
 }
 
-/// Factors that vary over the scenarios of these records.
-pub fn varying_factors(plan: &Plan, records: &[RunRecord]) -> Vec<String> {
-    plan.factor_names
-        .iter()
-        .filter(|f| {
-            let mut vals: Vec<String> = records
-                .iter()
-                .filter_map(|r| plan.scenarios[r.scenario].factors.get(*f))
-                .map(FactorValue::text)
-                .collect();
-            vals.sort();
-            vals.dedup();
-            vals.len() > 1
-        })
-        .cloned()
-        .collect()
-}
-
 /// The DOE analysis of each metric with the controller as a factor: main effects of the varying
 /// factors and the controller, plus controller × factor interactions (where the controller's advantage
 /// depends on the condition). Falls back to main effects when the interactions do not fit; an analysis
@@ -359,6 +365,7 @@ pub fn write_tables(
     out: &Path,
     mut summary: BatchSummary,
 ) -> Result<BatchSummary, ClosedLoopError> {
+    let t0 = std::time::Instant::now();
     create_dir(out)?;
     let table = results_table(plan, records)?;
     for name in ["results.csv", "results.parquet"] {
@@ -369,11 +376,15 @@ pub fn write_tables(
         })?;
         summary.invocation.files.push(path.display().to_string());
     }
+    let t1 = std::time::Instant::now();
     let r = &mut summary.results;
     r.by_controller = by_controller(plan, records);
     r.anova = anova(plan, records, &mut r.notes);
     r.paired = paired(plan, records);
     summary.invocation.solve_times_us = solve_times(plan, records);
+    let p = &mut summary.invocation.profile_s;
+    p.add(Stage::Writing, (t1 - t0).as_secs_f64());
+    p.add(Stage::Analysis, t1.elapsed().as_secs_f64());
     Ok(summary)
 }
 
@@ -391,7 +402,9 @@ pub fn write_summary(
     for p in [&results, &invocation] {
         summary.invocation.files.push(p.display().to_string());
     }
-    write_text(&results, &serde_json::to_string_pretty(&summary.results)?)?;
+    timed(Stage::Writing, || {
+        write_text(&results, &serde_json::to_string_pretty(&summary.results)?)
+    })?;
     write_text(
         &invocation,
         &serde_json::to_string_pretty(&summary.invocation)?,
@@ -420,6 +433,7 @@ pub fn new_summary(plan: &Plan, n_runs: usize, shard: Option<Shard>) -> BatchSum
             anova: BTreeMap::new(),
             paired: Vec::new(),
             notes: Vec::new(),
+            failed: Vec::new(),
         },
         invocation: BatchInvocation {
             solve_times_us: BTreeMap::new(),
@@ -429,6 +443,8 @@ pub fn new_summary(plan: &Plan, n_runs: usize, shard: Option<Shard>) -> BatchSum
             wall_clock_s: 0.0,
             throughput_per_core: None,
             threads: rayon::current_num_threads(),
+            profile_s: StageTimes::default(),
+            cache: None,
             files: Vec::new(),
         },
     }
@@ -471,7 +487,7 @@ pub struct MergedBatch {
 /// let slices: Vec<_> = (0..2).map(|k| dir.join(format!("shard-{k}"))).collect();
 /// for (k, d) in slices.iter().enumerate() {
 ///     let shard = Shard::new(k, 2, "example").unwrap();
-///     // round robin over the run index: slice k runs k and k + 2
+///     // whole scenarios: slice k runs scenario k with both controllers
 ///     assert_eq!(run_shard(&plan, shard, d, &MpcClosedLoop, false).unwrap().n_ran, 2);
 /// }
 /// let merged = merge(&slices, &dir.join("merged")).unwrap();
@@ -488,6 +504,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergedBatch, ClosedLoopErro
     };
     let plan = read_plan(first)?;
     let mut records: BTreeMap<usize, RunRecord> = BTreeMap::new();
+    let mut failed: BTreeMap<usize, FailedRun> = BTreeMap::new();
     for d in dirs {
         let p = read_plan(d)?;
         if p.fingerprint != plan.fingerprint {
@@ -500,13 +517,21 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergedBatch, ClosedLoopErro
         }
         let shard = read_shard(d).unwrap_or(Shard::ALL);
         for r in plan.shard_runs(shard) {
-            if let Some(rec) = load_record(d, &plan, r) {
-                records.entry(rec.run).or_insert(rec);
+            match load_outcome(d, &plan, r) {
+                Some(RunOutcome::Done(rec)) => {
+                    records.entry(rec.run).or_insert(rec);
+                }
+                Some(RunOutcome::Failed(f)) => {
+                    failed.entry(f.run).or_insert(f);
+                }
+                None => {}
             }
         }
     }
+    // a run another slice finished with a result is not a failure
+    failed.retain(|run, _| !records.contains_key(run));
     let missing: Vec<usize> = (0..plan.n_runs())
-        .filter(|i| !records.contains_key(i))
+        .filter(|i| !records.contains_key(i) && !failed.contains_key(i))
         .collect();
     if !missing.is_empty() {
         return Err(ClosedLoopError::MergeMissing {
@@ -517,7 +542,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergedBatch, ClosedLoopErro
     }
     let records: Vec<RunRecord> = records.into_values().collect();
     create_dir(out)?;
-    let summary = new_summary(&plan, records.len(), None);
+    let mut summary = new_summary(&plan, records.len(), None);
+    summary.results.failed = failed.into_values().collect();
     let plan_text = serde_json::to_string_pretty(&plan)?;
     millcomp_datasets::write_text_atomic(&out.join("plan.json"), &plan_text)?;
     Ok(MergedBatch {

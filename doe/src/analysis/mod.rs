@@ -2,11 +2,14 @@
 //! Lenth's method for saturated models, residual diagnostics, backward elimination and power.
 
 pub(crate) mod lenth;
+mod options;
 pub(crate) mod power;
 
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, FisherSnedecor, StudentsT};
+
+pub use options::{AnalyzeOptions, AnalyzeOutcome};
 
 use crate::error::{DoeError, Result};
 use crate::factor::{Values, code_value};

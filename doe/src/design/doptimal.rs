@@ -10,6 +10,9 @@ use crate::error::{DoeError, Result};
 use crate::factor::FactorSpec;
 use crate::model::{FactorMeta, ModelSpec, Term, expand};
 
+/// The most runs of a D-optimal design (`--runs`).
+pub const MAX_DOPTIMAL_RUNS: usize = 10_000;
+
 /// A linear constraint on coded factor levels, `Σ cᵢ·xᵢ ≤ rhs` (a `>=` constraint is stored negated).
 ///
 /// Syntax (one or more separated by `;`): `[coef*]name (+|-) [coef*]name … (<=|>=) number`, where names are
@@ -199,6 +202,16 @@ pub(crate) fn d_optimal(req: &DesignRequest, rng: &mut ChaCha8Rng) -> Result<Bas
     let terms = expand(&spec, &metas)?;
     let p = terms.len() + 1;
     let n = req.runs.unwrap_or(p + 5);
+    if n > MAX_DOPTIMAL_RUNS {
+        return Err(DoeError::InvalidParameter {
+            name: "runs",
+            value: n.to_string(),
+            allowed: format!(
+                "at most {MAX_DOPTIMAL_RUNS} for a D-optimal design (its exchange search grows with the \
+                 square of the runs)"
+            ),
+        });
+    }
     if n < p {
         return Err(DoeError::InvalidParameter {
             name: "runs",

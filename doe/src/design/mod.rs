@@ -23,6 +23,14 @@ use crate::model::ModelSpec;
 pub use doptimal::LinearConstraint;
 pub use fractional::{AliasEntry, resolution_roman};
 
+/// The most runs a generated design may have, replicates and centre points included (a full factorial
+/// stops at the same 1e6): more is no experiment anyone runs, and a billion-run request would exhaust
+/// memory before it failed.
+pub const MAX_DESIGN_RUNS: usize = 1_000_000;
+
+/// The most centre points per block.
+pub const MAX_CENTER_POINTS: usize = 1000;
+
 /// Variant of a central composite design.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CcdVariant {
@@ -229,6 +237,112 @@ impl DesignRequest {
             model: None,
             constraints: Vec::new(),
         }
+    }
+}
+
+/// A design request as text and numbers, as `millcomp doe design` takes its flags and Python's
+/// `doe.design` its arguments: one place that turns them into a [`DesignRequest`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct DesignOptions {
+    /// `full | fractional | plackett-burman | ccd | box-behnken | lhs | dsd | d-optimal` (also `ccf`,
+    /// `cci`).
+    pub design: String,
+    /// `depth_um=100:200,speed_rpm=10000:20000` or bare names `A,B,C` (coded −1/+1).
+    pub factors: String,
+    /// Fractional: minimum resolution.
+    pub resolution: Option<u32>,
+    /// Fractional: generators such as `"D=AB,E=AC"`.
+    pub generators: Option<String>,
+    /// Runs (LHS, D-optimal, Plackett–Burman, fractional).
+    pub runs: Option<usize>,
+    /// Replicates of the whole design.
+    pub replicates: usize,
+    /// Centre points per block (`None`: the design's default).
+    pub center_points: Option<usize>,
+    /// Blocks.
+    pub blocks: usize,
+    /// Seed of the run order (and of LHS / D-optimal searches).
+    pub seed: Option<u64>,
+    /// Randomise the run order.
+    pub randomize: bool,
+    /// CCD variant (`circumscribed | inscribed | face-centred`), used when `design` is `ccd`.
+    pub ccd_variant: String,
+    /// CCD alpha (`rotatable | orthogonal | orthogonal-blocking | a number`).
+    pub alpha: String,
+    /// D-optimal: the model (`main | 2fi | quadratic | a formula`).
+    pub model: Option<String>,
+    /// D-optimal: linear constraints in coded units (`"a + b <= 1.5; 2*A - B >= -1"`).
+    pub constraints: Option<String>,
+}
+
+impl DesignOptions {
+    /// `design` over `factors` with the defaults of `doe design`: 1 replicate, 1 block, randomised,
+    /// a circumscribed rotatable CCD.
+    pub fn new(design: &str, factors: &str) -> Self {
+        Self {
+            design: design.to_string(),
+            factors: factors.to_string(),
+            resolution: None,
+            generators: None,
+            runs: None,
+            replicates: 1,
+            center_points: None,
+            blocks: 1,
+            seed: None,
+            randomize: true,
+            ccd_variant: "circumscribed".to_string(),
+            alpha: "rotatable".to_string(),
+            model: None,
+            constraints: None,
+        }
+    }
+
+    /// The request these options describe.
+    ///
+    /// ```
+    /// use millcomp_doe::{DesignOptions, DoeError};
+    /// let mut o = DesignOptions::new("fractional", "a=1:2,b=1:2,c=1:2,d=1:2");
+    /// o.resolution = Some(4);
+    /// assert_eq!(millcomp_doe::generate(&o.request().unwrap()).unwrap().runs.len(), 8);
+    /// o.factors = "a=1:1".into();
+    /// let e = o.request().unwrap_err();
+    /// assert!(matches!(e, DoeError::BadOption { option: "factors", .. }));
+    /// assert_eq!(e.to_string(), "--factors");
+    /// ```
+    ///
+    /// # Errors
+    /// [`DoeError::BadOption`] naming the option, with the parser's error as its source.
+    pub fn request(&self) -> Result<DesignRequest> {
+        fn at<T>(option: &'static str, r: Result<T>) -> Result<T> {
+            r.map_err(|e| DoeError::BadOption {
+                option,
+                source: Box::new(e),
+            })
+        }
+        let factors = at("factors", FactorSpec::parse_list(&self.factors))?;
+        let mut kind: DesignKind = at("design", self.design.parse())?;
+        if let DesignKind::Ccd { variant, alpha } = &mut kind {
+            if self.design == "ccd" {
+                *variant = at("ccd_variant", self.ccd_variant.parse::<CcdVariant>())?;
+            }
+            *alpha = at("alpha", self.alpha.parse::<CcdAlpha>())?;
+        }
+        let mut req = DesignRequest::new(kind, factors);
+        req.resolution = self.resolution;
+        req.generators = self.generators.clone();
+        req.runs = self.runs;
+        req.replicates = self.replicates;
+        req.center_points = self.center_points;
+        req.blocks = self.blocks;
+        req.seed = self.seed;
+        req.randomize = self.randomize;
+        if let Some(m) = &self.model {
+            req.model = Some(at("model", ModelSpec::parse(m))?);
+        }
+        if let Some(c) = &self.constraints {
+            req.constraints = at("constraints", LinearConstraint::parse_list(c, &req.factors))?;
+        }
+        Ok(req)
     }
 }
 
@@ -580,6 +694,13 @@ pub fn generate(req: &DesignRequest) -> Result<Design> {
         _ => 0,
     };
     let centers = req.center_points.unwrap_or(default_centers);
+    if centers > MAX_CENTER_POINTS {
+        return Err(DoeError::InvalidParameter {
+            name: "center_points",
+            value: centers.to_string(),
+            allowed: format!("at most {MAX_CENTER_POINTS} per block"),
+        });
+    }
     let mut base = match req.kind {
         DesignKind::Full => factorial::full(req)?,
         DesignKind::Fractional => factorial::fractional(req)?,
@@ -596,6 +717,24 @@ pub fn generate(req: &DesignRequest) -> Result<Design> {
                 "{} blocks with the {} design (two-level factorials take a power of two, CCD 1 or 2; others 1)",
                 req.blocks,
                 req.kind.name()
+            ),
+        });
+    }
+    let total = (base.coded.len()
+        + if base.centers_included {
+            0
+        } else {
+            centers * base.n_blocks
+        })
+    .saturating_mul(req.replicates);
+    if total > MAX_DESIGN_RUNS {
+        return Err(DoeError::InvalidParameter {
+            name: "replicates",
+            value: req.replicates.to_string(),
+            allowed: format!(
+                "a design of at most {MAX_DESIGN_RUNS} runs (this one would have {total}: {} runs × {} replicates)",
+                total / req.replicates.max(1),
+                req.replicates
             ),
         });
     }

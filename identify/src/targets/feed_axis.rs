@@ -117,12 +117,12 @@ pub fn identify_feed_axis(data: &FeedAxisData<'_>, opts: &FeedAxisOptions) -> Re
     validate::strictly_increasing("t_s", data.t_s)?;
     validate::not_constant("reference_um", data.reference_um, "dead_time_s, lag_s")?;
     let cycle_s = (data.t_s[n - 1] - data.t_s[0]) / (n - 1) as f64;
-    if let Some(row) =
+    if let Some(i) =
         (1..n).find(|&i| ((data.t_s[i] - data.t_s[i - 1]) - cycle_s).abs() > 1e-3 * cycle_s)
     {
         return Err(IdentifyError::InvalidParameter {
-            name: format!("t_s (row {row}): spacing"),
-            value: data.t_s[row] - data.t_s[row - 1],
+            name: format!("t_s (row {}): spacing", i + 1),
+            value: data.t_s[i] - data.t_s[i - 1],
             allowed: "equally spaced samples (the position cycle), within 0.1 %",
         });
     }

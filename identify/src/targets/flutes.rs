@@ -272,6 +272,6 @@ mod tests {
         let mut bad = f.clone();
         bad[17] = f64::NAN;
         let e = flute_peaks("force_x_N", &bad, 50_000.0, 10_400.0, 3, 0.01).unwrap_err();
-        assert!(e.to_string().contains("force_x_N") && e.to_string().contains("row 17"));
+        assert!(e.to_string().contains("force_x_N") && e.to_string().contains("row 18"));
     }
 }

@@ -392,7 +392,7 @@ fn conditions(
             };
             opts.base
                 .check_conditions(&cond)
-                .map_err(|source| IdentifyError::RejectedConditions { row: i, source })?;
+                .map_err(|source| IdentifyError::RejectedConditions { row: i + 1, source })?;
             Ok(cond)
         })
         .collect()
@@ -450,7 +450,7 @@ type NamedColumn<'a> = Option<(&'static str, &'a [f64])>;
 /// let conditions = ForceConditions { depth_um: &deep, ..conditions };
 /// let data = ForceData::Peaks(PeakForceData { conditions, max_fx_n: Some(&fx), max_fy_n: None, max_fz_n: None });
 /// let e = identify_force(&data, &ForceOptions::default());
-/// assert!(matches!(e, Err(millcomp_identify::IdentifyError::RejectedConditions { row: 0, .. })));
+/// assert!(matches!(e, Err(millcomp_identify::IdentifyError::RejectedConditions { row: 1, .. })));
 /// ```
 pub fn identify_force(data: &ForceData<'_>, opts: &ForceOptions) -> Result<Identified> {
     if opts.free.is_empty() {
@@ -491,6 +491,17 @@ pub fn identify_force(data: &ForceData<'_>, opts: &ForceOptions) -> Result<Ident
     for (name, v) in comps.iter().flatten() {
         validate::same_len(name, v, "depth_um", n)?;
         validate::finite(name, v)?;
+        // a peak is the largest force over a revolution: a negative one is a sign error, which the
+        // fit would otherwise answer with W pinned at 0
+        if matches!(data, ForceData::Peaks(_))
+            && let Some(i) = v.iter().position(|&f| f < 0.0)
+        {
+            return Err(IdentifyError::InvalidParameter {
+                name: format!("{name}, row {}", i + 1),
+                value: v[i],
+                allowed: ">= 0 N (a peak force over a revolution; a sign error?)",
+            });
+        }
     }
     if let ForceData::Traces(d) = data {
         validate::finite("rot_deg", d.rot_deg)?;

@@ -173,22 +173,22 @@ pub fn identify_kienzle(data: &KienzleData<'_>, opts: &KienzleOptions) -> Result
         ("ae_mm", data.ae_mm),
     ] {
         validate::finite(name, col)?;
-        if let Some(row) = col.iter().position(|v| *v <= 0.0) {
+        if let Some(i) = col.iter().position(|v| *v <= 0.0) {
             return Err(IdentifyError::InvalidParameter {
-                name: format!("{name} (row {row})"),
-                value: col[row],
+                name: format!("{name} (row {})", i + 1),
+                value: col[i],
                 allowed: "> 0",
             });
         }
     }
-    if let Some(row) = data
+    if let Some(i) = data
         .ae_mm
         .iter()
         .position(|v| *v > opts.tool.diameter_mm + 1e-9)
     {
         return Err(IdentifyError::InvalidParameter {
-            name: format!("ae_mm (row {row})"),
-            value: data.ae_mm[row],
+            name: format!("ae_mm (row {})", i + 1),
+            value: data.ae_mm[i],
             allowed: "<= the tool diameter",
         });
     }

@@ -202,7 +202,7 @@ mod tests {
             PartRegressor::MeasuredForce,
         )
         .unwrap_err();
-        assert!(e.to_string().contains("deflection_um") && e.to_string().contains("row 7"));
+        assert!(e.to_string().contains("deflection_um") && e.to_string().contains("row 8"));
     }
 
     #[test]

@@ -28,7 +28,7 @@ use nalgebra::{DMatrix, DVector};
 use super::Identified;
 use super::thermal::CommonOptions;
 use crate::error::{IdentifyError, Result};
-use crate::jacobian_check::fd_jacobian;
+use crate::jacobian_check::fd_jacobian_within;
 use crate::nonlinear::{ParamSpec, ResidualModel, fit_nonlinear};
 use crate::validate;
 
@@ -114,6 +114,22 @@ impl<'a> SpindleResponse<'a> {
         }
         v.push("offset_um");
         v.into_iter().map(String::from).collect()
+    }
+
+    /// Each parameter's bounds, in operator order: ζ in [0, 10] (the physics crate's range), a dead time
+    /// in [0, 0.1] s, the offset free, the others > 0. The fit keeps to them and so does the
+    /// finite-difference Jacobian ([`fd_jacobian_within`]): a parameter on its bound is differenced
+    /// one-sidedly, never evaluated past it.
+    pub fn param_bounds(&self) -> Vec<(f64, f64)> {
+        self.param_names()
+            .iter()
+            .map(|name| match name.as_str() {
+                "offset_um" => (f64::NEG_INFINITY, f64::INFINITY),
+                "zeta" => (0.0, 10.0),
+                "dead_time_s" => (0.0, 0.1),
+                _ => (0.0, f64::INFINITY),
+            })
+            .collect()
     }
 
     /// The physics crate's spindle for a parameter vector, and the output offset.
@@ -220,9 +236,9 @@ impl Operator for SpindleResponse<'_> {
 impl Jacobian for SpindleResponse<'_> {
     type Param = DVector<f64>;
     type Jacobian = DMatrix<f64>;
-    /// Central differences of the simulation (see the module docs).
+    /// Central differences of the simulation (see the module docs), one-sided at a bound.
     fn jacobian(&self, p: &DVector<f64>) -> std::result::Result<DMatrix<f64>, ArgminError> {
-        fd_jacobian(|q| self.simulate(q), p)
+        fd_jacobian_within(|q| self.simulate(q), p, &self.param_bounds())
     }
 }
 
@@ -357,15 +373,8 @@ pub fn identify_spindle(data: &SpindleData<'_>, opts: &SpindleOptions) -> Result
     let s0 = start(data, opts);
     let specs: Vec<ParamSpec> = names
         .iter()
-        .map(|name| {
-            let v = s0[name.as_str()];
-            match name.as_str() {
-                "offset_um" => ParamSpec::free(name, v),
-                "zeta" => ParamSpec::bounded(name, v, 0.0, 10.0),
-                "dead_time_s" => ParamSpec::bounded(name, v, 0.0, 0.1),
-                _ => ParamSpec::positive(name, v),
-            }
-        })
+        .zip(probe.param_bounds())
+        .map(|(name, (lo, hi))| ParamSpec::bounded(name, s0[name.as_str()], lo, hi))
         .collect();
     let mut warnings = Vec::new();
     if data.u_v.iter().any(|&u| u < 0.0) {

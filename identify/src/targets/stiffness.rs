@@ -100,6 +100,10 @@ pub fn series_stiffness_n_per_um(k1: f64, k2: f64) -> f64 {
     series_n_per_um(k1, k2).unwrap_or(f64::NAN)
 }
 
+/// The direction labels of a stiffness test (`direction` column): the axial (spindle) and the radial
+/// (tool bending) stiffness, the two a bundle and the controllers read (`000_…txt` §5.2.3).
+pub const DIRECTIONS: [&str; 2] = ["axial", "radial"];
+
 fn key(label: &str) -> String {
     label
         .trim()
@@ -171,10 +175,23 @@ pub fn identify_stiffness(data: &StiffnessData<'_>, opts: &StiffnessOptions) -> 
                 expected: n,
             });
         }
-        if let Some(row) = d.iter().position(|s| key(s).is_empty()) {
+        if let Some(i) = d.iter().position(|s| key(s).is_empty()) {
             return Err(IdentifyError::MissingColumn {
                 column: "direction".into(),
-                reason: format!("row {row} has an empty direction label"),
+                reason: format!("row {} has an empty direction label", i + 1),
+            });
+        }
+        // the directions a stiffness model has: a bundle, the controllers and the tilted-tool
+        // z-stiffness read `axial` and `radial`; another label is a typo, not a third direction
+        if let Some(i) = d
+            .iter()
+            .position(|s| !DIRECTIONS.contains(&key(s).as_str()))
+        {
+            return Err(IdentifyError::InvalidLabel {
+                column: "direction".into(),
+                row: i + 1,
+                value: d[i].clone(),
+                allowed: DIRECTIONS.join(", "),
             });
         }
     }

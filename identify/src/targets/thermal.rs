@@ -55,6 +55,29 @@ pub enum ThermalModel {
     SpeedDependent,
 }
 
+impl std::str::FromStr for ThermalModel {
+    type Err = crate::IdentifyError;
+
+    /// The CLI's `--model` names (and Python's `model=`).
+    ///
+    /// ```
+    /// use millcomp_identify::targets::thermal::ThermalModel;
+    /// assert_eq!("speed-dependent".parse::<ThermalModel>().unwrap(), ThermalModel::SpeedDependent);
+    /// assert!("linear".parse::<ThermalModel>().unwrap_err().to_string().contains("allowed exponential"));
+    /// ```
+    fn from_str(s: &str) -> std::result::Result<Self, Self::Err> {
+        match s {
+            "exponential" => Ok(ThermalModel::Exponential),
+            "linear-temperature" => Ok(ThermalModel::LinearTemperature),
+            "speed-dependent" => Ok(ThermalModel::SpeedDependent),
+            other => Err(crate::IdentifyError::UnknownModel {
+                name: other.to_string(),
+                allowed: "exponential, linear-temperature, speed-dependent".to_string(),
+            }),
+        }
+    }
+}
+
 impl ThermalModel {
     /// Saved-model kind string.
     pub fn kind(&self) -> &'static str {
@@ -283,10 +306,10 @@ pub fn identify_thermal(
             })?;
             validate::same_len("speed_rpm", speed, "t_s", data.t_s.len())?;
             validate::finite("speed_rpm", speed)?;
-            if let Some(row) = speed.iter().position(|&n| n < 0.0) {
+            if let Some(i) = speed.iter().position(|&n| n < 0.0) {
                 return Err(IdentifyError::InvalidParameter {
-                    name: format!("speed_rpm row {row}"),
-                    value: speed[row],
+                    name: format!("speed_rpm, row {}", i + 1),
+                    value: speed[i],
                     allowed: ">= 0 rpm",
                 });
             }
@@ -617,7 +640,7 @@ mod tests {
         let e =
             identify_thermal(&d, ThermalModel::Exponential, &CommonOptions::default()).unwrap_err();
         assert!(
-            matches!(e, IdentifyError::NonMonotoneTime { row: 2, .. }),
+            matches!(e, IdentifyError::NonMonotoneTime { row: 3, .. }),
             "{e}"
         );
         let t = [0.0, 1.0, 2.0, 3.0];

@@ -867,10 +867,10 @@ pub fn study_channel(
     if let Some(s) = rec.speed_rpm {
         validate::same_len("speed_rpm", s, "t_s", n)?;
         validate::finite("speed_rpm", s)?;
-        if let Some(row) = s.iter().position(|&v| v < 0.0) {
+        if let Some(i) = s.iter().position(|&v| v < 0.0) {
             return Err(IdentifyError::InvalidParameter {
-                name: format!("speed_rpm row {row}"),
-                value: s[row],
+                name: format!("speed_rpm, row {}", i + 1),
+                value: s[i],
                 allowed: ">= 0 rpm",
             });
         }

@@ -1,0 +1,136 @@
+//! Every input the fuzz campaign found (a crash, a hang or an out-of-memory; `fuzz/regressions/<target>/`)
+//! replayed through the same harness the fuzzer ran (`fuzz/src/lib.rs`, compiled here on stable), plus
+//! the shipped files the campaign's corpora are seeded from: none may panic, and each harness checks
+//! what an accepted input promises. A found input is a file named after what it found; its fix is in
+//! the commit that added it (`git log -- fuzz/regressions`).
+//!
+//! Rerun: `cargo test -p millcomp-closedloop --test main fuzz_regressions`.
+
+#[allow(dead_code)]
+#[path = "../../fuzz/src/lib.rs"]
+mod harness;
+
+use std::path::{Path, PathBuf};
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// The files of `dir`, sorted (none when it does not exist).
+fn files(dir: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map(|d| {
+            d.filter_map(|e| e.ok())
+                .map(|e| e.path())
+                .filter(|p| p.is_file())
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort();
+    v
+}
+
+/// Replays `inputs` through the harness of `target`, naming the input that panics.
+fn replay(target: &str, inputs: &[PathBuf]) {
+    for path in inputs {
+        let data = std::fs::read(path).unwrap();
+        let outcome = std::panic::catch_unwind(|| harness::run(target, &data));
+        assert!(
+            outcome.is_ok(),
+            "fuzz target `{target}` panics on {}",
+            path.display()
+        );
+    }
+}
+
+#[test]
+fn found_inputs_are_handled() {
+    let root = repo().join("fuzz/regressions");
+    let mut n = 0;
+    for target in harness::TARGETS {
+        let inputs = files(&root.join(target));
+        n += inputs.len();
+        replay(target, &inputs);
+    }
+    // every directory under fuzz/regressions is a target's
+    for d in std::fs::read_dir(&root).into_iter().flatten().flatten() {
+        let name = d.file_name().to_string_lossy().to_string();
+        assert!(
+            harness::TARGETS.contains(&name.as_str()) || !d.path().is_dir(),
+            "fuzz/regressions/{name} is no fuzz target"
+        );
+    }
+    eprintln!("{n} found inputs replayed");
+}
+
+/// The shipped files the corpora start from go through the harnesses too (each harness's reading of
+/// them must not panic; `fuzz/run` seeds from the same places).
+#[test]
+fn seed_files_are_handled() {
+    let r = repo();
+    let csv: Vec<PathBuf> = [
+        "datasets/data",
+        "datasets/runs",
+        "datasets/synthetic",
+        "datasets/scenarios",
+        "doe/data",
+    ]
+    .iter()
+    .flat_map(|d| files(&r.join(d)))
+    .filter(|p| p.extension().is_some_and(|e| e == "csv"))
+    .collect();
+    let with_mode = |mode: u8, paths: &[PathBuf]| -> Vec<Vec<u8>> {
+        paths
+            .iter()
+            .map(|p| {
+                let mut v = vec![mode];
+                v.extend(std::fs::read(p).unwrap());
+                v
+            })
+            .collect()
+    };
+    for data in with_mode(0, &csv) {
+        harness::table(&data);
+    }
+    for p in &csv {
+        harness::batch_plan(&std::fs::read(p).unwrap());
+    }
+    let toml = |d: &str| -> Vec<PathBuf> {
+        files(&r.join(d))
+            .into_iter()
+            .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+            .collect()
+    };
+    replay("scenario", &toml("datasets/scenarios"));
+    replay("session", &toml("datasets/sessions"));
+    replay("session", &toml("datasets/synthetic"));
+}
+
+/// The recorded QP sequences the campaign found (malformed CSC arrays that panicked inside Clarabel's
+/// constructor or its matrix products) are refused before a solver sees them, naming the matrix.
+#[test]
+fn malformed_qp_sequences_are_refused_naming_the_matrix() {
+    use millcomp_mpc::replay::{QpSequence, replay_clarabel};
+    let inputs = files(&repo().join("fuzz/regressions/qp_sequence"));
+    assert!(inputs.len() >= 3, "the three found inputs are kept");
+    for path in inputs {
+        let seq: QpSequence = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+        let err = replay_clarabel(&seq).expect_err("a malformed sequence is refused");
+        let msg = err.to_string();
+        assert!(
+            msg.contains("`p`") || msg.contains("`a`"),
+            "{}: {msg}",
+            path.display()
+        );
+        assert!(seq.validate().is_err());
+    }
+    // the shipped golden sequence passes the same checks
+    let golden: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(repo().join("fuzz/seeds/qp_sequence/casadi_golden.json")).unwrap(),
+    )
+    .unwrap();
+    let seq: QpSequence = serde_json::from_value(golden["sequence"].clone())
+        .or_else(|_| serde_json::from_value(golden.clone()))
+        .unwrap();
+    seq.validate().unwrap();
+}

@@ -1,0 +1,3 @@
+//! The integration tests of millcomp-datasets, one binary: a module per subject.
+
+mod never_nan;
