@@ -18,9 +18,13 @@ values; identify/tests/units.rs computes the same with millcomp and compares.
   use_correction=True), and the force at VB = 100 um, F0 + 100 k with its delta-method SE; then the two
   cutters combined by combine_effects (dl and pm) — the whole `identify wear --columns unit=case` path
   computed by the peer.
+* meta_phm_c1_c4_c6: the same with the third cutter c6 (datasets/real/phm2010_c6/): three units, where the
+  DerSimonian-Laird and Paule-Mandel tau^2 differ and the HKSJ scale is not 1.
 
-statsmodels' DL tau^2 is not truncated at 0 and its HKSJ variance is not truncated at q = 1; the cases
-here have Q > k - 1, where both agree with millcomp's truncated forms.
+statsmodels' DL tau^2 (and I^2) are not truncated at 0 and its HKSJ variance is not truncated at q = 1;
+millcomp truncates all three. Where Q < k - 1 (the force at VB = 100 um of c1 and c4: Q = 0.81) the test
+checks the truncated values against the peer's fixed-effect ones; where q < 1 it does not compare the
+HKSJ interval.
 
 Usage: .venv/bin/python bench/peers/meta_goldens.py   (from the repository root; bench/peers/setup-venv)
 """
@@ -119,9 +123,9 @@ def hac_fit(y, x):
     return hac, r, lags
 
 
-def phm():
+def phm(cutters):
     units = []
-    for c in ("c1", "c4"):
+    for c in cutters:
         f = pd.read_csv(os.path.join(ROOT, f"datasets/real/phm2010_{c}/per_cut_force_features_{c}.csv"))
         w = pd.read_csv(os.path.join(ROOT, f"datasets/real/phm2010_{c}/per_cut_wear_{c}.csv"))
         d = f.merge(w[["run", "VB_flute_1", "VB_flute_2", "VB_flute_3"]], on="run", how="left")
@@ -141,8 +145,9 @@ def phm():
     combined = {}
     for q in ("f0_n", "k_n_per_um", "force_at_vb_100um_n"):
         combined[q] = combine([u[q][0] for u in units], [u[q][1] for u in units])
-    write("phm_c1_c4", {
-        "data": "datasets/real/phm2010_c{1,4}/per_cut_force_features_*.csv joined to per_cut_wear_*.csv on run; "
+    case = "phm_" + "_".join(cutters)
+    write(case, {
+        "data": f"datasets/real/phm2010_{{{','.join(cutters)}}}/per_cut_force_features_*.csv joined to per_cut_wear_*.csv on run; "
                 "force_y__rms = F0 + k * mean(VB_flute_1..3), all 315 cuts of each cutter",
         "per_unit_call": "statsmodels.api.OLS(y, add_constant(vb)).fit(cov_type='HAC', "
                          "cov_kwds={'maxlags': L, 'use_correction': True})",
@@ -153,4 +158,5 @@ def phm():
 
 if __name__ == "__main__":
     bcg()
-    phm()
+    phm(("c1", "c4"))
+    phm(("c1", "c4", "c6"))

@@ -25,7 +25,16 @@ fn main() {
     );
     println!(
         "{:<6} {:>5} {:>7} {:>6} {:>4} {:>9} {:>10} {:>8} {:>7} {:>11}",
-        "family", "units", "tau/k", "noise", "tau2", "SE/tau", "new unit", "mean", "tau", "PI width"
+        "family",
+        "units",
+        "tau/k",
+        "noise",
+        "tau2",
+        "SE/tau",
+        "new unit",
+        "mean",
+        "tau",
+        "PI width"
     );
     let mut settings = Vec::new();
     for units in [2usize, 3, 5, 10] {

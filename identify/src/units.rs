@@ -264,7 +264,11 @@ pub fn meta_analyse(estimate: &[f64], std_err: &[f64], opts: &MetaOptions) -> Re
         fixed_se: (1.0 / sw0).sqrt(),
         q,
         q_p,
-        i2: if q > 0.0 { ((q - df) / q).max(0.0) } else { 0.0 },
+        i2: if q > 0.0 {
+            ((q - df) / q).max(0.0)
+        } else {
+            0.0
+        },
         tau2,
         tau: tau2.sqrt(),
         tau_ci95,
@@ -663,7 +667,11 @@ mod tests {
         let tau = |chi2: f64| {
             ((0.065f64.powi(2) / chi2 - 0.012f64.powi(2) - 0.008f64.powi(2)) / 2.0).sqrt()
         };
-        assert!((m.tau_ci95[0] - tau(5.023_886_187)).abs() < 1e-8, "{:?}", m.tau_ci95);
+        assert!(
+            (m.tau_ci95[0] - tau(5.023_886_187)).abs() < 1e-8,
+            "{:?}",
+            m.tau_ci95
+        );
         assert!(
             (m.tau_ci95[1] / tau(9.820_691_171e-4) - 1.0).abs() < 1e-8,
             "{:?}",
@@ -674,7 +682,12 @@ mod tests {
 
     #[test]
     fn agreeing_units_have_no_between_unit_variance_and_paule_mandel_solves_its_equation() {
-        let m = meta_analyse(&[1.0, 1.01, 0.99], &[0.1, 0.1, 0.1], &MetaOptions::default()).unwrap();
+        let m = meta_analyse(
+            &[1.0, 1.01, 0.99],
+            &[0.1, 0.1, 0.1],
+            &MetaOptions::default(),
+        )
+        .unwrap();
         assert_eq!(m.tau2, 0.0);
         assert_eq!(m.tau_ci95[0], 0.0);
         assert!(m.tau_ci95[1] > 0.1, "{:?}", m.tau_ci95);
@@ -707,7 +720,12 @@ mod tests {
         assert!(e.to_string().contains("std_err[1]"), "{e}");
         let e = meta_analyse(&[1.0, f64::NAN], &[0.1, 0.1], &o).unwrap_err();
         assert!(e.to_string().contains("row 1"), "{e}");
-        assert!(Tau2Method::parse("reml").unwrap_err().to_string().contains("dl"));
+        assert!(
+            Tau2Method::parse("reml")
+                .unwrap_err()
+                .to_string()
+                .contains("dl")
+        );
     }
 
     #[test]
@@ -722,19 +740,22 @@ mod tests {
             ("offset_part2_um".to_string(), (0.1, 0.01)),
         ]
         .into();
-        let r = across_units(
-            &[("1".into(), a), ("2".into(), b)],
-            &MetaOptions::default(),
-        )
-        .unwrap();
+        let r = across_units(&[("1".into(), a), ("2".into(), b)], &MetaOptions::default()).unwrap();
         assert_eq!(r.quantities.len(), 1);
-        assert!(r.notes.iter().any(|n| n.contains("offset_part1_um, offset_part2_um")));
+        assert!(
+            r.notes
+                .iter()
+                .any(|n| n.contains("offset_part1_um, offset_part2_um"))
+        );
         assert!(r.notes[0].contains("12.71"), "{}", r.notes[0]);
     }
 
     #[test]
     fn rows_group_by_first_appearance() {
-        let l: Vec<String> = ["4", "1", "4", "1", "7"].iter().map(|s| s.to_string()).collect();
+        let l: Vec<String> = ["4", "1", "4", "1", "7"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
         let g = group_rows(&l);
         assert_eq!(g[0], ("4".to_string(), vec![0, 2]));
         assert_eq!(g[2], ("7".to_string(), vec![4]));

@@ -747,9 +747,10 @@ pub fn wear_across_units(
     if out.is_empty() {
         return Err(IdentifyError::MissingColumn {
             column: "vb_um".into(),
-            reason: "the units are combined through their force-against-wear fits: map the flank wear \
+            reason:
+                "the units are combined through their force-against-wear fits: map the flank wear \
                      of every unit (--columns vb_um=…)"
-                .into(),
+                    .into(),
         });
     }
     Ok(out)
