@@ -6,16 +6,19 @@ use millcomp_identify::targets::force::ForceParam;
 use millcomp_identify::targets::thermal::ThermalModel;
 use millcomp_identify::targets::wall::WallGeometry;
 use millcomp_identify::units::{UNIT_ROLE, identify_units, one_unit_note};
-use millcomp_identify::{Columns, FitReport, Identified, IdentifyOptions, Target, identify_columns};
+use millcomp_identify::{
+    Columns, FitReport, Identified, IdentifyOptions, Target, identify_columns,
+};
 
 use crate::cli::{IdentifyArgs, IdentifyWhat};
 use crate::cmd::guard::{Inputs, svg_starting};
 use crate::cmd::print_json;
 
 pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
-    let mut inputs = Inputs::new()
-        .add("FILE", &args.file)
-        .add_opt("--join", args.join.as_deref());
+    let mut inputs = Inputs::new().add("FILE", &args.file);
+    for j in &args.join {
+        inputs = inputs.add("--join", j);
+    }
     for a in &args.also {
         inputs = inputs.add("--also", a);
     }

@@ -428,22 +428,34 @@ pub fn wear(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
         Some(wear_across_units(&per, at_vb_um, &meta)?)
     } else {
         if args.at_vb_um.is_some() {
-            bail!("--at-vb-um: the force at a stated wear is predicted for a new unit: it needs two or more units (--also, or --columns unit=COLUMN)");
+            bail!(
+                "--at-vb-um: the force at a stated wear is predicted for a new unit: it needs two or more units (--also, or --columns unit=COLUMN)"
+            );
         }
         None
     };
     let plots = match (&args.plots, &across) {
         (Some(dir), Some(a)) => present::units::wear_units_plots(dir, &out, a)?,
-        (Some(dir), None) => present::record::wear_plots(dir, &out[0].cut, &out[0].studies, &out[0].input)?,
+        (Some(dir), None) => {
+            present::record::wear_plots(dir, &out[0].cut, &out[0].studies, &out[0].input)?
+        }
         (None, _) => Vec::new(),
     };
-    let one_unit = (!multi).then(|| one_unit_note(unit_rows.first().filter(|_| unit_col.is_some()).map(|u| u.unit.as_str())));
+    let one_unit = (!multi).then(|| {
+        one_unit_note(
+            unit_rows
+                .first()
+                .filter(|_| unit_col.is_some())
+                .map(|u| u.unit.as_str()),
+        )
+    });
     if json {
-        let new_unit: Option<serde_json::Map<String, serde_json::Value>> = across.as_ref().map(|a| {
-            a.iter()
-                .map(|c| (c.channel.clone(), json!(c.across.new_unit())))
-                .collect()
-        });
+        let new_unit: Option<serde_json::Map<String, serde_json::Value>> =
+            across.as_ref().map(|a| {
+                a.iter()
+                    .map(|c| (c.channel.clone(), json!(c.across.new_unit())))
+                    .collect()
+            });
         if !multi {
             let u = &out[0];
             return print_json(&json!({
@@ -492,7 +504,15 @@ pub fn wear(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
         }
     }
     if let Some(a) = &across {
-        print!("{}", present::units::wear_across_text(&out.iter().map(|u| (u.unit.as_str(), u.vb_range_um)).collect::<Vec<_>>(), a));
+        print!(
+            "{}",
+            present::units::wear_across_text(
+                &out.iter()
+                    .map(|u| (u.unit.as_str(), u.vb_range_um))
+                    .collect::<Vec<_>>(),
+                a
+            )
+        );
     }
     for n in notes.iter().chain(&one_unit) {
         println!("note: {n}");
@@ -532,9 +552,14 @@ pub struct WearUnit {
 fn shared_wear_midpoint(units: &[WearUnit]) -> anyhow::Result<f64> {
     let ranges: Vec<[f64; 2]> = units.iter().filter_map(|u| u.vb_range_um).collect();
     if ranges.len() != units.len() {
-        bail!("across units, wear is combined through the force against flank wear: map vb_um in every file (--columns vb_um=…)");
+        bail!(
+            "across units, wear is combined through the force against flank wear: map vb_um in every file (--columns vb_um=…)"
+        );
     }
-    let lo = ranges.iter().map(|r| r[0]).fold(f64::NEG_INFINITY, f64::max);
+    let lo = ranges
+        .iter()
+        .map(|r| r[0])
+        .fold(f64::NEG_INFINITY, f64::max);
     let hi = ranges.iter().map(|r| r[1]).fold(f64::INFINITY, f64::min);
     if lo > hi {
         bail!(

@@ -108,7 +108,17 @@ pub fn unit_labels(m: &MappedTable) -> anyhow::Result<Option<(String, Vec<String
         .column(&g.columns[0])
         .with_context(|| format!("{}: no column `{}`", m.table.origin, g.columns[0]))?;
     let labels = match &c.data {
-        ColumnData::Text(v) => v.clone(),
+        ColumnData::Text(v) => {
+            if let Some(row) = v.iter().position(|x| x.trim().is_empty()) {
+                bail!(
+                    "{}: column `{}` read as `unit`, row {}: the cell is empty — every row needs its unit (tool, part or machine)",
+                    m.table.origin,
+                    g.sources[0],
+                    row + 1
+                );
+            }
+            v.clone()
+        }
         ColumnData::Int(v) => v.iter().map(|x| x.to_string()).collect(),
         ColumnData::Float(v) => {
             if let Some(row) = v.iter().position(|x| !x.is_finite()) {
@@ -128,8 +138,10 @@ pub fn unit_labels(m: &MappedTable) -> anyhow::Result<Option<(String, Vec<String
 
 /// The file's name without its extension: the unit of a file without a unit column.
 pub fn file_unit(path: &Path) -> String {
-    path.file_stem()
-        .map_or_else(|| path.display().to_string(), |s| s.to_string_lossy().into())
+    path.file_stem().map_or_else(
+        || path.display().to_string(),
+        |s| s.to_string_lossy().into(),
+    )
 }
 
 /// The units of a run: the unit column's values file by file, else one unit per file. Returns the

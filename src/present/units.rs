@@ -35,7 +35,14 @@ fn interval(ci: [f64; 2]) -> String {
 pub fn across_text(a: &AcrossUnits) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "across {} units — {}", a.units.len(), a.method);
-    let w = a.quantities.iter().map(|q| q.name.len()).max().unwrap_or(8).max(8) + 2;
+    let w = a
+        .quantities
+        .iter()
+        .map(|q| q.name.len())
+        .max()
+        .unwrap_or(8)
+        .max(8)
+        + 2;
     let _ = write!(s, "{:<w$}", "per unit (± its own SE)");
     for u in &a.units {
         let _ = write!(s, " {:>22}", format!("unit {u}"));
@@ -82,7 +89,10 @@ pub fn across_text(a: &AcrossUnits) -> String {
 }
 
 /// The wear run's across-units section: the units' wear ranges, then each channel's analysis.
-pub fn wear_across_text(vb_ranges: &[(&str, Option<[f64; 2]>)], channels: &[ChannelAcross]) -> String {
+pub fn wear_across_text(
+    vb_ranges: &[(&str, Option<[f64; 2]>)],
+    channels: &[ChannelAcross],
+) -> String {
     let mut s = String::new();
     let Some(first) = channels.first() else {
         return s;
@@ -134,7 +144,11 @@ pub fn wear_units_plots(
                 .collect();
             series.push(Series {
                 label: format!("unit {}: measured", u.unit),
-                points: vb.iter().copied().zip(st.measured_n.iter().copied()).collect(),
+                points: vb
+                    .iter()
+                    .copied()
+                    .zip(st.measured_n.iter().copied())
+                    .collect(),
             });
             if let Some(fw) = &st.force_vs_wear {
                 let (lo, hi) = vb
