@@ -9,7 +9,7 @@
 use millcomp_datasets::Table;
 use millcomp_datasets::mapping::join_on;
 use millcomp_identify::targets::wear::{
-    CutRange, WearLaw, WearOptions, WearStudy, study_wear, wear_across_units,
+    CutRange, WearLaw, WearOptions, WearStudy, force_wear_quantities, study_wear, wear_across_units,
 };
 use millcomp_identify::units::{MetaAnalysis, MetaOptions, Tau2Method, meta_analyse};
 use serde_json::Value;
@@ -290,6 +290,23 @@ fn a_cutter_left_out_lies_in_the_two_others_new_unit_interval() {
         assert!(
             pi[0] <= held && held <= pi[1],
             "cutter {} left out: {held} vs {pi:?}",
+            est[out].0
+        );
+        // so does the force at VB = 100 µm (c6's 8.11 N lies in [7.83, 13.99] from c1 and c4, whose
+        // own intervals, 10.74 ± 0.31 and 11.19 ± 0.40 N, agree with each other and miss it)
+        let f = &a[0]
+            .across
+            .quantities
+            .iter()
+            .find(|q| q.name == "force_at_vb_100um_n")
+            .unwrap();
+        let held_f = force_wear_quantities(est[out].1.force_vs_wear.as_ref().unwrap(), 100.0)
+            ["force_at_vb_100um_n"]
+            .0;
+        let fpi = f.meta.new_unit.pi95;
+        assert!(
+            fpi[0] <= held_f && held_f <= fpi[1],
+            "cutter {} left out: {held_f} N vs {fpi:?}",
             est[out].0
         );
         for i in (0..3).filter(|&i| i != out) {
