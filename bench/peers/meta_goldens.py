@@ -31,14 +31,13 @@ Usage: .venv/bin/python bench/peers/meta_goldens.py   (from the repository root;
 import json
 import math
 import os
-import platform
 
 import numpy as np
 import pandas as pd
-import scipy
-import statsmodels
 import statsmodels.api as sm
 from statsmodels.stats.meta_analysis import combine_effects
+
+from real_goldens import versions  # the same peer versions record as the real-record goldens
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 OUT = os.path.join(ROOT, "identify", "tests", "golden")
@@ -51,16 +50,6 @@ BCG = [
     (29, 7470, 45, 7232), (17, 1699, 65, 1600), (186, 50448, 141, 27197), (5, 2493, 3, 2338),
     (27, 16886, 29, 17825),
 ]
-
-
-def versions():
-    return {
-        "python": platform.python_version(),
-        "numpy": np.__version__,
-        "scipy": scipy.__version__,
-        "statsmodels": statsmodels.__version__,
-        "pandas": pd.__version__,
-    }
 
 
 def write(case, doc):

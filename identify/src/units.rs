@@ -371,10 +371,10 @@ pub fn width_note(k: usize) -> String {
 /// The statement a one-unit report carries.
 pub fn one_unit_note(unit: Option<&str>) -> String {
     format!(
-        "one unit{}: these intervals are this tool's, part's or machine's only — they do not cover another \
-         unit of the same kind (the next cutter differs by more than its own interval); a `unit` column \
-         (--columns unit=COLUMN) with two or more units gives the between-unit scatter and a prediction \
-         interval for a new unit (docs/identify.md#across-units)",
+        "one unit{}: these intervals are this unit's only (this tool's, part's or machine's) — they do not \
+         cover another unit of the same kind (of three PHM 2010 cutters, each one's wear slope lies outside \
+         another's interval); a `unit` column (--columns unit=COLUMN) with two or more units gives the \
+         between-unit scatter and a prediction interval for a new unit (docs/identify.md#across-units)",
         unit.map_or(String::new(), |u| format!(" (`{u}`)"))
     )
 }
