@@ -189,7 +189,7 @@ fn weighted(y: &[f64], v: &[f64], tau2: f64) -> (f64, f64, f64) {
 /// The τ² ≥ 0 at which the generalised Q equals `target` (it decreases in τ²); 0 when Q(0) ≤ target.
 fn solve_q(y: &[f64], v: &[f64], target: f64) -> f64 {
     let q_at = |t: f64| weighted(y, v, t).2;
-    if !(target > 0.0) || q_at(0.0) <= target {
+    if target.is_nan() || target <= 0.0 || q_at(0.0) <= target {
         return 0.0;
     }
     let (mut lo, mut hi) = (0.0, v.iter().copied().fold(0.0, f64::max).max(1e-300));
@@ -286,6 +286,9 @@ pub fn meta_analyse(estimate: &[f64], std_err: &[f64], opts: &MetaOptions) -> Re
         },
     })
 }
+
+/// A unit's quantities: name → (estimate, standard error).
+pub type Quantities = BTreeMap<String, (f64, f64)>;
 
 /// One unit's estimate of a quantity.
 #[derive(Debug, Clone, Serialize)]
@@ -385,10 +388,7 @@ pub fn one_unit_note(unit: Option<&str>) -> String {
 ///
 /// # Errors
 /// [`IdentifyError::TooFewUnits`] for fewer than 2 units.
-pub fn across_units(
-    per_unit: &[(String, BTreeMap<String, (f64, f64)>)],
-    opts: &MetaOptions,
-) -> Result<AcrossUnits> {
+pub fn across_units(per_unit: &[(String, Quantities)], opts: &MetaOptions) -> Result<AcrossUnits> {
     let k = per_unit.len();
     if k < 2 {
         return Err(IdentifyError::TooFewUnits { got: k });
@@ -557,7 +557,7 @@ pub fn identify_units(
             fit,
         });
     }
-    let per: Vec<(String, BTreeMap<String, (f64, f64)>)> = fits
+    let per: Vec<(String, Quantities)> = fits
         .iter()
         .map(|f| (f.unit.clone(), quantities_of(&f.fit)))
         .collect();

@@ -721,7 +721,7 @@ pub fn wear_across_units(
     }
     let mut out = Vec::new();
     for s in &units[0].1 {
-        let per: Option<Vec<(String, std::collections::BTreeMap<String, (f64, f64)>)>> = units
+        let per: Option<Vec<(String, crate::units::Quantities)>> = units
             .iter()
             .map(|(u, studies)| {
                 studies
