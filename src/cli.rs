@@ -356,9 +356,10 @@ pub struct IdentifyArgs {
     /// Thermal record / wear / flutes: write SVG plots of measured vs predicted here.
     #[arg(long)]
     pub plots: Option<PathBuf>,
-    /// Wear: a second per-cut file joined row by row on `--on` (e.g. the flank wear beside the forces).
+    /// Wear: a second per-cut file joined row by row on `--on` (e.g. the flank wear beside the forces);
+    /// with `--also`, one `--join` per file, in the same order (FILE's first).
     #[arg(long, requires = "on")]
-    pub join: Option<PathBuf>,
+    pub join: Vec<PathBuf>,
     /// Wear: the key column both files share (e.g. `run`, the cut number).
     #[arg(long)]
     pub on: Option<String>,
@@ -374,9 +375,19 @@ pub struct IdentifyArgs {
     /// Flutes: sample rate of the record (Hz; above 0, at most 100 MHz).
     #[arg(long, allow_negative_numbers = true, value_parser = sample_rate_hz)]
     pub sample_rate_hz: Option<f64>,
-    /// Flutes: further records analysed the same way (e.g. the worn tool beside the fresh one).
+    /// Further files of the same layout: flutes analyses each the same way (e.g. the worn tool beside
+    /// the fresh one); every other target reads each file as one unit (tool, part or machine; the file's
+    /// name is the unit, unless `--columns unit=COLUMN` names it) and combines the units.
     #[arg(long)]
     pub also: Vec<PathBuf>,
+    /// Across units (a `unit` column, or several files): the between-unit variance estimator, `dl`
+    /// (DerSimonian–Laird, the default) or `pm` (Paule–Mandel).
+    #[arg(long, default_value = "dl")]
+    pub tau2: String,
+    /// Wear across units: the flank wear (um) at which the new unit's force is predicted (default: the
+    /// middle of the wear range every unit covers, rounded to 10 um).
+    #[arg(long)]
+    pub at_vb_um: Option<f64>,
     /// Flutes: significance level of the flute-to-flute F-test.
     #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
     pub alpha: f64,

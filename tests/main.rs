@@ -17,3 +17,4 @@ mod real;
 mod reliability;
 mod report_html;
 mod simulate;
+mod units;

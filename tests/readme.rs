@@ -70,6 +70,7 @@ const CHECKED: &[(&str, &[&str])] = &[
         &[
             "millcomp identify force datasets/data/clayton_doe.csv --material 6061",
             "millcomp identify spindle datasets/runs/spindle_step_synthetic.csv",
+            "millcomp identify wear datasets/real/phm2010_c1/per_cut_force_features_c1.csv --join datasets/real/phm2010_c1/per_cut_wear_c1.csv --also datasets/real/phm2010_c4/per_cut_force_features_c4.csv --join datasets/real/phm2010_c4/per_cut_wear_c4.csv --on run --columns 'cut=run,force_n=force_y__rms,vb_um=VB_flute_*,unit=case' --laws linear",
         ],
     ),
     (

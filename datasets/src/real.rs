@@ -58,6 +58,8 @@ const FL: &str = "GitHub CAIVIAC/FL_THERMAL, commit 9fa40bd4c3d8a67b802c19719ff9
 const FL_LICENCE: &str = "MIT (c) 2024 CAIVIAC, datasets/real/fl_thermal/LICENSE_upstream_MIT.txt";
 const PHM_RAW: &str = "PHM Society 2010 data challenge, cutter c1: GitHub WSU-AI-in-ME/ai-in-me-1, commit f7b9b0ad45d59ac9a97d482531978739ed4c5542, data/phm2010/c1_selected_cuts/ (mirrors Kaggle rabahba/phm-data-challenge-2010)";
 const PHM_FEAT: &str = "PHM Society 2010 data challenge, cutter c1: GitHub pioneer0413/milling_nasa_ames_etri, commit 5974b9f81f79ff589ed8c092a405455c62ba6a90, datasets/phm2010/";
+const PHM_FEAT_C4: &str = "PHM Society 2010 data challenge, cutter c4: GitHub pioneer0413/milling_nasa_ames_etri, commit 5974b9f81f79ff589ed8c092a405455c62ba6a90, datasets/phm2010/";
+const PHM_FEAT_C6: &str = "PHM Society 2010 data challenge, cutter c6: GitHub pioneer0413/milling_nasa_ames_etri, commit 5974b9f81f79ff589ed8c092a405455c62ba6a90, datasets/phm2010/";
 const CC0: &str = "CC0 1.0 (the Kaggle copy of the PHM 2010 data)";
 const CC0_DERIVED: &str = "statistics of the CC0 1.0 PHM 2010 records; the computing repository states no licence of its own (datasets/real/README.md)";
 
@@ -112,6 +114,46 @@ pub static REAL_RECORDS: &[RealRecord] = &[
         units: "run = cut number, VB_flute_1..3 um, time = cut number (not seconds)",
         sha256: "670d6f23675771e4ad7ea64b1437f9c3865f769bc7af4c964a5d8ce6d596e9fe",
         csv: include_str!("../real/phm2010_c1/per_cut_wear_c1.csv"),
+    },
+    RealRecord {
+        name: "phm2010_c4_per_cut_forces",
+        file: "phm2010_c4/per_cut_force_features_c4.csv",
+        title: "PHM 2010 cutter c4 (a second tool, same machine and conditions): 10 statistics of each full force/vibration/AE record, per cut (315 cuts)",
+        source: PHM_FEAT_C4,
+        licence: CC0_DERIVED,
+        units: "run = cut number, case = cutter (4); force_* N, vib_* g, ae_rms_* V (no unit suffixes in the names)",
+        sha256: "25960ba9cda32dc154df842b9f597bf993b83547ed70ccc621fc5dd33de6347c",
+        csv: include_str!("../real/phm2010_c4/per_cut_force_features_c4.csv"),
+    },
+    RealRecord {
+        name: "phm2010_c4_per_cut_wear",
+        file: "phm2010_c4/per_cut_wear_c4.csv",
+        title: "PHM 2010 cutter c4: flank wear VB of each of the 3 flutes after every cut (315 cuts)",
+        source: PHM_FEAT_C4,
+        licence: CC0_DERIVED,
+        units: "run = cut number, case = cutter (4), VB_flute_1..3 um, time = cut number (not seconds)",
+        sha256: "54a8d9a1e09f5d5363656dacd3dea82b0c4a019b766588e6a5625d5fa294b253",
+        csv: include_str!("../real/phm2010_c4/per_cut_wear_c4.csv"),
+    },
+    RealRecord {
+        name: "phm2010_c6_per_cut_forces",
+        file: "phm2010_c6/per_cut_force_features_c6.csv",
+        title: "PHM 2010 cutter c6 (a third tool, same machine and conditions): 10 statistics of each full force/vibration/AE record, per cut (315 cuts)",
+        source: PHM_FEAT_C6,
+        licence: CC0_DERIVED,
+        units: "run = cut number, case = cutter (6); force_* N, vib_* g, ae_rms_* V (no unit suffixes in the names)",
+        sha256: "77bf22bdf878bdc5402442637d8fe1833b67cc52ad6d2e735b8f7493e1a6b3b1",
+        csv: include_str!("../real/phm2010_c6/per_cut_force_features_c6.csv"),
+    },
+    RealRecord {
+        name: "phm2010_c6_per_cut_wear",
+        file: "phm2010_c6/per_cut_wear_c6.csv",
+        title: "PHM 2010 cutter c6: flank wear VB of each of the 3 flutes after every cut (315 cuts)",
+        source: PHM_FEAT_C6,
+        licence: CC0_DERIVED,
+        units: "run = cut number, case = cutter (6), VB_flute_1..3 um, time = cut number (not seconds)",
+        sha256: "12b612f0f80bf6d5876d9741a334a831eca71564d46428eaadf03ec53a182d8f",
+        csv: include_str!("../real/phm2010_c6/per_cut_wear_c6.csv"),
     },
 ];
 

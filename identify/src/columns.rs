@@ -120,6 +120,47 @@ impl Columns {
         self.text.insert(name.to_string(), values);
         self
     }
+    /// The numeric column `name`.
+    pub fn numeric(&self, name: &str) -> Option<&[f64]> {
+        self.numeric.get(name).map(Vec::as_slice)
+    }
+    /// The text column `name`.
+    pub fn text(&self, name: &str) -> Option<&[String]> {
+        self.text.get(name).map(Vec::as_slice)
+    }
+    /// Removes column `name` (numeric or text).
+    pub fn remove(&mut self, name: &str) -> &mut Self {
+        self.numeric.remove(name);
+        self.text.remove(name);
+        self
+    }
+    /// The rows `rows` of every column (e.g. one unit's, [`crate::units::split_units`]).
+    ///
+    /// # Panics
+    /// When a row is out of range of a column.
+    pub fn rows(&self, rows: &[usize]) -> Columns {
+        Columns {
+            numeric: self
+                .numeric
+                .iter()
+                .map(|(k, v)| (k.clone(), rows.iter().map(|&i| v[i]).collect()))
+                .collect(),
+            text: self
+                .text
+                .iter()
+                .map(|(k, v)| (k.clone(), rows.iter().map(|&i| v[i].clone()).collect()))
+                .collect(),
+        }
+    }
+    /// Rows of the longest column (columns of one table all have the same).
+    pub fn n_rows(&self) -> usize {
+        self.numeric
+            .values()
+            .map(Vec::len)
+            .chain(self.text.values().map(Vec::len))
+            .max()
+            .unwrap_or(0)
+    }
     fn names(&self) -> BTreeSet<String> {
         self.numeric
             .keys()

@@ -227,6 +227,21 @@ pub enum IdentifyError {
         /// What was missing.
         what: &'static str,
     },
+    /// An across-units analysis needs at least two units.
+    #[error("{got} unit(s): a between-unit analysis needs at least 2")]
+    TooFewUnits {
+        /// Units found.
+        got: usize,
+    },
+    /// One unit's fit could not run (the cause is the source).
+    #[error("unit `{unit}`: its fit could not run")]
+    Unit {
+        /// The unit.
+        unit: String,
+        /// Why.
+        #[source]
+        source: Box<IdentifyError>,
+    },
 }
 
 /// Result alias of the crate.

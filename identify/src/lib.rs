@@ -25,6 +25,7 @@ pub mod linear;
 pub mod nonlinear;
 pub mod regress;
 pub mod report;
+pub mod units;
 pub mod validate;
 
 pub use columns::{Columns, IdentifyOptions, Target, identify_columns};

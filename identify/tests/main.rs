@@ -13,3 +13,5 @@ mod real_records;
 mod recovery;
 mod saved_model;
 mod table33;
+mod unit_sim;
+mod units;

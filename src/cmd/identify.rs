@@ -5,16 +5,20 @@ use anyhow::{Context, bail};
 use millcomp_identify::targets::force::ForceParam;
 use millcomp_identify::targets::thermal::ThermalModel;
 use millcomp_identify::targets::wall::WallGeometry;
-use millcomp_identify::{FitReport, IdentifyOptions, Target, identify_columns};
+use millcomp_identify::units::{UNIT_ROLE, identify_units, one_unit_note};
+use millcomp_identify::{
+    Columns, FitReport, Identified, IdentifyOptions, Target, identify_columns,
+};
 
 use crate::cli::{IdentifyArgs, IdentifyWhat};
 use crate::cmd::guard::{Inputs, svg_starting};
 use crate::cmd::print_json;
 
 pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
-    let mut inputs = Inputs::new()
-        .add("FILE", &args.file)
-        .add_opt("--join", args.join.as_deref());
+    let mut inputs = Inputs::new().add("FILE", &args.file);
+    for j in &args.join {
+        inputs = inputs.add("--join", j);
+    }
     for a in &args.also {
         inputs = inputs.add("--also", a);
     }
@@ -50,13 +54,71 @@ pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
         IdentifyWhat::Flutes => return crate::cmd::record::flutes(args, json),
     };
     let options = options(&args)?;
-    let (table, notes) = crate::cmd::record::read_mapped(&args.file, args.columns.as_deref())?;
-    for n in &notes {
-        eprintln!("note: {}: {n}", args.file.display());
+    let meta = crate::cmd::units::meta_options(&args)?;
+    let files = crate::cmd::units::read_files(&args)?;
+    for f in &files {
+        for n in &f.m.notes {
+            eprintln!("note: {}: {n}", f.path.display());
+        }
     }
-    let cols = millcomp_datasets::adapters::identify_columns(&table);
-    let fit = identify_columns(verb, &cols, &options)
+    let (unit_col, unit_rows) = crate::cmd::units::units_of(&files)?;
+    let columns_of = |i: usize| {
+        let mut c = millcomp_datasets::adapters::identify_columns(&files[i].m.table);
+        c.remove(UNIT_ROLE);
+        c
+    };
+    if unit_rows.len() >= 2 {
+        if args.save.is_some() {
+            bail!(
+                "--save: {} units were fitted; a model file holds one unit's fit — save each unit's \
+                 from its own rows, or keep the across-units analysis with --json",
+                unit_rows.len()
+            );
+        }
+        let units: Vec<(String, Columns)> = unit_rows
+            .iter()
+            .map(|u| (u.unit.clone(), columns_of(u.file).rows(&u.rows)))
+            .collect();
+        let r = identify_units(verb, &units, &options, &meta).with_context(|| {
+            format!(
+                "{}: identify {} unit by unit",
+                files[0].path.display(),
+                verb.name()
+            )
+        })?;
+        if json {
+            return print_json(&serde_json::json!({
+                "inputs": files.iter().map(|f| &f.info).collect::<Vec<_>>(),
+                "unit_column": unit_col,
+                "target": r.target,
+                "units": r.units,
+                "across_units": r.across_units,
+                "new_unit": r.new_unit,
+            }));
+        }
+        for u in &r.units {
+            println!(
+                "=== unit `{}`{}: {} rows ===",
+                u.unit,
+                unit_col
+                    .as_ref()
+                    .map_or(" (a file)".to_string(), |c| format!(" ({c} = {})", u.unit)),
+                u.rows
+            );
+            print_fit(&u.fit);
+            println!();
+        }
+        print!("{}", crate::present::units::across_text(&r.across_units));
+        return Ok(());
+    }
+    let mut fit = identify_columns(verb, &columns_of(0), &options)
         .with_context(|| format!("{}: identify {}", args.file.display(), verb.name()))?;
+    fit.notes.push(one_unit_note(
+        unit_rows
+            .first()
+            .filter(|_| unit_col.is_some())
+            .map(|u| u.unit.as_str()),
+    ));
     if let Some(path) = &args.save {
         let inputs = vec![millcomp_models::InputFile::from_path(&args.file)?];
         millcomp_models::ModelFile::new(
@@ -70,6 +132,14 @@ pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
     if json {
         return print_json(&fit);
     }
+    print_fit(&fit);
+    if let Some(path) = &args.save {
+        println!("model: {}", path.display());
+    }
+    Ok(())
+}
+
+fn print_fit(fit: &Identified) {
     print_report(&fit.report);
     for (name, d) in &fit.derived {
         println!(
@@ -84,10 +154,6 @@ pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
     for n in &fit.notes {
         println!("note: {n}");
     }
-    if let Some(path) = &args.save {
-        println!("model: {}", path.display());
-    }
-    Ok(())
 }
 
 fn options(args: &IdentifyArgs) -> anyhow::Result<IdentifyOptions> {

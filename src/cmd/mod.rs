@@ -14,6 +14,7 @@ mod identify;
 mod parts;
 pub(crate) mod record;
 mod simulate;
+mod units;
 
 /// Prints a serialisable value as one pretty JSON document on stdout.
 pub fn print_json<T: serde::Serialize>(value: &T) -> anyhow::Result<()> {

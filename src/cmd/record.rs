@@ -13,12 +13,15 @@ use millcomp_identify::targets::flutes::{FluteReport, flute_peaks};
 use millcomp_identify::targets::thermal_record::{
     Structure, StudyOptions, ThermalRecord, TimeRange, study_channel,
 };
-use millcomp_identify::targets::wear::{CutRange, WearLaw, WearOptions, study_wear};
+use millcomp_identify::targets::wear::{
+    CutRange, WearLaw, WearOptions, WearStudy, study_wear, wear_across_units,
+};
+use millcomp_identify::units::one_unit_note;
 use serde::Serialize;
 use serde_json::json;
 
 use crate::cli::IdentifyArgs;
-use crate::cmd::{print_json, progress_bar};
+use crate::cmd::{print_json, progress_bar, units};
 use crate::present;
 
 /// The file a verb read: path, SHA-256, and the shipped real record it is, if any.
@@ -205,6 +208,13 @@ pub fn is_thermal_study(args: &IdentifyArgs) -> bool {
 pub fn thermal(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
     let info = InputInfo::of(&args.file)?;
     let m = read_mapped_full(&args.file, None, args.columns.as_deref())?;
+    if !args.also.is_empty() || m.group(millcomp_identify::units::UNIT_ROLE).is_some() {
+        bail!(
+            "{}: the thermal record study (--train) reads one machine's record: it does not combine units \
+             (--also, --columns unit=…) yet; study each machine's record on its own",
+            args.file.display()
+        );
+    }
     let (t_col, t) = single(&m, "t_s", "the record's time in s")?;
     m.strictly_increasing(
         &m.group("t_s")
@@ -299,87 +309,264 @@ pub fn thermal(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `millcomp identify wear PER_CUT.csv [--join WEAR.csv --on run] --columns cut=…,force_n=…[,vb_um=…]`.
+/// `millcomp identify wear PER_CUT.csv [--join WEAR.csv --on run] --columns cut=…,force_n=…[,vb_um=…]`;
+/// with `--also` (one `--join` each) or `--columns unit=COLUMN`, each unit (tool) is studied on its own
+/// and the units are combined (issue 50: what one tool's fit says of the next).
 pub fn wear(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
-    let info = InputInfo::of(&args.file)?;
-    let join_info = args.join.as_deref().map(InputInfo::of).transpose()?;
-    let join = match (&args.join, &args.on) {
-        (Some(f), Some(k)) => Some((f.as_path(), k.as_str())),
-        _ => None,
-    };
-    let m = read_mapped_full(&args.file, join, args.columns.as_deref())?;
-    let (cut_col, cut) = single(&m, "cut", "the cut number of each row")?;
-    m.strictly_increasing(
-        &m.group("cut")
-            .map_or("cut".into(), |g| g.columns[0].clone()),
-    )?;
-    let forces = several(&m, "force_n")?;
-    if forces.is_empty() {
-        bail!(
-            "{}: no force channel: map one or more with --columns force_n=COLUMN (e.g. force_*__rms)",
-            args.file.display()
-        );
+    let files = units::read_files(&args)?;
+    let (unit_col, unit_rows) = units::units_of(&files)?;
+    let meta = units::meta_options(&args)?;
+    let laws: Vec<WearLaw> = args
+        .laws
+        .iter()
+        .map(|l| WearLaw::parse(l.trim()))
+        .collect::<Result<_, _>>()?;
+    let multi = unit_rows.len() >= 2;
+    let mut out: Vec<WearUnit> = Vec::new();
+    for u in &unit_rows {
+        let f = &files[u.file];
+        let m = &f.m;
+        let (cut_col, cut_all) = single(m, "cut", "the cut number of each row")?;
+        let cut = units::take(&cut_all, &u.rows);
+        let cut_name = m
+            .group("cut")
+            .map_or("cut".into(), |g| g.columns[0].clone());
+        if unit_col.is_none() {
+            m.strictly_increasing(&cut_name)?;
+        } else if let Some(j) = (1..cut.len()).find(|&j| cut[j] <= cut[j - 1]) {
+            bail!(
+                "{}: column `{cut_col}` read as `cut`, row {}: {} is not after the unit's previous cut {} (unit `{}`: a unit's cuts must strictly increase)",
+                f.path.display(),
+                u.rows[j] + 1,
+                cut[j],
+                cut[j - 1],
+                u.unit
+            );
+        }
+        let forces: Vec<(String, Vec<f64>)> = several(m, "force_n")?
+            .into_iter()
+            .map(|(n, v)| (n, units::take(&v, &u.rows)))
+            .collect();
+        if forces.is_empty() {
+            bail!(
+                "{}: no force channel: map one or more with --columns force_n=COLUMN (e.g. force_*__rms)",
+                f.path.display()
+            );
+        }
+        let vb: Vec<(String, Vec<f64>)> = several(m, "vb_um")?
+            .into_iter()
+            .map(|(n, v)| (n, units::take(&v, &u.rows)))
+            .collect();
+        let train = CutRange::parse(
+            "--train",
+            args.train.as_deref().unwrap_or(&format!("{}:end", cut[0])),
+        )?;
+        let test = args
+            .test
+            .as_deref()
+            .map(|r| CutRange::parse("--test", r))
+            .transpose()?;
+        let mut opts = WearOptions::new(train, test);
+        opts.folds = args.folds;
+        if !laws.is_empty() {
+            opts.laws = laws.clone();
+        }
+        let vb_refs: Vec<(String, &[f64])> =
+            vb.iter().map(|(n, v)| (n.clone(), v.as_slice())).collect();
+        let mut studies = Vec::new();
+        for (name, force) in &forces {
+            let s = study_wear(
+                &cut,
+                (!vb_refs.is_empty()).then_some(vb_refs.as_slice()),
+                name,
+                force,
+                &opts,
+            )
+            .with_context(|| {
+                format!(
+                    "{}: wear study of `{name}`{}",
+                    f.path.display(),
+                    if multi {
+                        format!(" (unit `{}`)", u.unit)
+                    } else {
+                        String::new()
+                    }
+                )
+            })?;
+            studies.push(s);
+        }
+        let mean_vb: Vec<f64> = (0..cut.len())
+            .map(|i| vb.iter().map(|v| v.1[i]).sum::<f64>() / vb.len().max(1) as f64)
+            .collect();
+        out.push(WearUnit {
+            unit: u.unit.clone(),
+            input: f.info.clone(),
+            joined: f.joined.clone(),
+            cut_column: cut_col,
+            last_cut: cut[cut.len() - 1],
+            vb_range_um: (!vb.is_empty()).then(|| {
+                [
+                    mean_vb.iter().copied().fold(f64::INFINITY, f64::min),
+                    mean_vb.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+                ]
+            }),
+            vb,
+            cut,
+            studies,
+        });
     }
-    let vb = several(&m, "vb_um")?;
-    let last = cut[cut.len() - 1];
-    let train = CutRange::parse(
-        "--train",
-        args.train.as_deref().unwrap_or(&format!("{}:end", cut[0])),
-    )?;
-    let test = args
-        .test
-        .as_deref()
-        .map(|r| CutRange::parse("--test", r))
-        .transpose()?;
-    let mut opts = WearOptions::new(train, test);
-    opts.folds = args.folds;
-    if !args.laws.is_empty() {
-        opts.laws = args
-            .laws
+    let notes: Vec<String> = files.iter().flat_map(|f| f.m.notes.clone()).collect();
+    let across = if multi {
+        let at_vb_um = match args.at_vb_um {
+            Some(v) => v,
+            None => shared_wear_midpoint(&out)?,
+        };
+        let per: Vec<(String, Vec<WearStudy>)> = out
             .iter()
-            .map(|l| WearLaw::parse(l.trim()))
-            .collect::<Result<_, _>>()?;
-    }
-    let vb_refs: Vec<(String, &[f64])> =
-        vb.iter().map(|(n, v)| (n.clone(), v.as_slice())).collect();
-    let mut studies = Vec::new();
-    for (name, f) in &forces {
-        let s = study_wear(
-            &cut,
-            (!vb_refs.is_empty()).then_some(vb_refs.as_slice()),
-            name,
-            f,
-            &opts,
-        )
-        .with_context(|| format!("{}: wear study of `{name}`", args.file.display()))?;
-        studies.push(s);
-    }
-    let plots = match &args.plots {
-        Some(dir) => present::record::wear_plots(dir, &cut, &studies, &info)?,
-        None => Vec::new(),
+            .map(|u| (u.unit.clone(), u.studies.clone()))
+            .collect();
+        Some(wear_across_units(&per, at_vb_um, &meta)?)
+    } else {
+        if args.at_vb_um.is_some() {
+            bail!(
+                "--at-vb-um: the force at a stated wear is predicted for a new unit: it needs two or more units (--also, or --columns unit=COLUMN)"
+            );
+        }
+        None
     };
+    let plots = match (&args.plots, &across) {
+        (Some(dir), Some(a)) => present::units::wear_units_plots(dir, &out, a)?,
+        (Some(dir), None) => {
+            present::record::wear_plots(dir, &out[0].cut, &out[0].studies, &out[0].input)?
+        }
+        (None, _) => Vec::new(),
+    };
+    let one_unit = (!multi).then(|| {
+        one_unit_note(
+            unit_rows
+                .first()
+                .filter(|_| unit_col.is_some())
+                .map(|u| u.unit.as_str()),
+        )
+    });
     if json {
+        let new_unit: Option<serde_json::Map<String, serde_json::Value>> =
+            across.as_ref().map(|a| {
+                a.iter()
+                    .map(|c| (c.channel.clone(), json!(c.across.new_unit())))
+                    .collect()
+            });
+        if !multi {
+            let u = &out[0];
+            return print_json(&json!({
+                "input": u.input,
+                "joined": u.joined,
+                "columns": {"cut": u.cut_column, "force_n": u.studies.iter().map(|s| &s.channel).collect::<Vec<_>>(),
+                            "vb_um": u.vb.iter().map(|v| &v.0).collect::<Vec<_>>()},
+                "notes": notes.iter().chain(&one_unit).collect::<Vec<_>>(),
+                "channels": u.studies,
+                "plots": plots,
+            }));
+        }
         return print_json(&json!({
-            "input": info,
-            "joined": join_info,
-            "columns": {"cut": cut_col, "force_n": forces.iter().map(|f| &f.0).collect::<Vec<_>>(),
-                        "vb_um": vb.iter().map(|v| &v.0).collect::<Vec<_>>()},
-            "notes": m.notes,
-            "channels": studies,
+            "unit_column": unit_col,
+            "units": out,
+            "notes": notes,
+            "across_units": across,
+            "new_unit": new_unit,
             "plots": plots,
         }));
     }
-    print!(
-        "{}",
-        present::record::wear_text(&info, join_info.as_ref(), &cut_col, last, &vb, &studies)
-    );
-    for n in &m.notes {
+    for u in &out {
+        if multi {
+            println!(
+                "=== unit `{}`{}: {} cuts ===",
+                u.unit,
+                unit_col
+                    .as_ref()
+                    .map_or(" (a file)".to_string(), |c| format!(" ({c} = {})", u.unit)),
+                u.cut.len()
+            );
+        }
+        print!(
+            "{}",
+            present::record::wear_text(
+                &u.input,
+                u.joined.as_ref(),
+                &u.cut_column,
+                u.last_cut,
+                &u.vb,
+                &u.studies
+            )
+        );
+        if multi {
+            println!();
+        }
+    }
+    if let Some(a) = &across {
+        print!(
+            "{}",
+            present::units::wear_across_text(
+                &out.iter()
+                    .map(|u| (u.unit.as_str(), u.vb_range_um))
+                    .collect::<Vec<_>>(),
+                a
+            )
+        );
+    }
+    for n in notes.iter().chain(&one_unit) {
         println!("note: {n}");
     }
     for p in &plots {
         println!("plot: {}", p.display());
     }
     Ok(())
+}
+
+/// One unit of a wear run.
+#[derive(Debug, Serialize)]
+pub struct WearUnit {
+    /// The unit.
+    pub unit: String,
+    /// Its file.
+    pub input: InputInfo,
+    /// The file joined onto it.
+    pub joined: Option<InputInfo>,
+    /// The cut column's name in the file.
+    pub cut_column: String,
+    /// Its last cut.
+    pub last_cut: f64,
+    /// Range of its mean flank wear (µm).
+    pub vb_range_um: Option<[f64; 2]>,
+    /// The flank-wear columns (for the report).
+    #[serde(skip)]
+    pub vb: Vec<(String, Vec<f64>)>,
+    /// Its cut numbers.
+    #[serde(skip)]
+    pub cut: Vec<f64>,
+    /// One study per force channel.
+    pub studies: Vec<WearStudy>,
+}
+
+/// The middle of the mean-wear range every unit covers, rounded to 10 µm.
+fn shared_wear_midpoint(units: &[WearUnit]) -> anyhow::Result<f64> {
+    let ranges: Vec<[f64; 2]> = units.iter().filter_map(|u| u.vb_range_um).collect();
+    if ranges.len() != units.len() {
+        bail!(
+            "across units, wear is combined through the force against flank wear: map vb_um in every file (--columns vb_um=…)"
+        );
+    }
+    let lo = ranges
+        .iter()
+        .map(|r| r[0])
+        .fold(f64::NEG_INFINITY, f64::max);
+    let hi = ranges.iter().map(|r| r[1]).fold(f64::INFINITY, f64::min);
+    if lo > hi {
+        bail!(
+            "the units' flank-wear ranges do not overlap (shared from {lo:.1} to {hi:.1} um): state the wear to predict the force at with --at-vb-um"
+        );
+    }
+    Ok((0.5 * (lo + hi) / 10.0).round() * 10.0)
 }
 
 /// One raw record's per-flute reports.

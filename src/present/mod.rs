@@ -10,3 +10,4 @@ pub mod parts;
 pub mod plot;
 pub mod record;
 pub mod table;
+pub mod units;

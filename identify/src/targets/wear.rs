@@ -43,6 +43,7 @@ use crate::error::{IdentifyError, Result};
 use crate::linear::{LinearMethod, fit_linear};
 use crate::nonlinear::{NlsOptions, ParamSpec, ResidualModel, fit_nonlinear};
 use crate::report::FitReport;
+use crate::units::{AcrossUnits, MetaOptions, across_units};
 use crate::validate;
 
 /// Reference cut count of the power law (`(n/100)^c`, so `b` is the growth at cut 100).
@@ -663,6 +664,96 @@ pub fn study_wear(
         measured_n: f.to_vec(),
         prediction_n: prediction,
     })
+}
+
+/// The name of the force at flank wear `vb_um` (`force_at_vb_100um_n`).
+pub fn force_at_vb_name(vb_um: f64) -> String {
+    format!("force_at_vb_{vb_um}um_n")
+}
+
+/// The quantities of a force-against-wear fit that carry over to another unit: `f0_n`,
+/// `k_n_per_um` and the force at flank wear `at_vb_um` (`F0 + k·VB`, its standard error from the fit's
+/// Newey–West covariance), each as (estimate, standard error).
+pub fn force_wear_quantities(
+    fit: &ForceWearFit,
+    at_vb_um: f64,
+) -> std::collections::BTreeMap<String, (f64, f64)> {
+    let r = &fit.report;
+    let mut m: std::collections::BTreeMap<String, (f64, f64)> = ["f0_n", "k_n_per_um"]
+        .iter()
+        .map(|n| (n.to_string(), (r.param(n), r.se(n))))
+        .collect();
+    if let Some(d) = super::derive(r, &["f0_n", "k_n_per_um"], "F0 + k·VB", |x| {
+        x[0] + at_vb_um * x[1]
+    }) {
+        m.insert(force_at_vb_name(at_vb_um), (d.value, d.std_err));
+    }
+    m
+}
+
+/// One force channel across units.
+#[derive(Debug, Clone, Serialize)]
+pub struct ChannelAcross {
+    /// The force channel.
+    pub channel: String,
+    /// The flank wear at which the force is predicted (µm).
+    pub at_vb_um: f64,
+    /// The meta-analysis of `f0_n`, `k_n_per_um` and the force at `at_vb_um`.
+    #[serde(flatten)]
+    pub across: AcrossUnits,
+}
+
+/// Combines the force-against-wear fits of several units (`units[i] = (unit, its studies)`), channel by
+/// channel (a channel every unit has, with a force-against-wear fit in each) — the crate's one
+/// across-units analysis ([`crate::units`]). The cut-count laws are each unit's own (the law chosen
+/// may differ) and are not combined.
+///
+/// # Errors
+/// [`IdentifyError::TooFewUnits`] for fewer than 2 units; [`IdentifyError::MissingColumn`] when no
+/// channel has a force-against-wear fit in every unit (no `vb_um`).
+pub fn wear_across_units(
+    units: &[(String, Vec<WearStudy>)],
+    at_vb_um: f64,
+    meta: &MetaOptions,
+) -> Result<Vec<ChannelAcross>> {
+    if units.len() < 2 {
+        return Err(IdentifyError::TooFewUnits { got: units.len() });
+    }
+    let mut out = Vec::new();
+    for s in &units[0].1 {
+        let per: Option<Vec<(String, crate::units::Quantities)>> = units
+            .iter()
+            .map(|(u, studies)| {
+                studies
+                    .iter()
+                    .find(|t| t.channel == s.channel)
+                    .and_then(|t| t.force_vs_wear.as_ref())
+                    .map(|fw| (u.clone(), force_wear_quantities(fw, at_vb_um)))
+            })
+            .collect();
+        if let Some(per) = per {
+            let mut across = across_units(&per, meta)?;
+            across.notes.push(
+                "the cut-count laws are each unit's own (the law chosen may differ) and are not combined"
+                    .into(),
+            );
+            out.push(ChannelAcross {
+                channel: s.channel.clone(),
+                at_vb_um,
+                across,
+            });
+        }
+    }
+    if out.is_empty() {
+        return Err(IdentifyError::MissingColumn {
+            column: "vb_um".into(),
+            reason:
+                "the units are combined through their force-against-wear fits: map the flank wear \
+                     of every unit (--columns vb_um=…)"
+                    .into(),
+        });
+    }
+    Ok(out)
 }
 
 #[cfg(test)]
