@@ -93,7 +93,7 @@ pub enum Command {
     #[command(
         after_help = "Example:\n  millcomp identify spindle datasets/runs/spindle_step_synthetic.csv --save spindle.toml"
     )]
-    Identify(IdentifyArgs),
+    Identify(Box<IdentifyArgs>),
     /// Find where simulation and measurement disagree and name the missing physical effect.
     #[command(
         after_help = "Example:\n  millcomp diagnose datasets/synthetic/coolant_thermal_drift.toml datasets/synthetic/coolant_thermal_drift.csv"

@@ -69,7 +69,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Demo(a) => demo::run(a, json),
         Command::Pipeline(a) => demo::run_plan(a, json),
         Command::Doe(c) => doe::run(c, json),
-        Command::Identify(a) => identify::run(a, json),
+        Command::Identify(a) => identify::run(*a, json),
         Command::Diagnose(a) => diagnose::run(a, json),
         Command::Commission(a) => commission::run(a, json),
         Command::Simulate(a) => simulate::run(a, json),
