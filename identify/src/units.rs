@@ -689,8 +689,9 @@ mod tests {
         )
         .unwrap();
         assert_eq!(m.tau2, 0.0);
-        assert_eq!(m.tau_ci95[0], 0.0);
-        assert!(m.tau_ci95[1] > 0.1, "{:?}", m.tau_ci95);
+        // Q(0) = (0.01² + 0.01²)/0.1² = 0.02 lies below χ²(2)'s 2.5 % point 0.0506, so no τ² ≥ 0 reaches
+        // it: the Q-profile interval (Viechtbauer 2007) is {0}, as metafor prints it ([0.0000, 0.0000])
+        assert_eq!(m.tau_ci95, [0.0, 0.0], "{:?}", m.tau_ci95);
         // the truncated Hartung–Knapp scale: never narrower than the plain random-effects interval
         assert!(m.hksj_q < 1.0 && (m.se - m.se_random).abs() < 1e-15);
         let y = [1.0, 1.6, 0.7, 1.3];
@@ -719,7 +720,8 @@ mod tests {
         let e = meta_analyse(&[1.0, 2.0], &[0.1, 0.0], &o).unwrap_err();
         assert!(e.to_string().contains("std_err[1]"), "{e}");
         let e = meta_analyse(&[1.0, f64::NAN], &[0.1, 0.1], &o).unwrap_err();
-        assert!(e.to_string().contains("row 1"), "{e}");
+        // rows count from 1 (issue 51's one convention): the second estimate is row 2
+        assert!(e.to_string().contains("row 2"), "{e}");
         assert!(
             Tau2Method::parse("reml")
                 .unwrap_err()

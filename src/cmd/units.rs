@@ -55,10 +55,12 @@ pub fn read_files(args: &IdentifyArgs) -> anyhow::Result<Vec<FileIn>> {
     let mut out = Vec::with_capacity(paths.len());
     for (i, path) in paths.into_iter().enumerate() {
         let join = args.join.get(i).map(PathBuf::as_path);
+        let on = args.on.as_deref().unwrap_or_default();
+        // the table first: its reader names a directory, a missing file or a bad cell plainly; the
+        // hashes (provenance) only of files it could read
+        let mut m = read_mapped_full(&path, join.map(|j| (j, on)), args.columns.as_deref())?;
         let info = InputInfo::of(&path)?;
         let joined = join.map(InputInfo::of).transpose()?;
-        let on = args.on.as_deref().unwrap_or_default();
-        let mut m = read_mapped_full(&path, join.map(|j| (j, on)), args.columns.as_deref())?;
         keep_unit_source(&mut m);
         out.push(FileIn {
             path,
