@@ -5,6 +5,21 @@ use std::collections::BTreeMap;
 
 use millcomp_identify::FitReport;
 
+/// A golden file of this crate's tests, `tests/golden/NAME.json`, parsed.
+pub fn golden_json(name: &str) -> serde_json::Value {
+    let path = format!("{}/tests/golden/{name}.json", env!("CARGO_MANIFEST_DIR"));
+    serde_json::from_str(&std::fs::read_to_string(path).expect("golden")).expect("json")
+}
+
+/// A JSON array of numbers as a vector.
+pub fn nums(v: &serde_json::Value) -> Vec<f64> {
+    v.as_array()
+        .expect("array")
+        .iter()
+        .map(|x| x.as_f64().expect("number"))
+        .collect()
+}
+
 /// Tolerances, each argued.
 pub mod tol {
     /// Number of synthetic data sets per verb in the recovery studies (the issue asks for ≥ 200).

@@ -28,20 +28,10 @@ fn every(v: &[f64], k: usize) -> Vec<f64> {
 }
 
 fn golden(case: &str) -> Value {
-    let path = format!(
-        "{}/tests/golden/real_{case}.json",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    serde_json::from_str(&std::fs::read_to_string(path).expect("golden")).expect("json")
+    crate::common::golden_json(&format!("real_{case}"))
 }
 
-fn nums(v: &Value) -> Vec<f64> {
-    v.as_array()
-        .expect("array")
-        .iter()
-        .map(|x| x.as_f64().expect("number"))
-        .collect()
-}
+use crate::common::nums;
 
 /// The FL_THERMAL record every 8th row: time, speed, 16 temperatures, 5 channels.
 struct Thermal {

@@ -17,20 +17,10 @@ use serde_json::Value;
 use crate::unit_sim::{Family, Setting, coverage};
 
 fn golden(case: &str) -> Value {
-    let path = format!(
-        "{}/tests/golden/meta_{case}.json",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    serde_json::from_str(&std::fs::read_to_string(path).expect("golden")).expect("json")
+    crate::common::golden_json(&format!("meta_{case}"))
 }
 
-fn nums(v: &Value) -> Vec<f64> {
-    v.as_array()
-        .expect("array")
-        .iter()
-        .map(|x| x.as_f64().expect("number"))
-        .collect()
-}
+use crate::common::nums;
 
 fn close(what: &str, got: f64, want: f64, rel: f64) {
     assert!(

@@ -162,8 +162,11 @@ pub fn fit(
         let opts = options.to_options()?;
         let read = read(source, "frame", columns.as_deref())?;
         let cols = millcomp_datasets::adapters::identify_columns(&read.table);
-        let fit = identify_columns(target, &cols, &opts)
+        let mut fit = identify_columns(target, &cols, &opts)
             .with_context(|| format!("{}: identify {}", read.origin, target.name()))?;
+        // as the CLI: one unit's intervals do not cover another unit's
+        fit.notes
+            .push(millcomp_identify::units::one_unit_note(None));
         Ok(PyModel {
             input_notes: read.notes.clone(),
             kind: fit.kind.clone(),
