@@ -159,13 +159,24 @@ fn t975(df: f64) -> f64 {
 /// after a few Newton steps, which at 1 degree of freedom and p = 0.025 — the density is infinite at
 /// 0 — does not reach the quantile 9.82e-4).
 fn chi2_quantile(d: &ChiSquared, p: f64) -> f64 {
-    let (mut lo, mut hi) = (0.0, 1.0);
+    let mut hi = 1.0;
     while d.cdf(hi) < p {
         hi *= 2.0;
     }
-    for _ in 0..300 {
+    bisect(0.0, hi, 300, |x| d.cdf(x) < p)
+}
+
+/// The point where `left_of_root` turns from true to false within `[lo, hi]`, halving the bracket at
+/// most `max_halvings` times or until it is 1e-15 of `hi` wide; its midpoint.
+fn bisect(
+    mut lo: f64,
+    mut hi: f64,
+    max_halvings: usize,
+    left_of_root: impl Fn(f64) -> bool,
+) -> f64 {
+    for _ in 0..max_halvings {
         let mid = 0.5 * (lo + hi);
-        if d.cdf(mid) < p {
+        if left_of_root(mid) {
             lo = mid;
         } else {
             hi = mid;
@@ -200,18 +211,7 @@ fn solve_q(y: &[f64], v: &[f64], target: f64) -> f64 {
             return f64::INFINITY;
         }
     }
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if q_at(mid) > target {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-        if hi - lo <= 1e-15 * hi {
-            break;
-        }
-    }
-    0.5 * (lo + hi)
+    bisect(lo, hi, 200, |t| q_at(t) > target)
 }
 
 /// Combines per-unit estimates `estimate` with standard errors `std_err` (module documentation).

@@ -11,7 +11,9 @@ use millcomp_datasets::mapping::join_on;
 use millcomp_identify::targets::wear::{
     CutRange, WearLaw, WearOptions, WearStudy, force_wear_quantities, study_wear, wear_across_units,
 };
-use millcomp_identify::units::{MetaAnalysis, MetaOptions, Tau2Method, meta_analyse};
+use millcomp_identify::units::{
+    MetaAnalysis, MetaOptions, QuantityAcross, Tau2Method, meta_analyse,
+};
 use serde_json::Value;
 
 use crate::unit_sim::{Family, Setting, coverage};
@@ -122,6 +124,27 @@ fn wear_study(t: &Table) -> WearStudy {
     study_wear(&cut, Some(&refs), "force_y__rms", &col("force_y__rms"), &o).unwrap()
 }
 
+/// Per cutter, in the golden's order: the unit, its estimate (to 1e-9) and its Newey–West SE (to 1e-7;
+/// the peer's lag-1 r and lags are the same rule).
+fn per_cutter_equals_the_peer(q: &QuantityAcross, g: &Value) {
+    for (e, pu) in q.per_unit.iter().zip(g["units"].as_array().unwrap()) {
+        assert_eq!(e.unit, pu["unit"].as_str().unwrap());
+        let want = nums(&pu[&q.name]);
+        close(
+            &format!("{} unit {} estimate", q.name, e.unit),
+            e.value,
+            want[0],
+            1e-9,
+        );
+        close(
+            &format!("{} unit {} SE", q.name, e.unit),
+            e.std_err,
+            want[1],
+            1e-7,
+        );
+    }
+}
+
 #[test]
 fn cutters_c1_and_c4_match_the_peer_end_to_end() {
     // the whole path of `identify wear … --columns unit=case`: each cutter's Newey–West fit of the
@@ -139,23 +162,7 @@ fn cutters_c1_and_c4_match_the_peer_end_to_end() {
         let a = wear_across_units(&units, 100.0, &MetaOptions { tau2 }).unwrap();
         assert_eq!(a.len(), 1);
         for q in &a[0].across.quantities {
-            // per cutter: estimate and Newey–West SE (the peer's lag-1 r and lags are the same rule)
-            for (e, pu) in q.per_unit.iter().zip(g["units"].as_array().unwrap()) {
-                assert_eq!(e.unit, pu["unit"].as_str().unwrap());
-                let want = nums(&pu[&q.name]);
-                close(
-                    &format!("{} unit {} estimate", q.name, e.unit),
-                    e.value,
-                    want[0],
-                    1e-9,
-                );
-                close(
-                    &format!("{} unit {} SE", q.name, e.unit),
-                    e.std_err,
-                    want[1],
-                    1e-7,
-                );
-            }
+            per_cutter_equals_the_peer(q, &g);
             compare(&q.meta, &g["peer"][&q.name][key], rel);
         }
     }
@@ -231,21 +238,7 @@ fn three_cutters_match_the_peer() {
         let a = wear_across_units(&units, 100.0, &MetaOptions { tau2 }).unwrap();
         assert_eq!(a[0].across.quantities.len(), 3);
         for q in &a[0].across.quantities {
-            for (e, pu) in q.per_unit.iter().zip(g["units"].as_array().unwrap()) {
-                let want = nums(&pu[&q.name]);
-                close(
-                    &format!("{} unit {} estimate", q.name, e.unit),
-                    e.value,
-                    want[0],
-                    1e-9,
-                );
-                close(
-                    &format!("{} unit {} SE", q.name, e.unit),
-                    e.std_err,
-                    want[1],
-                    1e-7,
-                );
-            }
+            per_cutter_equals_the_peer(q, &g);
             compare(&q.meta, &g["peer"][&q.name][key], 1e-7);
         }
     }
