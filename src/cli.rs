@@ -192,6 +192,13 @@ pub struct CommissionArgs {
     /// The workpiece material the force model was identified on (with `--spindle/--force/--stiffness`).
     #[arg(long)]
     pub material: Option<String>,
+    /// Also write the MPC the bundle gives `--program` as JSON (its prediction model, weights,
+    /// constraints, horizon and first QP: docs/export-mpc.md), for CasADi, do-mpc or acados.
+    #[arg(long, requires = "program", conflicts_with = "coverage")]
+    pub export_mpc: Option<PathBuf>,
+    /// The program file (docs/runtime.md) whose MPC `--export-mpc` writes.
+    #[arg(long, requires = "export_mpc")]
+    pub program: Option<PathBuf>,
 }
 
 /// `millcomp doe …`.

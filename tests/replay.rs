@@ -1,7 +1,7 @@
 //! `millcomp replay`: the sensor log of a simulated run (`simulate PROGRAM --bundle --sensor-log`)
 //! replayed through the same bundle and program gives the simulation's commands bit for bit (the
 //! iteration budget), from CSV and from Parquet; several controllers on one log, a gap in a channel;
-//! bad input names the file, the column, the row or the argument.
+//! bad input names the file, the column, the row or the argument. And `commission --export-mpc`.
 
 use std::path::{Path, PathBuf};
 
@@ -236,4 +236,65 @@ fn bad_input_names_the_file_the_column_the_row_or_the_argument() {
         .unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("log.xlsx"));
+}
+
+/// `commission … --program P --export-mpc OUT`: the runtime's export document of the commissioned
+/// bundle's MPC (the one `bench/peers/mpc_export_casadi.py` rebuilds; lives here beside the other
+/// runtime-facing verbs).
+#[test]
+fn commission_exports_the_mpc_of_its_bundle() {
+    let dir = tempfile::tempdir().unwrap();
+    let bundle = dir.path().join("models.toml");
+    let export = dir.path().join("mpc.json");
+    let program = repo("runtime/tests/data/ramp_20deg.toml");
+    let v = run_json(&[
+        "commission",
+        &repo("datasets/scenarios/groove_s7_20deg_commissioned.toml"),
+        "--out",
+        s(&bundle),
+        "--program",
+        &program,
+        "--export-mpc",
+        s(&export),
+    ]);
+    assert_eq!(v["export_mpc"]["horizon"], 20, "{v}");
+    let doc: Value = serde_json::from_str(&std::fs::read_to_string(&export).unwrap()).unwrap();
+    assert_eq!(doc["format"], "millcomp-mpc-export");
+    assert_eq!(doc["horizon"], 20);
+    // the document is the library's for the bundle written beside it
+    let lib = millcomp_runtime::export::export_mpc(
+        &load_bundle(&bundle).unwrap(),
+        &Program::load(program.as_ref()).unwrap(),
+        &millcomp_runtime::Origins::default(),
+    )
+    .unwrap();
+    assert_eq!(doc, serde_json::to_value(&lib).unwrap());
+    // --export-mpc needs --program; the export is not the bundle
+    let out = millcomp()
+        .args([
+            "commission",
+            &repo("datasets/scenarios/groove_s7_20deg_commissioned.toml"),
+        ])
+        .args(["--export-mpc", s(&export)])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--program"));
+    let out = millcomp()
+        .args([
+            "commission",
+            &repo("datasets/scenarios/groove_s7_20deg_commissioned.toml"),
+        ])
+        .args([
+            "--out",
+            s(&export),
+            "--program",
+            &program,
+            "--export-mpc",
+            s(&export),
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--export-mpc"));
 }
