@@ -5,7 +5,12 @@
 `doe.analyze` on the Table 3-3 frame (a polars frame in memory): the whole Python call (argument
 conversion, the Arrow stream into Rust, the analysis, the result object) against the same Rust work timed
 inside Rust (`_core._time_analyze`: the frame read into a table and analysed, no Python around it), and
-the ``.anova`` frame crossing back. Build with `python/install --release` for numbers worth quoting.
+the ``.anova`` frame crossing back.
+
+`Controller.step`: one Python call per control cycle (`ctl.step(x_mm, force_n, gauge_um)`, the
+command object back) against the Rust step timed inside Rust (`_core._time_step`: the same
+measurement stepped in a loop), per controller. Build with `python/install --release` for numbers
+worth quoting.
 """
 
 from __future__ import annotations
@@ -20,6 +25,8 @@ import millcomp
 from millcomp import _core
 
 FACTORS = ["depth_um", "speed_rpm", "upfeed_um"]
+BUNDLE = "runtime/tests/data/bundle_s7.toml"
+PROGRAM = "runtime/tests/data/ramp_20deg.toml"
 
 
 def timings(f, repeats):
@@ -52,6 +59,22 @@ def main() -> None:
     print(f"  Python doe.analyze(frame, ...)              {med(py_call):9.1f} us   "
           f"overhead {med(py_call) - med(rust):7.1f} us  ratio {med(py_call) / med(rust):5.2f}")
     print(f"  .anova (Rust frame -> Arrow -> polars)      {med(anova):9.1f} us")
+
+    steps = 200
+    print(f"Controller.step, {n} x {steps} steps each, medians per step:")
+    for kind in ("pid-tuned", "mpc"):
+        ctl = millcomp.Controller.from_bundle(BUNDLE, PROGRAM, controller=kind)
+        rust_ns = statistics.median(_core._time_step(ctl, steps, n))
+        ctl.reset()
+        step = ctl.step
+
+        def python_steps():
+            for _ in range(steps):
+                step(float("nan"), 0.1, 0.0)
+
+        py_ns = statistics.median(timings(python_steps, n)) / steps * 1e9
+        print(f"  {kind:<10} Rust step {rust_ns:9.1f} ns   Python ctl.step(...) {py_ns:9.1f} ns   "
+              f"overhead {py_ns - rust_ns:7.1f} ns  ratio {py_ns / rust_ns:5.2f}")
 
 
 if __name__ == "__main__":
