@@ -332,14 +332,27 @@ fn sensor_log(t: &Table) -> Result<SensorLog, DatasetError> {
 /// # Errors
 /// As [`measured_groove_table`].
 pub fn sensor_log_table(origin: &str, log: &SensorLog) -> Result<Table, DatasetError> {
+    named_table(
+        origin,
+        &SENSOR_LOG_COLUMNS,
+        [&log.t_s, &log.x_mm, &log.force_n, &log.gauge_um].map(|v| ColumnData::Float(v.clone())),
+    )
+}
+
+/// A table of `data`'s columns under a contract's `names`, in order.
+fn named_table<const N: usize>(
+    origin: &str,
+    names: &[&str; N],
+    data: [ColumnData; N],
+) -> Result<Table, DatasetError> {
     Table::from_columns(
         origin,
-        SENSOR_LOG_COLUMNS
+        names
             .iter()
-            .zip([&log.t_s, &log.x_mm, &log.force_n, &log.gauge_um])
-            .map(|(name, v)| Column {
+            .zip(data)
+            .map(|(name, data)| Column {
                 name: name.to_string(),
-                data: ColumnData::Float(v.clone()),
+                data,
             })
             .collect(),
     )
@@ -433,17 +446,7 @@ pub fn commands_table(
         ColumnData::Int(flags),
         ColumnData::Int(it),
     ];
-    Table::from_columns(
-        origin,
-        COMMANDS_COLUMNS
-            .iter()
-            .zip(data)
-            .map(|(name, data)| Column {
-                name: name.to_string(),
-                data,
-            })
-            .collect(),
-    )
+    named_table(origin, &COMMANDS_COLUMNS, data)
 }
 
 /// A measured-groove file read into points.
@@ -693,17 +696,7 @@ pub fn force_trace_table(origin: &str, rows: &[FluteForcePoint]) -> Result<Table
         ColumnData::Float(rows.iter().map(|r| r.fz_peak_flute1_n).collect()),
         ColumnData::Float(rows.iter().map(|r| r.fz_peak_flute2_n).collect()),
     ];
-    Table::from_columns(
-        origin,
-        FORCE_TRACE_COLUMNS
-            .iter()
-            .zip(data)
-            .map(|(name, data)| Column {
-                name: name.to_string(),
-                data,
-            })
-            .collect(),
-    )
+    named_table(origin, &FORCE_TRACE_COLUMNS, data)
 }
 
 #[cfg(test)]

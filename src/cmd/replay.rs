@@ -95,7 +95,7 @@ pub fn run(args: ReplayArgs, json: bool) -> anyhow::Result<()> {
         args.program.display()
     );
     println!(
-        "{:<14} {:>8} {:>9} {:>7} {:>8} {:>10} {:>10} {:>10} {:>10}",
+        "{:<14} {:>8} {:>9} {:>7} {:>8} {:>10} {:>10} {:>11} {:>11} {:>11}",
         "controller",
         "planned",
         "fallback",
@@ -104,11 +104,12 @@ pub fn run(args: ReplayArgs, json: bool) -> anyhow::Result<()> {
         "v_min",
         "v_max",
         "step_med_us",
+        "step_p99_us",
         "step_max_us"
     );
     for r in &runs {
         println!(
-            "{:<14} {:>8} {:>9} {:>7} {:>8} {:>10.3} {:>10.3} {:>10.2} {:>10.2}",
+            "{:<14} {:>8} {:>9} {:>7} {:>8} {:>10.3} {:>10.3} {:>11.2} {:>11.2} {:>11.2}",
             r.kind.name(),
             r.counts.planned,
             r.counts.fallbacks,
@@ -117,6 +118,7 @@ pub fn run(args: ReplayArgs, json: bool) -> anyhow::Result<()> {
             min(&r.commands),
             max(&r.commands),
             r.times.median_ns as f64 / 1e3,
+            r.times.p99_ns as f64 / 1e3,
             r.times.max_ns as f64 / 1e3,
         );
     }
