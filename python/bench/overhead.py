@@ -9,7 +9,8 @@ the ``.anova`` frame crossing back.
 
 `Controller.step`: one Python call per control cycle (`ctl.step(x_mm, force_n, gauge_um)`, the
 command object back) against the Rust step timed inside Rust (`_core._time_step`: the same
-measurement stepped in a loop), per controller. Build with `python/install --release` for numbers
+measurement stepped in a loop), per controller: the same cycles from a reset each time, the Rust and
+the Python batches interleaved so that the machine's load falls on both alike. Build with `python/install --release` for numbers
 worth quoting.
 """
 
@@ -61,21 +62,24 @@ def main() -> None:
     print(f"  .anova (Rust frame -> Arrow -> polars)      {med(anova):9.1f} us")
 
     steps = 200
-    print(f"Controller.step, {n} x {steps} steps each, medians per step:")
-    for kind in ("pid-tuned", "mpc"):
+    print(f"Controller.step, {n} x {steps} steps each (the program's first {steps} cycles, Rust and "
+          f"Python batches interleaved, each from a reset), medians per step:")
+    for kind in ("none", "open-loop", "pid", "pid-tuned", "pid-ff", "mpc"):
         ctl = millcomp.Controller.from_bundle(BUNDLE, PROGRAM, controller=kind)
-        rust_ns = statistics.median(_core._time_step(ctl, steps, n))
-        ctl.reset()
         step = ctl.step
-
-        def python_steps():
+        nan = float("nan")
+        rust_ns, py_ns = [], []
+        for _ in range(n):
+            ctl.reset()
+            rust_ns.append(_core._time_step(ctl, steps, 1)[0])
+            ctl.reset()
+            t = time.perf_counter()
             for _ in range(steps):
-                step(float("nan"), 0.1, 0.0)
-
-        py_ns = statistics.median(timings(python_steps, n)) / steps * 1e9
-        print(f"  {kind:<10} Rust step {rust_ns:9.1f} ns   Python ctl.step(...) {py_ns:9.1f} ns   "
-              f"overhead {py_ns - rust_ns:7.1f} ns  ratio {py_ns / rust_ns:5.2f}")
-
+                step(nan, 0.1, 0.0)
+            py_ns.append((time.perf_counter() - t) / steps * 1e9)
+        r, p = statistics.median(rust_ns), statistics.median(py_ns)
+        print(f"  {kind:<10} Rust step {r:9.1f} ns   Python ctl.step(...) {p:9.1f} ns   "
+              f"overhead {p - r:7.1f} ns  ratio {p / r:5.2f}")
 
 if __name__ == "__main__":
     main()
