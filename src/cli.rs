@@ -523,8 +523,8 @@ pub struct SimulateArgs {
     /// docs/replay.md), what `millcomp replay` takes.
     #[arg(long, requires = "bundle")]
     pub sensor_log: Option<PathBuf>,
-    /// With `--bundle`: control cycles to run (default: the whole program).
-    #[arg(long, requires = "bundle")]
+    /// With `--bundle`: control cycles to run, at least 1 (default: the whole program).
+    #[arg(long, requires = "bundle", value_parser = RangedU64ValueParser::<usize>::new().range(1..))]
     pub steps: Option<usize>,
 }
 

@@ -7,7 +7,6 @@ use std::path::{Path, PathBuf};
 
 use millcomp_runtime::replay::{measurements, replay};
 use millcomp_runtime::{Controller, ControllerKind, Program, load_bundle};
-use millcomp_sim::groove::DepthProfile;
 use serde_json::Value;
 
 use crate::common::{millcomp, repo, run_json, s};
@@ -16,15 +15,9 @@ fn bundle() -> String {
     repo("runtime/tests/data/bundle_s7.toml")
 }
 
-/// The published 20° program cut at 40 µm after a 0.3 mm approach (the MPC, iteration budget), in `dir`.
-fn program(dir: &Path) -> PathBuf {
-    let mut p = Program::load(repo("runtime/tests/data/ramp_20deg.toml").as_ref()).unwrap();
-    p.program.depth = DepthProfile::Constant { depth_um: 40.0 };
-    p.program.approach_mm = 0.3;
-    p.program.entry_length_mm = 0.174;
-    let path = dir.join("job.toml");
-    std::fs::write(&path, p.to_toml().unwrap()).unwrap();
-    path
+/// The published 20° program cut at 40 µm after a 0.3 mm approach (the MPC, iteration budget).
+fn program() -> PathBuf {
+    PathBuf::from(repo("runtime/tests/data/cut_40um.toml"))
 }
 
 fn rows(path: &Path) -> Vec<Value> {
@@ -50,7 +43,7 @@ const STEPS: usize = 3_000;
 #[test]
 fn replaying_a_simulated_runs_sensor_log_gives_its_commands_bit_for_bit() {
     let dir = tempfile::tempdir().unwrap();
-    let program = program(dir.path());
+    let program = program();
     let bundle = bundle();
     let sent = dir.path().join("sent.json");
     for ext in ["csv", "parquet"] {
@@ -99,7 +92,7 @@ fn replaying_a_simulated_runs_sensor_log_gives_its_commands_bit_for_bit() {
 #[test]
 fn several_controllers_on_a_log_with_a_gap() {
     let dir = tempfile::tempdir().unwrap();
-    let program = program(dir.path());
+    let program = program();
     let bundle = bundle();
     let log = dir.path().join("sensors.csv");
     run_json(&[
@@ -181,7 +174,7 @@ fn several_controllers_on_a_log_with_a_gap() {
 #[test]
 fn bad_input_names_the_file_the_column_the_row_or_the_argument() {
     let dir = tempfile::tempdir().unwrap();
-    let program = program(dir.path());
+    let program = program();
     let bundle = bundle();
     let fail = |log_text: &str, extra: &[&str], want: &[&str]| {
         let log = dir.path().join("bad.csv");
@@ -236,6 +229,14 @@ fn bad_input_names_the_file_the_column_the_row_or_the_argument() {
         .unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("log.xlsx"));
+    // at least one cycle
+    let out = millcomp()
+        .args(["simulate", s(&program), "--bundle", &bundle])
+        .args(["--sensor-log", "log.csv", "--steps", "0"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--steps"));
 }
 
 /// `commission … --program P --export-mpc OUT`: the runtime's export document of the commissioned
