@@ -1,7 +1,7 @@
 //! `millcomp.Controller`: the controller runtime (`millcomp_runtime::Controller`) from Python — built
 //! from a commissioned bundle and a program file, stepped one measurement at a time, reset, or run
 //! through a recorded sensor log by the runtime's own replay loop (`millcomp_runtime::replay`, what
-//! `millcomp replay` and the C example call).
+//! `millcomp replay` calls).
 
 use std::path::PathBuf;
 use std::sync::Mutex;

@@ -1,7 +1,7 @@
 //! `millcomp replay`: a commissioned bundle + a program + a recorded sensor log → the commands each
 //! controller would have sent (docs/replay.md). The loop is the runtime's
-//! ([`millcomp_runtime::replay::replay`]), the one the Python package and the C example call. Not
-//! `millcomp_mpc::replay`, which re-solves recorded QPs for the solver bench.
+//! ([`millcomp_runtime::replay::replay`]), the one the Python package calls and the C ABI's program is
+//! checked against. Not `millcomp_mpc::replay`, which re-solves recorded QPs for the solver bench.
 
 use std::path::Path;
 
