@@ -262,6 +262,7 @@ impl SensorLog {
     /// assert!(log.gauge_um[0].is_nan() && log.x_mm[1].is_nan());
     /// let e = log.check_rate("log.csv", 5e-5).unwrap_err().to_string();
     /// assert!(e.contains("log.csv") && e.contains("row 3") && e.contains("t_s"), "{e}");
+    /// assert!(e.contains("a step of 1.500e-4 s; the period is 5e-5 s"), "{e}");
     /// ```
     ///
     /// # Errors
@@ -280,7 +281,12 @@ impl SensorLog {
                     file: origin.into(),
                     column: "t_s".into(),
                     row: i + 2,
-                    value: format!("{} after {}", w[1], w[0]),
+                    value: format!(
+                        "{} after {} (a step of {:.3e} s; the period is {dt_s:e} s)",
+                        w[1],
+                        w[0],
+                        w[1] - w[0]
+                    ),
                     expected: "one control period after the row before (no row left out: a missed sample is a row of NaN readings)",
                 });
             }
