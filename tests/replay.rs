@@ -38,6 +38,13 @@ fn commands(rows: &[Value], controller: &str) -> Vec<(u64, u64, u64)> {
         .collect()
 }
 
+/// The message of a `millcomp` call that must fail.
+fn failure(args: &[&str]) -> String {
+    let out = millcomp().args(args).output().unwrap();
+    assert!(!out.status.success(), "millcomp {args:?} succeeded");
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
 const STEPS: usize = 3_000;
 
 #[test]
@@ -215,28 +222,19 @@ fn bad_input_names_the_file_the_column_the_row_or_the_argument() {
         &["--controllers", "lqr"],
     );
     fail(good, &["--out", "x.xlsx"], &["x.xlsx"]);
-    let missing = millcomp()
-        .args(["replay", "no/such.toml", s(&program), "x.csv"])
-        .output()
-        .unwrap();
-    assert!(!missing.status.success());
-    assert!(String::from_utf8_lossy(&missing.stderr).contains("no/such.toml"));
-    // simulate's program run: the sensor log's format from its extension
-    let out = millcomp()
-        .args(["simulate", s(&program), "--bundle", &bundle])
-        .args(["--sensor-log", "log.xlsx", "--steps", "10"])
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("log.xlsx"));
-    // at least one cycle
-    let out = millcomp()
-        .args(["simulate", s(&program), "--bundle", &bundle])
-        .args(["--sensor-log", "log.csv", "--steps", "0"])
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("--steps"));
+    assert!(failure(&["replay", "no/such.toml", s(&program), "x.csv"]).contains("no/such.toml"));
+    // simulate's program run: the sensor log's format from its extension, at least one cycle
+    let simulate = ["simulate", s(&program), "--bundle", &bundle];
+    let e = failure(
+        &[
+            &simulate[..],
+            &["--sensor-log", "log.xlsx", "--steps", "10"],
+        ]
+        .concat(),
+    );
+    assert!(e.contains("log.xlsx"), "{e}");
+    let e = failure(&[&simulate[..], &["--sensor-log", "log.csv", "--steps", "0"]].concat());
+    assert!(e.contains("--steps"), "{e}");
 }
 
 /// `commission … --program P --export-mpc OUT`: the runtime's export document of the commissioned
@@ -271,31 +269,18 @@ fn commission_exports_the_mpc_of_its_bundle() {
     .unwrap();
     assert_eq!(doc, serde_json::to_value(&lib).unwrap());
     // --export-mpc needs --program; the export is not the bundle
-    let out = millcomp()
-        .args([
-            "commission",
-            &repo("datasets/scenarios/groove_s7_20deg_commissioned.toml"),
-        ])
-        .args(["--export-mpc", s(&export)])
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("--program"));
-    let out = millcomp()
-        .args([
-            "commission",
-            &repo("datasets/scenarios/groove_s7_20deg_commissioned.toml"),
-        ])
-        .args([
-            "--out",
-            s(&export),
-            "--program",
-            &program,
-            "--export-mpc",
-            s(&export),
-        ])
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("--export-mpc"));
+    let scenario = repo("datasets/scenarios/groove_s7_20deg_commissioned.toml");
+    let e = failure(&["commission", &scenario, "--export-mpc", s(&export)]);
+    assert!(e.contains("--program"), "{e}");
+    let e = failure(&[
+        "commission",
+        &scenario,
+        "--out",
+        s(&export),
+        "--program",
+        &program,
+        "--export-mpc",
+        s(&export),
+    ]);
+    assert!(e.contains("--export-mpc"), "{e}");
 }
