@@ -14,10 +14,12 @@
 //!   leave: a linear programme over the commands of every 50 µs stage step in a window around the
 //!   change, through the true actuator's linear dynamics (its hysteresis and creep left out) within
 //!   0 V … `voltage_max`, knowing the truth's deflection exactly — its tooth phase included — and
-//!   starting from any state. It minimises `max |e − c|` over the window for the best constant `c`;
-//!   the issue's excess measures `|e − e_settled|` over a longer window for one particular `c`, so no
-//!   controller's excess can be smaller. A deflection that jumps within one stage step (the per-revolution
-//!   peak of a step made at once) leaves at least half the jump, since the tip cannot jump.
+//!   starting from any state. The dynamics enter in input–output form (the actuator's difference
+//!   equation), one equality per step instead of one per state and step. It minimises `max |e − c|`
+//!   over the window for the best constant `c`; the issue's excess measures `|e − e_settled|` over a
+//!   longer window for one particular `c`, so no controller's excess can be smaller. A deflection that
+//!   jumps within one stage step (the per-revolution peak of a step made at once) leaves at least half
+//!   the jump, since the tip cannot jump.
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
@@ -88,56 +90,109 @@ pub fn excess_lower_bound(
     voltage_max_v: f64,
     sin_a: f64,
 ) -> Option<f64> {
+    input_output_bound(
+        deflection_um,
+        actuator,
+        voltage_max_v,
+        sin_a,
+        BOUND_TOLERANCE,
+    )
+}
+
+/// [`excess_lower_bound`] solved to the tolerance `tol`.
+fn input_output_bound(
+    deflection_um: &[f64],
+    actuator: &DiscreteLti,
+    voltage_max_v: f64,
+    sin_a: f64,
+    tol: f64,
+) -> Option<f64> {
     let n_steps = deflection_um.len();
     if n_steps == 0 || deflection_um.iter().any(|d| !d.is_finite()) {
         return None;
     }
-    let nx = actuator.n_states();
-    // a companion-form realisation spans 20 orders of magnitude (C ~ 1e12, B ~ 1e-19 at 50 µs): scale
-    // each state by its largest value in a step response to the full voltage, so the programme's
-    // coefficients are of order one (commands in units of the full voltage)
-    let scale = state_scales(actuator, voltage_max_v);
-    let a_s = |i: usize, j: usize| actuator.a[(i, j)] * scale[i] / scale[j];
-    let b_s = |i: usize| actuator.b[(i, 0)] * scale[i] * voltage_max_v;
-    let c_s = |j: usize| actuator.c[(0, j)] / scale[j];
-    let d_s = actuator.d[(0, 0)] * voltage_max_v;
-    // variables: u_0..u_{N-1} (fractions of the full voltage), x_0..x_N, c, h
-    let iu = |k: usize| k;
-    let ix = |k: usize, j: usize| n_steps + k * nx + j;
-    let ic = n_steps + (n_steps + 1) * nx;
-    let ih = ic + 1;
-    let mut lp = LinearProgramme::new(ih + 1);
-    let mut row = Vec::with_capacity(2 * nx + 3);
-    // dynamics: x_{k+1} − A x_k − B u_k = 0
-    for k in 0..n_steps {
-        for i in 0..nx {
-            row.clear();
-            row.push((ix(k + 1, i), 1.0));
-            for j in 0..nx {
-                row.push((ix(k, j), -a_s(i, j)));
-            }
-            row.push((iu(k), -b_s(i)));
-            lp.eq(&row, 0.0);
-        }
+    let (den, num) = difference_equation(actuator, voltage_max_v);
+    if den.iter().chain(&num).any(|v| !v.is_finite()) {
+        return None;
     }
-    // inequalities: 0 ≤ u_k ≤ 1, ±(sin α (C x_k + D u_k) − δ_k − c) ≤ h
-    for (k, &delta_um) in deflection_um.iter().enumerate().take(n_steps) {
+    let n = den.len() - 1;
+    // The actuator as its difference equation: y_k + a_1 y_(k−1) + … + a_n y_(k−n) = b_0 u_k + … +
+    // b_n u_(k−n), y the tip (µm), u the command as a fraction of the full voltage. The n outputs and
+    // commands before the window are free (the commands there unbounded): they reach every initial
+    // state of an observable realisation, as the state-space form's free x_0 does (for one that is
+    // not observable the set is larger and the bound can only be lower). One equality per step
+    // instead of one per state and step: 0.35–0.5 of the state-space form's time on recorded
+    // windows (issue 48), the same optimum within the solver's tolerance (tests).
+    // variables: u_(−n) … u_(N−1), y_(−n) … y_(N−1), c, h
+    let len = n_steps + n;
+    let iu = |k: usize| k;
+    let iy = |k: usize| len + k;
+    let ic = 2 * len;
+    let ih = ic + 1;
+    let mut lp = LinearProgramme::new(ih + 1).with_tolerance(tol);
+    let mut row = Vec::with_capacity(2 * n + 2);
+    for k in n..len {
+        row.clear();
+        for i in 0..=n {
+            row.push((iy(k - i), den[i]));
+            row.push((iu(k - i), -num[i]));
+        }
+        lp.eq(&row, 0.0);
+    }
+    // inequalities: 0 ≤ u_k ≤ 1, ±(sin α · y_k − δ_k − c) ≤ h
+    for (s, &delta_um) in deflection_um.iter().enumerate() {
+        let k = s + n;
         lp.le(&[(iu(k), 1.0)], 1.0);
         lp.le(&[(iu(k), -1.0)], 0.0);
         for sign in [1.0, -1.0] {
-            row.clear();
-            for j in 0..nx {
-                row.push((ix(k, j), sign * sin_a * c_s(j)));
-            }
-            row.push((iu(k), sign * sin_a * d_s));
-            row.push((ic, -sign));
-            row.push((ih, -1.0));
-            lp.le(&row, sign * delta_um);
+            lp.le(
+                &[(iy(k), sign * sin_a), (ic, -sign), (ih, -1.0)],
+                sign * delta_um,
+            );
         }
     }
     let z = lp.minimise(ih, 200)?;
     let h = z[ih];
     h.is_finite().then_some(h.max(0.0))
+}
+
+/// The change bound's solver tolerance (Clarabel's gap and feasibility, relative): the input–output
+/// form stops at its default 1e-8 up to 2e-7 from its optimum (a 38 µm jump beyond the stack's reach,
+/// tests), at 1e-10 within 1.5e-7 there and 6e-10 on recorded 0.4 mm windows — closer than the
+/// state-space form at 1e-8 (3e-9), for 10–30 % more iterations.
+const BOUND_TOLERANCE: f64 = 1e-10;
+
+/// The actuator's difference equation with the command as a fraction of `voltage_max_v`:
+/// `(den, num)`, `den = [1, a_1, …, a_n]` the characteristic polynomial of `A` and `num = [b_0, …, b_n]`
+/// with `b_k = Σ_(i≤k) a_i h_(k−i)` from the Markov parameters `h_0 = D`, `h_k = C A^(k−1) B`.
+/// Computed in the realisation scaled by [`state_scales`] (a companion form spans 20 orders of
+/// magnitude), where Faddeev–LeVerrier's recursion is well conditioned for the few states an actuator
+/// has.
+fn difference_equation(actuator: &DiscreteLti, voltage_max_v: f64) -> (Vec<f64>, Vec<f64>) {
+    use nalgebra::DMatrix;
+    let n = actuator.n_states();
+    let scale = state_scales(actuator, voltage_max_v);
+    let a = DMatrix::from_fn(n, n, |i, j| actuator.a[(i, j)] * scale[i] / scale[j]);
+    let b = DMatrix::from_fn(n, 1, |i, _| actuator.b[(i, 0)] * scale[i] * voltage_max_v);
+    let c = DMatrix::from_fn(1, n, |_, j| actuator.c[(0, j)] / scale[j]);
+    let mut den = vec![1.0; n + 1];
+    let mut m = DMatrix::<f64>::identity(n, n);
+    for (k, coef) in den.iter_mut().enumerate().skip(1) {
+        let am = &a * &m;
+        *coef = -am.trace() / k as f64;
+        m = am + DMatrix::<f64>::identity(n, n) * *coef;
+    }
+    let mut markov = Vec::with_capacity(n + 1);
+    markov.push(actuator.d[(0, 0)] * voltage_max_v);
+    let mut x = b;
+    for _ in 0..n {
+        markov.push((&c * &x)[(0, 0)]);
+        x = &a * x;
+    }
+    let num = (0..=n)
+        .map(|k| (0..=k).map(|i| den[i] * markov[k - i]).sum())
+        .collect();
+    (den, num)
 }
 
 /// A sparse linear programme `minimise z[objective] subject to E z = f, G z ≤ g`, built row by row and
@@ -159,6 +214,7 @@ pub fn excess_lower_bound(
 #[derive(Debug, Clone, Default)]
 pub struct LinearProgramme {
     n_var: usize,
+    tolerance: Option<f64>,
     eq: (Vec<usize>, Vec<usize>, Vec<f64>, Vec<f64>),
     le: (Vec<usize>, Vec<usize>, Vec<f64>, Vec<f64>),
 }
@@ -170,6 +226,12 @@ impl LinearProgramme {
             n_var,
             ..Self::default()
         }
+    }
+
+    /// Solve to the relative gap and feasibility tolerance `tol` instead of Clarabel's default (1e-8).
+    pub fn with_tolerance(mut self, tol: f64) -> Self {
+        self.tolerance = Some(tol);
+        self
     }
 
     /// Number of variables.
@@ -237,11 +299,16 @@ impl LinearProgramme {
         if n_rows > n_eq {
             cones.push(NonnegativeConeT(n_rows - n_eq));
         }
-        let settings = DefaultSettingsBuilder::default()
+        let mut settings = DefaultSettingsBuilder::default()
             .verbose(false)
             .max_iter(max_iter)
             .build()
             .ok()?;
+        if let Some(tol) = self.tolerance {
+            settings.tol_gap_abs = tol;
+            settings.tol_gap_rel = tol;
+            settings.tol_feas = tol;
+        }
         let mut solver = DefaultSolver::new(&p, &q, &a, &b, &cones, settings).ok()?;
         solver.solve();
         match solver.solution.status {
@@ -272,4 +339,122 @@ fn state_scales(actuator: &DiscreteLti, voltage_max_v: f64) -> Vec<f64> {
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use millcomp_sim::PztSpindle;
+
+    /// The bound's programme in state-space form — the formulation before issue 48 (one equality per
+    /// state and step, the initial state free) — as the oracle the input–output form must equal.
+    fn state_space_bound(
+        deflection_um: &[f64],
+        actuator: &DiscreteLti,
+        voltage_max_v: f64,
+        sin_a: f64,
+        tol: f64,
+    ) -> Option<f64> {
+        let n_steps = deflection_um.len();
+        let nx = actuator.n_states();
+        let scale = state_scales(actuator, voltage_max_v);
+        let a_s = |i: usize, j: usize| actuator.a[(i, j)] * scale[i] / scale[j];
+        let b_s = |i: usize| actuator.b[(i, 0)] * scale[i] * voltage_max_v;
+        let c_s = |j: usize| actuator.c[(0, j)] / scale[j];
+        let d_s = actuator.d[(0, 0)] * voltage_max_v;
+        let ix = |k: usize, j: usize| n_steps + k * nx + j;
+        let ic = n_steps + (n_steps + 1) * nx;
+        let ih = ic + 1;
+        let mut lp = LinearProgramme::new(ih + 1).with_tolerance(tol);
+        for k in 0..n_steps {
+            for i in 0..nx {
+                let mut row = vec![(ix(k + 1, i), 1.0), (k, -b_s(i))];
+                row.extend((0..nx).map(|j| (ix(k, j), -a_s(i, j))));
+                lp.eq(&row, 0.0);
+            }
+        }
+        for (k, &delta_um) in deflection_um.iter().enumerate() {
+            lp.le(&[(k, 1.0)], 1.0);
+            lp.le(&[(k, -1.0)], 0.0);
+            for sign in [1.0, -1.0] {
+                let mut row: Vec<(usize, f64)> =
+                    (0..nx).map(|j| (ix(k, j), sign * sin_a * c_s(j))).collect();
+                row.extend([(k, sign * sin_a * d_s), (ic, -sign), (ih, -1.0)]);
+                lp.le(&row, sign * delta_um);
+            }
+        }
+        lp.minimise(ih, 200).map(|z| z[ih].max(0.0))
+    }
+
+    /// A groove's deflection at 20°, as the stage applies it every 50 µs: a level, a per-tooth ripple
+    /// (2 flutes at 40 000 rpm: 0.75 ms a tooth, 15 steps) and a change — a ramp over `ramp` steps from
+    /// `from_um` to `to_um` at step 150.
+    fn window(from_um: f64, to_um: f64, ramp: usize) -> Vec<f64> {
+        (0..600)
+            .map(|k| {
+                let s = ((k as f64 - 150.0) / ramp.max(1) as f64).clamp(0.0, 1.0);
+                let level = from_um + (to_um - from_um) * s;
+                let phase = (k % 15) as f64 / 15.0;
+                level * (1.0 + 0.3 * (std::f64::consts::TAU * phase).sin().max(0.0))
+            })
+            .collect()
+    }
+
+    /// The input–output form (the same programme with the dynamics as a difference equation) against
+    /// the state-space form: both solved to 1e-12 agree within 1e-8 of the optimum (measured ≤ 5.5e-9),
+    /// and the bound as a batch computes it (1e-10) lies within 3e-7 of it (measured 1.5e-7 for the
+    /// jump beyond the stack's reach, ≤ 1e-9 for the others).
+    #[test]
+    fn the_input_output_form_equals_the_state_space_form() {
+        // the fitted stack (2nd order + real pole) and one with a 2nd-order Padé dead time (5 states)
+        let fitted = PztSpindle::default();
+        let mut delayed = fitted.clone();
+        delayed.dead_time_s = Some(1e-4);
+        delayed.dead_time_model = millcomp_sim::spindle::DeadTimeModel::Pade2;
+        let sin_a = 20f64.to_radians().sin();
+        for spindle in [&fitted, &delayed] {
+            let a = spindle.to_lti().unwrap().discretize_zoh(5e-5).unwrap();
+            let v_max = spindle.voltage_max_v;
+            // a change the stack follows, one made at once, one beyond its reach
+            for (from, to, ramp) in [(4.0, 6.0, 340), (4.0, 8.0, 1), (2.0, 40.0, 1)] {
+                let d = window(from, to, ramp);
+                let what = format!("{} states, {from}→{to} µm over {ramp} steps", a.n_states());
+                let exact = state_space_bound(&d, &a, v_max, sin_a, 1e-12).unwrap();
+                assert!(exact > 0.5, "{what}: {exact}");
+                let batch = excess_lower_bound(&d, &a, v_max, sin_a).unwrap();
+                assert!(
+                    (batch - exact).abs() <= 3e-7 * exact,
+                    "{what}: {batch} against {exact}"
+                );
+                let io = input_output_bound(&d, &a, v_max, sin_a, 1e-12).unwrap();
+                assert!(
+                    (io - exact).abs() <= 1e-8 * exact,
+                    "{what}: {io} against {exact}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn the_difference_equation_reproduces_the_step_response() {
+        let spindle = PztSpindle::default();
+        let a = spindle.to_lti().unwrap().discretize_zoh(5e-5).unwrap();
+        let v_max = spindle.voltage_max_v;
+        let (den, num) = difference_equation(&a, v_max);
+        let n = den.len() - 1;
+        let mut x = a.zero_state();
+        let (mut y, mut u) = (vec![0.0; n], vec![0.0; n]);
+        for _ in 0..400 {
+            let tip = a.step_siso(&mut x, 0.5 * v_max);
+            u.push(0.5);
+            let k = u.len() - 1;
+            let rhs: f64 = (0..=n).map(|i| num[i] * u[k - i]).sum::<f64>()
+                - (1..=n).map(|i| den[i] * y[k - i]).sum::<f64>();
+            y.push(rhs);
+            assert!(
+                (rhs - tip).abs() <= 1e-9 * tip.abs().max(1.0),
+                "{rhs} against {tip}"
+            );
+        }
+    }
 }

@@ -125,8 +125,42 @@ pub fn pi_max_sensitivity(
     ms_max: f64,
     dt_s: f64,
 ) -> Result<PiDesign, MpcError> {
-    pi_max_sensitivity_of(s.plant(), ms_max, dt_s)
+    let p = s.plant();
+    // The design is a pure function of the five numbers of the transfer function, the bound and the
+    // period, and costs ~0.1 s (some 10⁵ sensitivity sweeps of 1 500 frequencies); a batch builds a
+    // `pid-tuned` for every condition, most of them on a spindle model it has already designed for
+    // (one per commissioning), so designs are remembered per key — the same bits in, the same design
+    // out. Bounded: the memory is emptied when it holds `DESIGN_MEMORY` designs.
+    let key = [
+        p.gain_um_per_v,
+        p.zeta,
+        p.wn_rad_s,
+        p.pole_rad_s.unwrap_or(f64::NAN),
+        p.dead_time_s.unwrap_or(f64::NAN),
+        ms_max,
+        dt_s,
+    ]
+    .map(f64::to_bits);
+    let memory = DESIGNS.get_or_init(Default::default);
+    if let Some(d) = memory.lock().ok().and_then(|m| m.get(&key).copied()) {
+        return Ok(d);
+    }
+    let d = pi_max_sensitivity_of(p, ms_max, dt_s)?;
+    if let Ok(mut m) = memory.lock() {
+        if m.len() >= DESIGN_MEMORY {
+            m.clear();
+        }
+        m.insert(key, d);
+    }
+    Ok(d)
 }
+
+/// How many designs [`pi_max_sensitivity`] remembers (a few hundred bytes each).
+const DESIGN_MEMORY: usize = 1024;
+
+/// The designs made in this process, by the bits of their inputs.
+type DesignMemory = std::sync::Mutex<std::collections::HashMap<[u64; 7], PiDesign>>;
+static DESIGNS: std::sync::OnceLock<DesignMemory> = std::sync::OnceLock::new();
 
 fn pi_max_sensitivity_of(s: &PztSpindle, ms_max: f64, dt_s: f64) -> Result<PiDesign, MpcError> {
     if !(dt_s.is_finite() && dt_s > 0.0) {
@@ -207,6 +241,29 @@ fn pi_max_sensitivity_of(s: &PztSpindle, ms_max: f64, dt_s: f64) -> Result<PiDes
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_remembered_design_is_the_design() {
+        use millcomp_models::SpindleModel;
+        let model = SpindleModel {
+            gain_um_per_v: 0.047,
+            zeta: 0.29,
+            wn_rad_s: 2903.0,
+            pole_rad_s: Some(35_000.0),
+            dead_time_s: Some(1e-4),
+            dead_time_pade_order: Some(2),
+            covariance: Default::default(),
+        };
+        let s = IdentifiedSpindle::new(&model).unwrap();
+        let first = pi_max_sensitivity(&s, MS_MAX, 5e-5).unwrap();
+        let again = pi_max_sensitivity(&s, MS_MAX, 5e-5).unwrap();
+        let fresh = pi_max_sensitivity_of(s.plant(), MS_MAX, 5e-5).unwrap();
+        assert_eq!(first, fresh);
+        assert_eq!(again, fresh);
+        // another period is another design
+        let other = pi_max_sensitivity(&s, MS_MAX, 1e-4).unwrap();
+        assert_ne!(other.ki_v_per_um_s, fresh.ki_v_per_um_s);
+    }
 
     #[test]
     fn the_design_meets_its_bound_and_a_larger_ki_would_not() {
