@@ -110,6 +110,9 @@ pub enum Command {
         after_help = "Example:\n  millcomp simulate datasets/scenarios/groove_s7_20deg.toml --controller mpc"
     )]
     Simulate(SimulateArgs),
+    /// A recorded sensor log through a commissioned controller: the commands each controller would
+    /// have sent, before it moves the spindle (docs/replay.md).
+    Replay(ReplayArgs),
     /// Run controllers over many conditions and compare them statistically.
     #[command(
         after_help = "Example:\n  millcomp batch --doe \"--design fractional --factors tilt_deg=20:40,depth_um=40:80,upfeed_um=8:12 --resolution 3 --seed 1\" --controllers pid-tuned,mpc"
@@ -189,6 +192,13 @@ pub struct CommissionArgs {
     /// The workpiece material the force model was identified on (with `--spindle/--force/--stiffness`).
     #[arg(long)]
     pub material: Option<String>,
+    /// Also write the MPC the bundle gives `--program` as JSON (its prediction model, weights,
+    /// constraints, horizon and first QP: docs/export-mpc.md), for CasADi, do-mpc or acados.
+    #[arg(long, requires = "program", conflicts_with = "coverage")]
+    pub export_mpc: Option<PathBuf>,
+    /// The program file (docs/runtime.md) whose MPC `--export-mpc` writes.
+    #[arg(long, requires = "export_mpc")]
+    pub program: Option<PathBuf>,
 }
 
 /// `millcomp doe …`.
@@ -504,6 +514,36 @@ pub struct SimulateArgs {
     /// whose plan is not ready within it emits the fallback and counts as a deadline miss.
     #[arg(long, allow_negative_numbers = true)]
     pub budget_fraction: Option<f64>,
+    /// FILE is a program file (docs/runtime.md): run its controller, built from this commissioned
+    /// bundle, on the simulated machine (sim's S7 groove stage with sensor noise; `--noise-seed`
+    /// seeds it, 7 by default); `--out` gets the commands (.csv, .parquet or .json).
+    #[arg(long)]
+    pub bundle: Option<PathBuf>,
+    /// With `--bundle`: write the run's sensor log here (.csv or .parquet; the sensor-log contract,
+    /// docs/replay.md), what `millcomp replay` takes.
+    #[arg(long, requires = "bundle")]
+    pub sensor_log: Option<PathBuf>,
+    /// With `--bundle`: control cycles to run, at least 1 (default: the whole program).
+    #[arg(long, requires = "bundle", value_parser = RangedU64ValueParser::<usize>::new().range(1..))]
+    pub steps: Option<usize>,
+}
+
+/// `millcomp replay`.
+#[derive(Debug, Args)]
+pub struct ReplayArgs {
+    /// The commissioned bundle (`millcomp commission --out`).
+    pub bundle: PathBuf,
+    /// The program file: the NC program and the controller's settings (docs/runtime.md).
+    pub program: PathBuf,
+    /// The recorded sensor log (CSV or Parquet; columns t_s, x_mm, force_n, gauge_um: docs/replay.md).
+    pub log: PathBuf,
+    /// Controllers to replay, comma-separated (default: the program's `[controller] kind`): none,
+    /// open-loop, pid, pid-aw, pid-design, pid-tuned, pid-ff, pid-ff-read, mpc, mpc-nopreview.
+    #[arg(long)]
+    pub controllers: Option<String>,
+    /// Write the commands here, one row per controller and sample (.csv, .parquet or .json).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
 }
 
 /// `millcomp batch`.

@@ -15,6 +15,7 @@ mod parts;
 mod readme;
 mod real;
 mod reliability;
+mod replay;
 mod report_html;
 mod simulate;
 mod units;

@@ -10,7 +10,11 @@
 //!   peak z-force of each flute, as [`FluteForcePoint`]s; every row must match a measured point by
 //!   `groove_id` and `x_mm`.
 //!
-//! Both are read through the one table reader ([`read_table`], polars), so errors name the file, the
+//! * The **sensor log** ([`SENSOR_LOG_COLUMNS`]): one row per control period of a cut, what a
+//!   machine's controller read — the NC's position and the force and gauge readings — as a
+//!   [`SensorLog`]; `millcomp replay` steps a commissioned controller through it (docs/replay.md).
+//!
+//! All are read through the one table reader ([`read_table`], polars), so errors name the file, the
 //! column and the 1-based data row, and written through [`write_table`] / [`write_csv_to`].
 //!
 //! ```
@@ -37,7 +41,8 @@ use millcomp_sim::session::{
 
 use crate::error::DatasetError;
 use crate::table::{
-    Column, ColumnData, ColumnKind, ColumnSpec, Schema, Table, read_csv_str, read_table,
+    Column, ColumnData, ColumnKind, ColumnSpec, Schema, Table, read_csv_str, read_dataframe,
+    read_table,
 };
 
 /// Columns renamed since version 1 of the measured-groove contract: (version-1 name, current name).
@@ -177,6 +182,277 @@ pub fn force_trace_schema() -> Schema {
             .map(|(name, kind, what)| ColumnSpec::required(name, *kind, what))
             .collect(),
     )
+}
+
+/// Name, kind and meaning of every sensor-log column, in contract order.
+const SENSOR_LOG: [(&str, ColumnKind, &str); 4] = [
+    (
+        "t_s",
+        ColumnKind::Float,
+        "time of the sample since the first (s): one row per control period, no row left out",
+    ),
+    (
+        "x_mm",
+        ColumnKind::Reading,
+        "the NC's position along the groove when the sensors were read (mm; NaN or empty: not available)",
+    ),
+    (
+        "force_n",
+        ColumnKind::Reading,
+        "the measured workpiece z-force (N; NaN or empty: no reading, the last one holds)",
+    ),
+    (
+        "gauge_um",
+        ColumnKind::Reading,
+        "the capacitance gauge's reading of the tool tip (um; NaN or empty: no reading, the last one holds)",
+    ),
+];
+
+/// Columns of the sensor log, in contract order.
+pub const SENSOR_LOG_COLUMNS: [&str; 4] = names(&SENSOR_LOG);
+
+/// The sensor-log schema: one row per control period.
+pub fn sensor_log_schema() -> Schema {
+    Schema::new(
+        "sensor_log",
+        SENSOR_LOG
+            .iter()
+            .map(|(name, kind, what)| ColumnSpec::required(name, *kind, what))
+            .collect(),
+    )
+}
+
+/// A sensor log: what a controller read, one entry per control period (the columns of
+/// [`SENSOR_LOG_COLUMNS`]; NaN: no reading in that period).
+///
+/// The rate is the controller's: the rows are consecutive control periods (`t_s` rises by the
+/// program's `controller.dt_s` from row to row, within 1 %: [`SensorLog::check_rate`]); a sample the
+/// machine did not get is a row with NaN (or empty) readings, not a missing row. A NaN force or gauge
+/// reading holds the channel's last reading; a NaN position is not checked against the program.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SensorLog {
+    /// Sample times (s).
+    pub t_s: Vec<f64>,
+    /// The NC's positions (mm).
+    pub x_mm: Vec<f64>,
+    /// The force readings (N).
+    pub force_n: Vec<f64>,
+    /// The gauge readings (µm).
+    pub gauge_um: Vec<f64>,
+}
+
+impl SensorLog {
+    /// Samples in the log.
+    pub fn len(&self) -> usize {
+        self.t_s.len()
+    }
+
+    /// Whether the log has no sample.
+    pub fn is_empty(&self) -> bool {
+        self.t_s.is_empty()
+    }
+
+    /// Checks the rows are consecutive periods of `dt_s` (each step of `t_s` within 1 % of it);
+    /// `origin` names the file.
+    ///
+    /// ```
+    /// use millcomp_datasets::contracts::{SENSOR_LOG_COLUMNS, read_sensor_log_str};
+    /// let csv = format!("{}\n0,0,0.1,\n5e-5,NaN,0.2,0.01\n2e-4,0,0.2,0.01\n", SENSOR_LOG_COLUMNS.join(","));
+    /// let log = read_sensor_log_str("log.csv", &csv).unwrap();
+    /// assert!(log.gauge_um[0].is_nan() && log.x_mm[1].is_nan());
+    /// let e = log.check_rate("log.csv", 5e-5).unwrap_err().to_string();
+    /// assert!(e.contains("log.csv") && e.contains("row 3") && e.contains("t_s"), "{e}");
+    /// assert!(e.contains("a step of 1.500e-4 s; the period is 5e-5 s"), "{e}");
+    /// ```
+    ///
+    /// # Errors
+    /// [`DatasetError::Empty`] for a log without rows; [`DatasetError::BadCell`] naming the file,
+    /// `t_s` and the 1-based data row of the first step that is not one period.
+    pub fn check_rate(&self, origin: &str, dt_s: f64) -> Result<(), DatasetError> {
+        if self.is_empty() {
+            return Err(DatasetError::Empty {
+                file: origin.into(),
+                what: "data rows",
+            });
+        }
+        for (i, w) in self.t_s.windows(2).enumerate() {
+            if ((w[1] - w[0]) - dt_s).abs() > 0.01 * dt_s {
+                return Err(DatasetError::BadCell {
+                    file: origin.into(),
+                    column: "t_s".into(),
+                    row: i + 2,
+                    value: format!(
+                        "{} after {} (a step of {:.3e} s; the period is {dt_s:e} s)",
+                        w[1],
+                        w[0],
+                        w[1] - w[0]
+                    ),
+                    expected: "one control period after the row before (no row left out: a missed sample is a row of NaN readings)",
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Reads a sensor log (CSV or Parquet).
+///
+/// # Errors
+/// [`DatasetError`] naming the file, the column and the 1-based data row (a missing column, a cell
+/// that is not a number, NaN or empty, an infinite reading, a non-finite `t_s`).
+pub fn read_sensor_log(path: &Path) -> Result<SensorLog, DatasetError> {
+    sensor_log(&read_table(path, &sensor_log_schema())?)
+}
+
+/// Reads sensor-log CSV text; `origin` names it in messages.
+///
+/// # Errors
+/// As [`read_sensor_log`].
+pub fn read_sensor_log_str(origin: &str, text: &str) -> Result<SensorLog, DatasetError> {
+    sensor_log(&read_csv_str(origin, text, &sensor_log_schema())?)
+}
+
+/// Reads a sensor log from a data frame in memory (the Python package's tables), validated as a file
+/// with the same cells; `origin` names it in messages.
+///
+/// # Errors
+/// As [`read_sensor_log`].
+pub fn read_sensor_log_frame(
+    origin: &str,
+    df: &polars::prelude::DataFrame,
+) -> Result<SensorLog, DatasetError> {
+    sensor_log(&read_dataframe(origin, df, &sensor_log_schema())?)
+}
+
+fn sensor_log(t: &Table) -> Result<SensorLog, DatasetError> {
+    Ok(SensorLog {
+        t_s: t.f64s("t_s")?,
+        x_mm: t.f64s("x_mm")?,
+        force_n: t.f64s("force_n")?,
+        gauge_um: t.f64s("gauge_um")?,
+    })
+}
+
+/// The sensor-log table of `log`, for [`write_table`](crate::write_table).
+///
+/// # Errors
+/// As [`measured_groove_table`].
+pub fn sensor_log_table(origin: &str, log: &SensorLog) -> Result<Table, DatasetError> {
+    named_table(
+        origin,
+        &SENSOR_LOG_COLUMNS,
+        [&log.t_s, &log.x_mm, &log.force_n, &log.gauge_um].map(|v| ColumnData::Float(v.clone())),
+    )
+}
+
+/// A table of `data`'s columns under a contract's `names`, in order.
+fn named_table<const N: usize>(
+    origin: &str,
+    names: &[&str; N],
+    data: [ColumnData; N],
+) -> Result<Table, DatasetError> {
+    Table::from_columns(
+        origin,
+        names
+            .iter()
+            .zip(data)
+            .map(|(name, data)| Column {
+                name: name.to_string(),
+                data,
+            })
+            .collect(),
+    )
+}
+
+/// Columns of a replay's commands table (`millcomp replay --out`, the Python `Controller.replay`), in
+/// order: the controller's name, the cycle (0-based), the sample's `t_s` (s), the voltage sent (V),
+/// the command's flag bits and the QP's iterations.
+pub const COMMANDS_COLUMNS: [&str; 6] = [
+    "controller",
+    "cycle",
+    "t_s",
+    "voltage_v",
+    "flags",
+    "iterations",
+];
+
+/// One controller's commands over a sensor log, column by column.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct CommandColumns {
+    /// The controller's name.
+    pub controller: String,
+    /// The voltages sent (V), one per sample.
+    pub voltage_v: Vec<f64>,
+    /// The flag bits.
+    pub flags: Vec<u32>,
+    /// The QP's iterations.
+    pub iterations: Vec<u32>,
+}
+
+/// The commands table ([`COMMANDS_COLUMNS`]): one row per controller and sample, the controllers one
+/// after the other; `t_s` holds the samples' times.
+///
+/// ```
+/// use millcomp_datasets::contracts::{COMMANDS_COLUMNS, CommandColumns, commands_table};
+/// let run = CommandColumns { controller: "pid".into(), voltage_v: vec![0.0, 1.5],
+///                            flags: vec![8, 0], iterations: vec![0, 0] };
+/// let t = commands_table("out.csv", &[0.0, 5e-5], &[run]).unwrap();
+/// assert_eq!(t.names(), COMMANDS_COLUMNS);
+/// assert_eq!(t.f64s("voltage_v").unwrap(), [0.0, 1.5]);
+/// ```
+///
+/// # Errors
+/// As [`Table::from_columns`]; a run longer than `t_s` (or with columns of unequal lengths) is
+/// refused naming `t_s`.
+pub fn commands_table(
+    origin: &str,
+    t_s: &[f64],
+    runs: &[CommandColumns],
+) -> Result<Table, DatasetError> {
+    let rows: usize = runs.iter().map(|r| r.voltage_v.len()).sum();
+    let mut controller = Vec::with_capacity(rows);
+    let (mut cycle, mut time, mut v, mut flags, mut it) = (
+        Vec::with_capacity(rows),
+        Vec::with_capacity(rows),
+        Vec::with_capacity(rows),
+        Vec::with_capacity(rows),
+        Vec::with_capacity(rows),
+    );
+    for r in runs {
+        if r.voltage_v.len() > t_s.len()
+            || r.flags.len() != r.voltage_v.len()
+            || r.iterations.len() != r.voltage_v.len()
+        {
+            return Err(DatasetError::BadCell {
+                file: origin.into(),
+                column: "t_s".into(),
+                row: t_s.len() + 1,
+                value: format!(
+                    "{} samples for {} commands of `{}`",
+                    t_s.len(),
+                    r.voltage_v.len(),
+                    r.controller
+                ),
+                expected: "one sample time per command",
+            });
+        }
+        let n = r.voltage_v.len();
+        controller.extend(std::iter::repeat_n(r.controller.clone(), n));
+        cycle.extend((0..n).map(|k| k as i64));
+        time.extend_from_slice(&t_s[..n]);
+        v.extend_from_slice(&r.voltage_v);
+        flags.extend(r.flags.iter().map(|&f| i64::from(f)));
+        it.extend(r.iterations.iter().map(|&i| i64::from(i)));
+    }
+    let data = [
+        ColumnData::Text(controller),
+        ColumnData::Int(cycle),
+        ColumnData::Float(time),
+        ColumnData::Float(v),
+        ColumnData::Int(flags),
+        ColumnData::Int(it),
+    ];
+    named_table(origin, &COMMANDS_COLUMNS, data)
 }
 
 /// A measured-groove file read into points.
@@ -426,17 +702,7 @@ pub fn force_trace_table(origin: &str, rows: &[FluteForcePoint]) -> Result<Table
         ColumnData::Float(rows.iter().map(|r| r.fz_peak_flute1_n).collect()),
         ColumnData::Float(rows.iter().map(|r| r.fz_peak_flute2_n).collect()),
     ];
-    Table::from_columns(
-        origin,
-        FORCE_TRACE_COLUMNS
-            .iter()
-            .zip(data)
-            .map(|(name, data)| Column {
-                name: name.to_string(),
-                data,
-            })
-            .collect(),
-    )
+    named_table(origin, &FORCE_TRACE_COLUMNS, data)
 }
 
 #[cfg(test)]

@@ -24,6 +24,9 @@ pub enum ColumnKind {
     Flag,
     /// Free text.
     Text,
+    /// A sensor reading: a number, or an empty cell or `NaN` for "no reading in this sample" (read as
+    /// NaN; ±inf is still an error).
+    Reading,
 }
 
 impl ColumnKind {
@@ -33,6 +36,7 @@ impl ColumnKind {
             ColumnKind::Int => "an integer",
             ColumnKind::Flag => "0 or 1",
             ColumnKind::Text => "text",
+            ColumnKind::Reading => "a number, NaN or empty",
         }
     }
 }
@@ -962,6 +966,19 @@ fn parse_cell(
             _ => Err(bad()),
         },
         ColumnKind::Text => Ok(CellValue::Text(text.to_string())),
+        ColumnKind::Reading => {
+            let x: f64 = text.parse().map_err(|_| bad())?;
+            if x.is_infinite() {
+                Err(DatasetError::NonFinite {
+                    file: path.to_path_buf(),
+                    column: column.to_string(),
+                    row,
+                    value: text.to_string(),
+                })
+            } else {
+                Ok(CellValue::Float(x))
+            }
+        }
     }
 }
 
@@ -1000,7 +1017,9 @@ fn validate(path: &Path, raw: RawTable, schema: &Schema) -> Result<Table, Datase
             continue;
         };
         let mut data = match spec.kind {
-            ColumnKind::Float => ColumnData::Float(Vec::with_capacity(n_rows)),
+            ColumnKind::Float | ColumnKind::Reading => {
+                ColumnData::Float(Vec::with_capacity(n_rows))
+            }
             ColumnKind::Int | ColumnKind::Flag => ColumnData::Int(Vec::with_capacity(n_rows)),
             ColumnKind::Text => ColumnData::Text(Vec::with_capacity(n_rows)),
         };
@@ -1009,6 +1028,7 @@ fn validate(path: &Path, raw: RawTable, schema: &Schema) -> Result<Table, Datase
             let value = match cell {
                 Some(text) => parse_cell(path, &spec.name, row, text, spec.kind)?,
                 None if spec.kind == ColumnKind::Text => CellValue::Text(String::new()),
+                None if spec.kind == ColumnKind::Reading => CellValue::Float(f64::NAN),
                 None => {
                     return Err(DatasetError::EmptyCell {
                         file: path.to_path_buf(),

@@ -3,7 +3,9 @@
 //! half-number a user's tool may write (`NaN`, `nan`, `-inf`, `Infinity`, `1e400`, `1,5`, `NA`, blanks,
 //! quoted cells, padding), and random Parquet (and CSV) files written from float columns with NaN and ±inf,
 //! read with a schema, without one, and as the measured-groove contract: when a reader accepts, every
-//! number it hands on is finite; and a file of finite numbers is accepted with the same numbers.
+//! number it hands on is finite; and a file of finite numbers is accepted with the same numbers. (The
+//! one exception is by contract: a column of kind `Reading`, the sensor log's readings, hands on NaN
+//! for "no reading in this sample" and still refuses ±inf — sensor_log.rs.)
 //!
 //! Rerun: `cargo test -p millcomp-datasets --test main never_nan` (a few seconds).
 

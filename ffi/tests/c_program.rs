@@ -52,7 +52,7 @@ fn compile(dir: &Path) -> PathBuf {
 #[test]
 fn the_c_program_sends_the_rust_commands_bit_for_bit() {
     let dir = tempfile::tempdir().unwrap();
-    let program = common::program_file(dir.path());
+    let program = common::data("cut_40um.toml");
     let bundle = common::data("bundle_s7.toml");
     let log = common::record(&program, 10_000);
     let log_path = dir.path().join("sensors.csv");

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use millcomp_runtime::{Controller, Measurement, Program, load_bundle};
-use millcomp_sim::groove::{DepthProfile, GrooveConfig, GrooveStage};
+use millcomp_sim::groove::{GrooveConfig, GrooveStage};
 use millcomp_sim::sensors::NoiseSpec;
 
 /// A file of `runtime/tests/data/`.
@@ -14,18 +14,6 @@ pub fn data(name: &str) -> PathBuf {
         "/../runtime/tests/data/"
     ))
     .join(name)
-}
-
-/// The test program (`ramp_20deg.toml`: the MPC, iteration budget) cut at a constant 40 µm after a
-/// 0.3 mm approach, written to `dir`; its path.
-pub fn program_file(dir: &std::path::Path) -> PathBuf {
-    let mut p = Program::load(&data("ramp_20deg.toml")).unwrap();
-    p.program.depth = DepthProfile::Constant { depth_um: 40.0 };
-    p.program.approach_mm = 0.3;
-    p.program.entry_length_mm = 0.174;
-    let path = dir.join("job.toml");
-    std::fs::write(&path, p.to_toml().unwrap()).unwrap();
-    path
 }
 
 /// `steps` cycles of the controller of `program` in closed loop with sim's 20° stage: the sensor log

@@ -2,7 +2,8 @@
 
 DOE (:mod:`millcomp.doe`), identification (:mod:`millcomp.identify`), closed-loop simulation
 (:func:`simulate`, :func:`simulate_session`), batches (:func:`batch`), commissioning
-(:func:`commission`) and diagnosis (:func:`diagnose`) — the library calls ``millcomp`` the CLI makes,
+(:func:`commission`), diagnosis (:func:`diagnose`) and the controller runtime (:class:`Controller`:
+``step``, ``reset``, ``replay`` of a sensor log) — the library calls ``millcomp`` the CLI makes,
 with tables as polars frames crossing as Arrow, and errors as :class:`MillcompError` subclasses with
 the CLI's messages.
 
@@ -18,7 +19,7 @@ Example::
 from __future__ import annotations
 
 from . import doe, errors, identify
-from ._core import __version__
+from ._core import Command, Controller, __version__
 from ._run import batch, commission, diagnose, simulate, simulate_session
 from .errors import (
     ArgumentError,
@@ -44,6 +45,8 @@ __all__ = [
     "batch",
     "commission",
     "diagnose",
+    "Controller",
+    "Command",
     "MillcompError",
     "ArgumentError",
     "DatasetError",

@@ -128,6 +128,70 @@ class BatchSummary:
     @property
     def out(self) -> str: ...
 
+class Command:
+    """What a controller sent in one cycle."""
+
+    @property
+    def voltage_v(self) -> float:
+        """The voltage for the PZT amplifier (V)."""
+    @property
+    def flags(self) -> int:
+        """The cycle's flag bits (docs/runtime.md: planned 1, fallback 2, deadline miss 4, no reading 8, ...)."""
+    @property
+    def iterations(self) -> int:
+        """The QP's interior-point iterations (0 when none was solved)."""
+    @property
+    def planned(self) -> bool: ...
+    @property
+    def fallback(self) -> bool: ...
+
+class Controller:
+    """The controller runtime: built from a commissioned bundle and a program file, stepped once per period.
+
+    Example::
+
+        >>> ctl = millcomp.Controller.from_bundle("runtime/tests/data/bundle_s7.toml",
+        ...                                       "runtime/tests/data/ramp_20deg.toml", budget=50)
+        >>> c = ctl.step()                      # no reading yet
+        >>> (ctl.kind, c.planned, 0.0 <= c.voltage_v <= 1000.0)
+        ('mpc', True, True)
+    """
+
+    @staticmethod
+    def from_bundle(
+        bundle_path: str | PathLike[str],
+        program_path: str | PathLike[str],
+        *,
+        controller: str | None = None,
+        budget: str | int | None = None,
+    ) -> Controller:
+        """The controller the program names (or `controller`: none, open-loop, pid, ..., mpc), built
+        from the bundle (``millcomp commission --out``). `budget`: ``None`` (the program's),
+        ``"iterations"``, an iteration cap (1..500, deterministic) or ``"wall-clock"``.
+
+        Raises :class:`millcomp.ModelFileError` (the bundle), :class:`millcomp.ControllerError`
+        (the program file, naming the key), :class:`millcomp.ArgumentError`."""
+    def step(self, x_mm: float = ..., force_n: float = ..., gauge_um: float = ...) -> Command:
+        """One control cycle: the NC position (mm), the force (N) and gauge (um) readings (NaN or
+        omitted: no reading) in, the command out."""
+    def reset(self) -> None:
+        """Back to the state right after construction (between cuts)."""
+    def replay(self, log: object) -> pl.DataFrame:
+        """A sensor log (a CSV/Parquet path or a frame with ``t_s, x_mm, force_n, gauge_um``) through
+        the controller from its current state, by the runtime's replay (as ``millcomp replay``): the
+        commands table ``controller, cycle, t_s, voltage_v, flags, iterations``.
+
+        Raises :class:`millcomp.DatasetError` naming the column and row."""
+    @property
+    def kind(self) -> str: ...
+    @property
+    def period_s(self) -> float: ...
+    @property
+    def cycle(self) -> int: ...
+    @property
+    def counts(self) -> dict[str, int]: ...
+
+def _time_step(ctl: Controller, steps: int, repeats: int) -> list[float]: ...
 def design(options: dict[str, Any]) -> tuple[pl.DataFrame, dict[str, Any]]: ...
 def analyze(
     source: object,

@@ -70,7 +70,13 @@ pub fn family(e: &anyhow::Error) -> &'static str {
     if chain().any(|c| c.is::<DatasetError>()) {
         return "DatasetError";
     }
-    if chain().any(|c| c.is::<ModelError>()) {
+    if chain().any(|c| {
+        c.is::<ModelError>()
+            || matches!(
+                c.downcast_ref::<millcomp_runtime::RuntimeError>(),
+                Some(millcomp_runtime::RuntimeError::Model(_))
+            )
+    }) {
         return "ModelFileError";
     }
     for c in chain() {
@@ -88,6 +94,9 @@ pub fn family(e: &anyhow::Error) -> &'static str {
         }
         if c.is::<SimError>() {
             return "SimulationError";
+        }
+        if c.is::<millcomp_runtime::RuntimeError>() {
+            return "ControllerError";
         }
         if c.is::<millcomp_mpc::MpcError>() {
             return "ControllerError";

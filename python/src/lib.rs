@@ -5,6 +5,7 @@
 use pyo3::prelude::*;
 
 mod arrow;
+mod controller;
 mod doe;
 mod errors;
 mod identify;
@@ -34,5 +35,8 @@ fn core_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<run::PyDiagnosis>()?;
     m.add_function(wrap_pyfunction!(run::batch, m)?)?;
     m.add_class::<run::PyBatch>()?;
+    m.add_class::<controller::PyController>()?;
+    m.add_class::<controller::PyCommand>()?;
+    m.add_function(wrap_pyfunction!(controller::_time_step, m)?)?;
     Ok(())
 }

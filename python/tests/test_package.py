@@ -38,7 +38,7 @@ def test_stubs_and_markers_ship_with_the_package():
 def test_every_public_function_has_a_docstring_with_an_example():
     for f in (millcomp.doe.design, millcomp.doe.analyze, millcomp.identify.fit, millcomp.identify.load,
               millcomp.simulate, millcomp.simulate_session, millcomp.batch, millcomp.commission,
-              millcomp.diagnose):
+              millcomp.diagnose, millcomp.Controller):
         assert f.__doc__ and "Example" in f.__doc__, f.__name__
 
 

@@ -12,7 +12,6 @@
 
 use millcomp_runtime::record::{SimulatedMachine, record};
 use millcomp_runtime::{Controller, ControllerKind, Program, load_bundle, replay};
-use millcomp_sim::groove::DepthProfile;
 
 fn data(name: &str) -> std::path::PathBuf {
     std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/")).join(name)
@@ -30,10 +29,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "controller", "steps", "median_us", "p99_us", "max_us", "max_at"
     );
     for kind in ControllerKind::ALL {
-        let mut p = Program::load(&data("ramp_20deg.toml"))?;
-        p.program.depth = DepthProfile::Constant { depth_um: 40.0 };
-        p.program.approach_mm = 0.3;
-        p.program.entry_length_mm = 0.174;
+        let mut p = Program::load(&data("cut_40um.toml"))?;
         p.controller.kind = kind;
         let mut ctl = Controller::from_bundle(&bundle, &p)?;
         // the machine: sim's stage with sensor noise, only to record a sensor log

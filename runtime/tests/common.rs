@@ -11,13 +11,10 @@ pub fn data(name: &str) -> PathBuf {
     PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/")).join(name)
 }
 
-/// The 20° program with its controller set to `kind`, constant 40 µm deep after a 0.3 mm approach in
-/// air (0.18 s) and the ball's entry: a cut reached within 10 000 cycles.
+/// `cut_40um.toml` (the 20° program constant 40 µm deep after a 0.3 mm approach in air and the ball's
+/// entry: a cut reached within 10 000 cycles) with its controller set to `kind`.
 pub fn program(kind: ControllerKind) -> Program {
-    let mut p = Program::load(&data("ramp_20deg.toml")).unwrap();
-    p.program.depth = millcomp_sim::groove::DepthProfile::Constant { depth_um: 40.0 };
-    p.program.approach_mm = 0.3;
-    p.program.entry_length_mm = 0.174;
+    let mut p = Program::load(&data("cut_40um.toml")).unwrap();
     p.controller.kind = kind;
     p
 }

@@ -8,11 +8,12 @@ use millcomp_closedloop::commissioning::{CommissioningPlant, commission, coverag
 use millcomp_closedloop::groove::groove_truth;
 use millcomp_closedloop::scenario::StageKind;
 use millcomp_models::{IdentifiedModel, InputFile, ModelBundle, ModelFile};
+use millcomp_runtime::{Origins, Program};
 use millcomp_sim::material::Material;
 use serde_json::json;
 
 use crate::cli::CommissionArgs;
-use crate::cmd::guard::{Inputs, with_scenario_models};
+use crate::cmd::guard::{Inputs, same_file, with_scenario_models};
 use crate::cmd::{print_json, progress_bar, provenance};
 use crate::present::commission::{bundle_text, commissioning_text, coverage_text};
 
@@ -21,8 +22,10 @@ pub fn run(args: CommissionArgs, json: bool) -> anyhow::Result<()> {
         return from_files(&args, json);
     };
     let s = Scenario::load(&scenario)?;
-    with_scenario_models(Inputs::new().add("SCENARIO", &scenario), &s)
-        .check_opt("--out", args.out.as_deref())?;
+    check_outputs(
+        &args,
+        with_scenario_models(Inputs::new().add("SCENARIO", &scenario), &s),
+    )?;
     if s.stage != StageKind::Groove {
         bail!(
             "{}: stage: commissioning is implemented for groove scenarios (the thin wall is not commissioned yet)",
@@ -74,6 +77,7 @@ pub fn run(args: CommissionArgs, json: bool) -> anyhow::Result<()> {
             .save(out)
             .with_context(|| format!("writing {}", out.display()))?;
     }
+    let export = export_mpc(&args, &c.bundle)?;
     if json {
         return print_json(&json!({
             "scenario": s.name,
@@ -81,22 +85,26 @@ pub fn run(args: CommissionArgs, json: bool) -> anyhow::Result<()> {
             "bundle": c.bundle,
             "spindle_bic": c.spindle_bic,
             "out": args.out.as_ref().map(|p| p.display().to_string()),
+            "export_mpc": export,
         }));
     }
     print!("{}", commissioning_text(&s.name, seed, &c));
     if let Some(out) = &args.out {
         println!("written: {}", out.display());
     }
+    print_export(args.export_mpc.as_deref(), export.as_ref());
     Ok(())
 }
 
 /// A bundle assembled from the user's own identified models (`--spindle/--force/--stiffness`).
 fn from_files(args: &CommissionArgs, json: bool) -> anyhow::Result<()> {
-    Inputs::new()
-        .add_opt("--spindle", args.spindle.as_deref())
-        .add_opt("--force", args.force.as_deref())
-        .add_opt("--stiffness", args.stiffness.as_deref())
-        .check_opt("--out", args.out.as_deref())?;
+    check_outputs(
+        args,
+        Inputs::new()
+            .add_opt("--spindle", args.spindle.as_deref())
+            .add_opt("--force", args.force.as_deref())
+            .add_opt("--stiffness", args.stiffness.as_deref()),
+    )?;
     let given = args
         .material
         .as_deref()
@@ -135,15 +143,71 @@ fn from_files(args: &CommissionArgs, json: bool) -> anyhow::Result<()> {
             .save(out)
             .with_context(|| format!("writing {}", out.display()))?;
     }
+    let export = export_mpc(args, &bundle)?;
     if json {
         return print_json(&json!({
             "bundle": bundle,
             "out": args.out.as_ref().map(|p| p.display().to_string()),
+            "export_mpc": export,
         }));
     }
     print!("{}", bundle_text(&bundle));
     if let Some(out) = &args.out {
         println!("written: {}", out.display());
     }
+    print_export(args.export_mpc.as_deref(), export.as_ref());
     Ok(())
+}
+
+/// `--out` and `--export-mpc` are neither an input (the program too) nor each other.
+fn check_outputs(args: &CommissionArgs, inputs: Inputs) -> anyhow::Result<()> {
+    let inputs = inputs.add_opt("--program", args.program.as_deref());
+    inputs.check_opt("--out", args.out.as_deref())?;
+    inputs.check_opt("--export-mpc", args.export_mpc.as_deref())?;
+    if let (Some(o), Some(e)) = (&args.out, &args.export_mpc)
+        && same_file(o, e)
+    {
+        bail!("--out and --export-mpc name the same file {}", o.display());
+    }
+    Ok(())
+}
+
+/// `--export-mpc PATH --program PROGRAM`: the MPC `bundle` gives the program, written as JSON
+/// (`millcomp_runtime::export`); what was written, for the report.
+fn export_mpc(
+    args: &CommissionArgs,
+    bundle: &ModelBundle,
+) -> anyhow::Result<Option<serde_json::Value>> {
+    let (Some(out), Some(program)) = (&args.export_mpc, &args.program) else {
+        return Ok(None);
+    };
+    let origins = Origins {
+        bundle: args
+            .out
+            .clone()
+            .unwrap_or_else(|| "the commissioned bundle".into()),
+        program: program.clone(),
+    };
+    let doc = millcomp_runtime::export::export_mpc(bundle, &Program::load(program)?, &origins)?;
+    doc.save(out)?;
+    Ok(Some(json!({
+        "path": out.display().to_string(),
+        "program": program.display().to_string(),
+        "horizon": doc.horizon,
+        "qp_n": doc.first_cycle.qp.n,
+        "qp_m": doc.first_cycle.qp.m,
+        "first_move_v": doc.first_cycle.plan.first(),
+    })))
+}
+
+fn print_export(path: Option<&std::path::Path>, export: Option<&serde_json::Value>) {
+    if let (Some(path), Some(e)) = (path, export) {
+        println!(
+            "MPC exported: {} (horizon {}, QP {} x {})",
+            path.display(),
+            e["horizon"],
+            e["qp_n"],
+            e["qp_m"]
+        );
+    }
 }

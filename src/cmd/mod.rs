@@ -13,6 +13,7 @@ pub(crate) mod guard;
 mod identify;
 mod parts;
 pub(crate) mod record;
+pub(crate) mod replay;
 mod simulate;
 mod units;
 
@@ -73,6 +74,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Diagnose(a) => diagnose::run(a, json),
         Command::Commission(a) => commission::run(a, json),
         Command::Simulate(a) => simulate::run(a, json),
+        Command::Replay(a) => replay::run(a, json),
         Command::Batch(a) => batch::run(a, json),
         Command::Parts(a) => parts::run(a, json),
     }

@@ -11,15 +11,24 @@ use std::path::Path;
 
 use millcomp_closedloop::{ControllerKind, Scenario, run_scenario_with_trace};
 
+use millcomp_datasets::contracts::{SensorLog, sensor_log_table};
+use millcomp_datasets::{TableFormat, write_table};
+use millcomp_runtime::record::{SimulatedMachine, record};
+use millcomp_runtime::{Controller, Origins, Program, load_bundle};
+
 use crate::cli::SimulateArgs;
 use crate::cmd::guard::{Inputs, same_file, with_scenario_models};
 use crate::cmd::print_json;
+use crate::cmd::replay::{command_columns, write_commands};
 use crate::present::plot::{Series, line_plot};
 
 // profilometer noise used with `--noise-seed` (sim's, 002_…txt §7.2/§7.9)
 use millcomp_sim::sensors::PROFILOMETER_SIGMA_UM;
 
 pub fn run(args: SimulateArgs, json: bool) -> anyhow::Result<()> {
+    if let Some(bundle) = &args.bundle {
+        return run_program(&args, bundle, json);
+    }
     if args.controller.is_some() || is_scenario(&args.file)? {
         return run_scenario(&args, json);
     }
@@ -286,6 +295,110 @@ fn run_scenario(args: &SimulateArgs, json: bool) -> anyhow::Result<()> {
     }
     if let Some(p) = &args.plot {
         println!("plot: {}", p.display());
+    }
+    Ok(())
+}
+
+/// `simulate PROGRAM --bundle B`: the program's controller, built from the bundle by the runtime (the
+/// code a machine calls), on the simulated machine; the sensor log it read and the commands it sent.
+fn run_program(args: &SimulateArgs, bundle_path: &Path, json: bool) -> anyhow::Result<()> {
+    if let Some(flag) = [
+        ("--controller", args.controller.is_some()),
+        ("--plot", args.plot.is_some()),
+        ("--budget-fraction", args.budget_fraction.is_some()),
+        ("--no-realtime", args.no_realtime),
+    ]
+    .iter()
+    .find_map(|(flag, set)| set.then_some(flag))
+    {
+        bail!(
+            "{flag} does not apply to a program run (--bundle): the program file names the controller and its budget"
+        );
+    }
+    let inputs = Inputs::new()
+        .add("FILE", &args.file)
+        .add("--bundle", bundle_path);
+    inputs.check_opt("--out", args.out.as_deref())?;
+    inputs.check_opt("--sensor-log", args.sensor_log.as_deref())?;
+    if let (Some(o), Some(l)) = (&args.out, &args.sensor_log)
+        && same_file(o, l)
+    {
+        bail!("--out and --sensor-log name the same file {}", o.display());
+    }
+    if let Some(log) = &args.sensor_log {
+        TableFormat::from_path(log)
+            .with_context(|| format!("--sensor-log {}: .csv or .parquet", log.display()))?;
+    }
+    let program = Program::load(&args.file)?;
+    let bundle = load_bundle(bundle_path)?;
+    let origins = Origins {
+        bundle: bundle_path.to_path_buf(),
+        program: args.file.clone(),
+    };
+    let mut ctl = Controller::from_bundle_at(&bundle, &program, &origins)?;
+    let steps = match args.steps {
+        Some(n) => n,
+        None => (program.program.groove_program().duration_s() / ctl.period_s()).ceil() as usize,
+    };
+    let machine = SimulatedMachine::with_seed(args.noise_seed.unwrap_or(7));
+    let run = record(&mut ctl, &program, &machine, steps)
+        .with_context(|| format!("simulating {}", args.file.display()))?;
+    let t_s: Vec<f64> = (0..run.log.len())
+        .map(|k| k as f64 * run.period_s)
+        .collect();
+    if let Some(path) = &args.sensor_log {
+        let log = SensorLog {
+            t_s: t_s.clone(),
+            x_mm: run.log.iter().map(|m| m.x_mm).collect(),
+            force_n: run.log.iter().map(|m| m.force_n).collect(),
+            gauge_um: run.log.iter().map(|m| m.gauge_um).collect(),
+        };
+        write_table(&sensor_log_table(&path.display().to_string(), &log)?, path)?;
+    }
+    if let Some(out) = &args.out {
+        write_commands(
+            out,
+            &t_s,
+            &[command_columns(ctl.kind().name(), &run.commands)],
+        )?;
+    }
+    let counts = ctl.counts();
+    let v_max = run
+        .commands
+        .iter()
+        .map(|c| c.voltage_v)
+        .fold(f64::NEG_INFINITY, f64::max);
+    if json {
+        return print_json(&json!({
+            "program": args.file.display().to_string(),
+            "bundle": bundle_path.display().to_string(),
+            "controller": ctl.kind().name(),
+            "samples": run.log.len(),
+            "period_s": run.period_s,
+            "noise_seed": machine.force_noise.map(|n| n.seed),
+            "counts": counts,
+            "voltage_max_v": v_max,
+            "sensor_log": args.sensor_log.as_ref().map(|p| p.display().to_string()),
+            "out": args.out.as_ref().map(|p| p.display().to_string()),
+        }));
+    }
+    println!(
+        "{}: {} cycles of {} at {} s on the simulated machine (S7, noise seed {})",
+        args.file.display(),
+        run.log.len(),
+        ctl.kind().name(),
+        run.period_s,
+        machine.force_noise.map_or(0, |n| n.seed)
+    );
+    println!(
+        "planned {}, fallbacks {}, readings held {}, position mismatches {}, largest command {v_max:.3} V",
+        counts.planned, counts.fallbacks, counts.readings_held, counts.position_mismatches
+    );
+    if let Some(p) = &args.sensor_log {
+        println!("sensor log: {}", p.display());
+    }
+    if let Some(p) = &args.out {
+        println!("commands: {}", p.display());
     }
     Ok(())
 }
