@@ -234,3 +234,275 @@ fn coded_factor_gives_each_runs_coded_level_in_input_order() {
     assert_eq!(a.coded_factor(0), [-1.0, 1.0, -1.0, 1.0]);
     assert_eq!(a.coded_factor(1), [-1.0, -1.0, 1.0, 1.0]);
 }
+
+// ---- survivors of the second campaign (docs/reliability-mutants.md, seed 51 on the tree of 8e854ec) ----
+
+/// `doe design --design ccd` with the defaults of the CLI (`DesignOptions::new`: variant
+/// `circumscribed`, α rotatable): on two factors a=100:200, b=10:20 the CCD is the 2² factorial, 4
+/// axial points and 4 centre points (the default of `generate` for a CCD: 12 runs), α = (2²)^(1/4) = √2 (Box & Hunter's rotatable α =
+/// F^(1/4), F = 4 factorial runs), and the axial points of `a` lie at 150 ± 50·√2 (mid ± α·half
+/// range, by hand: 79.289…, 220.710…); the design names its variant. Kills `design/mod.rs:49:13:
+/// delete match arm "circumscribed" | "ccc" | "c" in <impl FromStr for CcdVariant>::from_str` (the
+/// default variant would be refused) and `rsm.rs:142:9: delete field variant from struct BasePoints
+/// expression in ccd` (the design would name no variant).
+#[test]
+fn the_default_ccd_is_circumscribed_and_says_so() {
+    use millcomp_doe::{CcdVariant, DesignOptions, Level};
+    for spelling in ["circumscribed", "CCC", " c "] {
+        assert_eq!(
+            spelling.parse::<CcdVariant>().unwrap(),
+            CcdVariant::Circumscribed
+        );
+    }
+    let mut o = DesignOptions::new("ccd", "a=100:200,b=10:20");
+    o.randomize = false;
+    let d = generate(&o.request().unwrap()).unwrap();
+    assert_eq!(d.variant, Some("circumscribed"));
+    assert_eq!(d.n_runs(), 12);
+    let alpha = d.alpha.unwrap();
+    assert!((alpha - 2f64.sqrt()).abs() < 1e-12, "{alpha}");
+    let a: Vec<f64> = d
+        .runs
+        .iter()
+        .map(|r| match &r.actual[0] {
+            Level::Num(x) => *x,
+            other => panic!("{other:?}"),
+        })
+        .collect();
+    let lo = a.iter().cloned().fold(f64::INFINITY, f64::min);
+    let hi = a.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    assert!((lo - (150.0 - 50.0 * 2f64.sqrt())).abs() < 1e-9, "{lo}");
+    assert!((hi - (150.0 + 50.0 * 2f64.sqrt())).abs() < 1e-9, "{hi}");
+}
+
+/// A coded factor's range is −1 … +1: the design lists it with low −1 and high +1, and its runs'
+/// coded levels of a 2² are ±1. Kills `factor.rs:254:42: delete - in FactorSpec::range` (which makes
+/// the range 1 … 1).
+#[test]
+fn a_coded_factor_ranges_from_minus_one_to_one() {
+    let f = FactorSpec::coded("A");
+    assert_eq!(f.range(), Some((-1.0, 1.0)));
+    let req = DesignRequest::new(DesignKind::Full, vec![f, FactorSpec::coded("B")]);
+    let d = generate(&req).unwrap();
+    assert_eq!(
+        (d.factors[0].low, d.factors[0].high),
+        (Some(-1.0), Some(1.0))
+    );
+}
+
+/// A response read as text (a CSV column with a non-numeric cell elsewhere is text) whose cell is
+/// `inf` is refused naming the column and the 1-based row (3), not analysed. Kills
+/// `analysis/mod.rs:469:26: replace match guard x.is_finite() with true in response_values`.
+#[test]
+fn an_infinite_response_cell_in_a_text_column_is_refused_naming_its_row() {
+    use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze};
+    let input = AnalysisInput {
+        factors: vec![("x".into(), Values::F64(vec![-1.0, 1.0, -1.0, 1.0]))],
+        response_name: "force_n".into(),
+        response: Values::Str(vec!["1.0".into(), "2.0".into(), "inf".into(), "4.0".into()]),
+        model: ModelSpec::Main,
+    };
+    match analyze(&input) {
+        Err(DoeError::NonFiniteValue { column, row, value }) => {
+            assert_eq!((column.as_str(), row), ("force_n", 3));
+            assert_eq!(value, f64::INFINITY);
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+/// `Design::factor_names` lists the factors in order. Kills `design/mod.rs:546:9: replace
+/// Design::factor_names -> Vec<String> with vec![String::new()]`.
+#[test]
+fn a_design_lists_its_factor_names_in_order() {
+    let req = DesignRequest::new(
+        DesignKind::Full,
+        FactorSpec::parse_list("depth_um=100:200,upfeed_um=10:20,speed_rpm=1:2:3").unwrap(),
+    );
+    let d = generate(&req).unwrap();
+    assert_eq!(d.factor_names(), ["depth_um", "upfeed_um", "speed_rpm"]);
+    assert_eq!(d.n_runs(), 2 * 2 * 3);
+}
+
+/// A Latin hypercube without `--runs` has 10 runs per factor (3 factors: 30), each factor's levels
+/// being the 30 stratum midpoints −1 + (2i + 1)/30, once each. Kills `spacefilling.rs:47:35: replace
+/// * with / in lhs` (which gives 10/3 = 3 runs).
+#[test]
+fn a_latin_hypercube_has_ten_runs_per_factor_by_default() {
+    let factors = (0..3)
+        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
+        .collect();
+    let mut req = DesignRequest::new(DesignKind::Lhs, factors);
+    req.seed = Some(7);
+    let d = generate(&req).unwrap();
+    assert_eq!(d.n_runs(), 30);
+    for j in 0..3 {
+        let mut col: Vec<f64> = d.runs.iter().map(|r| r.coded[j]).collect();
+        col.sort_by(f64::total_cmp);
+        for (i, x) in col.iter().enumerate() {
+            assert!(
+                (x - (-1.0 + (2 * i + 1) as f64 / 30.0)).abs() < 1e-12,
+                "{x}"
+            );
+        }
+    }
+}
+
+/// A run whose leverage is 1 (the only run at x = +1 of a line fitted to x = −1, −1, +1) has no
+/// studentized residual and no Cook's distance (its residual is 0 whatever it measured, 1 − h = 0);
+/// the two others have h = 1/2 and, with y = 1, 3, 10 (fit: 2 at x = −1, 10 at x = +1; residuals
+/// −1, +1, 0; SSE 2 on 1 df, MSE 2), studentized residuals ∓1/√(2·(1 − 1/2)) = ∓1 and Cook's D
+/// r²·h/(p·(1 − h)) = 1·0.5/(2·0.5) = 0.5 (by hand). Kills `analysis/mod.rs:822:35: replace - with +
+/// in analyze` (which lets h = 1 through the guard and divides by 0).
+#[test]
+fn a_run_of_leverage_one_has_no_studentized_residual() {
+    use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze};
+    let input = AnalysisInput {
+        factors: vec![("x".into(), Values::F64(vec![-1.0, -1.0, 1.0]))],
+        response_name: "y".into(),
+        response: Values::F64(vec![1.0, 3.0, 10.0]),
+        model: ModelSpec::Main,
+    };
+    let a = analyze(&input).unwrap();
+    let d = &a.diagnostics.runs;
+    assert!((d[2].leverage - 1.0).abs() < 1e-12, "{}", d[2].leverage);
+    assert_eq!((d[2].studentized, d[2].cooks_d), (None, None));
+    for (run, r) in [(0, -1.0), (1, 1.0)] {
+        assert!((d[run].leverage - 0.5).abs() < 1e-12);
+        assert!((d[run].studentized.unwrap() - r).abs() < 1e-12);
+        assert!((d[run].cooks_d.unwrap() - 0.5).abs() < 1e-12);
+    }
+}
+
+/// The largest |det X| over the saturated designs (as many runs as coefficients, p) on `points`, by
+/// enumerating every p-subset of distinct points (a saturated design with a repeated point is
+/// singular) depth first: |det X| is the product of the norms of X's rows after Gram–Schmidt, so a
+/// subset is extended only while its rows stay independent. The reference the D-optimal search is held
+/// to, found without it.
+fn best_saturated_abs_det(rows: &[Vec<f64>]) -> f64 {
+    fn extend(rows: &[Vec<f64>], from: usize, basis: &mut Vec<Vec<f64>>, det: f64, best: &mut f64) {
+        let p = rows[0].len();
+        if basis.len() == p {
+            *best = best.max(det);
+            return;
+        }
+        for i in from..rows.len() {
+            if rows.len() - i < p - basis.len() {
+                break;
+            }
+            let mut r = rows[i].clone();
+            for q in basis.iter() {
+                let c: f64 = r.iter().zip(q).map(|(a, b)| a * b).sum();
+                r.iter_mut().zip(q).for_each(|(a, b)| *a -= c * b);
+            }
+            let norm = r.iter().map(|a| a * a).sum::<f64>().sqrt();
+            if norm < 1e-9 {
+                continue;
+            }
+            basis.push(r.iter().map(|a| a / norm).collect());
+            extend(rows, i + 1, basis, det * norm, best);
+            basis.pop();
+        }
+    }
+    let mut best = 0.0;
+    extend(rows, 0, &mut Vec::new(), 1.0, &mut best);
+    best
+}
+
+/// The full quadratic model row [1, a, b, ab, a², b²] (the order does not change |det X|).
+fn quadratic_row_2(x: &[f64]) -> Vec<f64> {
+    vec![1.0, x[0], x[1], x[0] * x[1], x[0] * x[0], x[1] * x[1]]
+}
+
+/// A main-effects D-optimal design in 8 runs on the triangle a − b ≥ 1 (coded): no point of the
+/// square's diagonal is feasible (a − b = 0 there), so the candidate grid must hold off-diagonal
+/// points. The optimum puts the runs on the triangle's vertices (0, −1), (1, −1), (1, 0) as evenly as
+/// 8 allows (3, 3, 2): det XᵀX = n₁·n₂·n₃·det(V)² with V the vertices' model rows [1, a, b], det V =
+/// 1, so 18 (by hand; Kiefer's equal-weight vertex design for a first-order model on a simplex). Kills
+/// `doptimal.rs:242:25: replace /= with %= in d_optimal` (whose grid holds only diagonal points, so it
+/// reports the constraints as infeasible).
+#[test]
+fn a_d_optimal_design_on_a_triangle_off_the_diagonal_puts_its_runs_on_the_vertices() {
+    use millcomp_doe::{LinearConstraint, ModelSpec};
+    let f = FactorSpec::parse_list("a,b").unwrap();
+    let mut req = DesignRequest::new(DesignKind::DOptimal, f.clone());
+    req.model = Some(ModelSpec::Main);
+    req.runs = Some(8);
+    req.seed = Some(1);
+    req.constraints = LinearConstraint::parse_list("a - b >= 1", &f).unwrap();
+    let d = generate(&req).unwrap();
+    let ld = d.criteria.log_det_xtx.unwrap();
+    assert!((ld - 18f64.ln()).abs() < 1e-9, "{ld}");
+    let mut count = [0; 3];
+    for r in &d.runs {
+        let v = [[0.0, -1.0], [1.0, -1.0], [1.0, 0.0]]
+            .iter()
+            .position(|v| v[..] == r.coded[..])
+            .unwrap_or_else(|| panic!("{:?} is not a vertex", r.coded));
+        count[v] += 1;
+    }
+    count.sort_unstable();
+    assert_eq!(count, [2, 3, 3]);
+}
+
+/// The full quadratic in 2 factors and 6 runs (saturated) on the square with its corner cut,
+/// a + b ≤ 1 (coded), over the 5 × 5 grid of levels −1, −0.5, 0, 0.5, 1 that the search uses with
+/// constraints (22 points feasible): the best of all C(22, 6) = 74 613 six-point designs, enumerated
+/// here, has |det X| = 12, ln det XᵀX = ln 144; the search reaches it from every seed tried. Kills
+/// `doptimal.rs:320:53: replace > with == in d_optimal` (which keeps the first of the 10 random starts,
+/// not the best: seeds 2, 8 and 9 then end at ln det 4.39 or 3.82).
+#[test]
+fn a_d_optimal_design_keeps_the_best_of_its_starts() {
+    use millcomp_doe::{LinearConstraint, ModelSpec};
+    let lv = [-1.0, -0.5, 0.0, 0.5, 1.0];
+    let grid: Vec<Vec<f64>> = lv
+        .iter()
+        .flat_map(|&b| lv.iter().map(move |&a| vec![a, b]))
+        .filter(|x| x[0] + x[1] <= 1.0)
+        .collect();
+    assert_eq!(grid.len(), 22);
+    let rows: Vec<Vec<f64>> = grid.iter().map(|x| quadratic_row_2(x)).collect();
+    let best = best_saturated_abs_det(&rows);
+    assert!((best - 12.0).abs() < 1e-9, "{best}");
+    let f = FactorSpec::parse_list("a,b").unwrap();
+    for seed in 0..10 {
+        let mut req = DesignRequest::new(DesignKind::DOptimal, f.clone());
+        req.model = Some(ModelSpec::Quadratic);
+        req.runs = Some(6);
+        req.seed = Some(seed);
+        req.constraints = LinearConstraint::parse_list("a + b <= 1", &f).unwrap();
+        let ld = generate(&req).unwrap().criteria.log_det_xtx.unwrap();
+        assert!((ld - 144f64.ln()).abs() < 1e-9, "seed {seed}: {ld}");
+    }
+}
+
+/// The full quadratic in 3 factors and 10 runs (saturated) on the 3³ grid (no constraints): the best
+/// of all C(27, 10) ten-point designs, enumerated here, has |det X| = 1152 = 2⁷·3², ln det XᵀX =
+/// ln(2¹⁴·3⁴); the search reaches it from each of 20 seeds. Kills `doptimal.rs:179:22: replace * with /
+/// in info_inverse` (a ridge 10⁴ times smaller, 1e-9 instead of 1e-7, with which seeds 4 and 6 end at
+/// ln det 13.86).
+#[test]
+fn a_saturated_three_factor_quadratic_design_reaches_the_grids_best() {
+    let lv = [-1.0, 0.0, 1.0];
+    let mut rows = Vec::new();
+    for &c in &lv {
+        for &b in &lv {
+            for &a in &lv {
+                rows.push(vec![1.0, a, b, c, a * b, a * c, b * c, a * a, b * b, c * c]);
+            }
+        }
+    }
+    let best = best_saturated_abs_det(&rows);
+    assert!((best - 1152.0).abs() < 1e-6, "{best}");
+    let f = FactorSpec::parse_list("a,b,c").unwrap();
+    for seed in 0..20 {
+        let mut req = DesignRequest::new(DesignKind::DOptimal, f.clone());
+        req.runs = Some(10);
+        req.seed = Some(seed);
+        let ld = generate(&req).unwrap().criteria.log_det_xtx.unwrap();
+        assert!(
+            (ld - 1152f64.powi(2).ln()).abs() < 1e-9,
+            "seed {seed}: {ld}"
+        );
+    }
+}

@@ -419,4 +419,36 @@ mod tests {
         assert!(e.to_string().contains("out.csv"), "{e}");
         assert!(e.to_string().contains("temporary file"), "{e}");
     }
+
+    /// Replacing a file links the written file under a temporary name first; when that link fails for
+    /// any reason but a name already taken, the error is returned as it is, not retried under 15 other
+    /// names. Here the directory's path is so long that the destination's path fits within Linux's
+    /// PATH_MAX (4096 bytes with its NUL) but the temporary name's does not: ENAMETOOLONG (36) comes back.
+    /// Kills `replace == with != in unnamed::link` (which retries on that error and returns "no free
+    /// temporary name" without an errno).
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn a_failed_link_under_a_temporary_name_returns_its_own_error() {
+        let top = tempfile::tempdir().unwrap();
+        // the temporary name is at least prefix + 9 digits of nanoseconds + 1 digit + suffix long
+        let tmp_len = temp_prefix().len() + 9 + 1 + TEMP_SUFFIX.len();
+        let want = 4095 - 2; // the longest path, then "/x" makes it 4095 bytes
+        let mut dir = top.path().to_path_buf();
+        while dir.as_os_str().len() < want {
+            let left = want - dir.as_os_str().len() - 1;
+            dir.push("d".repeat(left.clamp(1, 200)));
+            std::fs::create_dir(&dir).unwrap();
+        }
+        let path = dir.join("x");
+        assert_eq!(path.as_os_str().len(), 4095);
+        assert!(dir.as_os_str().len() + 1 + tmp_len > 4095);
+        std::fs::write(&path, "old").unwrap();
+        let Some(file) = unnamed::create(&dir, None).unwrap() else {
+            eprintln!("no O_TMPFILE here: unnamed::link cannot be tested");
+            return;
+        };
+        let e = unnamed::link(&file, &path, &dir).unwrap_err();
+        assert_eq!(e.raw_os_error(), Some(libc::ENAMETOOLONG), "{e}");
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "old");
+    }
 }

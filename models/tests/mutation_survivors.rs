@@ -46,3 +46,35 @@ fn a_negative_hysteresis_weight_is_refused_naming_its_key() {
     let h = HysteresisModel::from_identified(&hysteresis("0.0"), at).unwrap();
     assert_eq!(h.weights_um_per_v, vec![0.04, 0.0]);
 }
+
+/// A label factor of three levels is effect coded (sum to zero): each of its columns is +1 at its
+/// level, −1 at the last level and 0 at the other. With f = 10 + 2·[material = 1018] −
+/// 0.5·[material = 6061] over 1018, 6061, S7, the predictions are (by hand) 10 + 2 = 12 at 1018,
+/// 10 − 0.5 = 9.5 at 6061 and 10 − 2 + 0.5 = 8.5 at S7; their mean is the intercept, 10. Kills
+/// `surface.rs:201:34: replace == with != in ResponseSurface::term_row` (which codes a three-level
+/// factor as two-level ones, ±1 only: 12.5 and 7.5 at 1018 and 6061).
+#[test]
+fn a_three_level_label_factor_is_effect_coded() {
+    use millcomp_models::{Level, ResponseSurface};
+    let m: ResponseSurface = toml::from_str(
+        r#"
+response = "force_n"
+model = "material"
+n_runs = 6
+residual_df = 3
+r_squared = 0.9
+factors = [{ kind = "label", name = "material", levels = ["1018", "6061", "S7"] }]
+terms = [{ name = "intercept", coef = 10.0 },
+         { name = "material[1018]", coef = 2.0, labels = { material = "1018" } },
+         { name = "material[6061]", coef = -0.5, labels = { material = "6061" } }]
+coded = { terms = ["intercept", "material[1018]", "material[6061]"], coef = [10.0, 2.0, -0.5] }
+"#,
+    )
+    .unwrap();
+    let at = |l: &str| {
+        m.predict_levels(&[("material", Level::Label(l.into()))])
+            .unwrap()
+            .mean
+    };
+    assert_eq!((at("1018"), at("6061"), at("S7")), (12.0, 9.5, 8.5));
+}

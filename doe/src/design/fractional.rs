@@ -729,4 +729,95 @@ mod tests {
         assert_eq!(g4.len(), 2);
         assert!(g4.iter().all(|m| m.count_ones() == 3));
     }
+
+    /// C(n, k) by the product formula: C(5, 0) = C(5, 5) = 1, C(5, 2) = 10, C(12, 4) = 495 (Pascal's
+    /// triangle), and 0 for k > n (no way to choose more than there are). Kills `replace > with == in
+    /// binomial` (which gives C(5, 5) = 0 and, for k > n + 1, underflows `n - i`).
+    #[test]
+    fn binomial_counts_the_ways_to_choose() {
+        assert_eq!(binomial(5, 0), 1.0);
+        assert_eq!(binomial(5, 5), 1.0);
+        assert_eq!(binomial(5, 2), 10.0);
+        assert_eq!(binomial(12, 4), 495.0);
+        assert_eq!(binomial(3, 5), 0.0);
+    }
+
+    /// Every resolution a design can have, III to X, by its numeral; anything else is `high` (the
+    /// doctest covers IV, IX and 12 only). Kills `delete match arm 6 in resolution_roman`.
+    #[test]
+    fn each_resolution_has_its_numeral() {
+        let got: Vec<&str> = (2..=11).map(resolution_roman).collect();
+        assert_eq!(
+            got,
+            [
+                "high", "III", "IV", "V", "VI", "VII", "VIII", "IX", "X", "high"
+            ]
+        );
+    }
+
+    /// The catalogue holds proper fractions only: every entry has fewer runs than the full factorial
+    /// 2^k of its factors (this is why `by_resolution`'s guard `e.runs < full_runs` cannot be false
+    /// for an entry it sees: docs/reliability-mutants.md lists that mutant as equivalent).
+    #[test]
+    fn every_catalogue_entry_is_a_proper_fraction() {
+        let cat = catalogue();
+        assert_eq!(
+            cat.len(),
+            36,
+            "entries read from data/fractional_catalogue.csv"
+        );
+        for e in &cat {
+            assert!(e.runs < 1usize << e.k, "{e:?}");
+        }
+    }
+
+    /// The coverage named in "no catalogue design" messages is the catalogue's: for each run size of 8
+    /// or more, the smallest and largest number of factors it holds (from the file, not retyped).
+    /// Kills `replace catalogue_coverage -> &'static str with ""`. The 4-run entry (3 factors, 2^(3−1))
+    /// is not named by the message; every request it could serve is met before the message is reached.
+    #[test]
+    fn the_coverage_in_messages_is_the_catalogues() {
+        let cat = catalogue();
+        let mut sizes: Vec<usize> = cat.iter().map(|e| e.runs).filter(|&r| r >= 8).collect();
+        sizes.sort_unstable();
+        sizes.dedup();
+        let expected = sizes
+            .iter()
+            .map(|&r| {
+                let ks = cat.iter().filter(|e| e.runs == r).map(|e| e.k);
+                let (lo, hi) = (ks.clone().min().unwrap(), ks.max().unwrap());
+                if r == 8 {
+                    format!("{r} runs: {lo}–{hi} factors")
+                } else {
+                    format!("{r} runs: {lo}–{hi}")
+                }
+            })
+            .collect::<Vec<_>>()
+            .join(", ");
+        assert_eq!(catalogue_coverage(), expected);
+        assert_eq!(
+            expected,
+            "8 runs: 4–7 factors, 16 runs: 5–15, 32 runs: 6–16, 64 runs: 7–11, 128 runs: 8–11"
+        );
+    }
+
+    /// Generators over up to 63 factors are taken (a word is a 64-bit mask); 64 are refused naming
+    /// the count. With 63 factors, `<63rd> = AB` generates factor index 62 from the word of A and B
+    /// (mask 0b11). Kills `replace > with >= in parse_generators` (which refuses 63).
+    #[test]
+    fn generators_over_63_factors_are_taken_and_64_refused() {
+        let last = factor_letter(62);
+        let g = parse_generators(&format!("{last}=AB"), &letters_factors(63)).unwrap();
+        assert_eq!(g.len(), 1);
+        assert_eq!(
+            (g[0].factor, g[0].word.mask, g[0].word.negative),
+            (62, 0b11, false)
+        );
+        match parse_generators(&format!("{last}=AB"), &letters_factors(64)) {
+            Err(DoeError::Unsupported { what }) => {
+                assert_eq!(what, "64 factors in a fractional factorial (at most 63)")
+            }
+            other => panic!("{other:?}"),
+        }
+    }
 }
