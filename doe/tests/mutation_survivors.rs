@@ -506,3 +506,56 @@ fn a_saturated_three_factor_quadratic_design_reaches_the_grids_best() {
         );
     }
 }
+
+/// The three-factor Box–Behnken design in standard order, as the NIST/SEMATECH e-Handbook tabulates
+/// it (§5.3.3.6.2, "Box-Behnken design for 3 factors"): each pair of factors run as a 2² in
+/// standard order (−−, +−, −+, ++) with the third at its centre, pairs AB, AC, BC, then the centre
+/// points (3 by default). Kills `rsm.rs:200:38: replace == with != in box_behnken` (which runs each
+/// 2² in reverse order: ++, −+, +−, −−).
+#[test]
+fn a_box_behnken_design_comes_in_the_handbooks_standard_order() {
+    let factors = (0..3)
+        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
+        .collect();
+    let mut req = DesignRequest::new(DesignKind::BoxBehnken, factors);
+    req.randomize = false;
+    let d = generate(&req).unwrap();
+    let nist = [
+        [-1.0, -1.0, 0.0],
+        [1.0, -1.0, 0.0],
+        [-1.0, 1.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [-1.0, 0.0, -1.0],
+        [1.0, 0.0, -1.0],
+        [-1.0, 0.0, 1.0],
+        [1.0, 0.0, 1.0],
+        [0.0, -1.0, -1.0],
+        [0.0, 1.0, -1.0],
+        [0.0, -1.0, 1.0],
+        [0.0, 1.0, 1.0],
+        [0.0, 0.0, 0.0],
+        [0.0, 0.0, 0.0],
+        [0.0, 0.0, 0.0],
+    ];
+    assert_eq!(d.coded_matrix(), nist.map(|r| r.to_vec()).to_vec());
+}
+
+/// A design's actual levels are the levels as written, not their round trip through the coded
+/// scale: for x = −1.2 : 0.7 : 1.2 the middle level codes to (0.7 − 0)/1.2 and back to
+/// 0 + 0.58333…·1.2 = 0.7000000000000001 in double precision (Python gives the same), which is
+/// snapped to the listed 0.7 (within 1e-9 of the range 2.4). Kills `factor.rs:290:62: replace - with
+/// + in FactorSpec::actual` (whose tolerance 1e-9·|1.2 + (−1.2)| is 0 here, so 0.7000000000000001 is
+/// kept).
+#[test]
+fn a_designs_actual_levels_are_the_levels_as_written() {
+    use millcomp_doe::Level;
+    let f = FactorSpec::parse_list("x=-1.2:0.7:1.2").unwrap();
+    let coded = f[0].coded_levels();
+    assert_ne!(0.0 + coded[1] * 0.5 * (1.2 - -1.2), 0.7);
+    assert_eq!(f[0].actual(coded[1]), Level::Num(0.7));
+    let mut req = DesignRequest::new(DesignKind::Full, f);
+    req.randomize = false;
+    let d = generate(&req).unwrap();
+    let actual: Vec<Level> = d.runs.iter().map(|r| r.actual[0].clone()).collect();
+    assert_eq!(actual, [Level::Num(-1.2), Level::Num(0.7), Level::Num(1.2)]);
+}

@@ -78,3 +78,29 @@ coded = { terms = ["intercept", "material[1018]", "material[6061]"], coef = [10.
     };
     assert_eq!((at("1018"), at("6061"), at("S7")), (12.0, 9.5, 8.5));
 }
+
+/// A numeric value within 1e-9 of the fitted range (relative to its width) is inside it, not an
+/// extrapolation: on d ∈ [100, 200], 100 − 5e-8 is inside (the margin is 1e-9·100 = 1e-7), 100 −
+/// 2e-7 and 200 + 2e-7 are not. Kills `surface.rs:298:57: replace - with / in
+/// ResponseSurface::out_of_range` (whose margin below the range is 1e-9·200/100 = 2e-9).
+#[test]
+fn a_value_within_rounding_of_the_range_is_not_an_extrapolation() {
+    use millcomp_models::ResponseSurface;
+    let m: ResponseSurface = toml::from_str(
+        r#"
+response = "f"
+model = "d"
+n_runs = 4
+residual_df = 2
+r_squared = 1.0
+factors = [{ kind = "numeric", name = "d", low = 100.0, high = 200.0, levels = 2 }]
+terms = [{ name = "intercept", coef = -1.0 }, { name = "d", coef = 0.01, powers = { d = 1 } }]
+coded = { terms = ["intercept", "d"], coef = [0.5, 0.5] }
+"#,
+    )
+    .unwrap();
+    assert!(m.out_of_range(&[("d", 100.0 - 5e-8)]).is_empty());
+    assert_eq!(m.out_of_range(&[("d", 100.0 - 2e-7)]), ["d"]);
+    assert_eq!(m.out_of_range(&[("d", 200.0 + 2e-7)]), ["d"]);
+    assert!((m.predict(&[("d", 150.0)]).unwrap() - 0.5).abs() < 1e-12);
+}
