@@ -349,4 +349,19 @@ mod tests {
         assert!(!a.contained_in(&a2));
         assert!(!ab.contained_in(&ab));
     }
+
+    /// The saturated model of 16 factors has all 2¹⁶ − 1 = 65 535 products of distinct factors (16
+    /// main effects, C(16, 2) = 120 two-factor interactions, …, one 16-factor interaction); from 17
+    /// factors on the keyword gives nothing and `expand` refuses it. Kills `replace > with >= in
+    /// keyword_terms` (which refuses 16).
+    #[test]
+    fn the_full_model_of_sixteen_factors_has_every_product() {
+        let names: Vec<String> = (0..17).map(|i| format!("f{i}")).collect();
+        let refs: Vec<&str> = names.iter().map(String::as_str).collect();
+        let t = keyword_terms("full", &metas(&refs[..16])).unwrap();
+        assert_eq!(t.len(), 65_535);
+        assert_eq!(t.iter().filter(|t| t.parts.len() == 2).count(), 120);
+        assert_eq!(t.iter().filter(|t| t.parts.len() == 16).count(), 1);
+        assert_eq!(keyword_terms("full", &metas(&refs)).unwrap().len(), 0);
+    }
 }

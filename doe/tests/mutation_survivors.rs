@@ -559,3 +559,17 @@ fn a_designs_actual_levels_are_the_levels_as_written() {
     let actual: Vec<Level> = d.runs.iter().map(|r| r.actual[0].clone()).collect();
     assert_eq!(actual, [Level::Num(-1.2), Level::Num(0.7), Level::Num(1.2)]);
 }
+
+/// A constraint that names a factor twice adds its coefficients: `a + 2*b - b + a <= 1` is
+/// 2·a + 1·b ≤ 1 (by hand), so (0.5, 0) is on the bound and (0.5, 0.5) outside. Kills
+/// `doptimal.rs:143:36: replace += with -= in LinearConstraint::parse` (which makes it 0·a + 3·b).
+#[test]
+fn a_factor_named_twice_in_a_constraint_adds_its_coefficients() {
+    use millcomp_doe::LinearConstraint;
+    let f = FactorSpec::parse_list("a,b").unwrap();
+    let c = LinearConstraint::parse_list("a + 2*b - b + a <= 1", &f).unwrap();
+    assert_eq!(c[0].coefs, [(0, 2.0), (1, 1.0)]);
+    assert_eq!(c[0].rhs, 1.0);
+    assert!(c[0].satisfied(&[0.5, 0.0]));
+    assert!(!c[0].satisfied(&[0.5, 0.5]));
+}

@@ -80,9 +80,10 @@ coded = { terms = ["intercept", "material[1018]", "material[6061]"], coef = [10.
 }
 
 /// A numeric value within 1e-9 of the fitted range (relative to its width) is inside it, not an
-/// extrapolation: on d ∈ [100, 200], 100 − 5e-8 is inside (the margin is 1e-9·100 = 1e-7), 100 −
-/// 2e-7 and 200 + 2e-7 are not. Kills `surface.rs:298:57: replace - with / in
-/// ResponseSurface::out_of_range` (whose margin below the range is 1e-9·200/100 = 2e-9).
+/// extrapolation: on d ∈ [100, 200], 100 − 5e-8 and 200 + 5e-8 are inside (the margin is 1e-9·100 =
+/// 1e-7), 100 − 2e-7 and 200 + 2e-7 are not. Kills `surface.rs:298:57: replace - with / in
+/// ResponseSurface::out_of_range` and `surface.rs:298:92: replace - with / in
+/// ResponseSurface::out_of_range` (whose margins below and above the range are 1e-9·200/100 = 2e-9).
 #[test]
 fn a_value_within_rounding_of_the_range_is_not_an_extrapolation() {
     use millcomp_models::ResponseSurface;
@@ -100,7 +101,53 @@ coded = { terms = ["intercept", "d"], coef = [0.5, 0.5] }
     )
     .unwrap();
     assert!(m.out_of_range(&[("d", 100.0 - 5e-8)]).is_empty());
+    assert!(m.out_of_range(&[("d", 200.0 + 5e-8)]).is_empty());
     assert_eq!(m.out_of_range(&[("d", 100.0 - 2e-7)]), ["d"]);
     assert_eq!(m.out_of_range(&[("d", 200.0 + 2e-7)]), ["d"]);
     assert!((m.predict(&[("d", 150.0)]).unwrap() - 0.5).abs() < 1e-12);
+}
+
+fn spindle(zeta: &str, gain: &str) -> IdentifiedModel {
+    toml::from_str(&format!(
+        r#"
+status = "converged"
+n_obs = 500
+dof = 496
+rms_residual = 0.005
+residual_unit = "um"
+[params]
+gain_um_per_v = {gain}
+zeta = {zeta}
+wn_rad_s = 1302.0
+[std_err]
+[covariance]
+names = []
+values = []
+"#
+    ))
+    .unwrap()
+}
+
+/// A spindle's gain, damping ratio and natural frequency must be finite and > 0: a damping ratio of
+/// −0.46 or a gain of 0 is refused naming its key and value; 0.46 and 0.05 µm/V are taken. Kills
+/// `identified.rs:245:19: replace && with || in finite_positive` (which takes any finite number).
+#[test]
+fn a_spindle_parameter_must_be_positive() {
+    use millcomp_models::SpindleModel;
+    let at = Path::new("spindle.toml");
+    for (zeta, gain, key, value) in [
+        ("-0.46", "0.05", "model.params.zeta", "-0.46"),
+        ("0.46", "0.0", "model.params.gain_um_per_v", "0"),
+    ] {
+        match SpindleModel::from_identified(&spindle(zeta, gain), at) {
+            Err(ModelError::InvalidValue {
+                key: k, value: v, ..
+            }) => {
+                assert_eq!((k.as_str(), v.as_str()), (key, value))
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+    let s = SpindleModel::from_identified(&spindle("0.46", "0.05"), at).unwrap();
+    assert_eq!((s.gain_um_per_v, s.zeta, s.wn_rad_s), (0.05, 0.46, 1302.0));
 }
