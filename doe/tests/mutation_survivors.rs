@@ -573,3 +573,69 @@ fn a_factor_named_twice_in_a_constraint_adds_its_coefficients() {
     assert!(c[0].satisfied(&[0.5, 0.0]));
     assert!(!c[0].satisfied(&[0.5, 0.5]));
 }
+
+/// The face-centred CCD asked by its variant name (`doe design --design ccd --ccd-variant
+/// face-centred`, and the spellings `face-centered`, `faced`, `CCF`, `f`) puts its axial points on the
+/// faces: α = 1, so `a` = 100:200 only takes 100, 150 and 200. Kills `design/mod.rs:51:13: delete
+/// match arm "face-centred" | … in <impl FromStr for CcdVariant>::from_str`.
+#[test]
+fn a_face_centred_ccd_is_asked_by_its_variant_name() {
+    use millcomp_doe::{CcdVariant, DesignOptions, Level};
+    for spelling in ["face-centred", "face-centered", "faced", "CCF", "f"] {
+        assert_eq!(
+            spelling.parse::<CcdVariant>().unwrap(),
+            CcdVariant::FaceCentred
+        );
+    }
+    let mut o = DesignOptions::new("ccd", "a=100:200,b=10:20");
+    o.ccd_variant = "face-centred".into();
+    let d = generate(&o.request().unwrap()).unwrap();
+    assert_eq!((d.variant, d.alpha), (Some("face-centred"), Some(1.0)));
+    let mut a: Vec<f64> = d
+        .runs
+        .iter()
+        .map(|r| match r.actual[0] {
+            Level::Num(x) => x,
+            ref other => panic!("{other:?}"),
+        })
+        .collect();
+    a.sort_by(f64::total_cmp);
+    a.dedup();
+    assert_eq!(a, [100.0, 150.0, 200.0]);
+}
+
+/// The largest Plackett–Burman design built, 4096 runs (Sylvester's Hadamard matrix of order 2¹²),
+/// is taken: each of its 5 columns has 2048 runs at each level. Kills `screening.rs:76:45: replace >
+/// with == in plackett_burman` (which refuses exactly 4096).
+#[test]
+fn a_plackett_burman_design_of_4096_runs_is_built() {
+    let factors = (0..5)
+        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
+        .collect();
+    let mut req = DesignRequest::new(DesignKind::PlackettBurman, factors);
+    req.runs = Some(4096);
+    req.randomize = false;
+    let d = generate(&req).unwrap();
+    assert_eq!(d.n_runs(), 4096);
+    for j in 0..5 {
+        assert_eq!(d.runs.iter().filter(|r| r.coded[j] == 1.0).count(), 2048);
+    }
+}
+
+/// Blocks of later replicates continue the numbering: a 2³ in 2 blocks, replicated twice, has blocks
+/// 1 and 2 in the first replicate and 3 and 4 in the second, 4 runs each, in standard order.
+/// Kills `design/mod.rs:773:28: replace * with / in generate` (which numbers both replicates' blocks
+/// 1 and 2).
+#[test]
+fn blocks_of_a_second_replicate_are_numbered_on() {
+    let factors = (0..3)
+        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
+        .collect();
+    let mut req = DesignRequest::new(DesignKind::Full, factors);
+    req.blocks = 2;
+    req.replicates = 2;
+    req.randomize = false;
+    let d = generate(&req).unwrap();
+    let blocks: Vec<usize> = d.runs.iter().map(|r| r.block).collect();
+    assert_eq!(blocks, [1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4]);
+}
