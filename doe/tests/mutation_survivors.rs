@@ -577,7 +577,8 @@ fn a_factor_named_twice_in_a_constraint_adds_its_coefficients() {
 /// The face-centred CCD asked by its variant name (`doe design --design ccd --ccd-variant
 /// face-centred`, and the spellings `face-centered`, `faced`, `CCF`, `f`) puts its axial points on the
 /// faces: α = 1, so `a` = 100:200 only takes 100, 150 and 200. Kills `design/mod.rs:51:13: delete
-/// match arm "face-centred" | … in <impl FromStr for CcdVariant>::from_str`.
+/// match arm "face-centred" | … in <impl FromStr for CcdVariant>::from_str` and `rsm.rs:88:12: delete
+/// ! in ccd` (which notes "alpha set to 1" when the default α was asked, and not when 1.5 was).
 #[test]
 fn a_face_centred_ccd_is_asked_by_its_variant_name() {
     use millcomp_doe::{CcdVariant, DesignOptions, Level};
@@ -602,6 +603,13 @@ fn a_face_centred_ccd_is_asked_by_its_variant_name() {
     a.sort_by(f64::total_cmp);
     a.dedup();
     assert_eq!(a, [100.0, 150.0, 200.0]);
+    // α is 1 whatever is asked; only an α asked other than the default (rotatable) is noted as changed
+    let note = "face-centred CCD: alpha set to 1";
+    assert!(!d.notes.iter().any(|n| n == note), "{:?}", d.notes);
+    o.alpha = "1.5".into();
+    let d = generate(&o.request().unwrap()).unwrap();
+    assert_eq!(d.alpha, Some(1.0));
+    assert!(d.notes.iter().any(|n| n == note), "{:?}", d.notes);
 }
 
 /// The largest Plackett–Burman design built, 4096 runs (Sylvester's Hadamard matrix of order 2¹²),
@@ -638,4 +646,28 @@ fn blocks_of_a_second_replicate_are_numbered_on() {
     let d = generate(&req).unwrap();
     let blocks: Vec<usize> = d.runs.iter().map(|r| r.block).collect();
     assert_eq!(blocks, [1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4]);
+}
+
+/// A definitive screening design of 2 factors is built from the conference matrix of order 4 (the
+/// smallest built, with 2 "fake factor" columns dropped, Jones & Nachtsheim 2011): 2·4 + 1 = 9 runs,
+/// each factor at −1, 0, +1 three times each (rows C, −C and the centre run); 1 factor is refused
+/// naming the 2 needed. Kills `screening.rs:257:10: replace < with == in dsd` (which refuses 2).
+#[test]
+fn a_definitive_screening_design_of_two_factors_has_nine_runs() {
+    let factors = |k: usize| {
+        (0..k)
+            .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
+            .collect()
+    };
+    let d = generate(&DesignRequest::new(DesignKind::Dsd, factors(2))).unwrap();
+    assert_eq!(d.n_runs(), 9);
+    for j in 0..2 {
+        for level in [-1.0, 0.0, 1.0] {
+            assert_eq!(d.runs.iter().filter(|r| r.coded[j] == level).count(), 3);
+        }
+    }
+    match generate(&DesignRequest::new(DesignKind::Dsd, factors(1))) {
+        Err(DoeError::NotEnoughData { needed, have, .. }) => assert_eq!((needed, have), (2, 1)),
+        other => panic!("{other:?}"),
+    }
 }
