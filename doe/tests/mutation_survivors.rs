@@ -671,3 +671,28 @@ fn a_definitive_screening_design_of_two_factors_has_nine_runs() {
         other => panic!("{other:?}"),
     }
 }
+
+/// A design's size counts the centre points of every block: a 2³ in 4 blocks with 1000 centre points
+/// per block has 8 + 4·1000 = 4008 runs a replicate, so 989 replicates (3 963 912 runs) are refused,
+/// the message giving that size (by hand). Kills `design/mod.rs:727:21: replace * with + in generate`
+/// (which counts 8 + 1000 + 4 = 1012 runs a replicate).
+#[test]
+fn a_designs_size_counts_the_centre_points_of_every_block() {
+    let factors = (0..3)
+        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
+        .collect();
+    let mut req = DesignRequest::new(DesignKind::Full, factors);
+    req.blocks = 4;
+    req.center_points = Some(1000);
+    req.replicates = 989;
+    match generate(&req) {
+        Err(DoeError::InvalidParameter { name, allowed, .. }) => {
+            assert_eq!(name, "replicates");
+            assert_eq!(
+                allowed,
+                "a design of at most 1000000 runs (this one would have 3963912: 4008 runs × 989 replicates)"
+            );
+        }
+        other => panic!("{:?}", other.map(|d| d.n_runs())),
+    }
+}
