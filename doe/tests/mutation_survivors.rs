@@ -696,3 +696,66 @@ fn a_designs_size_counts_the_centre_points_of_every_block() {
         other => panic!("{:?}", other.map(|d| d.n_runs())),
     }
 }
+
+/// Power is reported per one-degree-of-freedom term: a three-level label factor (two effect-coded
+/// columns `B[x]`, `B[y]`) is skipped. On A (±1) × B (x, y, z) replicated twice (12 runs, main
+/// effects: 4 coefficients, 8 residual df), A alone is reported, with λ = (effect/2)²/(σ²·(XᵀX)⁻¹_AA) =
+/// 1²/(1/12) = 12 for effect 2, σ 1 (A is balanced and orthogonal to B, by hand) and power
+/// 0.8572901105252035 (scipy 1.17.1: `ncf.sf(f.ppf(0.95, 1, 8), 1, 8, 12)`). Kills
+/// `analysis/mod.rs:1183:57: replace == with != in power` (which reports `B[x]` and `B[y]` too).
+#[test]
+fn power_skips_the_columns_of_a_three_level_label_factor() {
+    use millcomp_doe::{ModelSpec, Values, power};
+    let mut a = Vec::new();
+    let mut b = Vec::new();
+    for _ in 0..2 {
+        for lb in ["x", "y", "z"] {
+            for la in [-1.0, 1.0] {
+                a.push(la);
+                b.push(lb.to_string());
+            }
+        }
+    }
+    let f = vec![
+        ("A".to_string(), Values::F64(a)),
+        ("B".to_string(), Values::Str(b)),
+    ];
+    let r = power(&f, &ModelSpec::Main, 2.0, 1.0, 0.05).unwrap();
+    assert_eq!(r.residual_df, 8);
+    let names: Vec<&str> = r.terms.iter().map(|t| t.term.as_str()).collect();
+    assert_eq!(names, ["A"]);
+    assert!((r.terms[0].noncentrality - 12.0).abs() < 1e-9);
+    assert!((r.terms[0].power - 0.8572901105252035).abs() < 1e-9);
+}
+
+/// Generators that alias two main effects are refused naming both: `C=A` on three factors makes the
+/// defining word AC (I = AC), so C is aliased with A. Kills `fractional.rs:273:70: replace == with !=
+/// in check_generators` (which names the factors outside the word: B, "with the mean").
+#[test]
+fn generators_that_alias_two_factors_are_refused_naming_them() {
+    let factors = (0..3)
+        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
+        .collect();
+    let mut req = DesignRequest::new(DesignKind::Fractional, factors);
+    req.generators = Some("C=A".into());
+    match generate(&req) {
+        Err(DoeError::AliasedGenerators {
+            factor,
+            aliased_with,
+            ..
+        }) => assert_eq!((factor.as_str(), aliased_with.as_str()), ("C", "A")),
+        other => panic!("{other:?}"),
+    }
+}
+
+/// A column is empty when it has no rows, whatever its type. Kills `factor.rs:50:9: replace
+/// Values::is_empty -> bool with false`.
+#[test]
+fn a_column_without_rows_is_empty() {
+    use millcomp_doe::Values;
+    assert!(Values::F64(vec![]).is_empty());
+    assert!(Values::I64(vec![]).is_empty());
+    assert!(Values::Str(vec![]).is_empty());
+    assert!(!Values::Str(vec!["S7".into()]).is_empty());
+    assert_eq!(Values::F64(vec![1.0, 2.0]).len(), 2);
+}

@@ -151,3 +151,15 @@ fn a_spindle_parameter_must_be_positive() {
     let s = SpindleModel::from_identified(&spindle("0.46", "0.05"), at).unwrap();
     assert_eq!((s.gain_um_per_v, s.zeta, s.wn_rad_s), (0.05, 0.46, 1302.0));
 }
+
+/// A fit is usable as a minimum when it converged or stalled at rounding level, not when it ran out
+/// of iterations or the data do not determine its parameters. Kills `identified.rs:39:9: replace
+/// FitStatus::is_success -> bool with true`.
+#[test]
+fn only_a_converged_or_stalled_fit_is_a_success() {
+    use millcomp_models::FitStatus;
+    assert!(FitStatus::Converged.is_success());
+    assert!(FitStatus::StalledAtRoundingLevel.is_success());
+    assert!(!FitStatus::NotConverged.is_success());
+    assert!(!FitStatus::RankDeficient.is_success());
+}
