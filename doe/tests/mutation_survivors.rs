@@ -729,8 +729,12 @@ fn power_skips_the_columns_of_a_three_level_label_factor() {
 }
 
 /// Generators that alias two main effects are refused naming both: `C=A` on three factors makes the
-/// defining word AC (I = AC), so C is aliased with A. Kills `fractional.rs:273:70: replace == with !=
-/// in check_generators` (which names the factors outside the word: B, "with the mean").
+/// defining word AC (I = AC), so C is aliased with A. This is the first check of `check_generators`
+/// (a generator word of one letter); the later scan of the whole defining subgroup for words of
+/// length ≤ 2 can never find one this check and the duplicate check let through (a product of r
+/// generator words has its r generated letters plus the base letters of the XOR of their words), so
+/// `fractional.rs:273:70: replace == with != in check_generators`, inside that scan, is equivalent
+/// (docs/reliability-mutants.md).
 #[test]
 fn generators_that_alias_two_factors_are_refused_naming_them() {
     let factors = (0..3)
