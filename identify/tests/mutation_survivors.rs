@@ -37,3 +37,27 @@ fn a_weighted_fit_reports_the_rms_of_its_unweighted_residuals() {
         );
     }
 }
+
+/// A line through the origin (no intercept column: the uncentred path), y = b·x on x = 1, 2, 3 and
+/// y = 2, 4.5, 5.5: b = Σxy/Σx² = 27.5/14, RSS = Σy² − (Σxy)²/Σx² = 54.5 − 756.25/14 = 27/56, s² =
+/// RSS/2 = 27/112, SE(b) = √(s²/Σx²) = √(27/1568) (by hand), for both factorisations. Kills
+/// `linear.rs:156:40: replace - with + in fit_linear` (residuals A·θ + y instead of A·θ − y on this
+/// path).
+#[test]
+fn a_line_through_the_origin_has_the_rss_of_its_residuals() {
+    let x = [1.0, 2.0, 3.0];
+    let y = [2.0, 4.5, 5.5];
+    let a = DMatrix::from_fn(3, 1, |i, _| x[i]);
+    let names = ["gain".to_string()];
+    for method in [LinearMethod::Qr, LinearMethod::Svd] {
+        let fit = fit_linear(&names, &a, &y, None, method, "proportional", "um").unwrap();
+        let r = &fit.report;
+        assert!((r.param("gain") - 27.5 / 14.0).abs() < 1e-12, "{method:?}");
+        assert!((r.rss - 27.0 / 56.0).abs() < 1e-12, "{method:?}: {}", r.rss);
+        assert!(
+            (r.se("gain") - (27.0f64 / 1568.0).sqrt()).abs() < 1e-12,
+            "{method:?}: {}",
+            r.se("gain")
+        );
+    }
+}
