@@ -244,7 +244,8 @@ fn coded_factor_gives_each_runs_coded_level_in_input_order() {
 /// range, by hand: 79.289…, 220.710…); the design names its variant. Kills `design/mod.rs:49:13:
 /// delete match arm "circumscribed" | "ccc" | "c" in <impl FromStr for CcdVariant>::from_str` (the
 /// default variant would be refused) and `rsm.rs:142:9: delete field variant from struct BasePoints
-/// expression in ccd` (the design would name no variant).
+/// expression in ccd` (the design would name no variant) and `rsm.rs:126:50: replace > with >= in
+/// ccd` (which notes axial points "outside" the range at α = 1).
 #[test]
 fn the_default_ccd_is_circumscribed_and_says_so() {
     use millcomp_doe::{CcdVariant, DesignOptions, Level};
@@ -273,6 +274,14 @@ fn the_default_ccd_is_circumscribed_and_says_so() {
     let hi = a.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
     assert!((lo - (150.0 - 50.0 * 2f64.sqrt())).abs() < 1e-9, "{lo}");
     assert!((hi - (150.0 + 50.0 * 2f64.sqrt())).abs() < 1e-9, "{hi}");
+    // axial points outside the given low/high are noted; at α = 1 they are not outside
+    let outside =
+        |d: &millcomp_doe::Design| d.notes.iter().any(|n| n.starts_with("axial points lie at"));
+    assert!(outside(&d));
+    o.alpha = "1".into();
+    let d = generate(&o.request().unwrap()).unwrap();
+    assert_eq!(d.alpha, Some(1.0));
+    assert!(!outside(&d), "{:?}", d.notes);
 }
 
 /// A coded factor's range is −1 … +1: the design lists it with low −1 and high +1, and its runs'
@@ -352,8 +361,11 @@ fn a_latin_hypercube_has_ten_runs_per_factor_by_default() {
 /// studentized residual and no Cook's distance (its residual is 0 whatever it measured, 1 − h = 0);
 /// the two others have h = 1/2 and, with y = 1, 3, 10 (fit: 2 at x = −1, 10 at x = +1; residuals
 /// −1, +1, 0; SSE 2 on 1 df, MSE 2), studentized residuals ∓1/√(2·(1 − 1/2)) = ∓1 and Cook's D
-/// r²·h/(p·(1 − h)) = 1·0.5/(2·0.5) = 0.5 (by hand). Kills `analysis/mod.rs:822:35: replace - with +
-/// in analyze` (which lets h = 1 through the guard and divides by 0).
+/// r²·h/(p·(1 − h)) = 1·0.5/(2·0.5) = 0.5 (by hand); no PRESS (predicted R²), Durbin–Watson 2.5 and
+/// the slope's t and p-value (closed form for 1 df) by hand. Kills `analysis/mod.rs:822:35: replace -
+/// with + in analyze` (which lets h = 1 through the guard and divides by 0), `analysis/mod.rs:856:29:
+/// replace - with + in analyze` (PRESS with h = 1), `analysis/mod.rs:848:19: replace > with < / ==
+/// in analyze` (no Durbin–Watson) and `analysis/mod.rs:585:22: replace * with + in t_pvalue`.
 #[test]
 fn a_run_of_leverage_one_has_no_studentized_residual() {
     use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze};
@@ -372,6 +384,21 @@ fn a_run_of_leverage_one_has_no_studentized_residual() {
         assert!((d[run].studentized.unwrap() - r).abs() < 1e-12);
         assert!((d[run].cooks_d.unwrap() - 0.5).abs() < 1e-12);
     }
+    // PRESS needs every 1 − h > 0: no predicted R² here
+    assert_eq!(a.pred_r_squared, None);
+    // Durbin–Watson Σ(eᵢ − eᵢ₋₁)²/Σe² = ((1 − (−1))² + (0 − 1)²)/2 = 2.5
+    assert!((a.diagnostics.durbin_watson.unwrap() - 2.5).abs() < 1e-12);
+    // slope 4 (means 2 and 10), (XᵀX)⁻¹ = [[3, 1], [1, 3]]/8, SE = √(2·3/8), t = 4/√0.75 on 1 df:
+    // Student's t with 1 df is Cauchy, two-sided p = 1 − (2/π)·atan(t)
+    let slope = &a.coefficients[1];
+    let t = 4.0 / 0.75f64.sqrt();
+    assert!((slope.t.unwrap() - t).abs() < 1e-12);
+    let p = 1.0 - 2.0 / std::f64::consts::PI * t.atan();
+    assert!(
+        (slope.p_value.unwrap() - p).abs() < 1e-12,
+        "{:?} vs {p}",
+        slope.p_value
+    );
 }
 
 /// The largest |det X| over the saturated designs (as many runs as coefficients, p) on `points`, by
@@ -762,4 +789,109 @@ fn a_column_without_rows_is_empty() {
     assert!(Values::Str(vec![]).is_empty());
     assert!(!Values::Str(vec!["S7".into()]).is_empty());
     assert_eq!(Values::F64(vec![1.0, 2.0]).len(), 2);
+}
+
+/// The lack-of-fit test needs pure error: x = −1, 0, 1 each run twice, a line fitted (2 coefficients,
+/// 4 residual df, 3 pure-error df). With y = 1, 1.2, 0, 0.2, 1, 1.2: pure error SS = 3·(0.1² + 0.1²)
+/// = 0.06, the line is flat at the mean 4.6/6 (x is symmetric), SSE = 4.92 − 4.6²/6 = 1.39333…, so
+/// lack of fit SS = 4/3 on 1 df and F = (4/3)/(0.06/3) = 200/3 (by hand), p = 0.003842724144709933
+/// (scipy 1.17.1: `f.sf(200/3, 1, 3)`). With exact replicates (y = 1, 1, 0, 0, 1, 1) there is no pure
+/// error and no test. Kills `analysis/mod.rs:889:22: replace && with || in analyze` (which reports F =
+/// ∞ there).
+#[test]
+fn lack_of_fit_is_tested_only_against_some_pure_error() {
+    use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze};
+    let input = |y: Vec<f64>| AnalysisInput {
+        factors: vec![(
+            "x".into(),
+            Values::F64(vec![-1.0, -1.0, 0.0, 0.0, 1.0, 1.0]),
+        )],
+        response_name: "y".into(),
+        response: Values::F64(y),
+        model: ModelSpec::Main,
+    };
+    let a = analyze(&input(vec![1.0, 1.2, 0.0, 0.2, 1.0, 1.2])).unwrap();
+    let lof = a.lack_of_fit.unwrap();
+    assert_eq!((lof.lack_of_fit_df, lof.pure_error_df), (1, 3));
+    assert!((lof.pure_error_ss - 0.06).abs() < 1e-12);
+    assert!((lof.lack_of_fit_ss - 4.0 / 3.0).abs() < 1e-12);
+    assert!((lof.f - 200.0 / 3.0).abs() < 1e-9);
+    assert!((lof.p_value - 0.003842724144709933).abs() < 1e-9);
+    let exact = analyze(&input(vec![1.0, 1.0, 0.0, 0.0, 1.0, 1.0])).unwrap();
+    assert!(exact.lack_of_fit.is_none(), "{:?}", exact.lack_of_fit);
+}
+
+/// A regular fraction asked by its run count: 3 factors in 8 runs is the full 2³; in 16 runs it is
+/// refused naming `runs` (at most 2³ = 8, replicate for more); a Plackett–Burman design of 3 factors
+/// without `--runs` has 4 (the smallest Hadamard order above 3). Kills `fractional.rs:602:28: replace
+/// << with >> in by_runs`, `fractional.rs:605:23: replace > with == in by_runs` and `screening.rs:89:24:
+/// replace * with + in plackett_burman` (which starts its search at 5 and gives 8).
+#[test]
+fn run_counts_at_and_past_the_full_factorial() {
+    let factors = || {
+        (0..3)
+            .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
+            .collect::<Vec<_>>()
+    };
+    let mut req = DesignRequest::new(DesignKind::Fractional, factors());
+    req.runs = Some(8);
+    let d = generate(&req).unwrap();
+    assert_eq!((d.n_runs(), d.resolution), (8, None));
+    req.runs = Some(16);
+    match generate(&req) {
+        Err(DoeError::InvalidParameter {
+            name,
+            value,
+            allowed,
+        }) => {
+            assert_eq!((name, value.as_str()), ("runs", "16"));
+            assert_eq!(
+                allowed,
+                "at most 2^3 = 8 for 3 factors (use --replicates for more)"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+    let pb = generate(&DesignRequest::new(DesignKind::PlackettBurman, factors())).unwrap();
+    assert_eq!(pb.n_runs(), 4);
+}
+
+/// Lenth's trimming keeps the effects strictly below 2.5·s0: effects 1, 2, 3, 4, 5, 15, 100 have
+/// median 4, s0 = 1.5·4 = 6, so 15 = 2.5·s0 is dropped with 100: the trimmed 1…5 have median 3 and
+/// PSE = 1.5·3 = 4.5 (by hand; keeping 15 would give 1.5·3.5 = 5.25). Kills `lenth.rs:80:61: replace
+/// < with <= in lenth`.
+#[test]
+fn lenth_drops_an_effect_of_exactly_two_and_a_half_s0() {
+    let names: Vec<String> = (0..7).map(|i| format!("e{i}")).collect();
+    let l = millcomp_doe::lenth(&names, &[1.0, 2.0, 3.0, 4.0, 5.0, 15.0, 100.0]).unwrap();
+    assert_eq!((l.s0, l.pse), (6.0, 4.5));
+}
+
+/// A label factor crossed with a numeric one names the product by both (`A:x`, the numeric part
+/// without a power), and its square term by the numeric factor's power (`A:x^2`). Kills
+/// `analysis/mod.rs:529:46: replace == with != in build_matrix`.
+#[test]
+fn a_label_by_numeric_interaction_is_named_by_both() {
+    use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze};
+    let mut a = Vec::new();
+    let mut x = Vec::new();
+    let mut y = Vec::new();
+    for (la, base) in [("p", 10.0), ("q", 14.0)] {
+        for xv in [-1.0, 0.0, 1.0] {
+            for noise in [0.1, -0.1] {
+                a.push(la.to_string());
+                x.push(xv);
+                y.push(base + 2.0 * xv + xv * xv + noise);
+            }
+        }
+    }
+    let input = AnalysisInput {
+        factors: vec![("A".into(), Values::Str(a)), ("x".into(), Values::F64(x))],
+        response_name: "y".into(),
+        response: Values::F64(y),
+        model: ModelSpec::parse("A + x + A:x + x^2 + A:x^2").unwrap(),
+    };
+    let fit = analyze(&input).unwrap();
+    let names: Vec<&str> = fit.coefficients.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(names, ["intercept", "A", "x", "A:x", "x^2", "A:x^2"]);
 }
