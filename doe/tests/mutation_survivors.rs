@@ -868,8 +868,10 @@ fn lenth_drops_an_effect_of_exactly_two_and_a_half_s0() {
 }
 
 /// A label factor crossed with a numeric one names the product by both (`A:x`, the numeric part
-/// without a power), and its square term by the numeric factor's power (`A:x^2`). Kills
-/// `analysis/mod.rs:529:46: replace == with != in build_matrix`.
+/// without a power), and its square term by the numeric factor's power (`A:x^2`); for a three-level
+/// label, by each of its sum-coded columns (`B[r]:x`, `B[r]:x^2`, as `B[x]` in the tests above). Kills
+/// `analysis/mod.rs:529:46: replace == with != in build_matrix` (which names them `B[r]:x^1` and
+/// `B[r]:x`; the two-level names come from the terms and do not see it).
 #[test]
 fn a_label_by_numeric_interaction_is_named_by_both() {
     use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze};
@@ -894,4 +896,40 @@ fn a_label_by_numeric_interaction_is_named_by_both() {
     let fit = analyze(&input).unwrap();
     let names: Vec<&str> = fit.coefficients.iter().map(|c| c.name.as_str()).collect();
     assert_eq!(names, ["intercept", "A", "x", "A:x", "x^2", "A:x^2"]);
+    // a three-level label factor: one column per level but the last (sum coding), each crossed
+    // with x and x²
+    let mut b = Vec::new();
+    let mut x = Vec::new();
+    let mut y = Vec::new();
+    for (lb, base) in [("r", 10.0), ("s", 14.0), ("t", 11.0)] {
+        for xv in [-1.0, 0.0, 1.0] {
+            for noise in [0.1, -0.1] {
+                b.push(lb.to_string());
+                x.push(xv);
+                y.push(base + 2.0 * xv + xv * xv + noise);
+            }
+        }
+    }
+    let input = AnalysisInput {
+        factors: vec![("B".into(), Values::Str(b)), ("x".into(), Values::F64(x))],
+        response_name: "y".into(),
+        response: Values::F64(y),
+        model: ModelSpec::parse("B + x + B:x + x^2 + B:x^2").unwrap(),
+    };
+    let fit = analyze(&input).unwrap();
+    let names: Vec<&str> = fit.coefficients.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "intercept",
+            "B[r]",
+            "B[s]",
+            "x",
+            "B[r]:x",
+            "B[s]:x",
+            "x^2",
+            "B[r]:x^2",
+            "B[s]:x^2"
+        ]
+    );
 }

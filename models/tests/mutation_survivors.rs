@@ -166,10 +166,13 @@ fn only_a_converged_or_stalled_fit_is_a_success() {
 
 /// Timestamps as RFC 3339 in UTC, checked against GNU date (`date -u -d @1709164800 +%FT%TZ`): the
 /// last day of February of a leap year and the last second of a year. Kills `file.rs:551:33: replace
-/// + with - in rfc3339_from_unix` (which puts 2024-02-29 in the next year of its March-based count).
+/// + with - in rfc3339_from_unix` (which puts 2024-02-29 in the next year of its March-based count)
+/// and `file.rs:551:33: replace + with - in rfc3339_from_unix` (which dates 2100-03-01 "2100-02-29").
 #[test]
 fn timestamps_near_the_end_of_a_year_are_dated_right() {
     use millcomp_models::file::rfc3339_from_unix;
     assert_eq!(rfc3339_from_unix(1_709_164_800), "2024-02-29T00:00:00Z");
     assert_eq!(rfc3339_from_unix(1_704_067_199), "2023-12-31T23:59:59Z");
+    // 2100 is not a leap year (divisible by 100, not by 400): the day after 2100-02-28 is 1 March
+    assert_eq!(rfc3339_from_unix(4_107_542_400), "2100-03-01T00:00:00Z");
 }
