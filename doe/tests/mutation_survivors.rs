@@ -933,3 +933,71 @@ fn a_label_by_numeric_interaction_is_named_by_both() {
         ]
     );
 }
+
+/// A D-optimal design of more than 10 000 runs is refused naming `runs` (its exchange search grows
+/// with the square of the runs). Kills `doptimal.rs:205:10: replace > with == in d_optimal` (which
+/// refuses exactly 10 000 and lets 10 001 through).
+#[test]
+fn a_d_optimal_design_past_ten_thousand_runs_is_refused() {
+    use millcomp_doe::ModelSpec;
+    let mut req = DesignRequest::new(DesignKind::DOptimal, vec![FactorSpec::coded("A")]);
+    req.model = Some(ModelSpec::Main);
+    req.runs = Some(10_001);
+    match generate(&req) {
+        Err(DoeError::InvalidParameter { name, value, .. }) => {
+            assert_eq!((name, value.as_str()), ("runs", "10001"))
+        }
+        other => panic!("{:?}", other.map(|d| d.n_runs())),
+    }
+}
+
+/// The maximin Latin hypercube of 6 runs in 2 factors: the search reaches the largest smallest
+/// distance between runs of all 6! = 720 Latin hypercubes on the same levels (enumerated here), from
+/// each of 5 seeds. Kills `spacefilling.rs:93:77: replace - with / in lhs` (a swap judged by a wrong
+/// change of the criterion).
+#[test]
+fn a_small_latin_hypercube_reaches_the_maximin_of_all() {
+    fn permutations(v: &mut Vec<usize>, k: usize, out: &mut Vec<Vec<usize>>) {
+        if k == v.len() {
+            out.push(v.clone());
+            return;
+        }
+        for i in k..v.len() {
+            v.swap(k, i);
+            permutations(v, k + 1, out);
+            v.swap(k, i);
+        }
+    }
+    let min_dist = |pts: &[[f64; 2]]| {
+        let mut m = f64::INFINITY;
+        for i in 0..pts.len() {
+            for j in i + 1..pts.len() {
+                m = m.min((pts[i][0] - pts[j][0]).powi(2) + (pts[i][1] - pts[j][1]).powi(2));
+            }
+        }
+        m
+    };
+    let n = 6;
+    let level = |i: usize| -1.0 + (2 * i + 1) as f64 / n as f64;
+    let mut all = Vec::new();
+    permutations(&mut (0..n).collect(), 0, &mut all);
+    let best = all
+        .iter()
+        .map(|p| min_dist(&(0..n).map(|i| [level(i), level(p[i])]).collect::<Vec<_>>()))
+        .fold(0.0, f64::max);
+    for seed in 1..=5 {
+        let mut req = DesignRequest::new(
+            DesignKind::Lhs,
+            vec![FactorSpec::coded("A"), FactorSpec::coded("B")],
+        );
+        req.runs = Some(n);
+        req.seed = Some(seed);
+        let d = generate(&req).unwrap();
+        let pts: Vec<[f64; 2]> = d.runs.iter().map(|r| [r.coded[0], r.coded[1]]).collect();
+        assert!(
+            (min_dist(&pts) - best).abs() < 1e-12,
+            "seed {seed}: {} vs {best}",
+            min_dist(&pts)
+        );
+    }
+}
