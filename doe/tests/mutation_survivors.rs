@@ -570,9 +570,9 @@ fn a_box_behnken_design_comes_in_the_handbooks_standard_order() {
 /// A design's actual levels are the levels as written, not their round trip through the coded
 /// scale: for x = −1.2 : 0.7 : 1.2 the middle level codes to (0.7 − 0)/1.2 and back to
 /// 0 + 0.58333…·1.2 = 0.7000000000000001 in double precision (Python gives the same), which is
-/// snapped to the listed 0.7 (within 1e-9 of the range 2.4). Kills `factor.rs:290:62: replace - with
-/// + in FactorSpec::actual` (whose tolerance 1e-9·|1.2 + (−1.2)| is 0 here, so 0.7000000000000001 is
-/// kept).
+/// snapped to the listed 0.7 (within 1e-9 of the range 2.4). Kills `factor.rs:290:62: replace -
+/// with + in FactorSpec::actual` (whose tolerance 1e-9·|1.2 + (−1.2)| is 0 here, so
+/// 0.7000000000000001 is kept).
 #[test]
 fn a_designs_actual_levels_are_the_levels_as_written() {
     use millcomp_doe::Level;
