@@ -334,8 +334,8 @@ fn a_design_lists_its_factor_names_in_order() {
 }
 
 /// A Latin hypercube without `--runs` has 10 runs per factor (3 factors: 30), each factor's levels
-/// being the 30 stratum midpoints −1 + (2i + 1)/30, once each. Kills `spacefilling.rs:47:35: replace
-/// * with / in lhs` (which gives 10/3 = 3 runs).
+/// being the 30 stratum midpoints −1 + (2i + 1)/30, once each. Kills `spacefilling.rs:47:35:
+/// replace * with / in lhs` (which gives 10/3 = 3 runs).
 #[test]
 fn a_latin_hypercube_has_ten_runs_per_factor_by_default() {
     let factors = (0..3)

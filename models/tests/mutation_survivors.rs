@@ -165,9 +165,9 @@ fn only_a_converged_or_stalled_fit_is_a_success() {
 }
 
 /// Timestamps as RFC 3339 in UTC, checked against GNU date (`date -u -d @1709164800 +%FT%TZ`): the
-/// last day of February of a leap year and the last second of a year. Kills `file.rs:551:33: replace
-/// + with - in rfc3339_from_unix` (which puts 2024-02-29 in the next year of its March-based count)
-/// and `file.rs:551:33: replace + with - in rfc3339_from_unix` (which dates 2100-03-01 "2100-02-29").
+/// last day of February of a leap year, the last second of a year, and 1 March of 2100 (not a leap
+/// year). Kills `file.rs:551:33: replace + with - in rfc3339_from_unix` (the `+` before `doe /
+/// 36_524`: it dates 2100-03-01 "2100-02-29").
 #[test]
 fn timestamps_near_the_end_of_a_year_are_dated_right() {
     use millcomp_models::file::rfc3339_from_unix;
