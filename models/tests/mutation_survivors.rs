@@ -5,28 +5,36 @@ use std::path::Path;
 
 use millcomp_models::{HysteresisModel, IdentifiedModel, ModelError};
 
-fn hysteresis(w03: &str) -> IdentifiedModel {
+/// An identified model of `n_obs` points with the given `[params]` (and `[fixed]`) sections, residuals
+/// in µm, no covariance.
+fn identified(n_obs: usize, n_params: usize, sections: &str) -> IdentifiedModel {
     toml::from_str(&format!(
         r#"
 status = "converged"
-n_obs = 900
-dof = 897
+n_obs = {n_obs}
+dof = {}
 rms_residual = 0.05
 residual_unit = "um"
-[params]
-w00_um_per_v = 0.04
-w03_um_per_v = {w03}
-offset_um = 0.2
-[fixed]
-r00_v = 0.0
-r03_v = 56.25
+{sections}
 [std_err]
 [covariance]
 names = []
 values = []
-"#
+"#,
+        n_obs - n_params
     ))
     .unwrap()
+}
+
+fn hysteresis(w03: &str) -> IdentifiedModel {
+    identified(
+        900,
+        3,
+        &format!(
+            "[params]\nw00_um_per_v = 0.04\nw03_um_per_v = {w03}\noffset_um = 0.2\n\
+             [fixed]\nr00_v = 0.0\nr03_v = 56.25"
+        ),
+    )
 }
 
 /// A play-operator weight below 0 is refused naming its key and value, 0 is accepted. Kills `identified.rs: replace && with || in HysteresisModel::from_identified`
@@ -108,24 +116,11 @@ coded = { terms = ["intercept", "d"], coef = [0.5, 0.5] }
 }
 
 fn spindle(zeta: &str, gain: &str) -> IdentifiedModel {
-    toml::from_str(&format!(
-        r#"
-status = "converged"
-n_obs = 500
-dof = 496
-rms_residual = 0.005
-residual_unit = "um"
-[params]
-gain_um_per_v = {gain}
-zeta = {zeta}
-wn_rad_s = 1302.0
-[std_err]
-[covariance]
-names = []
-values = []
-"#
-    ))
-    .unwrap()
+    identified(
+        500,
+        4,
+        &format!("[params]\ngain_um_per_v = {gain}\nzeta = {zeta}\nwn_rad_s = 1302.0"),
+    )
 }
 
 /// A spindle's gain, damping ratio and natural frequency must be finite and > 0: a damping ratio of
