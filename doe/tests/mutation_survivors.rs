@@ -233,6 +233,8 @@ fn coded_factor_gives_each_runs_coded_level_in_input_order() {
     let a = analyze(&input).unwrap();
     assert_eq!(a.coded_factor(0), [-1.0, 1.0, -1.0, 1.0]);
     assert_eq!(a.coded_factor(1), [-1.0, -1.0, 1.0, 1.0]);
+    // and the response as given (kills `analysis/mod.rs:961:9: replace Analysis::response_values`)
+    assert_eq!(a.response_values(), [1.0, 2.0, 2.0, 3.5]);
 }
 
 // ---- survivors of the second campaign (docs/reliability-mutants.md, seed 51 on the tree of 8e854ec) ----
@@ -729,7 +731,8 @@ fn a_designs_size_counts_the_centre_points_of_every_block() {
 /// effects: 4 coefficients, 8 residual df), A alone is reported, with λ = (effect/2)²/(σ²·(XᵀX)⁻¹_AA) =
 /// 1²/(1/12) = 12 for effect 2, σ 1 (A is balanced and orthogonal to B, by hand) and power
 /// 0.8572901105252035 (scipy 1.17.1: `ncf.sf(f.ppf(0.95, 1, 8), 1, 8, 12)`). Kills
-/// `analysis/mod.rs:1183:57: replace == with != in power` (which reports `B[x]` and `B[y]` too).
+/// `analysis/mod.rs:1183:57: replace == with != in power` (which reports `B[x]` and `B[y]` too); with
+/// effect 4 and σ 2, λ is 12 again, which kills `analysis/mod.rs:1196:54: replace * with / in power`.
 #[test]
 fn power_skips_the_columns_of_a_three_level_label_factor() {
     use millcomp_doe::{ModelSpec, Values, power};
@@ -753,6 +756,9 @@ fn power_skips_the_columns_of_a_three_level_label_factor() {
     assert_eq!(names, ["A"]);
     assert!((r.terms[0].noncentrality - 12.0).abs() < 1e-9);
     assert!((r.terms[0].power - 0.8572901105252035).abs() < 1e-9);
+    // twice the effect against twice the noise: the same λ = 2²/(2²/12) = 12
+    let r = power(&f, &ModelSpec::Main, 4.0, 2.0, 0.05).unwrap();
+    assert!((r.terms[0].noncentrality - 12.0).abs() < 1e-9);
 }
 
 /// Generators that alias two main effects are refused naming both: `C=A` on three factors makes the
@@ -1001,4 +1007,20 @@ fn a_small_latin_hypercube_reaches_the_maximin_of_all() {
             min_dist(&pts)
         );
     }
+}
+
+/// Generators may name factors by letter when the factors have names: on depth_um, upfeed_um,
+/// speed_rpm, tool, `D=ABC` is the 2⁴⁻¹ of resolution IV with I = ABCD, 8 runs. Kills
+/// `fractional.rs:87:68: replace == with != in resolve_factor` (which resolves a letter to another
+/// factor).
+#[test]
+fn generators_name_named_factors_by_letter() {
+    let f =
+        FactorSpec::parse_list("depth_um=100:200,upfeed_um=10:20,speed_rpm=20000:40000,tool=1:2")
+            .unwrap();
+    let mut req = DesignRequest::new(DesignKind::Fractional, f);
+    req.generators = Some("D=ABC".into());
+    let d = generate(&req).unwrap();
+    assert_eq!((d.n_runs(), d.resolution), (8, Some(4)));
+    assert_eq!(d.defining_relation, ["I=ABCD"]);
 }
