@@ -104,6 +104,8 @@ fn only_a_constant_response_is_noted_as_constant() {
     let flat = analyze(&input(vec![5.0; 8])).unwrap();
     assert!(flat.notes.iter().any(|n| n == note), "{:?}", flat.notes);
     assert!(flat.r_squared.is_nan());
+    // no adjusted R² either (kills `analysis/mod.rs:860:31: replace && with || in analyze`)
+    assert_eq!(flat.adj_r_squared, None);
     assert!(flat.coefficients[1..].iter().all(|c| c.coef == 0.0));
     // y = 5 + 2x + z ± 0.25 (first replicate +, second −)
     let y: Vec<f64> = (0..8)
