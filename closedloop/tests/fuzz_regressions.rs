@@ -106,6 +106,36 @@ fn seed_files_are_handled() {
     replay("session", &toml("datasets/synthetic"));
 }
 
+/// The sensor-log target's seeds (`fuzz/seeds/sensor_log/`: no sensor log is shipped; logs of the
+/// shipped runtime programs from `millcomp simulate --sensor-log`, and one with the empty and NaN
+/// readings the contract allows) go through its harness, are accepted at the program's rate and so
+/// are replayed through every controller the shipped bundle builds — the harness's checks ran on the
+/// commands, not only on a refusal.
+#[test]
+fn sensor_log_seeds_are_replayed_through_every_controller() {
+    use millcomp_datasets::contracts::read_sensor_log;
+    let seeds = files(&repo().join("fuzz/seeds/sensor_log"));
+    assert!(seeds.len() >= 4, "{} seeds", seeds.len());
+    replay("sensor_log", &seeds);
+    let kinds = harness::replay_kinds();
+    for kind in ["none", "open-loop", "pid", "pid-tuned", "pid-ff", "mpc"] {
+        assert!(
+            kinds.iter().any(|k| k.name() == kind),
+            "the shipped bundle builds no `{kind}`: {kinds:?}"
+        );
+    }
+    let dir = tempfile::tempdir().unwrap();
+    for path in &seeds {
+        let data = std::fs::read(path).unwrap();
+        let ext = if data[0] & 1 == 0 { "csv" } else { "parquet" };
+        let file = dir.path().join(format!("log.{ext}"));
+        std::fs::write(&file, &data[1..]).unwrap();
+        let log = read_sensor_log(&file).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        log.check_rate("seed", 5e-5)
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    }
+}
+
 /// The recorded QP sequences the campaign found (malformed CSC arrays that panicked inside Clarabel's
 /// constructor or its matrix products) are refused before a solver sees them, naming the matrix.
 #[test]

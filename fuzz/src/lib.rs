@@ -30,10 +30,12 @@ use millcomp_mpc::identified::{
     IdentifiedForceModel, IdentifiedHysteresis, IdentifiedSpindle, IdentifiedStiffness, NominalTool,
 };
 use millcomp_mpc::replay::{QpSequence, replay_clarabel};
+use millcomp_runtime::replay::{measurements, replay};
+use millcomp_runtime::{Controller, ControllerKind, Origins, Program, flags};
 use millcomp_sim::session::Session;
 
 /// The fuzz targets, by name (`fuzz/fuzz_targets/<name>.rs`, `fuzz/regressions/<name>/`).
-pub const TARGETS: [&str; 8] = [
+pub const TARGETS: [&str; 9] = [
     "table",
     "scenario",
     "batch_plan",
@@ -42,6 +44,7 @@ pub const TARGETS: [&str; 8] = [
     "column_map",
     "doe_spec",
     "qp_sequence",
+    "sensor_log",
 ];
 
 /// Runs the harness of target `name` on `data` (what the regression test calls).
@@ -58,6 +61,7 @@ pub fn run(name: &str, data: &[u8]) {
         "column_map" => column_map(data),
         "doe_spec" => doe_spec(data),
         "qp_sequence" => qp_sequence(data),
+        "sensor_log" => sensor_log(data),
         other => panic!("no fuzz target `{other}`"),
     }
 }
@@ -402,4 +406,142 @@ pub fn qp_sequence(data: &[u8]) {
         return;
     };
     let _ = replay_clarabel(&seq);
+}
+
+/// The bundle and program `sensor_log` replays an accepted log with (the shipped ones of
+/// `runtime/tests/data/`, which docs/replay.md's example uses); compiled in, so that the harness
+/// reads them from no path of its own.
+const REPLAY_BUNDLE: &str = include_str!("../../runtime/tests/data/bundle_s7.toml");
+const REPLAY_PROGRAM: &str = include_str!("../../runtime/tests/data/ramp_20deg.toml");
+
+/// The amplifier's maximum of the shipped bundle's spindle (`sim/src/spindle.rs`: 1000 V, the
+/// thesis' §5.2.2); a command is within 0 ..= this (`millcomp_runtime::Command::voltage_v`).
+const VOLTAGE_MAX_V: f64 = 1000.0;
+
+/// The program and one controller of every kind the shipped bundle builds, built once per process
+/// (building plans the whole program); each input replays from a [`Controller::reset`], which gives
+/// the same commands as a new controller, bit for bit.
+fn replay_controllers() -> &'static std::sync::Mutex<(Program, Vec<Controller>)> {
+    static CTLS: OnceLock<std::sync::Mutex<(Program, Vec<Controller>)>> = OnceLock::new();
+    CTLS.get_or_init(|| {
+        let origins = Origins {
+            bundle: PathBuf::from("runtime/tests/data/bundle_s7.toml"),
+            program: PathBuf::from("runtime/tests/data/ramp_20deg.toml"),
+        };
+        let bundle = ModelFile::<ModelBundle>::from_toml(
+            REPLAY_BUNDLE,
+            &origins.bundle,
+            &ModelBundle::KINDS,
+        )
+        .expect("the shipped bundle")
+        .model;
+        let program =
+            Program::from_toml_str(REPLAY_PROGRAM, &origins.program).expect("the shipped program");
+        let ctls: Vec<Controller> = ControllerKind::ALL
+            .iter()
+            .filter_map(|&kind| {
+                let mut p = program.clone();
+                p.controller.kind = kind;
+                Controller::from_bundle_at(&bundle, &p, &origins).ok()
+            })
+            .collect();
+        std::sync::Mutex::new((program, ctls))
+    })
+}
+
+/// Kinds of controller `sensor_log` replays with (those the shipped bundle builds).
+pub fn replay_kinds() -> Vec<ControllerKind> {
+    let guard = replay_controllers()
+        .lock()
+        .unwrap_or_else(|e| e.into_inner());
+    guard.1.iter().map(Controller::kind).collect()
+}
+
+/// The sensor log (`datasets::contracts::read_sensor_log`), read as `millcomp replay BUNDLE PROGRAM
+/// LOG` reads it: the first byte chooses the file's extension (`.csv` or `.parquet`), the rest is the
+/// file. An accepted log must hold what the contract promises (columns of one length, finite times,
+/// readings finite or NaN, never infinite) and write and read back the same (the writer of `simulate
+/// --sensor-log`); a log at the shipped program's rate (`SensorLog::check_rate`, the replay's next
+/// check) is then replayed through every controller the shipped bundle builds, as `replay
+/// --controllers` does: each command finite and within 0 ..= the amplifier's maximum, never the
+/// "command held" of a non-finite command, one per sample.
+pub fn sensor_log(data: &[u8]) {
+    let Some((&mode, body)) = data.split_first() else {
+        return;
+    };
+    let ext = if mode & 1 == 0 { "csv" } else { "parquet" };
+    let path = scratch_file(&format!("log.{ext}"), body);
+    let Ok(log) = contracts::read_sensor_log(&path) else {
+        return;
+    };
+    let origin = path.display().to_string();
+    let n = log.len();
+    assert!(n > 0, "{origin}: a log without samples accepted");
+    for (name, col) in [
+        ("x_mm", &log.x_mm),
+        ("force_n", &log.force_n),
+        ("gauge_um", &log.gauge_um),
+    ] {
+        assert_eq!(col.len(), n, "{origin}: `{name}` of another length");
+        assert!(
+            col.iter().all(|x| !x.is_infinite()),
+            "{origin}: an infinite `{name}` accepted"
+        );
+    }
+    assert!(
+        log.t_s.iter().all(|t| t.is_finite()),
+        "{origin}: a non-finite `t_s` accepted"
+    );
+
+    // written as `simulate --sensor-log` writes it, read back the same (NaN as NaN)
+    let back = scratch().join(format!("back.{ext}"));
+    let table = contracts::sensor_log_table(&origin, &log).expect("the table of an accepted log");
+    millcomp_datasets::write_table(&table, &back).expect("writing an accepted log");
+    let again = contracts::read_sensor_log(&back)
+        .unwrap_or_else(|e| panic!("{origin}: the log as written is refused: {e}"));
+    let same = |a: &[f64], b: &[f64]| {
+        a.len() == b.len()
+            && a.iter()
+                .zip(b)
+                .all(|(x, y)| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan()))
+    };
+    assert!(
+        same(&log.t_s, &again.t_s)
+            && same(&log.x_mm, &again.x_mm)
+            && same(&log.force_n, &again.force_n)
+            && same(&log.gauge_um, &again.gauge_um),
+        "{origin}: the log does not read back the same after being written"
+    );
+
+    let mut guard = replay_controllers()
+        .lock()
+        .unwrap_or_else(|e| e.into_inner());
+    let (program, ctls) = &mut *guard;
+    if log.check_rate(&origin, program.controller.dt_s).is_err() {
+        return;
+    }
+    let m = measurements(&log.x_mm, &log.force_n, &log.gauge_um);
+    for ctl in ctls.iter_mut() {
+        ctl.reset().expect("resetting a controller");
+        let r = replay(ctl, &m);
+        assert_eq!(
+            r.commands.len(),
+            n,
+            "{}: a command per sample",
+            ctl.kind().name()
+        );
+        for (k, c) in r.commands.iter().enumerate() {
+            assert!(
+                c.voltage_v.is_finite() && (0.0..=VOLTAGE_MAX_V).contains(&c.voltage_v),
+                "{}: cycle {k} sends {} V",
+                ctl.kind().name(),
+                c.voltage_v
+            );
+            assert!(
+                !c.has(flags::COMMAND_HELD),
+                "{}: cycle {k} computed a non-finite command (held)",
+                ctl.kind().name()
+            );
+        }
+    }
 }
