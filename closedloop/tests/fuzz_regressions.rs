@@ -136,6 +136,42 @@ fn sensor_log_seeds_are_replayed_through_every_controller() {
     }
 }
 
+/// The program target's seeds (the shipped runtime programs and `fuzz/seeds/program/`: every
+/// controller kind's family, each depth-profile kind, feed steps, an exit, both budgets, the groove
+/// MPC's features) go through its harness; each is accepted and builds its controller from the
+/// shipped bundle, so the harness's round trip and its checks on the commands ran on every seed.
+#[test]
+fn program_seeds_are_accepted_and_built() {
+    use millcomp_runtime::{Controller, Program};
+    let r = repo();
+    let mut seeds: Vec<PathBuf> = files(&r.join("runtime/tests/data"))
+        .into_iter()
+        .filter(|p| std::fs::read_to_string(p).is_ok_and(|t| t.contains("\n[controller]")))
+        .collect();
+    assert_eq!(seeds.len(), 2, "the shipped programs: {seeds:?}");
+    seeds.extend(files(&r.join("fuzz/seeds/program")));
+    assert!(seeds.len() >= 6, "{} seeds", seeds.len());
+    replay("program", &seeds);
+    let bundle = r.join("runtime/tests/data/bundle_s7.toml");
+    for path in &seeds {
+        let p = Program::load(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert!(
+            p.program.groove_program().duration_s() <= 30.0,
+            "{}",
+            path.display()
+        );
+        Controller::from_files(&bundle, path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    }
+    // found writing the harness: a touch-off above the amplifier's 1000 V was accepted and the `none`
+    // controller sent it (5000 V); now the build is refused naming the key
+    let found = r.join("fuzz/regressions/program/touch_off_bias_above_the_amplifier.toml");
+    let e = Controller::from_files(&bundle, &found).unwrap_err().chain();
+    assert!(
+        e.contains("controller.touch_off.bias_v") && e.contains("1000"),
+        "{e}"
+    );
+}
+
 /// The recorded QP sequences the campaign found (malformed CSC arrays that panicked inside Clarabel's
 /// constructor or its matrix products) are refused before a solver sees them, naming the matrix.
 #[test]

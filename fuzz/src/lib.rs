@@ -35,7 +35,7 @@ use millcomp_runtime::{Controller, ControllerKind, Origins, Program, flags};
 use millcomp_sim::session::Session;
 
 /// The fuzz targets, by name (`fuzz/fuzz_targets/<name>.rs`, `fuzz/regressions/<name>/`).
-pub const TARGETS: [&str; 9] = [
+pub const TARGETS: [&str; 10] = [
     "table",
     "scenario",
     "batch_plan",
@@ -45,6 +45,7 @@ pub const TARGETS: [&str; 9] = [
     "doe_spec",
     "qp_sequence",
     "sensor_log",
+    "program",
 ];
 
 /// Runs the harness of target `name` on `data` (what the regression test calls).
@@ -62,6 +63,7 @@ pub fn run(name: &str, data: &[u8]) {
         "doe_spec" => doe_spec(data),
         "qp_sequence" => qp_sequence(data),
         "sensor_log" => sensor_log(data),
+        "program" => program(data),
         other => panic!("no fuzz target `{other}`"),
     }
 }
@@ -418,23 +420,35 @@ const REPLAY_PROGRAM: &str = include_str!("../../runtime/tests/data/ramp_20deg.t
 /// thesis' §5.2.2); a command is within 0 ..= this (`millcomp_runtime::Command::voltage_v`).
 const VOLTAGE_MAX_V: f64 = 1000.0;
 
+/// Where the shipped bundle and program are (named in errors).
+fn replay_origins() -> Origins {
+    Origins {
+        bundle: PathBuf::from("runtime/tests/data/bundle_s7.toml"),
+        program: PathBuf::from("runtime/tests/data/ramp_20deg.toml"),
+    }
+}
+
+/// The shipped bundle, read once per process.
+fn replay_bundle() -> &'static ModelBundle {
+    static BUNDLE: OnceLock<ModelBundle> = OnceLock::new();
+    BUNDLE.get_or_init(|| {
+        ModelFile::<ModelBundle>::from_toml(
+            REPLAY_BUNDLE,
+            &replay_origins().bundle,
+            &ModelBundle::KINDS,
+        )
+        .expect("the shipped bundle")
+        .model
+    })
+}
+
 /// The program and one controller of every kind the shipped bundle builds, built once per process
 /// (building plans the whole program); each input replays from a [`Controller::reset`], which gives
 /// the same commands as a new controller, bit for bit.
 fn replay_controllers() -> &'static std::sync::Mutex<(Program, Vec<Controller>)> {
     static CTLS: OnceLock<std::sync::Mutex<(Program, Vec<Controller>)>> = OnceLock::new();
     CTLS.get_or_init(|| {
-        let origins = Origins {
-            bundle: PathBuf::from("runtime/tests/data/bundle_s7.toml"),
-            program: PathBuf::from("runtime/tests/data/ramp_20deg.toml"),
-        };
-        let bundle = ModelFile::<ModelBundle>::from_toml(
-            REPLAY_BUNDLE,
-            &origins.bundle,
-            &ModelBundle::KINDS,
-        )
-        .expect("the shipped bundle")
-        .model;
+        let origins = replay_origins();
         let program =
             Program::from_toml_str(REPLAY_PROGRAM, &origins.program).expect("the shipped program");
         let ctls: Vec<Controller> = ControllerKind::ALL
@@ -442,11 +456,27 @@ fn replay_controllers() -> &'static std::sync::Mutex<(Program, Vec<Controller>)>
             .filter_map(|&kind| {
                 let mut p = program.clone();
                 p.controller.kind = kind;
-                Controller::from_bundle_at(&bundle, &p, &origins).ok()
+                Controller::from_bundle_at(replay_bundle(), &p, &origins).ok()
             })
             .collect();
         std::sync::Mutex::new((program, ctls))
     })
+}
+
+/// Checks `commands` of `who` are what a controller promises: each finite and within 0 ..= the
+/// amplifier's maximum, never the "command held" of a non-finite command.
+fn check_commands(who: &str, commands: &[millcomp_runtime::Command]) {
+    for (k, c) in commands.iter().enumerate() {
+        assert!(
+            c.voltage_v.is_finite() && (0.0..=VOLTAGE_MAX_V).contains(&c.voltage_v),
+            "{who}: cycle {k} sends {} V",
+            c.voltage_v
+        );
+        assert!(
+            !c.has(flags::COMMAND_HELD),
+            "{who}: cycle {k} computed a non-finite command (held)"
+        );
+    }
 }
 
 /// Kinds of controller `sensor_log` replays with (those the shipped bundle builds).
@@ -524,24 +554,68 @@ pub fn sensor_log(data: &[u8]) {
     for ctl in ctls.iter_mut() {
         ctl.reset().expect("resetting a controller");
         let r = replay(ctl, &m);
-        assert_eq!(
-            r.commands.len(),
-            n,
-            "{}: a command per sample",
-            ctl.kind().name()
-        );
-        for (k, c) in r.commands.iter().enumerate() {
-            assert!(
-                c.voltage_v.is_finite() && (0.0..=VOLTAGE_MAX_V).contains(&c.voltage_v),
-                "{}: cycle {k} sends {} V",
-                ctl.kind().name(),
-                c.voltage_v
-            );
-            assert!(
-                !c.has(flags::COMMAND_HELD),
-                "{}: cycle {k} computed a non-finite command (held)",
-                ctl.kind().name()
-            );
-        }
+        let who = ctl.kind().name();
+        assert_eq!(r.commands.len(), n, "{who}: a command per sample");
+        check_commands(who, &r.commands);
     }
+}
+
+/// The longest cut (s) `program` builds a controller for: building plans the whole program, in time
+/// linear in its length, so that the fuzzer explores the reader and the builders rather than waiting
+/// on a legitimately long groove (the shipped 20° groove is 12 s; this only caps what the harness
+/// builds, not what the reader accepts).
+const MAX_PROGRAM_S: f64 = 30.0;
+
+/// Cycles `program` steps a built controller through.
+const PROGRAM_STEPS: usize = 40;
+
+/// A program file (`millcomp_runtime::Program`: `millcomp replay BUNDLE PROGRAM LOG`, `simulate
+/// PROGRAM --bundle`, the Python `Controller` and the C ABI), read and validated as they read it. An
+/// accepted program writes back (`Program::to_toml`) and reads back the same; a program of at most
+/// [`MAX_PROGRAM_S`] of cut then builds its controller from the shipped bundle (or is refused with an
+/// error), which is stepped through [`PROGRAM_STEPS`] cycles of readings (none yet, then a constant
+/// force and gauge reading, a missed sample, an NC position off the program): each command finite and
+/// within 0 ..= the amplifier's maximum, never the "command held" of a non-finite command.
+pub fn program(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    let at = Path::new("fuzz-program.toml");
+    let Ok(p) = Program::from_toml_str(text, at) else {
+        return;
+    };
+    let written = p
+        .to_toml()
+        .unwrap_or_else(|e| panic!("an accepted program does not write: {e}"));
+    let again = Program::from_toml_str(&written, at)
+        .unwrap_or_else(|e| panic!("an accepted program as written is refused: {e}\n{written}"));
+    assert_eq!(
+        again, p,
+        "the program does not read back the same\n{written}"
+    );
+
+    let duration_s = p.program.groove_program().duration_s();
+    if duration_s.is_nan() || duration_s > MAX_PROGRAM_S {
+        return;
+    }
+    let origins = Origins {
+        bundle: replay_origins().bundle,
+        program: at.to_path_buf(),
+    };
+    let Ok(mut ctl) = Controller::from_bundle_at(replay_bundle(), &p, &origins) else {
+        return;
+    };
+    let log: Vec<millcomp_runtime::Measurement> = (0..PROGRAM_STEPS)
+        .map(|k| {
+            let t_s = k as f64 * p.controller.dt_s;
+            millcomp_runtime::Measurement {
+                x_mm: if k == 25 { 1e3 } else { t_s * 1e-3 },
+                force_n: if k == 0 || k == 20 { f64::NAN } else { 0.5 },
+                gauge_um: if k == 0 { f64::NAN } else { 1.0 },
+            }
+        })
+        .collect();
+    let r = replay(&mut ctl, &log);
+    assert_eq!(r.commands.len(), PROGRAM_STEPS);
+    check_commands(ctl.kind().name(), &r.commands);
 }
