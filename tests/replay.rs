@@ -45,6 +45,32 @@ fn failure(args: &[&str]) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
+/// `simulate PROGRAM --bundle BUNDLE --sensor-log LOG --steps STEPS` (and `--out OUT`): the run's
+/// report; the log (and the commands sent) written.
+fn simulate_logged(
+    program: &Path,
+    bundle: &str,
+    log: &Path,
+    steps: usize,
+    out: Option<&Path>,
+) -> Value {
+    let steps = steps.to_string();
+    let mut args = vec![
+        "simulate",
+        s(program),
+        "--bundle",
+        bundle,
+        "--sensor-log",
+        s(log),
+        "--steps",
+        &steps,
+    ];
+    if let Some(out) = out {
+        args.extend(["--out", s(out)]);
+    }
+    run_json(&args)
+}
+
 const STEPS: usize = 3_000;
 
 #[test]
@@ -55,18 +81,7 @@ fn replaying_a_simulated_runs_sensor_log_gives_its_commands_bit_for_bit() {
     let sent = dir.path().join("sent.json");
     for ext in ["csv", "parquet"] {
         let log = dir.path().join(format!("sensors.{ext}"));
-        let v = run_json(&[
-            "simulate",
-            s(&program),
-            "--bundle",
-            &bundle,
-            "--sensor-log",
-            s(&log),
-            "--out",
-            s(&sent),
-            "--steps",
-            &STEPS.to_string(),
-        ]);
+        let v = simulate_logged(&program, &bundle, &log, STEPS, Some(&sent));
         assert_eq!(v["samples"], STEPS);
         assert_eq!(v["controller"], "mpc");
         assert!(v["counts"]["planned"].as_u64().unwrap() >= 299, "{v}");
@@ -102,16 +117,7 @@ fn several_controllers_on_a_log_with_a_gap() {
     let program = program();
     let bundle = bundle();
     let log = dir.path().join("sensors.csv");
-    run_json(&[
-        "simulate",
-        s(&program),
-        "--bundle",
-        &bundle,
-        "--sensor-log",
-        s(&log),
-        "--steps",
-        "2000",
-    ]);
+    simulate_logged(&program, &bundle, &log, 2000, None);
     // three periods without a force reading: empty cells
     let text = std::fs::read_to_string(&log).unwrap();
     let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
