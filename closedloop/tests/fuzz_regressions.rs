@@ -106,6 +106,72 @@ fn seed_files_are_handled() {
     replay("session", &toml("datasets/synthetic"));
 }
 
+/// The sensor-log target's seeds (`fuzz/seeds/sensor_log/`: no sensor log is shipped; logs of the
+/// shipped runtime programs from `millcomp simulate --sensor-log`, and one with the empty and NaN
+/// readings the contract allows) go through its harness, are accepted at the program's rate and so
+/// are replayed through every controller the shipped bundle builds — the harness's checks ran on the
+/// commands, not only on a refusal.
+#[test]
+fn sensor_log_seeds_are_replayed_through_every_controller() {
+    use millcomp_datasets::contracts::read_sensor_log;
+    let seeds = files(&repo().join("fuzz/seeds/sensor_log"));
+    assert!(seeds.len() >= 4, "{} seeds", seeds.len());
+    replay("sensor_log", &seeds);
+    let kinds = harness::replay_kinds();
+    for kind in ["none", "open-loop", "pid", "pid-tuned", "pid-ff", "mpc"] {
+        assert!(
+            kinds.iter().any(|k| k.name() == kind),
+            "the shipped bundle builds no `{kind}`: {kinds:?}"
+        );
+    }
+    let dir = tempfile::tempdir().unwrap();
+    for path in &seeds {
+        let data = std::fs::read(path).unwrap();
+        let ext = if data[0] & 1 == 0 { "csv" } else { "parquet" };
+        let file = dir.path().join(format!("log.{ext}"));
+        std::fs::write(&file, &data[1..]).unwrap();
+        let log = read_sensor_log(&file).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        log.check_rate("seed", 5e-5)
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    }
+}
+
+/// The program target's seeds (the shipped runtime programs and `fuzz/seeds/program/`: every
+/// controller kind's family, each depth-profile kind, feed steps, an exit, both budgets, the groove
+/// MPC's features) go through its harness; each is accepted and builds its controller from the
+/// shipped bundle, so the harness's round trip and its checks on the commands ran on every seed.
+#[test]
+fn program_seeds_are_accepted_and_built() {
+    use millcomp_runtime::{Controller, Program};
+    let r = repo();
+    let mut seeds: Vec<PathBuf> = files(&r.join("runtime/tests/data"))
+        .into_iter()
+        .filter(|p| std::fs::read_to_string(p).is_ok_and(|t| t.contains("\n[controller]")))
+        .collect();
+    assert_eq!(seeds.len(), 2, "the shipped programs: {seeds:?}");
+    seeds.extend(files(&r.join("fuzz/seeds/program")));
+    assert!(seeds.len() >= 6, "{} seeds", seeds.len());
+    replay("program", &seeds);
+    let bundle = r.join("runtime/tests/data/bundle_s7.toml");
+    for path in &seeds {
+        let p = Program::load(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert!(
+            p.program.groove_program().duration_s() <= 30.0,
+            "{}",
+            path.display()
+        );
+        Controller::from_files(&bundle, path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    }
+    // found writing the harness: a touch-off above the amplifier's 1000 V was accepted and the `none`
+    // controller sent it (5000 V); now the build is refused naming the key
+    let found = r.join("fuzz/regressions/program/touch_off_bias_above_the_amplifier.toml");
+    let e = Controller::from_files(&bundle, &found).unwrap_err().chain();
+    assert!(
+        e.contains("controller.touch_off.bias_v") && e.contains("1000"),
+        "{e}"
+    );
+}
+
 /// The recorded QP sequences the campaign found (malformed CSC arrays that panicked inside Clarabel's
 /// constructor or its matrix products) are refused before a solver sees them, naming the matrix.
 #[test]

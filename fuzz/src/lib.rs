@@ -30,10 +30,12 @@ use millcomp_mpc::identified::{
     IdentifiedForceModel, IdentifiedHysteresis, IdentifiedSpindle, IdentifiedStiffness, NominalTool,
 };
 use millcomp_mpc::replay::{QpSequence, replay_clarabel};
+use millcomp_runtime::replay::{measurements, replay};
+use millcomp_runtime::{Controller, ControllerKind, Origins, Program, flags};
 use millcomp_sim::session::Session;
 
 /// The fuzz targets, by name (`fuzz/fuzz_targets/<name>.rs`, `fuzz/regressions/<name>/`).
-pub const TARGETS: [&str; 8] = [
+pub const TARGETS: [&str; 10] = [
     "table",
     "scenario",
     "batch_plan",
@@ -42,6 +44,8 @@ pub const TARGETS: [&str; 8] = [
     "column_map",
     "doe_spec",
     "qp_sequence",
+    "sensor_log",
+    "program",
 ];
 
 /// Runs the harness of target `name` on `data` (what the regression test calls).
@@ -58,6 +62,8 @@ pub fn run(name: &str, data: &[u8]) {
         "column_map" => column_map(data),
         "doe_spec" => doe_spec(data),
         "qp_sequence" => qp_sequence(data),
+        "sensor_log" => sensor_log(data),
+        "program" => program(data),
         other => panic!("no fuzz target `{other}`"),
     }
 }
@@ -402,4 +408,214 @@ pub fn qp_sequence(data: &[u8]) {
         return;
     };
     let _ = replay_clarabel(&seq);
+}
+
+/// The bundle and program `sensor_log` replays an accepted log with (the shipped ones of
+/// `runtime/tests/data/`, which docs/replay.md's example uses); compiled in, so that the harness
+/// reads them from no path of its own.
+const REPLAY_BUNDLE: &str = include_str!("../../runtime/tests/data/bundle_s7.toml");
+const REPLAY_PROGRAM: &str = include_str!("../../runtime/tests/data/ramp_20deg.toml");
+
+/// The amplifier's maximum of the shipped bundle's spindle (`sim/src/spindle.rs`: 1000 V, the
+/// thesis' §5.2.2); a command is within 0 ..= this (`millcomp_runtime::Command::voltage_v`).
+const VOLTAGE_MAX_V: f64 = 1000.0;
+
+/// Where the shipped bundle and program are (named in errors).
+fn replay_origins() -> Origins {
+    Origins {
+        bundle: PathBuf::from("runtime/tests/data/bundle_s7.toml"),
+        program: PathBuf::from("runtime/tests/data/ramp_20deg.toml"),
+    }
+}
+
+/// The shipped bundle, read once per process.
+fn replay_bundle() -> &'static ModelBundle {
+    static BUNDLE: OnceLock<ModelBundle> = OnceLock::new();
+    BUNDLE.get_or_init(|| {
+        ModelFile::<ModelBundle>::from_toml(
+            REPLAY_BUNDLE,
+            &replay_origins().bundle,
+            &ModelBundle::KINDS,
+        )
+        .expect("the shipped bundle")
+        .model
+    })
+}
+
+/// The program and one controller of every kind the shipped bundle builds, built once per process
+/// (building plans the whole program); each input replays from a [`Controller::reset`], which gives
+/// the same commands as a new controller, bit for bit.
+fn replay_controllers() -> &'static std::sync::Mutex<(Program, Vec<Controller>)> {
+    static CTLS: OnceLock<std::sync::Mutex<(Program, Vec<Controller>)>> = OnceLock::new();
+    CTLS.get_or_init(|| {
+        let origins = replay_origins();
+        let program =
+            Program::from_toml_str(REPLAY_PROGRAM, &origins.program).expect("the shipped program");
+        let ctls: Vec<Controller> = ControllerKind::ALL
+            .iter()
+            .filter_map(|&kind| {
+                let mut p = program.clone();
+                p.controller.kind = kind;
+                Controller::from_bundle_at(replay_bundle(), &p, &origins).ok()
+            })
+            .collect();
+        std::sync::Mutex::new((program, ctls))
+    })
+}
+
+/// Checks `commands` of `who` are what a controller promises: each finite and within 0 ..= the
+/// amplifier's maximum, never the "command held" of a non-finite command.
+fn check_commands(who: &str, commands: &[millcomp_runtime::Command]) {
+    for (k, c) in commands.iter().enumerate() {
+        assert!(
+            c.voltage_v.is_finite() && (0.0..=VOLTAGE_MAX_V).contains(&c.voltage_v),
+            "{who}: cycle {k} sends {} V",
+            c.voltage_v
+        );
+        assert!(
+            !c.has(flags::COMMAND_HELD),
+            "{who}: cycle {k} computed a non-finite command (held)"
+        );
+    }
+}
+
+/// Kinds of controller `sensor_log` replays with (those the shipped bundle builds).
+pub fn replay_kinds() -> Vec<ControllerKind> {
+    let guard = replay_controllers()
+        .lock()
+        .unwrap_or_else(|e| e.into_inner());
+    guard.1.iter().map(Controller::kind).collect()
+}
+
+/// The sensor log (`datasets::contracts::read_sensor_log`), read as `millcomp replay BUNDLE PROGRAM
+/// LOG` reads it: the first byte chooses the file's extension (`.csv` or `.parquet`), the rest is the
+/// file. An accepted log must hold what the contract promises (columns of one length, finite times,
+/// readings finite or NaN, never infinite) and write and read back the same (the writer of `simulate
+/// --sensor-log`); a log at the shipped program's rate (`SensorLog::check_rate`, the replay's next
+/// check) is then replayed through every controller the shipped bundle builds, as `replay
+/// --controllers` does: each command finite and within 0 ..= the amplifier's maximum, never the
+/// "command held" of a non-finite command, one per sample.
+pub fn sensor_log(data: &[u8]) {
+    let Some((&mode, body)) = data.split_first() else {
+        return;
+    };
+    let ext = if mode & 1 == 0 { "csv" } else { "parquet" };
+    let path = scratch_file(&format!("log.{ext}"), body);
+    let Ok(log) = contracts::read_sensor_log(&path) else {
+        return;
+    };
+    let origin = path.display().to_string();
+    let n = log.len();
+    assert!(n > 0, "{origin}: a log without samples accepted");
+    for (name, col) in [
+        ("x_mm", &log.x_mm),
+        ("force_n", &log.force_n),
+        ("gauge_um", &log.gauge_um),
+    ] {
+        assert_eq!(col.len(), n, "{origin}: `{name}` of another length");
+        assert!(
+            col.iter().all(|x| !x.is_infinite()),
+            "{origin}: an infinite `{name}` accepted"
+        );
+    }
+    assert!(
+        log.t_s.iter().all(|t| t.is_finite()),
+        "{origin}: a non-finite `t_s` accepted"
+    );
+
+    // written as `simulate --sensor-log` writes it, read back the same (NaN as NaN)
+    let back = scratch().join(format!("back.{ext}"));
+    let table = contracts::sensor_log_table(&origin, &log).expect("the table of an accepted log");
+    millcomp_datasets::write_table(&table, &back).expect("writing an accepted log");
+    let again = contracts::read_sensor_log(&back)
+        .unwrap_or_else(|e| panic!("{origin}: the log as written is refused: {e}"));
+    let same = |a: &[f64], b: &[f64]| {
+        a.len() == b.len()
+            && a.iter()
+                .zip(b)
+                .all(|(x, y)| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan()))
+    };
+    assert!(
+        same(&log.t_s, &again.t_s)
+            && same(&log.x_mm, &again.x_mm)
+            && same(&log.force_n, &again.force_n)
+            && same(&log.gauge_um, &again.gauge_um),
+        "{origin}: the log does not read back the same after being written"
+    );
+
+    let mut guard = replay_controllers()
+        .lock()
+        .unwrap_or_else(|e| e.into_inner());
+    let (program, ctls) = &mut *guard;
+    if log.check_rate(&origin, program.controller.dt_s).is_err() {
+        return;
+    }
+    let m = measurements(&log.x_mm, &log.force_n, &log.gauge_um);
+    for ctl in ctls.iter_mut() {
+        ctl.reset().expect("resetting a controller");
+        let r = replay(ctl, &m);
+        let who = ctl.kind().name();
+        assert_eq!(r.commands.len(), n, "{who}: a command per sample");
+        check_commands(who, &r.commands);
+    }
+}
+
+/// The longest cut (s) `program` builds a controller for: building plans the whole program, in time
+/// linear in its length, so that the fuzzer explores the reader and the builders rather than waiting
+/// on a legitimately long groove (the shipped 20° groove is 12 s; this only caps what the harness
+/// builds, not what the reader accepts).
+const MAX_PROGRAM_S: f64 = 30.0;
+
+/// Cycles `program` steps a built controller through.
+const PROGRAM_STEPS: usize = 40;
+
+/// A program file (`millcomp_runtime::Program`: `millcomp replay BUNDLE PROGRAM LOG`, `simulate
+/// PROGRAM --bundle`, the Python `Controller` and the C ABI), read and validated as they read it. An
+/// accepted program writes back (`Program::to_toml`) and reads back the same; a program of at most
+/// [`MAX_PROGRAM_S`] of cut then builds its controller from the shipped bundle (or is refused with an
+/// error), which is stepped through [`PROGRAM_STEPS`] cycles of readings (none yet, then a constant
+/// force and gauge reading, a missed sample, an NC position off the program): each command finite and
+/// within 0 ..= the amplifier's maximum, never the "command held" of a non-finite command.
+pub fn program(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    let at = Path::new("fuzz-program.toml");
+    let Ok(p) = Program::from_toml_str(text, at) else {
+        return;
+    };
+    let written = p
+        .to_toml()
+        .unwrap_or_else(|e| panic!("an accepted program does not write: {e}"));
+    let again = Program::from_toml_str(&written, at)
+        .unwrap_or_else(|e| panic!("an accepted program as written is refused: {e}\n{written}"));
+    assert_eq!(
+        again, p,
+        "the program does not read back the same\n{written}"
+    );
+
+    let duration_s = p.program.groove_program().duration_s();
+    if duration_s.is_nan() || duration_s > MAX_PROGRAM_S {
+        return;
+    }
+    let origins = Origins {
+        bundle: replay_origins().bundle,
+        program: at.to_path_buf(),
+    };
+    let Ok(mut ctl) = Controller::from_bundle_at(replay_bundle(), &p, &origins) else {
+        return;
+    };
+    let log: Vec<millcomp_runtime::Measurement> = (0..PROGRAM_STEPS)
+        .map(|k| {
+            let t_s = k as f64 * p.controller.dt_s;
+            millcomp_runtime::Measurement {
+                x_mm: if k == 25 { 1e3 } else { t_s * 1e-3 },
+                force_n: if k == 0 || k == 20 { f64::NAN } else { 0.5 },
+                gauge_um: if k == 0 { f64::NAN } else { 1.0 },
+            }
+        })
+        .collect();
+    let r = replay(&mut ctl, &log);
+    assert_eq!(r.commands.len(), PROGRAM_STEPS);
+    check_commands(ctl.kind().name(), &r.commands);
 }

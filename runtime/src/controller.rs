@@ -378,12 +378,24 @@ impl Controller {
     /// # Errors
     /// [`RuntimeError::Build`] when the controller refuses its models or settings;
     /// [`RuntimeError::InvalidValue`] naming `model.sensor_noise` when the MPC or a feedforward PID
-    /// needs the sensors' noise levels and the bundle has none.
+    /// needs the sensors' noise levels and the bundle has none, or `controller.touch_off.bias_v` (and
+    /// the program) for a touch-off voltage outside the amplifier's 0 ..= `voltage_max_v`.
     pub fn from_parts(
         parts: Parts<'_>,
         settings: &ControllerSettings,
     ) -> Result<Self, RuntimeError> {
         let kind = settings.kind;
+        // the program checks the touch-off voltage is >= 0; its top is the bundle's amplifier's
+        let v_max = parts.models.spindle.plant().voltage_max_v;
+        let bias_v = settings.touch_off.bias_v;
+        if !(0.0..=v_max).contains(&bias_v) {
+            return Err(RuntimeError::InvalidValue {
+                path: parts.origins.program.clone(),
+                key: "controller.touch_off.bias_v".into(),
+                value: bias_v.to_string(),
+                allowed: format!("0 ..= {v_max} V, the amplifier's range (the bundle's spindle)"),
+            });
+        }
         let (inner, notes) = build(kind, parts, settings).map_err(|e| match e {
             Built::Mpc(source) => RuntimeError::Build {
                 controller: kind.name(),

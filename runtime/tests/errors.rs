@@ -47,6 +47,12 @@ fn a_bad_program_names_the_file_and_the_key() {
         ),
         (base.replace("to_um = 80.0", "to_um = 900.0"), "program"),
         (base.replace("S7", "6061"), "model.material"),
+        // above the bundle's amplifier (1000 V): the none controller sent 5000 V (fuzz target
+        // `program`, fuzz/regressions/program/)
+        (
+            format!("{base}touch_off = {{ bias_v = 5000.0, gauge_um = 0.0 }}\n"),
+            "controller.touch_off.bias_v",
+        ),
     ] {
         let msg = error_with_program(&edit);
         // the material is the bundle's key: its error names the bundle's file
