@@ -1026,3 +1026,17 @@ fn generators_name_named_factors_by_letter() {
     assert_eq!((d.n_runs(), d.resolution), (8, Some(4)));
     assert_eq!(d.defining_relation, ["I=ABCD"]);
 }
+
+/// A coded value between a factor's levels maps to its actual value, not to a level: for x = 0 : 10
+/// the centre (coded 0) is 5 by hand, and the levels 0 and 10 are 5 away, far beyond the snapping
+/// tolerance 1e-9·(10 − 0). Kills `factor.rs:289:38: replace - with / in FactorSpec::actual` (found by
+/// the fresh draw of seed 52), whose tolerance 1e-9·|10 / 0| is infinite and snaps every value to the
+/// first level, 0.
+#[test]
+fn a_coded_value_between_the_levels_is_not_snapped_to_one() {
+    use millcomp_doe::Level;
+    let f = FactorSpec::parse_list("x=0:10").unwrap();
+    assert_eq!(f[0].actual(0.0), Level::Num(5.0));
+    assert_eq!(f[0].actual(0.5), Level::Num(7.5));
+    assert_eq!(f[0].actual(1.0), Level::Num(10.0));
+}
