@@ -1040,3 +1040,50 @@ fn a_coded_value_between_the_levels_is_not_snapped_to_one() {
     assert_eq!(f[0].actual(0.5), Level::Num(7.5));
     assert_eq!(f[0].actual(1.0), Level::Num(10.0));
 }
+
+/// Only a resolution III fraction warns that its main effects are aliased with two-factor
+/// interactions: 2^(5−2) with D = AB, E = −AC has I = ABD = −ACE = −BCDE, resolution III (Montgomery,
+/// Design and Analysis of Experiments, 8th ed., §8.3), and carries the note; 2^(4−1) with D = ABC has
+/// I = ABCD, resolution IV, and does not. Kills `factorial.rs:267:14: replace == with != in
+/// fractional` (found by the fresh draw of seed 52), which notes it for every resolution but III.
+#[test]
+fn only_a_resolution_three_fraction_warns_of_aliased_main_effects() {
+    let warns = |d: &millcomp_doe::Design| d.notes.iter().any(|n| n.starts_with("resolution III"));
+    let mut r = DesignRequest::new(
+        DesignKind::Fractional,
+        FactorSpec::parse_list("a,b,c,d,e").unwrap(),
+    );
+    r.generators = Some("D=AB,E=-AC".into());
+    let d = generate(&r).unwrap();
+    assert_eq!(d.resolution, Some(3));
+    assert!(warns(&d), "{:?}", d.notes);
+    let mut r = DesignRequest::new(
+        DesignKind::Fractional,
+        FactorSpec::parse_list("a,b,c,d").unwrap(),
+    );
+    r.generators = Some("D=ABC".into());
+    let d = generate(&r).unwrap();
+    assert_eq!(d.resolution, Some(4));
+    assert!(!warns(&d), "{:?}", d.notes);
+}
+
+/// A central composite design on a fraction reports the fraction's defining relation and word
+/// length pattern: the 5-factor CCD's cube is the 2^(5−1) with E = ABCD (resolution V), so I = ABCDE
+/// and one word of length 5 (A3, A4, A5 = 0, 0, 1), as Montgomery §8.2 gives for that fraction. Kills
+/// `rsm.rs:138:9: delete field defining_relation …` and `rsm.rs:139:9: delete field
+/// word_length_pattern from struct BasePoints expression in ccd` (found by the fresh draw of seed 52),
+/// which report none.
+#[test]
+fn a_ccd_on_a_fraction_reports_its_defining_relation() {
+    let d = generate(&DesignRequest::new(
+        DesignKind::Ccd {
+            variant: millcomp_doe::CcdVariant::Circumscribed,
+            alpha: millcomp_doe::CcdAlpha::Rotatable,
+        },
+        FactorSpec::parse_list("a,b,c,d,e").unwrap(),
+    ))
+    .unwrap();
+    assert_eq!(d.resolution, Some(5));
+    assert_eq!(d.defining_relation, ["I=ABCDE"]);
+    assert_eq!(d.word_length_pattern, [0, 0, 1]);
+}

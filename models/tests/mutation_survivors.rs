@@ -94,20 +94,7 @@ coded = { terms = ["intercept", "material[1018]", "material[6061]"], coef = [10.
 /// ResponseSurface::out_of_range` (whose margins below and above the range are 1e-9·200/100 = 2e-9).
 #[test]
 fn a_value_within_rounding_of_the_range_is_not_an_extrapolation() {
-    use millcomp_models::ResponseSurface;
-    let m: ResponseSurface = toml::from_str(
-        r#"
-response = "f"
-model = "d"
-n_runs = 4
-residual_df = 2
-r_squared = 1.0
-factors = [{ kind = "numeric", name = "d", low = 100.0, high = 200.0, levels = 2 }]
-terms = [{ name = "intercept", coef = -1.0 }, { name = "d", coef = 0.01, powers = { d = 1 } }]
-coded = { terms = ["intercept", "d"], coef = [0.5, 0.5] }
-"#,
-    )
-    .unwrap();
+    let m = line_over(100.0, 200.0);
     assert!(m.out_of_range(&[("d", 100.0 - 5e-8)]).is_empty());
     assert!(m.out_of_range(&[("d", 200.0 + 5e-8)]).is_empty());
     assert_eq!(m.out_of_range(&[("d", 100.0 - 2e-7)]), ["d"]);
@@ -170,4 +157,37 @@ fn timestamps_near_the_end_of_a_year_are_dated_right() {
     assert_eq!(rfc3339_from_unix(1_704_067_199), "2023-12-31T23:59:59Z");
     // 2100 is not a leap year (divisible by 100, not by 400): the day after 2100-02-28 is 1 March
     assert_eq!(rfc3339_from_unix(4_107_542_400), "2100-03-01T00:00:00Z");
+}
+
+/// The upper edge of the tolerance band is still inside: on d ∈ [0, 1] the margin is 1e-9·(1 − 0),
+/// and d = 1 + 1e-9·(1 − 0), computed as `out_of_range` computes its bound, is not an extrapolation;
+/// the next double above it is. Kills `surface.rs:298:70: replace > with >= in
+/// ResponseSurface::out_of_range` (found by the fresh draw of seed 52), which flags the edge itself.
+#[test]
+fn the_edge_of_the_margin_above_the_range_is_inside() {
+    let m = line_over(0.0, 1.0);
+    let (low, high) = (0.0f64, 1.0f64);
+    let edge = high + 1e-9 * (high - low);
+    assert!(m.out_of_range(&[("d", edge)]).is_empty());
+    assert_eq!(
+        m.out_of_range(&[("d", f64::from_bits(edge.to_bits() + 1))]),
+        ["d"]
+    );
+}
+
+/// A fitted line `f = −1 + 0.01·d` over d ∈ [low, high] (a 2-level numeric factor), as a model file holds it.
+fn line_over(low: f64, high: f64) -> millcomp_models::ResponseSurface {
+    toml::from_str(&format!(
+        r#"
+response = "f"
+model = "d"
+n_runs = 4
+residual_df = 2
+r_squared = 1.0
+factors = [{{ kind = "numeric", name = "d", low = {low:?}, high = {high:?}, levels = 2 }}]
+terms = [{{ name = "intercept", coef = -1.0 }}, {{ name = "d", coef = 0.01, powers = {{ d = 1 }} }}]
+coded = {{ terms = ["intercept", "d"], coef = [0.5, 0.5] }}
+"#
+    ))
+    .unwrap()
 }
