@@ -1087,3 +1087,23 @@ fn a_ccd_on_a_fraction_reports_its_defining_relation() {
     assert_eq!(d.defining_relation, ["I=ABCDE"]);
     assert_eq!(d.word_length_pattern, [0, 0, 1]);
 }
+
+/// Box–Behnken designs are tabulated up to 7 factors (Box & Behnken 1960, Table 1): the 7-factor design
+/// carries no note, the 8-factor one, built from all factor pairs, says so. Kills `rsm.rs:206:10:
+/// replace > with >= in box_behnken` (found by the fresh draw of seed 52), which notes it for 7 too.
+#[test]
+fn only_a_box_behnken_design_beyond_the_table_says_it_is_built_from_pairs() {
+    let note = |k: usize| {
+        let names: Vec<String> = (0..k).map(|i| format!("x{i}")).collect();
+        let d = generate(&DesignRequest::new(
+            DesignKind::BoxBehnken,
+            FactorSpec::parse_list(&names.join(",")).unwrap(),
+        ))
+        .unwrap();
+        d.notes
+            .iter()
+            .any(|n| n.contains("built from all factor pairs"))
+    };
+    assert!(!note(7));
+    assert!(note(8));
+}

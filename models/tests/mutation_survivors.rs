@@ -191,3 +191,26 @@ coded = {{ terms = ["intercept", "d"], coef = [0.5, 0.5] }}
     ))
     .unwrap()
 }
+
+/// A stiffness scaled by 2 doubles both stiffnesses and quadruples their covariance (variance scales
+/// with the square): 1.22 → 2.44 and 0.114 → 0.228 N/µm, 1e-4 → 4e-4 (every number a power-of-two
+/// multiple, so exact). Kills `identified.rs:582:51: replace * with / in StiffnessModel::scaled`
+/// (found by the fresh draw of seed 52), which makes the radial stiffness 0.057.
+#[test]
+fn a_scaled_stiffness_scales_both_and_the_covariance_by_the_square() {
+    use millcomp_models::{NamedMatrix, StiffnessModel};
+    let k = StiffnessModel {
+        axial_n_per_um: 1.22,
+        radial_n_per_um: 0.114,
+        covariance: NamedMatrix {
+            names: vec![
+                "axial_stiffness_n_per_um".into(),
+                "radial_stiffness_n_per_um".into(),
+            ],
+            values: vec![vec![1e-4, 0.0], vec![0.0, 1e-4]],
+        },
+    };
+    let s = k.scaled(2.0);
+    assert_eq!((s.axial_n_per_um, s.radial_n_per_um), (2.44, 0.228));
+    assert_eq!(s.covariance.values, [[4e-4, 0.0], [0.0, 4e-4]]);
+}
