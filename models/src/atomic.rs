@@ -145,8 +145,7 @@ fn sync_dir(dir: &Path) {
     let _ = dir;
 }
 
-/// This host's name, as it may appear in a file name (`[A-Za-z0-9.]`, other characters as `_`: `-`
-/// separates the name's parts).
+/// This host's name, as it may appear in a file name (`[A-Za-z0-9.]`; `-`, the parts' separator, and others as `_`).
 fn host() -> String {
     #[cfg(unix)]
     {
