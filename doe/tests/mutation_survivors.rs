@@ -1276,3 +1276,35 @@ fn a_fraction_by_runs_holds_the_resolution_asked() {
         other => panic!("{other:?}"),
     }
 }
+
+/// A power calculation reports the terms an effect "high − low" describes — the main effects and the
+/// interaction of a quadratic model — and skips the squares: on the 3² factorial (9 runs, residual
+/// df 3) the terms are A, B and A:B. For A, λ = (effect/2)² / (σ²·(XᵀX)⁻¹_AA) with (XᵀX)⁻¹_AA = 1/6 (the
+/// linear column −1, 0, 1 three times is orthogonal to the others: Σx² = 6), so effect 2, σ 1 give
+/// λ = 6. Kills `analysis/mod.rs:1192:66: replace == with != in power` (found by the draw of seed 52
+/// beyond its first 130), which skips every term beside a square of another name.
+#[test]
+fn power_of_a_quadratic_model_skips_only_the_squares() {
+    use millcomp_doe::{ModelSpec, Values, power};
+    let mut a = Vec::new();
+    let mut b = Vec::new();
+    for la in [-1.0, 0.0, 1.0] {
+        for lb in [-1.0, 0.0, 1.0] {
+            a.push(la);
+            b.push(lb);
+        }
+    }
+    let f = vec![
+        ("A".to_string(), Values::F64(a)),
+        ("B".to_string(), Values::F64(b)),
+    ];
+    let r = power(&f, &ModelSpec::Quadratic, 2.0, 1.0, 0.05).unwrap();
+    assert_eq!(r.residual_df, 3);
+    let names: Vec<&str> = r.terms.iter().map(|t| t.term.as_str()).collect();
+    assert_eq!(names, ["A", "B", "A:B"]);
+    assert!(
+        (r.terms[0].noncentrality - 6.0).abs() < 1e-9,
+        "{}",
+        r.terms[0].noncentrality
+    );
+}
