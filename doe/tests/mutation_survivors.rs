@@ -1203,3 +1203,76 @@ fn responses_with_a_large_common_offset_keep_their_total_sum_of_squares() {
         "{sst} against {sst_exact}"
     );
 }
+
+/// A coded value within rounding of a level maps to the level as written: for x = 1000 : 2000 the
+/// tolerance is 1e-9·(2000 − 1000) = 1e-6, and coded 1 − 1e-11 gives 1999.999999995 (5e-9 from 2000,
+/// by hand), which is the level 2000; coded 1 − 1e-8 gives 1999.999995 (5e-6 away), which is not.
+/// Kills `factor.rs:289:32: replace * with / in FactorSpec::actual` (found by the draw of seed 52
+/// beyond its first 130), whose tolerance 1e-9 / 1000 = 1e-12 snaps neither.
+#[test]
+fn a_coded_value_within_rounding_of_a_level_is_that_level() {
+    use millcomp_doe::Level;
+    let f = FactorSpec::parse_list("x=1000:2000").unwrap();
+    assert_eq!(f[0].actual(1.0 - 1e-11), Level::Num(2000.0));
+    match f[0].actual(1.0 - 1e-8) {
+        Level::Num(x) => assert!((x - 1999.999995).abs() < 1e-9, "{x}"),
+        other => panic!("{other:?}"),
+    }
+}
+
+/// An analysis's significance level must lie strictly inside (0, 1): 1 is refused as the option
+/// `alpha`, 0.999 is taken. Kills `analysis/options.rs:68:45: replace < with <= in
+/// AnalyzeOptions::run` (found by the draw of seed 52 beyond its first 130), which takes α = 1.
+#[test]
+fn an_analysis_level_of_one_is_refused() {
+    use millcomp_doe::{AnalyzeOptions, Values};
+    let table = vec![
+        ("a".to_string(), Values::F64(vec![-1.0, 1.0, -1.0, 1.0])),
+        ("y".to_string(), Values::F64(vec![1.0, 2.0, 1.5, 2.5])),
+    ];
+    let mut o = AnalyzeOptions::new("y");
+    o.alpha = 1.0;
+    assert!(matches!(
+        o.run("t.csv", &table),
+        Err(DoeError::BadOption {
+            option: "alpha",
+            ..
+        })
+    ));
+    o.alpha = 0.999;
+    assert!(o.run("t.csv", &table).is_ok());
+}
+
+/// Five factors in 8 runs is the catalogue's 2^(5−2), resolution III (Montgomery, Design and Analysis
+/// of Experiments, 8th ed., Table 8.14): asked at resolution III it is built, asked at resolution IV
+/// it is refused naming the runs and the resolution. Kills `factorial.rs:234:41: replace < with == in
+/// fractional` (found by the draw of seed 52 beyond its first 130), which refuses the first and
+/// builds the second.
+#[test]
+fn a_fraction_by_runs_holds_the_resolution_asked() {
+    let factors = || {
+        (0..5)
+            .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
+            .collect()
+    };
+    let mut req = DesignRequest::new(DesignKind::Fractional, factors());
+    req.runs = Some(8);
+    req.resolution = Some(3);
+    let d = generate(&req).unwrap();
+    assert_eq!((d.n_runs(), d.resolution), (8, Some(3)));
+    let mut req = DesignRequest::new(DesignKind::Fractional, factors());
+    req.runs = Some(8);
+    req.resolution = Some(4);
+    match generate(&req) {
+        Err(DoeError::NoCatalogueDesign {
+            factors, request, ..
+        }) => {
+            assert_eq!(factors, 5);
+            assert!(
+                request.contains("8 runs") && request.contains("resolution"),
+                "{request}"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+}
