@@ -204,7 +204,7 @@ fn text(d: &ForceDiagnosis, preds: &[Prediction]) -> String {
     }
     let _ = writeln!(
         s,
-        "  leave-one-run-out RMS {:.3} N",
+        "  leave-one-run-out RMS {:.3} N (each run predicted by the model refitted on the other runs)",
         n.loo_rms_n
     );
     let _ = writeln!(
@@ -212,44 +212,67 @@ fn text(d: &ForceDiagnosis, preds: &[Prediction]) -> String {
         "noise for the detectable sizes: sigma = {:.3} N ({} dof), {}",
         d.noise.sigma_n, d.noise.dof, d.noise.method
     );
-    let dof = d.candidates.first().map(|c| c.dof).unwrap_or([1, 0]);
-    let _ = writeln!(
-        s,
-        "candidates (one parameter each, fitted with W; F test against the nominal, dof ({}, {}), each at {:.4} = {} / {} candidates; detectable = the change that test finds with power {}):",
-        dof[0], dof[1], d.alpha_each, d.alpha, d.candidates.len(), d.power
-    );
-    let _ = writeln!(
-        s,
-        "  {:<14} {:<19} {:>9} {:>24} {:>6} {:>7} {:>8} {:>10}  {:<15} status",
-        "candidate", "parameter", "nominal", "fitted [95 %]", "W MPa", "F", "p", "LOO RMS", "detectable", 
-    );
-    for c in &d.candidates {
-        let fitted = match (c.value, c.ci95) {
-            (Some(v), Some(ci)) => format!("{} [{}, {}]", sig(v), sig(ci[0]), sig(ci[1])),
-            _ => "-".into(),
+    for (i, r) in d.rounds.iter().enumerate() {
+        let dof = r.candidates.first().map(|c| c.dof).unwrap_or([1, 0]);
+        let given = if r.given.is_empty() {
+            "the nominal model".to_string()
+        } else {
+            format!("nominal + {}", r.given.join(" + "))
         };
         let _ = writeln!(
             s,
-            "  {:<14} {:<19} {:>9} {:>24} {:>6} {:>7} {:>8} {:>10}  {:<15} {}{}",
-            c.name,
-            c.param,
-            sig(c.nominal_value),
-            fitted,
-            opt(c.w_mpa, 0),
-            opt(c.f, 2),
-            c.p.map(|p| format!("{p:.2e}")).unwrap_or_else(|| "-".into()),
-            opt(c.loo_rms_n, 3),
-            c.detectable
-                .map(|v| format!("+/-{}", sig(v)))
-                .unwrap_or_else(|| "-".into()),
-            c.status,
-            if c.supported { ", supported" } else { "" }
+            "round {}: each candidate added to {given} (one parameter each, fitted with W and the effects already added); F test dof ({}, {}) at {:.4} = {} / {} candidates; detectable = the change that test finds with power {}:",
+            i + 1,
+            dof[0],
+            dof[1],
+            r.alpha_each,
+            d.alpha,
+            r.candidates.len(),
+            d.power
         );
-    }
-    let _ = writeln!(s, "  bias with each candidate (x / y / z):");
-    for c in &d.candidates {
-        let b: Vec<String> = c.responses.iter().map(|r| pct(r.relative_bias)).collect();
-        let _ = writeln!(s, "    {:<14} {}", c.name, b.join(" / "));
+        let _ = writeln!(
+            s,
+            "  {:<14} {:<18} {:>8} {:>26} {:>6} {:>7} {:>8} {:>8}  {:<12} {:<15} status",
+            "candidate", "parameter", "nominal", "fitted [95 %]", "W MPa", "F", "p", "LOO RMS", "detectable", "bias x/y/z"
+        );
+        for c in &r.candidates {
+            let fitted = match (c.value, c.ci95) {
+                (Some(v), Some(ci)) => format!("{} [{}, {}]", sig(v), sig(ci[0]), sig(ci[1])),
+                _ => "-".into(),
+            };
+            let b: Vec<String> = c
+                .responses
+                .iter()
+                .map(|r| format!("{:+.0}", 100.0 * r.relative_bias))
+                .collect();
+            let _ = writeln!(
+                s,
+                "  {:<14} {:<18} {:>8} {:>26} {:>6} {:>7} {:>8} {:>8}  {:<12} {:<15} {}{}",
+                c.name,
+                c.param,
+                sig(c.nominal_value),
+                fitted,
+                opt(c.w_mpa, 0),
+                opt(c.f, 2),
+                c.p.map(|p| format!("{p:.1e}")).unwrap_or_else(|| "-".into()),
+                opt(c.loo_rms_n, 3),
+                c.detectable
+                    .map(|v| format!("+/-{}", sig(v)))
+                    .unwrap_or_else(|| "-".into()),
+                format!("{} %", b.join("/")),
+                c.status,
+                if c.supported { ", supported" } else { "" }
+            );
+        }
+        let _ = writeln!(
+            s,
+            "  added: {}{}",
+            r.added.as_deref().unwrap_or("none (no candidate is significant and predicts the held-out runs better)"),
+            r.look_alike
+                .as_ref()
+                .map(|l| format!(" (look-alike: {l} fits as well)"))
+                .unwrap_or_default()
+        );
     }
     let _ = writeln!(
         s,
@@ -293,7 +316,7 @@ fn text(d: &ForceDiagnosis, preds: &[Prediction]) -> String {
         }
     }
     let _ = writeln!(s, "sources:");
-    for c in &d.candidates {
+    for c in d.rounds.first().map(|r| r.candidates.as_slice()).unwrap_or_default() {
         let _ = writeln!(s, "  {}: {}", c.name, c.source);
         for u in &c.uses {
             let _ = writeln!(
