@@ -95,7 +95,9 @@ pub enum DiagnoseError {
         source: SimError,
     },
     /// A force table with too few runs to hold one out.
-    #[error("{origin}: {runs} runs; the force diagnosis needs at least 3 (one is held out at a time)")]
+    #[error(
+        "{origin}: {runs} runs; the force diagnosis needs at least 3 (one is held out at a time)"
+    )]
     TooFewRuns {
         /// The table's name.
         origin: String,

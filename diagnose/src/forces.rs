@@ -56,9 +56,7 @@ use std::collections::BTreeMap;
 use std::f64::consts::{FRAC_PI_2, PI};
 
 use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze, f_test_power};
-use millcomp_identify::targets::force::{
-    ForceData, ForceOptions, PeakForceData, identify_force,
-};
+use millcomp_identify::targets::force::{ForceData, ForceOptions, PeakForceData, identify_force};
 use millcomp_identify::{CurveFit, FitStatus, ParamSpec};
 use millcomp_sim::force::{BallEndForceModel, CutConditions, PEAK_SAMPLES_PER_REV};
 use millcomp_sim::material::Material;
@@ -669,7 +667,9 @@ fn fit_joint(
                 }
             }
         }
-        c.as_ref().map(|(_, p)| p[o.run][o.axis]).unwrap_or(f64::NAN)
+        c.as_ref()
+            .map(|(_, p)| p[o.run][o.axis])
+            .unwrap_or(f64::NAN)
     };
     let mut specs = vec![ParamSpec::positive("w_mpa", start[0])];
     for (c, s0) in ev.cands.iter().zip(&start[1..]) {
@@ -767,12 +767,11 @@ pub fn diagnose_forces(
     // 1. the nominal fit: identify force, W free
     let mut fopts = ForceOptions::default();
     fopts.base.material = material.clone();
-    let nominal = identify_force(&ForceData::Peaks(*data), &fopts).map_err(|source| {
-        DiagnoseError::Fit {
+    let nominal =
+        identify_force(&ForceData::Peaks(*data), &fopts).map_err(|source| DiagnoseError::Fit {
             what: format!("{origin}: the nominal force model (W)"),
             source,
-        }
-    })?;
+        })?;
     let rep = &nominal.report;
     let w_nom = rep.param("w_mpa");
     let c = &data.conditions;

@@ -233,7 +233,16 @@ fn text(d: &ForceDiagnosis, preds: &[Prediction]) -> String {
         let _ = writeln!(
             s,
             "  {:<14} {:<18} {:>8} {:>26} {:>6} {:>7} {:>8} {:>8}  {:<12} {:<15} status",
-            "candidate", "parameter", "nominal", "fitted [95 %]", "W MPa", "F", "p", "LOO RMS", "detectable", "bias x/y/z"
+            "candidate",
+            "parameter",
+            "nominal",
+            "fitted [95 %]",
+            "W MPa",
+            "F",
+            "p",
+            "LOO RMS",
+            "detectable",
+            "bias x/y/z"
         );
         for c in &r.candidates {
             let fitted = match (c.value, c.ci95) {
@@ -254,7 +263,8 @@ fn text(d: &ForceDiagnosis, preds: &[Prediction]) -> String {
                 fitted,
                 opt(c.w_mpa, 0),
                 opt(c.f, 2),
-                c.p.map(|p| format!("{p:.1e}")).unwrap_or_else(|| "-".into()),
+                c.p.map(|p| format!("{p:.1e}"))
+                    .unwrap_or_else(|| "-".into()),
                 opt(c.loo_rms_n, 3),
                 c.detectable
                     .map(|v| format!("+/-{}", sig(v)))
@@ -267,7 +277,9 @@ fn text(d: &ForceDiagnosis, preds: &[Prediction]) -> String {
         let _ = writeln!(
             s,
             "  added: {}{}",
-            r.added.as_deref().unwrap_or("none (no candidate is significant and predicts the held-out runs better)"),
+            r.added.as_deref().unwrap_or(
+                "none (no candidate is significant and predicts the held-out runs better)"
+            ),
             r.look_alike
                 .as_ref()
                 .map(|l| format!(" (look-alike: {l} fits as well)"))
@@ -277,7 +289,11 @@ fn text(d: &ForceDiagnosis, preds: &[Prediction]) -> String {
     let _ = writeln!(
         s,
         "named: {}",
-        if d.named.is_empty() { "none".to_string() } else { d.named.join(", ") }
+        if d.named.is_empty() {
+            "none".to_string()
+        } else {
+            d.named.join(", ")
+        }
     );
     for v in &d.verdicts {
         let (b, a) = if v.unit == "1" {
@@ -310,20 +326,26 @@ fn text(d: &ForceDiagnosis, preds: &[Prediction]) -> String {
                 let _ = writeln!(
                     s,
                     "  {:<14} {:<40} {:>6.2} {:>9.0} {:>12.2} {:>12.2}",
-                    p.model, t.transfer.name, t.transfer.value, t.w_mpa, t.predicted_n, t.scale_left
+                    p.model,
+                    t.transfer.name,
+                    t.transfer.value,
+                    t.w_mpa,
+                    t.predicted_n,
+                    t.scale_left
                 );
             }
         }
     }
     let _ = writeln!(s, "sources:");
-    for c in d.rounds.first().map(|r| r.candidates.as_slice()).unwrap_or_default() {
+    for c in d
+        .rounds
+        .first()
+        .map(|r| r.candidates.as_slice())
+        .unwrap_or_default()
+    {
         let _ = writeln!(s, "  {}: {}", c.name, c.source);
         for u in &c.uses {
-            let _ = writeln!(
-                s,
-                "    {} = {} {} ({})",
-                u.name, u.value, u.unit, u.source
-            );
+            let _ = writeln!(s, "    {} = {} {} ({})", u.name, u.value, u.unit, u.source);
         }
     }
     s
