@@ -133,11 +133,38 @@ pub fn run(args: &IdentifyArgs, json: bool) -> anyhow::Result<()> {
     let opts = ForceDiagnoseOptions::new(&material);
     let diag = diagnose_forces(&origin, &data, &opts)?;
     let case = groove_case(&material)?;
-    let predictions = diag
-        .models
-        .iter()
-        .map(|m| predict_peak_z(m, &case, &opts))
-        .collect::<Result<Vec<_>, _>>()?;
+    // the 30° groove's end force measured by the workpiece transducer (000 §7.3.1, Fig. 7-20)
+    let (f30, f30_src) = {
+        let g = millcomp_datasets::load("clayton_groove_conditions")?;
+        let i = g
+            .strings("parameter")?
+            .iter()
+            .position(|p| p == "spindle_end_force_workpiece")
+            .context("clayton_groove_conditions: no `spindle_end_force_workpiece`")?;
+        (g.f64s("value")?[i], g.strings("source")?[i].clone())
+    };
+    let case30 = PredictCase {
+        name: "S7 groove end at 30 deg (80 um, 10 um/rev, 10 000 rpm)".into(),
+        cut: CutConditions::new(
+            case.cut.depth_um,
+            case.cut.upfeed_um,
+            case.cut.speed_rpm,
+            30.0,
+        )?,
+        measured: Cited {
+            name: "end-of-cut Fz, workpiece transducer".into(),
+            value: f30,
+            unit: "N".into(),
+            source: f30_src,
+        },
+        ..case.clone()
+    };
+    let mut predictions = Vec::new();
+    for c in [&case, &case30] {
+        for m in &diag.models {
+            predictions.push(predict_peak_z(m, c, &opts)?);
+        }
+    }
     if json {
         return print_json(&Output {
             diagnosis: &diag,
@@ -310,30 +337,27 @@ fn text(d: &ForceDiagnosis, preds: &[Prediction]) -> String {
             v.disagreement, v.named, v.reason
         );
     }
-    if let Some(p0) = preds.first() {
-        let _ = writeln!(
-            s,
-            "prediction, no scale factor: {} (wearland {} um, runout {} um); measured {} N ({})",
-            p0.name, p0.tool[0].value, p0.tool[1].value, p0.measured.value, p0.measured.source
-        );
-        let _ = writeln!(
-            s,
-            "  {:<14} {:<40} {:>6} {:>9} {:>12} {:>12}",
-            "model", "W carried by", "ratio", "W S7 MPa", "predicted N", "scale left"
-        );
-        for p in preds {
-            for t in &p.transfers {
-                let _ = writeln!(
-                    s,
-                    "  {:<14} {:<40} {:>6.2} {:>9.0} {:>12.2} {:>12.2}",
-                    p.model,
-                    t.transfer.name,
-                    t.transfer.value,
-                    t.w_mpa,
-                    t.predicted_n,
-                    t.scale_left
-                );
-            }
+    let mut last = String::new();
+    for p in preds {
+        if p.name != last {
+            last = p.name.clone();
+            let _ = writeln!(
+                s,
+                "prediction, no scale factor: {} (wearland {} um, runout {} um); measured {} N ({})",
+                p.name, p.tool[0].value, p.tool[1].value, p.measured.value, p.measured.source
+            );
+            let _ = writeln!(
+                s,
+                "  {:<26} {:<40} {:>6} {:>9} {:>12} {:>11}",
+                "model", "W carried by", "ratio", "W S7 MPa", "predicted N", "scale left"
+            );
+        }
+        for t in &p.transfers {
+            let _ = writeln!(
+                s,
+                "  {:<26} {:<40} {:>6.2} {:>9.0} {:>12.2} {:>11.2}",
+                p.model, t.transfer.name, t.transfer.value, t.w_mpa, t.predicted_n, t.scale_left
+            );
         }
     }
     let _ = writeln!(s, "sources:");
