@@ -1412,6 +1412,16 @@ pub fn predict_peak_z(
     })
 }
 
+/// Three significant digits.
+fn sig3(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let mag = v.abs().log10().floor() as i32;
+    let prec = (2 - mag).max(0) as usize;
+    format!("{v:.prec$}")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1440,20 +1450,19 @@ mod tests {
 
     #[test]
     fn critical_lambda_matches_scipy() {
-        // scipy 1.17.1: brentq(lambda l: ncf.sf(f.ppf(0.95, 1, 22), 1, 22, l) - 0.8, 1, 50)
-        // = 8.5563… (see the test's golden in tests/forces.rs)
-        let l = critical_lambda(1.0, 22.0, 0.05, 0.8);
-        let (_, p) = f_test_power(1.0, 22.0, l, 0.05).unwrap();
-        assert!((p - 0.8).abs() < 1e-9);
+        // scipy 1.17.1 (the project's venv): c = f.ppf(1 - a, 1, d2);
+        // brentq(lambda l: ncf.sf(c, 1, d2, l) - 0.8, 0.1, 200, xtol=1e-12)
+        for (d2, alpha, want) in [
+            (22.0, 0.05, 8.594152541410017),
+            (22.0, 0.05 / 7.0, 14.841367936481356),
+            (21.0, 0.01, 13.800324982530732),
+        ] {
+            let l = critical_lambda(1.0, d2, alpha, 0.8);
+            assert!(
+                (l - want).abs() < 1e-6 * want,
+                "{d2} {alpha}: {l} vs {want}"
+            );
+        }
+        assert!(critical_lambda(1.0, 0.0, 0.05, 0.8).is_nan());
     }
-}
-
-/// Three significant digits.
-fn sig3(v: f64) -> String {
-    if v == 0.0 || !v.is_finite() {
-        return format!("{v}");
-    }
-    let mag = v.abs().log10().floor() as i32;
-    let prec = (2 - mag).max(0) as usize;
-    format!("{v:.prec$}")
 }
