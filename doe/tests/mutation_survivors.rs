@@ -1336,9 +1336,10 @@ fn generators_that_reach_the_asked_resolution_are_taken() {
 /// 1e-9 of its norm (modified Gram–Schmidt, `first_dependent_column`): on 8 runs, e = (−1, 0 ×6, 1)
 /// has norm √2, and f = e + ε·(0, 1, −1, 0 ×5) keeps f's range and coding, so its part beyond e and the
 /// intercept is ε·√2. With ε = 1.5e-9 that is 2.1e-9 > 1e-9·√2: not aliased, analysed; with ε = 5e-10
-/// it is 7.1e-10 ≤ 1.4e-9: aliased, refused naming f. Kills `analysis/mod.rs:624:53: replace * with
-/// + in first_dependent_column` and `… replace * with /` (found by the draw of seed 52 beyond its first
-/// 130), whose floors √8 + 1e-3 and √8 / 1e-3 call the first aliased too.
+/// it is 7.1e-10 ≤ 1.4e-9: aliased, refused naming f. Kills the two mutants of
+/// `analysis/mod.rs:624:53` in `first_dependent_column` (`*` replaced with `+` and with `/`; found by
+/// the draw of seed 52 beyond its first 130), whose floors √8 + 1e-3 and √8 / 1e-3 call the first
+/// aliased too.
 #[test]
 fn columns_are_aliased_only_within_their_tolerance() {
     use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze};
