@@ -1107,3 +1107,172 @@ fn only_a_box_behnken_design_beyond_the_table_says_it_is_built_from_pairs() {
     assert!(!note(7));
     assert!(note(8));
 }
+
+// ---- survivors of the fresh draw (seed 52 on the tree of fc72a1f; docs/reliability-mutants.md) ----
+
+/// A Plackett–Burman design needs more runs than factors: 4 factors in 4 runs is refused naming
+/// `runs` (the bound is k + 1 = 5: a Hadamard matrix of order 4 has only 3 non-constant columns), 3
+/// factors in 4 runs is built. Kills `screening.rs:76:22: replace + with - in plackett_burman` (whose
+/// bound k − 1 = 3 lets 4 factors into 4 runs).
+#[test]
+fn a_plackett_burman_design_needs_more_runs_than_factors() {
+    let factors = |k: usize| {
+        (0..k)
+            .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
+            .collect()
+    };
+    let mut req = DesignRequest::new(DesignKind::PlackettBurman, factors(4));
+    req.runs = Some(4);
+    match generate(&req) {
+        Err(DoeError::InvalidParameter {
+            name,
+            value,
+            allowed,
+        }) => {
+            assert_eq!((name, value.as_str()), ("runs", "4"));
+            assert!(allowed.contains("from 5"), "{allowed}");
+        }
+        other => panic!("{other:?}"),
+    }
+    let mut req = DesignRequest::new(DesignKind::PlackettBurman, factors(3));
+    req.runs = Some(4);
+    assert_eq!(generate(&req).unwrap().n_runs(), 4);
+}
+
+/// A power calculation needs 0 < α < 1: 1.5 and 0 are refused naming `alpha`, 0.05 is taken. Kills
+/// `analysis/mod.rs:1158:22: replace && with || in power` (which takes any α that is a number).
+#[test]
+fn power_needs_alpha_between_zero_and_one() {
+    use millcomp_doe::{ModelSpec, Values, power};
+    let f = vec![(
+        "A".to_string(),
+        Values::F64(vec![-1.0, 1.0, -1.0, 1.0, -1.0, 1.0]),
+    )];
+    for alpha in [1.5, 0.0] {
+        match power(&f, &ModelSpec::Main, 1.0, 1.0, alpha) {
+            Err(DoeError::InvalidParameter { name, .. }) => assert_eq!(name, "alpha"),
+            other => panic!("alpha {alpha}: {other:?}"),
+        }
+    }
+    assert!(power(&f, &ModelSpec::Main, 1.0, 1.0, 0.05).is_ok());
+}
+
+/// The total sum of squares of responses that share a large offset keeps the digits of their
+/// differences: 4000 responses 10¹³ + 0.5·A + a pattern in steps of 10⁻³ (A = ±1). At 10¹³ the f64
+/// grid is 2⁻⁹ ≈ 0.002, and the plain running sum's mean is 0.27 off the exact mean (Python's float
+/// arithmetic, the same IEEE operations in the same order); the second pass of `centred` brings it
+/// back within one grid step. Reference: the exact total sum of squares of the f64 values, computed
+/// here in integers of the 2⁻⁹ grid; the analysis's `SSE / (1 − R²)` must equal it to 1e-5 (measured
+/// 7.5e-7, the rounding of the mean to the grid). Kills `analysis/mod.rs:604:16: replace + with - in
+/// centred` (mean 0.55 off: the total 90 % too large).
+#[test]
+fn responses_with_a_large_common_offset_keep_their_total_sum_of_squares() {
+    use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze};
+    let n = 4000usize;
+    let a: Vec<f64> = (0..n)
+        .map(|i| if i % 2 == 0 { 1.0 } else { -1.0 })
+        .collect();
+    let y: Vec<f64> = (0..n)
+        .map(|i| 1e13 + 0.5 * a[i] + ((i * 7919) % 1000) as f64 * 1e-3)
+        .collect();
+    // exact: every y is an integer multiple of 2⁻⁹ (10¹³ is in [2⁴³, 2⁴⁴))
+    let base = (1e13f64 * 512.0) as i128;
+    let d: Vec<i128> = y
+        .iter()
+        .map(|v| {
+            let k = v * 512.0;
+            assert_eq!(k.fract(), 0.0);
+            k as i128 - base
+        })
+        .collect();
+    let (s1, s2) = d
+        .iter()
+        .fold((0i128, 0i128), |(s1, s2), &x| (s1 + x, s2 + x * x));
+    let n_i = n as i128;
+    let sst_exact = (n_i * s2 - s1 * s1) as f64 / n as f64 / (512.0 * 512.0);
+    let input = AnalysisInput {
+        factors: vec![("A".into(), Values::F64(a))],
+        response_name: "y".into(),
+        response: Values::F64(y),
+        model: ModelSpec::Main,
+    };
+    let an = analyze(&input).unwrap();
+    let sst = an.residual_sum_sq / (1.0 - an.r_squared);
+    assert!(
+        ((sst - sst_exact) / sst_exact).abs() < 1e-5,
+        "{sst} against {sst_exact}"
+    );
+}
+
+/// A coded value within rounding of a level maps to the level as written: for x = 1000 : 2000 the
+/// tolerance is 1e-9·(2000 − 1000) = 1e-6, and coded 1 − 1e-11 gives 1999.999999995 (5e-9 from 2000,
+/// by hand), which is the level 2000; coded 1 − 1e-8 gives 1999.999995 (5e-6 away), which is not.
+/// Kills `factor.rs:289:32: replace * with / in FactorSpec::actual` (found by the draw of seed 52
+/// beyond its first 130), whose tolerance 1e-9 / 1000 = 1e-12 snaps neither.
+#[test]
+fn a_coded_value_within_rounding_of_a_level_is_that_level() {
+    use millcomp_doe::Level;
+    let f = FactorSpec::parse_list("x=1000:2000").unwrap();
+    assert_eq!(f[0].actual(1.0 - 1e-11), Level::Num(2000.0));
+    match f[0].actual(1.0 - 1e-8) {
+        Level::Num(x) => assert!((x - 1999.999995).abs() < 1e-9, "{x}"),
+        other => panic!("{other:?}"),
+    }
+}
+
+/// An analysis's significance level must lie strictly inside (0, 1): 1 is refused as the option
+/// `alpha`, 0.999 is taken. Kills `analysis/options.rs:68:45: replace < with <= in
+/// AnalyzeOptions::run` (found by the draw of seed 52 beyond its first 130), which takes α = 1.
+#[test]
+fn an_analysis_level_of_one_is_refused() {
+    use millcomp_doe::{AnalyzeOptions, Values};
+    let table = vec![
+        ("a".to_string(), Values::F64(vec![-1.0, 1.0, -1.0, 1.0])),
+        ("y".to_string(), Values::F64(vec![1.0, 2.0, 1.5, 2.5])),
+    ];
+    let mut o = AnalyzeOptions::new("y");
+    o.alpha = 1.0;
+    assert!(matches!(
+        o.run("t.csv", &table),
+        Err(DoeError::BadOption {
+            option: "alpha",
+            ..
+        })
+    ));
+    o.alpha = 0.999;
+    assert!(o.run("t.csv", &table).is_ok());
+}
+
+/// Five factors in 8 runs is the catalogue's 2^(5−2), resolution III (Montgomery, Design and Analysis
+/// of Experiments, 8th ed., Table 8.14): asked at resolution III it is built, asked at resolution IV
+/// it is refused naming the runs and the resolution. Kills `factorial.rs:234:41: replace < with == in
+/// fractional` (found by the draw of seed 52 beyond its first 130), which refuses the first and
+/// builds the second.
+#[test]
+fn a_fraction_by_runs_holds_the_resolution_asked() {
+    let factors = || {
+        (0..5)
+            .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
+            .collect()
+    };
+    let mut req = DesignRequest::new(DesignKind::Fractional, factors());
+    req.runs = Some(8);
+    req.resolution = Some(3);
+    let d = generate(&req).unwrap();
+    assert_eq!((d.n_runs(), d.resolution), (8, Some(3)));
+    let mut req = DesignRequest::new(DesignKind::Fractional, factors());
+    req.runs = Some(8);
+    req.resolution = Some(4);
+    match generate(&req) {
+        Err(DoeError::NoCatalogueDesign {
+            factors, request, ..
+        }) => {
+            assert_eq!(factors, 5);
+            assert!(
+                request.contains("8 runs") && request.contains("resolution"),
+                "{request}"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+}

@@ -214,3 +214,32 @@ fn a_scaled_stiffness_scales_both_and_the_covariance_by_the_square() {
     assert_eq!((s.axial_n_per_um, s.radial_n_per_um), (2.44, 0.228));
     assert_eq!(s.covariance.values, [[4e-4, 0.0], [0.0, 4e-4]]);
 }
+
+/// A derived quantity may have a NaN uncertainty only in a fit that left a parameter undetermined
+/// (`std_err = inf`): in a fit that determined every parameter, `derived.q.std_err = nan` is refused
+/// naming its key; beside an undetermined parameter it is accepted. Kills `file.rs:348:51: replace
+/// match guard !loose.is_empty() with true in walk_table` (which accepts the first) and `file.rs:348:51:
+/// delete ! in walk_table` (which accepts the first and refuses the second).
+#[test]
+fn a_derived_quantity_is_undetermined_only_beside_an_undetermined_parameter() {
+    use millcomp_models::file::check_numbers;
+    let doc = |b_err: &str| -> toml::Table {
+        toml::from_str(&format!(
+            r#"
+[model]
+params = {{ a = 1.0, b = 2.0 }}
+std_err = {{ a = 0.1, b = {b_err} }}
+[model.derived.q]
+value = 3.0
+std_err = nan
+"#
+        ))
+        .unwrap()
+    };
+    let at = Path::new("m.toml");
+    match check_numbers(&doc("0.2"), at) {
+        Err(ModelError::InvalidValue { key, .. }) => assert_eq!(key, "model.derived.q.std_err"),
+        other => panic!("{other:?}"),
+    }
+    assert!(check_numbers(&doc("inf"), at).is_ok());
+}

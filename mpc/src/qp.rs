@@ -267,6 +267,8 @@ pub fn clarabel_settings(cfg: &SolverConfig) -> DefaultSettings<f64> {
         .iterative_refinement_enable(cfg.iterative_refinement)
         .equilibrate_enable(cfg.equilibrate)
         .max_threads(1)
+        // unlimited: the deadline is the termination callback's (`keep_timer_tree` on what it would read)
+        .time_limit(f64::INFINITY)
         .build()
         .expect("static Clarabel settings are valid")
 }
@@ -491,6 +493,7 @@ impl CondensedQp {
             deadline != u64::MAX
                 && epoch.elapsed().as_nanos().min(u64::MAX as u128) as u64 >= deadline
         });
+        keep_timer_tree(&mut solver);
         if !solver.is_data_update_allowed() {
             return Err(MpcError::SolverSetup {
                 what: "data updating",
@@ -775,4 +778,27 @@ impl QpData {
             self.a_nzval.clone(),
         )
     }
+}
+
+/// Keep Clarabel's timer tree between solves, and build it now with one solve of the constant data (its
+/// result is not used; every solve starts afresh from Clarabel's default start), so that no later solve
+/// allocates.
+///
+/// Clarabel 0.11.1 times each solve under a root timer "solve" and resets it at the start of every solve
+/// (`DefaultInfo::reset` → `Timers::reset_timer("solve")`); the reset clears the timer's map of sub-timers
+/// (`InnerTimer::reset` → `subtimers.clear()`, clarabel `src/timers/timers.rs`), which frees the nested
+/// maps ("IP iteration" → "kkt update", …) that the solve's first timed blocks then allocate again: one
+/// allocation and one free per solve. A timer started here and never stopped makes every later "solve"
+/// its child (`Timers::start_as_current` nests under the active timer): the reset then clears only an
+/// empty root entry, and the nested timers are found again, not rebuilt. Their durations accumulate
+/// instead of restarting, so `DefaultInfo::solve_time` no longer times one solve — millcomp does not use
+/// it (a cycle's deadline is the termination callback's, its time [`crate::stats`]'s), and Clarabel's
+/// `time_limit`, which reads it, is left unlimited (`clarabel_settings`). Clarabel's public API (`timers`
+/// is a public field of [`DefaultSolver`], `Timers` a public type); runtime/tests/alloc.rs counts the
+/// allocator calls and fails if a Clarabel release changes this.
+fn keep_timer_tree(solver: &mut DefaultSolver<f64>) {
+    if let Some(timers) = solver.timers.as_mut() {
+        timers.start_as_current("millcomp: kept between solves");
+    }
+    solver.solve();
 }

@@ -335,4 +335,14 @@ mod tests {
         }
         assert!(conference(16).is_none());
     }
+
+    /// Order 2 is the one conference matrix not built from a finite field, [[0, 1], [1, 0]]
+    /// (CᵀC = 1·I); orders 0 and 1 have none. Kills `screening.rs:214:10: replace < with == in
+    /// conference` (which returns none for order 2 and builds from order 0 or 1).
+    #[test]
+    fn conference_matrix_of_order_two() {
+        assert_eq!(conference(2), Some(vec![vec![0.0, 1.0], vec![1.0, 0.0]]));
+        assert_eq!(conference(1), None);
+        assert_eq!(conference(0), None);
+    }
 }
