@@ -246,14 +246,14 @@ fn recorded_nc_band_holds() {
             }
         }
     }
-    for (i, who) in ["reactive", "proactive"].iter().enumerate() {
-        for j in 0..2 {
-            close(
-                who,
-                band[i][j],
-                recorded::NC_BAND_PEAK_UM[i][j],
-                0.05 + recorded::NC_TOL,
-            );
+    for ((who, got), rec) in ["reactive", "proactive"]
+        .iter()
+        .zip(band)
+        .zip(recorded::NC_BAND_PEAK_UM)
+    {
+        for (g, r) in got.into_iter().zip(rec) {
+            // recorded to 0.1 µm: half of that for the rounding, plus the stated tolerance
+            close(who, g, r, 0.05 + recorded::NC_TOL);
         }
     }
 }
