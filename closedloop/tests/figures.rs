@@ -94,13 +94,7 @@ fn check_registry_names_the_figure_at_fault() {
 }
 
 fn median(mut v: Vec<f64>) -> (f64, [f64; 2]) {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    let m = if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    };
+    let m = millcomp_closedloop::stats::median(&mut v);
     (m, median_ci95(&v))
 }
 
@@ -197,30 +191,24 @@ fn recorded_nc_figures_hold() {
     close("reactive removed %", rm, m, tol);
     close("reactive removed %, low", rci[0], ci[0], tol);
     close("reactive removed %, high", rci[1], ci[1], tol);
-    close(
-        "reactive peak",
-        col(&reactive, 0).0,
-        recorded::NC_PEAK_UM[0],
-        tol,
-    );
-    close(
-        "proactive peak",
-        col(&proactive, 0).0,
-        recorded::NC_PEAK_UM[1],
-        tol,
-    );
-    close(
-        "reactive exit undersize",
-        col(&reactive, 2).0,
-        recorded::NC_EXIT_UNDERSIZE_UM[0],
-        tol,
-    );
-    close(
-        "proactive exit undersize",
-        col(&proactive, 2).0,
-        recorded::NC_EXIT_UNDERSIZE_UM[1],
-        tol,
-    );
+    for (what, runs, i, rec) in [
+        ("reactive peak", &reactive, 0, recorded::NC_PEAK_UM[0]),
+        ("proactive peak", &proactive, 0, recorded::NC_PEAK_UM[1]),
+        (
+            "reactive exit undersize",
+            &reactive,
+            2,
+            recorded::NC_EXIT_UNDERSIZE_UM[0],
+        ),
+        (
+            "proactive exit undersize",
+            &proactive,
+            2,
+            recorded::NC_EXIT_UNDERSIZE_UM[1],
+        ),
+    ] {
+        close(what, col(runs, i).0, rec, tol);
+    }
 }
 
 #[test]
