@@ -1276,3 +1276,88 @@ fn a_fraction_by_runs_holds_the_resolution_asked() {
         other => panic!("{other:?}"),
     }
 }
+
+/// A power calculation reports the terms an effect "high − low" describes — the main effects and the
+/// interaction of a quadratic model — and skips the squares: on the 3² factorial (9 runs, residual
+/// df 3) the terms are A, B and A:B. For A, λ = (effect/2)² / (σ²·(XᵀX)⁻¹_AA) with (XᵀX)⁻¹_AA = 1/6 (the
+/// linear column −1, 0, 1 three times is orthogonal to the others: Σx² = 6), so effect 2, σ 1 give
+/// λ = 6. Kills `analysis/mod.rs:1192:66: replace == with != in power` (found by the draw of seed 52
+/// beyond its first 130), which skips every term beside a square of another name.
+#[test]
+fn power_of_a_quadratic_model_skips_only_the_squares() {
+    use millcomp_doe::{ModelSpec, Values, power};
+    let mut a = Vec::new();
+    let mut b = Vec::new();
+    for la in [-1.0, 0.0, 1.0] {
+        for lb in [-1.0, 0.0, 1.0] {
+            a.push(la);
+            b.push(lb);
+        }
+    }
+    let f = vec![
+        ("A".to_string(), Values::F64(a)),
+        ("B".to_string(), Values::F64(b)),
+    ];
+    let r = power(&f, &ModelSpec::Quadratic, 2.0, 1.0, 0.05).unwrap();
+    assert_eq!(r.residual_df, 3);
+    let names: Vec<&str> = r.terms.iter().map(|t| t.term.as_str()).collect();
+    assert_eq!(names, ["A", "B", "A:B"]);
+    assert!(
+        (r.terms[0].noncentrality - 6.0).abs() < 1e-9,
+        "{}",
+        r.terms[0].noncentrality
+    );
+}
+
+/// Generators that reach exactly the resolution asked are taken: D = ABC gives I = ABCD, resolution
+/// IV (Montgomery, 8th ed., §8.2), so a request for resolution 4 with it is built (8 runs) and one
+/// for 5 is refused naming the generator. Kills `factorial.rs:195:24: replace < with <= in
+/// fractional` (found by the draw of seed 52 beyond its first 130), which refuses the first.
+#[test]
+fn generators_that_reach_the_asked_resolution_are_taken() {
+    let ask = |r: u32| {
+        let mut req = DesignRequest::new(
+            DesignKind::Fractional,
+            FactorSpec::parse_list("a,b,c,d").unwrap(),
+        );
+        req.generators = Some("D=ABC".into());
+        req.resolution = Some(r);
+        generate(&req)
+    };
+    let d = ask(4).unwrap();
+    assert_eq!((d.n_runs(), d.resolution), (8, Some(4)));
+    match ask(5) {
+        Err(DoeError::InvalidGenerator { generator, .. }) => assert_eq!(generator, "D=ABC"),
+        other => panic!("{other:?}"),
+    }
+}
+
+/// Two columns are aliased when the second's part beyond the first (and the intercept) is at most
+/// 1e-9 of its norm (modified Gram–Schmidt, `first_dependent_column`): on 8 runs, e = (−1, 0 ×6, 1)
+/// has norm √2, and f = e + ε·(0, 1, −1, 0 ×5) keeps f's range and coding, so its part beyond e and the
+/// intercept is ε·√2. With ε = 1.5e-9 that is 2.1e-9 > 1e-9·√2: not aliased, analysed; with ε = 5e-10
+/// it is 7.1e-10 ≤ 1.4e-9: aliased, refused naming f. Kills `analysis/mod.rs:624:53: replace * with
+/// + in first_dependent_column` and `… replace * with /` (found by the draw of seed 52 beyond its first
+/// 130), whose floors √8 + 1e-3 and √8 / 1e-3 call the first aliased too.
+#[test]
+fn columns_are_aliased_only_within_their_tolerance() {
+    use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze};
+    let run = |eps: f64| {
+        let e = vec![-1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0];
+        let mut f = e.clone();
+        f[1] = eps;
+        f[2] = -eps;
+        analyze(&AnalysisInput {
+            factors: vec![("e".into(), Values::F64(e)), ("f".into(), Values::F64(f))],
+            response_name: "y".into(),
+            response: Values::F64(vec![1.0, 2.0, 1.5, 2.5, 3.0, 2.0, 1.0, 4.0]),
+            model: ModelSpec::Main,
+        })
+    };
+    let a = run(1.5e-9).unwrap();
+    assert_eq!(a.residual_df, 5);
+    match run(5e-10) {
+        Err(DoeError::AliasedTerms { term, .. }) => assert_eq!(term, "f"),
+        other => panic!("{other:?}"),
+    }
+}
