@@ -658,7 +658,11 @@ pub fn published_figures(progress: &dyn Fn(&str)) -> Result<Vec<PublishedFigure>
         within: within_abs(&[ol20, olc], &[5.0, 5.0], 2.0),
         note: None,
         why: "smaller",
-        fitted_on: vec!["groove_20deg_uncompensated", "table_5_1_stiffness"],
+        fitted_on: vec![
+            "groove_20deg_uncompensated",
+            "table_5_1_stiffness",
+            "pzt_step_response",
+        ],
         computed: Computed::LiveAndRecorded { test: TEST_GROOVES },
         command: "millcomp simulate datasets/scenarios/groove_s7_20deg.toml --controller open-loop",
     });
