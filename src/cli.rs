@@ -314,6 +314,13 @@ pub struct IdentifyArgs {
     /// `fz_mm,ap_mm,ae_mm,mean_fx_n|mean_fy_n[,diameter_mm,teeth,helix_deg]`; feed-axis
     /// `t_s,reference_um,position_um`; hysteresis `u_v,y_um` (a slow sweep that reverses).
     pub file: PathBuf,
+    /// Force on a peak-force table (Table 3-3 shape): diagnose the disagreements of the nominal
+    /// force model (W free) — its residual per response, candidate effects from the literature
+    /// (ploughing, runout, flank wear, sensor gains and crosstalk, speed) each with its F test,
+    /// held-out prediction and smallest detectable size, the verdict, and the S7 groove's deep-end
+    /// force predicted without a scale factor (docs/studies/published-forces.md).
+    #[arg(long, conflicts_with_all = ["save", "free", "relative_errors", "also", "join"])]
+    pub diagnose: bool,
     /// Write the identified model as TOML (schema: models/MODEL.md).
     #[arg(long)]
     pub save: Option<PathBuf>,

@@ -9,6 +9,7 @@ mod datasets;
 mod demo;
 mod diagnose;
 mod doe;
+mod forces;
 mod identify;
 mod manners;
 mod parts;

@@ -125,6 +125,10 @@ const CHECKED: &[(&str, &[&str])] = &[
         ],
     ),
     (
+        "docs/studies/published-forces.md",
+        &["millcomp identify force datasets/data/clayton_doe.csv --material 6061 --diagnose"],
+    ),
+    (
         "docs/real-machines.md",
         &[
             "millcomp diagnose --record datasets/real/fl_thermal/thermal_drift.csv --columns 't_s=time_s,speed_rpm=spindle_rpm,temp_c=temp_t*_C,drift_um=disp_ch1_um'",

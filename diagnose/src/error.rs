@@ -85,6 +85,33 @@ pub enum DiagnoseError {
         #[source]
         source: IdentifyError,
     },
+    /// A material the physics crate does not know (force diagnosis).
+    #[error("unknown material `{name}`")]
+    UnknownMaterial {
+        /// The name given.
+        name: String,
+        /// sim's error, listing the known materials.
+        #[source]
+        source: SimError,
+    },
+    /// A force table with too few runs to hold one out.
+    #[error(
+        "{origin}: {runs} runs; the force diagnosis needs at least 3 (one is held out at a time)"
+    )]
+    TooFewRuns {
+        /// The table's name.
+        origin: String,
+        /// Runs found.
+        runs: usize,
+    },
+    /// The force model could not be evaluated at the table's conditions or the predicted cut.
+    #[error("{origin}: the force model could not be evaluated: {message}")]
+    Evaluation {
+        /// The table or the predicted case.
+        origin: String,
+        /// The physics crate's message.
+        message: String,
+    },
 }
 
 /// Result alias of the crate.

@@ -85,6 +85,7 @@ pub mod families;
 pub mod familywise;
 pub mod fitted;
 pub mod force_channel;
+pub mod forces;
 pub mod logo;
 pub mod measured;
 mod model;

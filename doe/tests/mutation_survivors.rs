@@ -1361,3 +1361,31 @@ fn columns_are_aliased_only_within_their_tolerance() {
         other => panic!("{other:?}"),
     }
 }
+
+/// A constraint may start with a sign: `-a + b <= 0.5` is −a + b ≤ 0.5 (coefficients −1 and +1, by
+/// hand), satisfied at (a, b) = (0, 0.5) and not at (−0.5, 0.5). Kills `doptimal.rs:99:46: replace >
+/// with >= in LinearConstraint::parse` (found by the draw of seed 52 beyond its first 130), which
+/// splits before the leading sign and refuses an empty term.
+#[test]
+fn a_constraint_may_start_with_a_sign() {
+    use millcomp_doe::LinearConstraint;
+    let f = FactorSpec::parse_list("a,b").unwrap();
+    let c = LinearConstraint::parse_list("-a + b <= 0.5", &f).unwrap();
+    assert_eq!(c[0].coefs, [(0, -1.0), (1, 1.0)]);
+    assert_eq!(c[0].rhs, 0.5);
+    assert!(c[0].satisfied(&[0.0, 0.5]));
+    assert!(!c[0].satisfied(&[-0.5, 0.5]));
+}
+
+/// The model keywords are taken whatever their case: `quadratic`, `rsm`, `full-quadratic` and `RSM`
+/// are the quadratic model, `main` the main effects. Kills `model.rs:42:13: delete match arm
+/// "quadratic" | "rsm" | "full-quadratic" in ModelSpec::parse` (found by the draw of seed 52 beyond its
+/// first 130), which reads them as a formula of one unknown factor.
+#[test]
+fn the_quadratic_model_is_asked_by_its_keywords() {
+    use millcomp_doe::ModelSpec;
+    for k in ["quadratic", "rsm", "full-quadratic", "RSM"] {
+        assert_eq!(ModelSpec::parse(k).unwrap(), ModelSpec::Quadratic, "{k}");
+    }
+    assert_eq!(ModelSpec::parse("main").unwrap(), ModelSpec::Main);
+}

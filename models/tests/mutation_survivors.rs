@@ -243,3 +243,22 @@ std_err = nan
     }
     assert!(check_numbers(&doc("inf"), at).is_ok());
 }
+
+/// A prediction's standard error is √(xᵀ C x) over the model row x: the line f = −1 + 0.01·d with
+/// covariance diag(0.01, 0.04) (intercept, d) at d = 0.5 has x = (1, 0.5) and variance 0.01 + 0.25·0.04
+/// = 0.02 (by hand), so 0.1414…; the mean is −1 + 0.005 = −0.995. Kills `surface.rs:250:43: replace *
+/// with / in ResponseSurface::predict_levels` (found by the draw of seed 52 beyond its first 130),
+/// whose x_i·C_ij / x_j gives 0.05.
+#[test]
+fn a_predictions_standard_error_is_the_rows_quadratic_form() {
+    use millcomp_models::Level;
+    let mut s = line_over(0.0, 1.0);
+    s.covariance = Some(vec![vec![0.01, 0.0], vec![0.0, 0.04]]);
+    let p = s.predict_levels(&[("d", Level::Num(0.5))]).unwrap();
+    assert!((p.mean - -0.995).abs() < 1e-12, "{}", p.mean);
+    assert!(
+        (p.std_err.unwrap() - 0.02f64.sqrt()).abs() < 1e-12,
+        "{:?}",
+        p.std_err
+    );
+}

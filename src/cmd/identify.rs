@@ -28,6 +28,12 @@ pub fn run(args: IdentifyArgs, json: bool) -> anyhow::Result<()> {
             svg_starting(rel, &["thermal_", "wear_", "flutes_"])
         })?;
     }
+    if args.diagnose {
+        if !matches!(args.what, IdentifyWhat::Force) {
+            bail!("--diagnose is for `identify force` on a peak-force table");
+        }
+        return crate::cmd::forces::run(&args, json);
+    }
     let record_study = matches!(args.what, IdentifyWhat::Wear | IdentifyWhat::Flutes)
         || (matches!(args.what, IdentifyWhat::Thermal)
             && crate::cmd::record::is_thermal_study(&args));

@@ -9,6 +9,7 @@ mod datasets;
 mod demo;
 mod diagnose;
 mod doe;
+mod forces;
 pub(crate) mod guard;
 mod identify;
 mod parts;
