@@ -668,6 +668,21 @@ pub enum DatasetsCommand {
         after_help = "Example:\n  millcomp datasets check my-grooves.csv --as measured-groove"
     )]
     Check(DatasetsCheckArgs),
+    /// Every published figure millcomp touches: the published value, millcomp's (computed now, or
+    /// recorded and checked by a test), the label (predicted / calibrated to / disagrees) and the
+    /// published figures its parameters were fitted on.
+    #[command(
+        after_help = "Example:\n  millcomp datasets figures\n  millcomp datasets figures --markdown"
+    )]
+    Figures(DatasetsFiguresArgs),
+}
+
+/// `millcomp datasets figures`.
+#[derive(Debug, Args)]
+pub struct DatasetsFiguresArgs {
+    /// Print README's figure table (markdown) instead of the aligned text table (not with --json).
+    #[arg(long)]
+    pub markdown: bool,
 }
 
 /// `millcomp datasets check FILE --as SCHEMA`.

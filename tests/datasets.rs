@@ -220,3 +220,61 @@ fn usage_errors_exit_2_and_help_documents_exit_codes() {
         .success()
         .stdout(predicate::str::contains("Exit status"));
 }
+
+/// `datasets figures --json`: a list of objects with name, published, millcomp, label, fitted_on, and
+/// a reason exactly where the figure disagrees; every name unique, every fitted_on name a figure, and
+/// a figure in its own fitted_on "calibrated to".
+#[test]
+fn figures_json_lists_each_figure_with_its_label_and_what_it_was_fitted_on() {
+    let doc = run_json(&["datasets", "figures"]);
+    let figs = doc.as_array().expect("a list");
+    let names: std::collections::BTreeSet<&str> =
+        figs.iter().map(|f| f["name"].as_str().unwrap()).collect();
+    assert_eq!(names.len(), figs.len(), "names unique");
+    for f in figs {
+        let name = f["name"].as_str().unwrap();
+        for key in ["published", "millcomp", "computed", "command", "source"] {
+            assert!(!f[key].is_null(), "{name}: {key}");
+        }
+        assert!(f["published"]["text"].is_string() && f["millcomp"]["text"].is_string());
+        let label = f["label"].as_str().unwrap();
+        assert!(
+            ["predicted", "calibrated to", "disagrees"].contains(&label),
+            "{name}: {label}"
+        );
+        assert_eq!(f["reason"].is_string(), label == "disagrees", "{name}");
+        let fitted: Vec<&str> = f["fitted_on"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|n| n.as_str().unwrap())
+            .collect();
+        for n in &fitted {
+            assert!(names.contains(n), "{name}: fitted_on {n}");
+        }
+        if fitted.contains(&name) {
+            assert_eq!(label, "calibrated to", "{name}");
+        }
+        let computed = f["computed"].as_str().unwrap();
+        assert!(
+            computed == "live" || computed.contains("checked by `recorded_"),
+            "{name}: {computed}"
+        );
+    }
+    // README's table before the registry: the Table 3-3 analysis predicted, W disagrees
+    let by = |n: &str| figs.iter().find(|f| f["name"] == n).unwrap();
+    assert_eq!(by("table_3_3_x_force_terms")["label"], "predicted");
+    assert_eq!(by("w_6061")["label"], "disagrees");
+    assert_eq!(by("groove_20deg_uncompensated")["label"], "calibrated to");
+}
+
+#[test]
+fn figures_markdown_and_json_together_is_an_error() {
+    millcomp()
+        .args(["datasets", "figures", "--markdown", "--json"])
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains(
+            "--markdown and --json: choose one",
+        ));
+}

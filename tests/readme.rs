@@ -56,6 +56,7 @@ const CHECKED: &[(&str, &[&str])] = &[
         &[
             "millcomp datasets list",
             r"printf 'groove_id,t_s,x_mm,cut_length_mm,spindle_rpm,feed_mm_min,upfeed_um,tilt_deg,coolant_on,depth_cmd_um,depth_meas_um\n0,0,0,0,10000,100,ten,20,1,0,0\n' > bad.csv",
+            "millcomp datasets figures",
         ],
     ),
     (
@@ -598,5 +599,37 @@ fn the_readme_check_tells_an_elided_block_from_a_changed_one() {
     assert_eq!(
         links,
         vec![(5, "y.md#a-b".to_string()), (6, "../p.svg".to_string())]
+    );
+}
+
+/// README's figure table ("The published figures millcomp touches") is the output of
+/// `millcomp datasets figures --markdown`, line for line: the table is generated, never typed.
+#[test]
+fn the_readme_figure_table_is_the_commands_markdown() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = Command::new(assert_cmd::cargo::cargo_bin("millcomp"))
+        .args(["datasets", "figures", "--markdown"])
+        .current_dir(root)
+        .output()
+        .expect("run millcomp");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let table = String::from_utf8(out.stdout).expect("utf-8");
+    let readme = std::fs::read_to_string(root.join("README.md")).expect("README.md");
+    let start = readme
+        .find("\n| figure (source) |")
+        .expect("README.md has the figure table");
+    let shown: String = readme[start + 1..]
+        .lines()
+        .take_while(|l| l.starts_with('|'))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    assert!(
+        shown == table,
+        "README.md's figure table is not `millcomp datasets figures --markdown`: regenerate it\n\
+         --- README\n{shown}--- the command\n{table}"
     );
 }

@@ -19,6 +19,15 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 #[non_exhaustive]
 pub enum ClosedLoopError {
+    /// A published figure could not be computed (`figures`): the figure's name and the cause.
+    #[error("published figure `{name}`")]
+    Figure {
+        /// The figure's name in the registry.
+        name: &'static str,
+        /// The cause (a table, an analysis, a fit or a run).
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
     /// A scenario value (or the controller asked for) is out of its allowed range.
     #[error("invalid value for `{key}` = {value}: allowed {allowed}")]
     InvalidConfig {

@@ -56,6 +56,7 @@ pub mod commissioning_plan;
 pub mod compare;
 pub mod error;
 pub mod faults;
+pub mod figures;
 pub mod groove;
 pub mod machine;
 pub mod model_errors;

@@ -5,6 +5,7 @@ mod batch_shards;
 mod commissioning;
 mod common;
 mod faults;
+mod figures;
 mod fuzz_regressions;
 mod groove;
 mod machine;

@@ -1,4 +1,4 @@
-//! `millcomp datasets list|show`.
+//! `millcomp datasets list|show|check|figures`.
 
 use anyhow::Context;
 use serde_json::json;
@@ -13,7 +13,32 @@ pub fn run(cmd: DatasetsCommand, json: bool) -> anyhow::Result<()> {
         DatasetsCommand::Check(args) => {
             check(&args.file, &args.schema, args.columns.as_deref(), json)
         }
+        DatasetsCommand::Figures(args) => figures(args.markdown, json),
     }
+}
+
+/// The published figures, computed now (the simulations take a few seconds: on a terminal, each
+/// figure's name on stderr as it is computed).
+fn figures(markdown: bool, json: bool) -> anyhow::Result<()> {
+    use std::io::IsTerminal;
+    if markdown && json {
+        anyhow::bail!("--markdown and --json: choose one");
+    }
+    let tty = std::io::stderr().is_terminal();
+    let figs = millcomp_closedloop::figures::published_figures(&|name| {
+        if tty {
+            eprintln!("figures: {name}");
+        }
+    })?;
+    if json {
+        return print_json(&figs);
+    }
+    if markdown {
+        print!("{}", crate::present::figures::markdown(&figs));
+    } else {
+        print!("{}", crate::present::figures::text(&figs));
+    }
+    Ok(())
 }
 
 fn check(

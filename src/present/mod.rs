@@ -5,6 +5,7 @@ pub mod batch;
 pub mod commission;
 pub mod diagnose;
 pub mod doe;
+pub mod figures;
 pub mod nc_axis;
 pub mod parts;
 pub mod plot;
