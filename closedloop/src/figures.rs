@@ -382,9 +382,9 @@ pub fn published_figures(progress: &dyn Fn(&str)) -> Result<Vec<PublishedFigure>
             unit: "p-value",
         },
         within: pd < 0.05 && pu < 0.05 && ps >= 0.05,
-        note: None,
+        note: Some("a re-analysis of the published table, fitting data by definition"),
         why: "",
-        fitted_on: vec![],
+        fitted_on: vec!["table_3_3_x_force_terms"],
         computed: Computed::Live,
         command: "millcomp doe analyze datasets/data/clayton_doe.csv --response max_fx_n --factors depth_um,speed_rpm,upfeed_um",
     });
