@@ -1390,3 +1390,15 @@ fn the_quadratic_model_is_asked_by_its_keywords() {
     }
     assert_eq!(ModelSpec::parse("main").unwrap(), ModelSpec::Main);
 }
+
+/// A factor named again with a coefficient other than ±1 adds that coefficient: `b + 3*b - a <= 2`
+/// is −a + 4·b ≤ 2 (by hand). Kills `doptimal.rs:143:43: replace * with / in
+/// LinearConstraint::parse` (found by the draw of seed 52 beyond its first 300), which adds 1/3.
+#[test]
+fn a_factor_named_again_adds_its_coefficient() {
+    use millcomp_doe::LinearConstraint;
+    let f = FactorSpec::parse_list("a,b").unwrap();
+    let c = LinearConstraint::parse_list("b + 3*b - a <= 2", &f).unwrap();
+    assert_eq!(c[0].coefs, [(1, 4.0), (0, -1.0)]);
+    assert_eq!(c[0].rhs, 2.0);
+}
