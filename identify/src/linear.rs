@@ -243,6 +243,28 @@ mod tests {
         v.iter().map(|s| s.to_string()).collect()
     }
 
+    /// A constant column of any value is the intercept: y = [1, 3, 2, 5, 4] at x = 0..4 is the
+    /// line 1.4 + 0.8·x (by hand: Sxx = 10, Sxy = 8, ȳ = 3), so with the constant column 2 instead of
+    /// 1 its coefficient is 0.7. Kills `linear.rs:150:17: replace / with * in fit_linear` (found by
+    /// the draw of seed 52 beyond its first 300), which gives 2.8.
+    #[test]
+    fn a_constant_column_of_two_carries_half_the_intercept() {
+        let y = [1.0, 3.0, 2.0, 5.0, 4.0];
+        let a = DMatrix::from_fn(5, 2, |i, j| if j == 0 { 2.0 } else { i as f64 });
+        let f = fit_linear(
+            &names(&["c", "b1"]),
+            &a,
+            &y,
+            None,
+            LinearMethod::Qr,
+            "t",
+            "um",
+        )
+        .unwrap();
+        assert_relative_eq!(f.theta[0], 0.7, max_relative = 1e-12);
+        assert_relative_eq!(f.theta[1], 0.8, max_relative = 1e-12);
+    }
+
     #[test]
     fn qr_and_svd_agree_on_line() {
         let x: Vec<f64> = (0..10).map(|i| i as f64).collect();
