@@ -6,6 +6,13 @@ use millcomp_doe::{DesignKind, DesignRequest, DoeError, FactorSpec, generate};
 /// A mixed-level full factorial above 1e6 runs is refused before anything is allocated, naming its
 /// size (10 factors of 10 levels: 10^10 runs). Kills `factorial.rs: replace > with == in full`
 /// (which would go on to allocate 10^10 rows).
+
+/// `k` coded factors named A, B, C, … (the letters `doe design` gives them).
+fn coded(k: usize) -> Vec<FactorSpec> {
+    (0..k)
+        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
+        .collect()
+}
 #[test]
 fn a_mixed_level_full_factorial_beyond_a_million_runs_is_refused_naming_its_size() {
     let levels = (1..=10)
@@ -164,10 +171,7 @@ fn factors_are_not_guessed_from_columns_of_distinct_values() {
 /// full factorial).
 #[test]
 fn nine_factors_at_resolution_seven_are_refused_not_run_in_full() {
-    let factors = (0..9)
-        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-        .collect();
-    let mut req = DesignRequest::new(DesignKind::Fractional, factors);
+    let mut req = DesignRequest::new(DesignKind::Fractional, coded(9));
     req.resolution = Some(7);
     match generate(&req) {
         Err(DoeError::NoCatalogueDesign {
@@ -198,15 +202,10 @@ fn a_ccd_alpha_must_be_a_positive_finite_number() {
 /// replace > with < in plackett_burman` (which refuses every run count up to 4096).
 #[test]
 fn a_plackett_burman_run_count_is_taken_up_to_its_bound() {
-    let factors = || {
-        (0..5)
-            .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-            .collect()
-    };
-    let mut req = DesignRequest::new(DesignKind::PlackettBurman, factors());
+    let mut req = DesignRequest::new(DesignKind::PlackettBurman, coded(5));
     req.runs = Some(20);
     assert_eq!(generate(&req).unwrap().n_runs(), 20);
-    let mut req = DesignRequest::new(DesignKind::PlackettBurman, factors());
+    let mut req = DesignRequest::new(DesignKind::PlackettBurman, coded(5));
     req.runs = Some(4100);
     match generate(&req) {
         Err(DoeError::InvalidParameter { name, value, .. }) => {
@@ -342,10 +341,7 @@ fn a_design_lists_its_factor_names_in_order() {
 /// replace * with / in lhs` (which gives 10/3 = 3 runs).
 #[test]
 fn a_latin_hypercube_has_ten_runs_per_factor_by_default() {
-    let factors = (0..3)
-        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-        .collect();
-    let mut req = DesignRequest::new(DesignKind::Lhs, factors);
+    let mut req = DesignRequest::new(DesignKind::Lhs, coded(3));
     req.seed = Some(7);
     let d = generate(&req).unwrap();
     assert_eq!(d.n_runs(), 30);
@@ -545,10 +541,7 @@ fn a_saturated_three_factor_quadratic_design_reaches_the_grids_best() {
 /// 2² in reverse order: ++, −+, +−, −−).
 #[test]
 fn a_box_behnken_design_comes_in_the_handbooks_standard_order() {
-    let factors = (0..3)
-        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-        .collect();
-    let mut req = DesignRequest::new(DesignKind::BoxBehnken, factors);
+    let mut req = DesignRequest::new(DesignKind::BoxBehnken, coded(3));
     req.randomize = false;
     let d = generate(&req).unwrap();
     let nist = [
@@ -648,10 +641,7 @@ fn a_face_centred_ccd_is_asked_by_its_variant_name() {
 /// with == in plackett_burman` (which refuses exactly 4096).
 #[test]
 fn a_plackett_burman_design_of_4096_runs_is_built() {
-    let factors = (0..5)
-        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-        .collect();
-    let mut req = DesignRequest::new(DesignKind::PlackettBurman, factors);
+    let mut req = DesignRequest::new(DesignKind::PlackettBurman, coded(5));
     req.runs = Some(4096);
     req.randomize = false;
     let d = generate(&req).unwrap();
@@ -667,10 +657,7 @@ fn a_plackett_burman_design_of_4096_runs_is_built() {
 /// 1 and 2).
 #[test]
 fn blocks_of_a_second_replicate_are_numbered_on() {
-    let factors = (0..3)
-        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-        .collect();
-    let mut req = DesignRequest::new(DesignKind::Full, factors);
+    let mut req = DesignRequest::new(DesignKind::Full, coded(3));
     req.blocks = 2;
     req.replicates = 2;
     req.randomize = false;
@@ -685,19 +672,14 @@ fn blocks_of_a_second_replicate_are_numbered_on() {
 /// naming the 2 needed. Kills `screening.rs:257:10: replace < with == in dsd` (which refuses 2).
 #[test]
 fn a_definitive_screening_design_of_two_factors_has_nine_runs() {
-    let factors = |k: usize| {
-        (0..k)
-            .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-            .collect()
-    };
-    let d = generate(&DesignRequest::new(DesignKind::Dsd, factors(2))).unwrap();
+    let d = generate(&DesignRequest::new(DesignKind::Dsd, coded(2))).unwrap();
     assert_eq!(d.n_runs(), 9);
     for j in 0..2 {
         for level in [-1.0, 0.0, 1.0] {
             assert_eq!(d.runs.iter().filter(|r| r.coded[j] == level).count(), 3);
         }
     }
-    match generate(&DesignRequest::new(DesignKind::Dsd, factors(1))) {
+    match generate(&DesignRequest::new(DesignKind::Dsd, coded(1))) {
         Err(DoeError::NotEnoughData { needed, have, .. }) => assert_eq!((needed, have), (2, 1)),
         other => panic!("{other:?}"),
     }
@@ -709,10 +691,7 @@ fn a_definitive_screening_design_of_two_factors_has_nine_runs() {
 /// (which counts 8 + 1000 + 4 = 1012 runs a replicate).
 #[test]
 fn a_designs_size_counts_the_centre_points_of_every_block() {
-    let factors = (0..3)
-        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-        .collect();
-    let mut req = DesignRequest::new(DesignKind::Full, factors);
+    let mut req = DesignRequest::new(DesignKind::Full, coded(3));
     req.blocks = 4;
     req.center_points = Some(1000);
     req.replicates = 989;
@@ -772,10 +751,7 @@ fn power_skips_the_columns_of_a_three_level_label_factor() {
 /// (docs/reliability-mutants.md).
 #[test]
 fn generators_that_alias_two_factors_are_refused_naming_them() {
-    let factors = (0..3)
-        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-        .collect();
-    let mut req = DesignRequest::new(DesignKind::Fractional, factors);
+    let mut req = DesignRequest::new(DesignKind::Fractional, coded(3));
     req.generators = Some("C=A".into());
     match generate(&req) {
         Err(DoeError::AliasedGenerators {
@@ -836,12 +812,7 @@ fn lack_of_fit_is_tested_only_against_some_pure_error() {
 /// replace * with + in plackett_burman` (which starts its search at 5 and gives 8).
 #[test]
 fn run_counts_at_and_past_the_full_factorial() {
-    let factors = || {
-        (0..3)
-            .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-            .collect::<Vec<_>>()
-    };
-    let mut req = DesignRequest::new(DesignKind::Fractional, factors());
+    let mut req = DesignRequest::new(DesignKind::Fractional, coded(3));
     req.runs = Some(8);
     let d = generate(&req).unwrap();
     assert_eq!((d.n_runs(), d.resolution), (8, None));
@@ -860,7 +831,7 @@ fn run_counts_at_and_past_the_full_factorial() {
         }
         other => panic!("{other:?}"),
     }
-    let pb = generate(&DesignRequest::new(DesignKind::PlackettBurman, factors())).unwrap();
+    let pb = generate(&DesignRequest::new(DesignKind::PlackettBurman, coded(3))).unwrap();
     assert_eq!(pb.n_runs(), 4);
 }
 
@@ -1116,12 +1087,7 @@ fn only_a_box_behnken_design_beyond_the_table_says_it_is_built_from_pairs() {
 /// bound k − 1 = 3 lets 4 factors into 4 runs).
 #[test]
 fn a_plackett_burman_design_needs_more_runs_than_factors() {
-    let factors = |k: usize| {
-        (0..k)
-            .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-            .collect()
-    };
-    let mut req = DesignRequest::new(DesignKind::PlackettBurman, factors(4));
+    let mut req = DesignRequest::new(DesignKind::PlackettBurman, coded(4));
     req.runs = Some(4);
     match generate(&req) {
         Err(DoeError::InvalidParameter {
@@ -1134,7 +1100,7 @@ fn a_plackett_burman_design_needs_more_runs_than_factors() {
         }
         other => panic!("{other:?}"),
     }
-    let mut req = DesignRequest::new(DesignKind::PlackettBurman, factors(3));
+    let mut req = DesignRequest::new(DesignKind::PlackettBurman, coded(3));
     req.runs = Some(4);
     assert_eq!(generate(&req).unwrap().n_runs(), 4);
 }
@@ -1250,17 +1216,12 @@ fn an_analysis_level_of_one_is_refused() {
 /// builds the second.
 #[test]
 fn a_fraction_by_runs_holds_the_resolution_asked() {
-    let factors = || {
-        (0..5)
-            .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-            .collect()
-    };
-    let mut req = DesignRequest::new(DesignKind::Fractional, factors());
+    let mut req = DesignRequest::new(DesignKind::Fractional, coded(5));
     req.runs = Some(8);
     req.resolution = Some(3);
     let d = generate(&req).unwrap();
     assert_eq!((d.n_runs(), d.resolution), (8, Some(3)));
-    let mut req = DesignRequest::new(DesignKind::Fractional, factors());
+    let mut req = DesignRequest::new(DesignKind::Fractional, coded(5));
     req.runs = Some(8);
     req.resolution = Some(4);
     match generate(&req) {
