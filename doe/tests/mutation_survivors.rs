@@ -3,16 +3,16 @@
 
 use millcomp_doe::{DesignKind, DesignRequest, DoeError, FactorSpec, generate};
 
-/// A mixed-level full factorial above 1e6 runs is refused before anything is allocated, naming its
-/// size (10 factors of 10 levels: 10^10 runs). Kills `factorial.rs: replace > with == in full`
-/// (which would go on to allocate 10^10 rows).
-
 /// `k` coded factors named A, B, C, … (the letters `doe design` gives them).
 fn coded(k: usize) -> Vec<FactorSpec> {
     (0..k)
         .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
         .collect()
 }
+
+/// A mixed-level full factorial above 1e6 runs is refused before anything is allocated, naming its
+/// size (10 factors of 10 levels: 10^10 runs). Kills `factorial.rs: replace > with == in full`
+/// (which would go on to allocate 10^10 rows).
 #[test]
 fn a_mixed_level_full_factorial_beyond_a_million_runs_is_refused_naming_its_size() {
     let levels = (1..=10)
