@@ -164,6 +164,27 @@ fn factors_are_not_guessed_from_columns_of_distinct_values() {
     assert_eq!(names, ["A", "B"]);
 }
 
+/// The bound on a guessed factor's distinct values is half the runs: in a 3² factorial of 9 runs
+/// (levels −1, 0, 1) the two three-level columns are factors (3 ≤ max(2, ⌊9/2⌋) = 4), the response (9
+/// distinct values) is not. Kills `analysis/mod.rs:124:47: replace / with % in
+/// AnalysisInput::from_table` (found by the draw of seed 53), whose bound max(2, 9 % 2) = 2 leaves
+/// both factors out and refuses the table.
+#[test]
+fn three_level_columns_of_a_nine_run_table_are_factors() {
+    use millcomp_doe::{AnalysisInput, ModelSpec, Values};
+    let a = [-1.0, 0.0, 1.0, -1.0, 0.0, 1.0, -1.0, 0.0, 1.0];
+    let b = [-1.0, -1.0, -1.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0];
+    let y: Vec<f64> = (0..9).map(|i| 10.0 + i as f64 * 1.5 + (i % 2) as f64).collect();
+    let table = vec![
+        ("A".to_string(), Values::F64(a.to_vec())),
+        ("B".to_string(), Values::F64(b.to_vec())),
+        ("y".to_string(), Values::F64(y)),
+    ];
+    let input = AnalysisInput::from_table(&table, "y", None, ModelSpec::Main).unwrap();
+    let names: Vec<&str> = input.factors.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names, ["A", "B"]);
+}
+
 /// Nine factors at resolution VII: the catalogue's best for nine factors is resolution VI (128 runs)
 /// and the full factorial (512 runs) is past what a fraction request falls back to (up to 7
 /// factors), so the request is refused naming the factors and the resolution. Kills
