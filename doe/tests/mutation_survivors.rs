@@ -1384,3 +1384,80 @@ fn a_factor_named_again_adds_its_coefficient() {
     assert_eq!(c[0].coefs, [(1, 4.0), (0, -1.0)]);
     assert_eq!(c[0].rhs, 2.0);
 }
+
+/// A factor named twice in a generator's word is refused naming it, whichever factor it is: `D=ABB`
+/// (B, the second factor) as well as `D=AAB`. Kills `fractional.rs:142:17: replace >> with << in
+/// parse_word` (found by the draw of seed 53), whose `mask << i & 1` sees a repeat of the first
+/// factor only and lets `D=ABB` through as D = A.
+#[test]
+fn a_factor_twice_in_a_generator_word_is_refused_naming_it() {
+    for (gens, twice) in [("D=ABB", "B"), ("D=AAB", "A"), ("D=ACC", "C")] {
+        let mut req = DesignRequest::new(DesignKind::Fractional, coded(4));
+        req.generators = Some(gens.into());
+        match generate(&req) {
+            Err(DoeError::InvalidGenerator { reason, .. }) => assert_eq!(
+                reason,
+                format!("factor `{twice}` appears twice in the word"),
+                "{gens}"
+            ),
+            other => panic!("{gens}: {other:?}"),
+        }
+    }
+}
+
+/// Every name `doe design --design` documents for a design parses to it (docs/doe.md lists them).
+/// Kills `design/mod.rs:173:13: delete match arm "plackett-burman" | "pb" | "plackett_burman" in
+/// <impl FromStr for DesignKind>::from_str` (found by the draw of seed 53), which refuses all three.
+#[test]
+fn every_documented_design_name_parses() {
+    use millcomp_doe::{CcdAlpha, CcdVariant};
+    let ccd = |variant| DesignKind::Ccd {
+        variant,
+        alpha: CcdAlpha::Rotatable,
+    };
+    let cases = [
+        ("full", DesignKind::Full),
+        ("Full-Factorial", DesignKind::Full),
+        ("frac", DesignKind::Fractional),
+        ("plackett-burman", DesignKind::PlackettBurman),
+        ("pb", DesignKind::PlackettBurman),
+        ("plackett_burman", DesignKind::PlackettBurman),
+        (" PB ", DesignKind::PlackettBurman),
+        ("ccd", ccd(CcdVariant::Circumscribed)),
+        ("ccf", ccd(CcdVariant::FaceCentred)),
+        ("cci", ccd(CcdVariant::Inscribed)),
+        ("bbd", DesignKind::BoxBehnken),
+        ("lhs", DesignKind::Lhs),
+        ("dsd", DesignKind::Dsd),
+        ("d-optimal", DesignKind::DOptimal),
+    ];
+    for (name, kind) in cases {
+        assert_eq!(name.parse::<DesignKind>().unwrap(), kind, "{name}");
+    }
+    assert!("pbb".parse::<DesignKind>().is_err());
+}
+
+/// A two-level label factor enters the response surface as its second level (+1 in the coded
+/// column): coolant dry/wet over 4 runs with y = 10, 14 (dry) and 20, 24 (wet) has the cell means 12
+/// and 22 (by hand), and the surface predicts them at each label. Kills `surface.rs:75:49: replace ==
+/// with != in response_surface` (found by the draw of seed 53), which files the +1 column under
+/// the first level, so that "dry" predicts 22 and "wet" 12.
+#[test]
+fn a_two_level_label_factor_predicts_each_levels_mean() {
+    use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze, response_surface};
+    use millcomp_models::Level;
+    let s = |v: &[&str]| Values::Str(v.iter().map(|s| s.to_string()).collect());
+    let input = AnalysisInput {
+        factors: vec![("coolant".into(), s(&["dry", "wet", "dry", "wet"]))],
+        response_name: "y".into(),
+        response: Values::F64(vec![10.0, 20.0, 14.0, 24.0]),
+        model: ModelSpec::Main,
+    };
+    let m = response_surface(&analyze(&input).unwrap()).unwrap();
+    for (label, mean) in [("dry", 12.0), ("wet", 22.0)] {
+        let p = m
+            .predict_levels(&[("coolant", Level::Label(label.into()))])
+            .unwrap();
+        assert!((p.mean - mean).abs() < 1e-12, "{label}: {}", p.mean);
+    }
+}
