@@ -174,7 +174,9 @@ fn three_level_columns_of_a_nine_run_table_are_factors() {
     use millcomp_doe::{AnalysisInput, ModelSpec, Values};
     let a = [-1.0, 0.0, 1.0, -1.0, 0.0, 1.0, -1.0, 0.0, 1.0];
     let b = [-1.0, -1.0, -1.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0];
-    let y: Vec<f64> = (0..9).map(|i| 10.0 + i as f64 * 1.5 + (i % 2) as f64).collect();
+    let y: Vec<f64> = (0..9)
+        .map(|i| 10.0 + i as f64 * 1.5 + (i % 2) as f64)
+        .collect();
     let table = vec![
         ("A".to_string(), Values::F64(a.to_vec())),
         ("B".to_string(), Values::F64(b.to_vec())),
@@ -1536,4 +1538,35 @@ fn four_blocks_of_a_two_to_the_four_have_four_runs_each() {
         count[r.block - 1] += 1;
     }
     assert_eq!(count, [4, 4, 4, 4]);
+}
+
+/// A CCD's axial distance must be positive and finite also when a library caller builds
+/// `CcdAlpha::Value` directly (the text form is checked where it is parsed): −1.5 and +∞ are refused
+/// naming `alpha`, 1.5 is taken (axial points at ±1.5). Kills `rsm.rs:93:24: replace && with || in
+/// ccd` (found by the draw of seed 53), which takes any finite or any positive α.
+#[test]
+fn a_ccd_refuses_a_negative_or_infinite_alpha_given_as_a_value() {
+    use millcomp_doe::{CcdAlpha, CcdVariant};
+    let req = |a: f64| {
+        let kind = DesignKind::Ccd {
+            variant: CcdVariant::Circumscribed,
+            alpha: CcdAlpha::Value(a),
+        };
+        let mut r = DesignRequest::new(kind, coded(2));
+        r.randomize = false;
+        r
+    };
+    for a in [-1.5, f64::INFINITY] {
+        match generate(&req(a)) {
+            Err(DoeError::InvalidParameter { name, .. }) => assert_eq!(name, "alpha", "{a}"),
+            other => panic!("{a}: {other:?}"),
+        }
+    }
+    let d = generate(&req(1.5)).unwrap();
+    let widest = d
+        .runs
+        .iter()
+        .flat_map(|r| r.coded.iter().map(|x| x.abs()))
+        .fold(0.0, f64::max);
+    assert!((widest - 1.5).abs() < 1e-12, "{widest}");
 }
