@@ -1570,3 +1570,33 @@ fn a_ccd_refuses_a_negative_or_infinite_alpha_given_as_a_value() {
         .fold(0.0, f64::max);
     assert!((widest - 1.5).abs() < 1e-12, "{widest}");
 }
+
+/// Plackett–Burman without `--runs` takes the smallest supported order above k up to 4096 runs and
+/// no further: 4095 factors fit the Sylvester order 4096; 4096 factors would need 4100 or more and are
+/// refused (`Unsupported`, naming the factor count) before any matrix is built. Kills
+/// `screening.rs:88:34: replace / with * in plackett_burman` (found by the draw of seed 53), whose
+/// search runs on to 16 384 runs and builds an 8192-run design for 4096 factors.
+#[test]
+fn plackett_burman_stops_at_its_largest_order() {
+    match generate(&DesignRequest::new(DesignKind::PlackettBurman, coded(4096))) {
+        Err(DoeError::Unsupported { what }) => {
+            assert_eq!(what, "a Plackett–Burman design for 4096 factors")
+        }
+        other => panic!("{:?}", other.map(|d| d.n_runs())),
+    }
+}
+
+/// A mixed-level full factorial of exactly 1e6 runs (6 factors of 10 levels) is built — the limit is
+/// "at most 1e6" (10^10 is refused by the test above). Kills `factorial.rs:152:14: replace > with >=
+/// in full` (found by the draw of seed 53), which refuses the limit itself.
+#[test]
+fn a_full_factorial_of_exactly_a_million_runs_is_built() {
+    let spec = (0..6)
+        .map(|i| format!("{}=1:2:3:4:5:6:7:8:9:10", millcomp_doe::factor_letter(i)))
+        .collect::<Vec<_>>()
+        .join(",");
+    let factors = FactorSpec::parse_list(&spec).unwrap();
+    let mut req = DesignRequest::new(DesignKind::Full, factors);
+    req.randomize = false;
+    assert_eq!(generate(&req).unwrap().n_runs(), 1_000_000);
+}
