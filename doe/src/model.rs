@@ -389,4 +389,17 @@ mod tests {
             other => panic!("{other:?}"),
         }
     }
+
+    /// A power of 1 written out is the plain term: `a^1 + b^2` is the main effect of a and the square
+    /// of b; a power of 3 is refused. Kills `model.rs:247:40: replace == with != in expand` (found by
+    /// the draw of seed 53), which refuses `a^1`.
+    #[test]
+    fn a_power_of_one_is_the_plain_term() {
+        let m = metas(&["a", "b"]);
+        let names: Vec<String> = m.iter().map(|f| f.name.clone()).collect();
+        let t = expand(&ModelSpec::parse("a^1 + b^2").unwrap(), &m).unwrap();
+        let n: Vec<String> = t.iter().map(|t| t.name(&names)).collect();
+        assert_eq!(n, ["a", "b^2"]);
+        assert!(expand(&ModelSpec::parse("a^3").unwrap(), &m).is_err());
+    }
 }

@@ -1600,3 +1600,41 @@ fn a_full_factorial_of_exactly_a_million_runs_is_built() {
     req.randomize = false;
     assert_eq!(generate(&req).unwrap().n_runs(), 1_000_000);
 }
+
+/// A bound that overflows to infinity is refused as a non-finite number, with finite coefficients:
+/// `a + b <= 1e999` (1e999 parses to +∞). Kills `doptimal.rs:154:29: replace || with && in
+/// LinearConstraint::parse` (found by the draw of seed 53), which refuses only when a coefficient is
+/// non-finite as well.
+#[test]
+fn a_constraint_whose_bound_overflows_is_refused() {
+    use millcomp_doe::LinearConstraint;
+    let f = FactorSpec::parse_list("a,b").unwrap();
+    for text in ["a + b <= 1e999", "a - b >= -1e999"] {
+        match LinearConstraint::parse_list(text, &f) {
+            Err(DoeError::InvalidConstraint { constraint, reason }) => {
+                assert_eq!(
+                    (constraint.as_str(), reason.as_str()),
+                    (text, "non-finite number")
+                )
+            }
+            other => panic!("{text}: {other:?}"),
+        }
+    }
+    assert!(LinearConstraint::parse_list("a + b <= 1e300", &f).is_ok());
+}
+
+/// A fraction of 64 factors by its run count: 64 is past the factor count whose 2^k fits a u64, so
+/// the run-count checks against 2^k are skipped (they would overflow) and 128 runs for 64 factors is
+/// refused by the catalogue search, naming the factors. Kills `fractional.rs:605:10: replace < with
+/// <= in by_runs` (found by the draw of seed 53), which shifts 1 by 64 (a panic in debug builds).
+#[test]
+fn a_fraction_of_sixty_four_factors_by_runs_does_not_overflow() {
+    let mut req = DesignRequest::new(DesignKind::Fractional, coded(64));
+    req.runs = Some(128);
+    match generate(&req) {
+        Err(DoeError::NoCatalogueDesign {
+            factors, request, ..
+        }) => assert_eq!((factors, request.as_str()), (64, "in 128 runs")),
+        other => panic!("{:?}", other.map(|d| d.n_runs())),
+    }
+}
