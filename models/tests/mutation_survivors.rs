@@ -280,3 +280,27 @@ fn a_predictions_standard_error_is_the_rows_quadratic_form() {
         p.std_err
     );
 }
+
+/// A bundle's hysteresis is its stack's play-operator model when it has one: weights 0.04 and 0.006
+/// µm/V back from `ModelBundle::hysteresis`, none without. Kills `bundle.rs:230:9: replace
+/// ModelBundle::hysteresis -> Result<Option<HysteresisModel>> with Ok(None)` (found by the draw of
+/// seed 53), which loses a commissioned stack's hysteresis.
+#[test]
+fn a_bundle_gives_back_its_hysteresis() {
+    use millcomp_models::ModelBundle;
+    let at = Path::new("bundle.toml");
+    let mut b = ModelBundle {
+        material: "S7".into(),
+        experiments: Vec::new(),
+        warnings: Vec::new(),
+        spindle: None,
+        force: None,
+        stiffness: None,
+        sensor_noise: None,
+        hysteresis: Some(hysteresis("0.006")),
+    };
+    let h = b.hysteresis(at).unwrap().expect("the bundle's hysteresis");
+    assert_eq!(h.weights_um_per_v, vec![0.04, 0.006]);
+    b.hysteresis = None;
+    assert!(b.hysteresis(at).unwrap().is_none());
+}
