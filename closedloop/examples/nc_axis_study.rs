@@ -470,6 +470,8 @@ fn candidates(
             3.0,
         ),
         c("runout 10 um", 4.0, 12.0, 2.0, 2.0, 50.0, 10.0),
+        c("axis 12 + 4 ms, runout 6 um", 12.0, 4.0, 1.0, 2.0, 50.0, 6.0),
+        c("axis 12 + 4 ms, runout 10 um", 12.0, 4.0, 1.0, 2.0, 50.0, 10.0),
     ];
     let n = seeds.len();
     println!(
