@@ -131,7 +131,12 @@ fn med_ci(mut v: Vec<f64>) -> (f64, [f64; 2]) {
 
 fn cell(v: Vec<f64>) -> String {
     let (m, ci) = med_ci(v);
-    format!("{m:.2} [{:.2}, {:.2}]", ci[0], ci[1])
+    if ci.iter().all(|c| c.is_finite()) {
+        format!("{m:.2} [{:.2}, {:.2}]", ci[0], ci[1])
+    } else {
+        // too few seeds for an interval of the median
+        format!("{m:.2}")
+    }
 }
 
 fn column(r: &BTreeMap<(usize, u64), Figures>, k: usize, seeds: &[u64], name: &str) -> Vec<f64> {
@@ -470,8 +475,24 @@ fn candidates(
             3.0,
         ),
         c("runout 10 um", 4.0, 12.0, 2.0, 2.0, 50.0, 10.0),
-        c("axis 12 + 4 ms, runout 6 um", 12.0, 4.0, 1.0, 2.0, 50.0, 6.0),
-        c("axis 12 + 4 ms, runout 10 um", 12.0, 4.0, 1.0, 2.0, 50.0, 10.0),
+        c(
+            "axis 12 + 4 ms, runout 6 um",
+            12.0,
+            4.0,
+            1.0,
+            2.0,
+            50.0,
+            6.0,
+        ),
+        c(
+            "axis 12 + 4 ms, runout 10 um",
+            12.0,
+            4.0,
+            1.0,
+            2.0,
+            50.0,
+            10.0,
+        ),
     ];
     let n = seeds.len();
     println!(
