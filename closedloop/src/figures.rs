@@ -876,10 +876,9 @@ pub fn published_figures(progress: &dyn Fn(&str)) -> Result<Vec<PublishedFigure>
         },
         within: (pb[0]..=pb[1]).contains(&43.0),
         note: None,
-        why: "smaller, and the band-free ratio proactive/reactive on one machine is 0.32 against 0.58; \
-              no machine candidate (the axes' feedforward, the NC's jerk and acceleration limits, \
-              runout) reaches 0.58 without losing 003's 95 % removed; the rest is 003's unpublished \
-              offset curve, not identifiable from these data: docs/studies/published-nc.md",
+        why: "smaller; proactive/reactive 0.32 against 0.58 on one machine, no machine candidate \
+              reaches it and keeps 95 % removed; 003's offset curve not identifiable: \
+              docs/studies/published-nc.md",
         fitted_on: vec![],
         computed: Computed::Recorded {
             test: TEST_NC_AND_BAND,
@@ -904,11 +903,9 @@ pub fn published_figures(progress: &dyn Fn(&str)) -> Result<Vec<PublishedFigure>
         },
         within: over >= 5.0,
         note: None,
-        why: "the shipped axis (4 ms dead time + a 12 ms position-loop lag) smooths the feed step over \
-              26 ms; with the 840D sl's standard speed feedforward (12 ms dead time + 4 ms, sim's \
-              AxisDynamics::speed_feedforward_003) it is visible, 6.7 %, and the other NC figures \
-              hold; named, its split not identifiable from one qualitative figure, not yet the \
-              default: docs/studies/published-nc.md",
+        why: "the shipped axis smooths the feed step; visible (6.7 %) with the 840D sl's speed \
+              feedforward, named but not identifiable, not yet the default: \
+              docs/studies/published-nc.md",
         fitted_on: vec![],
         computed: Computed::Recorded {
             test: "`recorded_nc_ringing_holds`",
