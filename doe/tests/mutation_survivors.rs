@@ -174,7 +174,9 @@ fn three_level_columns_of_a_nine_run_table_are_factors() {
     use millcomp_doe::{AnalysisInput, ModelSpec, Values};
     let a = [-1.0, 0.0, 1.0, -1.0, 0.0, 1.0, -1.0, 0.0, 1.0];
     let b = [-1.0, -1.0, -1.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0];
-    let y: Vec<f64> = (0..9).map(|i| 10.0 + i as f64 * 1.5 + (i % 2) as f64).collect();
+    let y: Vec<f64> = (0..9)
+        .map(|i| 10.0 + i as f64 * 1.5 + (i % 2) as f64)
+        .collect();
     let table = vec![
         ("A".to_string(), Values::F64(a.to_vec())),
         ("B".to_string(), Values::F64(b.to_vec())),

@@ -110,8 +110,14 @@ fn a_value_within_rounding_of_the_range_is_not_an_extrapolation() {
 fn the_edge_of_the_margin_is_inside_the_range() {
     let m = line_over(100.0, 200.0);
     let (low, high) = (100.0_f64, 200.0_f64);
-    assert!(m.out_of_range(&[("d", low - 1e-9 * (high - low))]).is_empty());
-    assert!(m.out_of_range(&[("d", high + 1e-9 * (high - low))]).is_empty());
+    assert!(
+        m.out_of_range(&[("d", low - 1e-9 * (high - low))])
+            .is_empty()
+    );
+    assert!(
+        m.out_of_range(&[("d", high + 1e-9 * (high - low))])
+            .is_empty()
+    );
 }
 
 fn spindle(zeta: &str, gain: &str) -> IdentifiedModel {
