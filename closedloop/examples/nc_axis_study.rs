@@ -27,6 +27,12 @@
 //!    own response to a force step (`DIR/ringing.csv`, `DIR/ringing.svg`, seed 1).
 //! 7. Convergence of the truth's force model at the exit: the groove with the cutting edge in 8 axial
 //!    elements (the default before) instead of 32, seeds 1..=N.
+//! 8. Only with `--sections 8` (not in the default): 003's two disagreements (the proactive peak, the
+//!    notch chain's oscillation; docs/studies/published-nc.md) — the published groove on candidate
+//!    machines: the feed axes' split of 003's 16 ms into dead time and position-loop lag, the NC's
+//!    path dynamics of the feed change (jerk and acceleration limits) and the tool's runout; reactive
+//!    and proactive over seeds 1..=N, the reactive actuating value's ringing and the x axis' feed
+//!    rise on seed 1.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -125,7 +131,12 @@ fn med_ci(mut v: Vec<f64>) -> (f64, [f64; 2]) {
 
 fn cell(v: Vec<f64>) -> String {
     let (m, ci) = med_ci(v);
-    format!("{m:.2} [{:.2}, {:.2}]", ci[0], ci[1])
+    if ci.iter().all(|c| c.is_finite()) {
+        format!("{m:.2} [{:.2}, {:.2}]", ci[0], ci[1])
+    } else {
+        // too few seeds for an interval of the median
+        format!("{m:.2}")
+    }
 }
 
 fn column(r: &BTreeMap<(usize, u64), Figures>, k: usize, seeds: &[u64], name: &str) -> Vec<f64> {
@@ -177,6 +188,14 @@ fn references(r: &BTreeMap<(usize, u64), Figures>, kind: usize, seeds: &[u64], n
 /// before to 200 ms after the first feed change starts, on `s` seed 1, normalised: 0 before the
 /// change (its mean over the 10 ms), 1 after it (its mean from 150 to 200 ms).
 fn actuating_after_step(s: &Scenario) -> Result<Vec<(f64, f64)>, Box<dyn std::error::Error>> {
+    Ok(step_traces(s)?.0)
+}
+
+/// [`actuating_after_step`] and the x axis' actual feed over the same window (from its encoder,
+/// per cycle), normalised the same way, with its 10–90 % rise time (ms).
+type StepTraces = (Vec<(f64, f64)>, Vec<(f64, f64)>, f64);
+
+fn step_traces(s: &Scenario) -> Result<StepTraces, Box<dyn std::error::Error>> {
     let mut sc = s.clone();
     sc.seed = 1;
     let out = run_scenario_with_trace(&sc, ControllerKind::Reactive)?;
@@ -202,17 +221,33 @@ fn actuating_after_step(s: &Scenario) -> Result<Vec<(f64, f64)>, Box<dyn std::er
         .get(start - c(0.01)..start + c(0.2))
         .ok_or("trace too short")?;
     let u: Vec<f64> = rows.iter().map(|r| r[iu]).collect();
+    // the actual feed from the x encoder: the difference to the next cycle
+    let ix = col("x_mm")?;
+    let all = &out.trace.rows;
+    let v: Vec<f64> = (start - c(0.01)..start + c(0.2))
+        .map(|k| (all[k + 1][ix] - all[k][ix]) / cycle)
+        .collect();
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
-    let (u0, u1) = (mean(&u[..c(0.01)]), mean(&u[c(0.16)..]));
-    Ok(u.iter()
-        .enumerate()
-        .map(|(i, v)| {
-            (
-                (i as f64 - c(0.01) as f64) * cycle * 1e3,
-                (v - u0) / (u1 - u0),
-            )
-        })
-        .collect())
+    let norm = |u: &[f64]| {
+        let (u0, u1) = (mean(&u[..c(0.01)]), mean(&u[c(0.16)..]));
+        u.iter()
+            .enumerate()
+            .map(|(i, v)| {
+                (
+                    (i as f64 - c(0.01) as f64) * cycle * 1e3,
+                    (v - u0) / (u1 - u0),
+                )
+            })
+            .collect::<Vec<_>>()
+    };
+    let feed = norm(&v);
+    let cross = |level: f64| {
+        feed.iter()
+            .position(|p| p.1 >= level)
+            .map_or(f64::NAN, |i| feed[i].0)
+    };
+    let rise = cross(0.9) - cross(0.1);
+    Ok((norm(&u), feed, rise))
 }
 
 /// The notch chain + low-pass of 003 (the reactive controller's filter) fed a force step at t = 0,
@@ -330,6 +365,203 @@ fn lines_svg(series: &[(String, Vec<(f64, f64)>)], title: &str, x_label: &str) -
     }
     svg.push_str("</svg>\n");
     svg
+}
+
+/// One candidate machine for section 8: the feed axes' structure behind 003's 16 ms, the NC's path
+/// dynamics of the feed change and the tool's runout.
+struct Candidate {
+    label: &'static str,
+    /// Dead time (ms).
+    dead_ms: f64,
+    /// 1/kv (ms).
+    lag_ms: f64,
+    /// Velocity-loop time constant (ms).
+    tv_ms: f64,
+    /// Path acceleration (m/s²).
+    accel_m_s2: f64,
+    /// Path jerk (m/s³; infinite: acceleration-limited only).
+    jerk_m_s3: f64,
+    /// Runout (µm).
+    runout_um: f64,
+}
+
+impl Candidate {
+    fn scenario(&self, base: &Scenario) -> Result<Scenario, String> {
+        let mut s = base.clone();
+        let nc = s.nc_axis.as_mut().ok_or("no [nc_axis]")?;
+        nc.machine.axis.dead_time_s = self.dead_ms * 1e-3;
+        nc.machine.axis.kv_per_s = 1e3 / self.lag_ms;
+        nc.machine.axis.velocity_loop_s = self.tv_ms * 1e-3;
+        nc.program.path_accel_mm_s2 = self.accel_m_s2 * 1e3;
+        nc.program.path_jerk_mm_s3 = if self.jerk_m_s3.is_finite() {
+            self.jerk_m_s3 * 1e3
+        } else {
+            1e12
+        };
+        nc.machine.runout_um = self.runout_um;
+        Ok(s)
+    }
+}
+
+/// Section 8: every candidate machine on the published groove, `reactive` and `proactive` over
+/// `seeds`, beside the reactive actuating value's ringing and the x axis' feed rise (seed 1).
+fn candidates(
+    groove: &Scenario,
+    seeds: &[u64],
+    band_seeds: &[u64],
+    done: &AtomicUsize,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let inf = f64::INFINITY;
+    let c = |label, dead_ms, lag_ms, tv_ms, accel_m_s2, jerk_m_s3, runout_um| Candidate {
+        label,
+        dead_ms,
+        lag_ms,
+        tv_ms,
+        accel_m_s2,
+        jerk_m_s3,
+        runout_um,
+    };
+    let list = [
+        c(
+            "shipped: 4 + 12 ms axis, 2 m/s^2, 50 m/s^3",
+            4.0,
+            12.0,
+            2.0,
+            2.0,
+            50.0,
+            3.0,
+        ),
+        c("axis 8 + 8 ms", 8.0, 8.0, 2.0, 2.0, 50.0, 3.0),
+        c("axis 10 + 6 ms", 10.0, 6.0, 1.5, 2.0, 50.0, 3.0),
+        c(
+            "axis 12 + 4 ms (feedforward)",
+            12.0,
+            4.0,
+            1.0,
+            2.0,
+            50.0,
+            3.0,
+        ),
+        c("axis 14 + 2 ms", 14.0, 2.0, 0.5, 2.0, 50.0, 3.0),
+        c("jerk 200 m/s^3", 4.0, 12.0, 2.0, 2.0, 200.0, 3.0),
+        c("no jerk limit, 1 m/s^2", 4.0, 12.0, 2.0, 1.0, inf, 3.0),
+        c("no jerk limit, 2 m/s^2", 4.0, 12.0, 2.0, 2.0, inf, 3.0),
+        c("no jerk limit, 5 m/s^2", 4.0, 12.0, 2.0, 5.0, inf, 3.0),
+        c(
+            "axis 12 + 4 ms, no jerk limit, 1 m/s^2",
+            12.0,
+            4.0,
+            1.0,
+            1.0,
+            inf,
+            3.0,
+        ),
+        c(
+            "axis 12 + 4 ms, no jerk limit, 2 m/s^2",
+            12.0,
+            4.0,
+            1.0,
+            2.0,
+            inf,
+            3.0,
+        ),
+        c(
+            "axis 12 + 4 ms, no jerk limit, 5 m/s^2",
+            12.0,
+            4.0,
+            1.0,
+            5.0,
+            inf,
+            3.0,
+        ),
+        c("runout 10 um", 4.0, 12.0, 2.0, 2.0, 50.0, 10.0),
+        c(
+            "axis 12 + 4 ms, runout 6 um",
+            12.0,
+            4.0,
+            1.0,
+            2.0,
+            50.0,
+            6.0,
+        ),
+        c(
+            "axis 12 + 4 ms, runout 10 um",
+            12.0,
+            4.0,
+            1.0,
+            2.0,
+            50.0,
+            10.0,
+        ),
+    ];
+    let n = seeds.len();
+    println!(
+        "\n## 8. 003's feed step: candidate machines, reactive and proactive over seeds 1..={n}; ringing and feed rise on seed 1"
+    );
+    println!(
+        "| candidate | feed rise 10-90 % ms | reactive overshoot / undershoot % | reactive peak um | proactive peak um | proactive/reactive per seed | reactive excess um | reactive removed % | exit undersize r / p um |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
+    let kinds = [ControllerKind::Reactive, ControllerKind::Proactive];
+    for cand in &list {
+        let s = cand.scenario(groove)?;
+        let r = runs(&s, &kinds, seeds, done)?;
+        let (u, _, rise) = step_traces(&s)?;
+        let (over, under) = swing(&u);
+        let med = |k: usize, name: &str| med_ci(column(&r, k, seeds, name)).0;
+        println!(
+            "| {} | {rise:.1} | {:.1} / {:.1} | {} | {} | {} | {:.1} | {:.2} | {:.0} / {:.0} |",
+            cand.label,
+            100.0 * over,
+            100.0 * under,
+            cell(column(&r, 0, seeds, "feed_step_peak_um")),
+            cell(column(&r, 1, seeds, "feed_step_peak_um")),
+            cell(ratio(&r, 1, 0, seeds, "feed_step_peak_um")),
+            med(0, "feed_step_excess_um"),
+            med(0, "static_removed_pct"),
+            med(0, "exit_undersize_um"),
+            med(1, "exit_undersize_um"),
+        );
+    }
+    println!(
+        "published (003): reactive peak 74 um, proactive 43 um (ratio 0.58), the notch chain's oscillation visible (here: overshoot >= 5 %), 95 % removed, both undersize at the exit"
+    );
+    // the band's corners (the peaks rise as the machine softens: the band's ends) for the shipped
+    // machine and the candidates whose oscillation is visible
+    let nb = band_seeds.len();
+    for i in [0, 3, 10] {
+        let cand = &list[i];
+        let mut ends = [[f64::NAN; 2]; 2];
+        for (j, (k, o)) in [(50.0, 3.0), (20.0, 4.0)].into_iter().enumerate() {
+            let mut s = cand.scenario(groove)?;
+            let nc = s.nc_axis.as_mut().ok_or("no [nc_axis]")?;
+            nc.machine.machine_stiffness_n_per_um = k;
+            nc.machine.overhang_d = o;
+            let r = runs(&s, &kinds, band_seeds, done)?;
+            for (kind, end) in ends.iter_mut().enumerate() {
+                end[j] = med_ci(column(&r, kind, band_seeds, "feed_step_peak_um")).0;
+            }
+        }
+        println!(
+            "band ({}), 50 N/um x 3 D .. 20 N/um x 4 D, seeds 1..={nb}: reactive peak {:.1} .. {:.1} (74: {}), proactive {:.1} .. {:.1} (43: {})",
+            cand.label,
+            ends[0][0],
+            ends[0][1],
+            if (ends[0][0]..=ends[0][1]).contains(&74.0) {
+                "inside"
+            } else {
+                "outside"
+            },
+            ends[1][0],
+            ends[1][1],
+            if (ends[1][0]..=ends[1][1]).contains(&43.0) {
+                "inside"
+            } else {
+                "outside"
+            },
+        );
+    }
+    Ok(())
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -743,6 +975,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "per seed, feed_step_peak_um: mpc/proactive {}",
             cell(ratio(&rf, 3, 2, &seeds, "feed_step_peak_um"))
         );
+    }
+
+    // 8. 003's two disagreements (docs/studies/published-nc.md): the candidates
+    if sections.contains(&8) {
+        let bseeds: Vec<u64> = (1..=band_seeds).collect();
+        candidates(&groove, &seeds, &bseeds, &done)?;
     }
 
     println!(
