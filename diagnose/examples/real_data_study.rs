@@ -430,6 +430,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             Row::None => none_row(&mut md, &of_row),
             Row::MeasuredStiffness => measured_row(&mut md, &of_row),
         }
+        unlisted_line(&mut md, &of_row);
         let _ = writeln!(md);
     }
     print!("{md}");
@@ -445,6 +446,46 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("written: {}", dir.display());
     }
     Ok(())
+}
+
+/// Two-sided 95 % Clopper–Pearson interval of a binomial rate k/n.
+fn interval(k: usize, n: usize) -> [f64; 2] {
+    let q = |a: f64, b: f64, p: f64| Beta::new(a, b).map_or(f64::NAN, |d| d.inverse_cdf(p));
+    let lo = if k == 0 { 0.0 } else { q(k as f64, (n - k + 1) as f64, 0.025) };
+    let hi = if k == n { 1.0 } else { q((k + 1) as f64, (n - k) as f64, 0.975) };
+    [lo, hi]
+}
+
+/// How often the step beyond the candidate list (issue 50) adds an `unlisted` term in a row,
+/// with its two-sided 95 % interval, and the variables it followed.
+fn unlisted_line(md: &mut String, of_row: &Of<'_>) {
+    let k = count(of_row, |_, r| !r.unlisted.is_empty());
+    let n = of_row.len();
+    let [lo, hi] = interval(k, n);
+    let mut vars: BTreeMap<String, usize> = BTreeMap::new();
+    for (_, r) in of_row {
+        for u in &r.unlisted {
+            *vars.entry(u.variable.clone()).or_default() += 1;
+        }
+    }
+    let _ = writeln!(
+        md,
+        "\nunlisted term added: {k}/{n} = {:.1} % (95 % interval {:.1}–{:.1} %){}",
+        100.0 * k as f64 / n.max(1) as f64,
+        100.0 * lo,
+        100.0 * hi,
+        if vars.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; following {}",
+                vars.iter()
+                    .map(|(v, c)| format!("{v} ({c})"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        }
+    );
 }
 
 /// One line of `sessions.jsonl`: the truth, what was named, and every round's tests.
@@ -472,6 +513,7 @@ fn record(d: &Done) -> serde_json::Value {
                     "beyond_named_p": t.beyond_named.map(|b| b.p_value),
                 })).collect::<Vec<_>>(),
             })).collect::<Vec<_>>(),
+            "unlisted": r.unlisted.iter().map(|u| json!({"variable": u.variable, "basis": u.basis, "p": u.p_value, "threshold": u.threshold, "held_out_rms_um": u.held_out_rms_um, "amplitude_um": u.amplitude_um})).collect::<Vec<_>>(),
             "notes": r.notes,
         }),
         Err(e) => json!({"row": v.spec.row.name(), "seed": v.spec.seed, "error": e}),
