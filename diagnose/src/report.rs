@@ -283,6 +283,9 @@ pub struct DiagnoseReport {
     /// Terms built from the data when structure remains that no candidate explains (issue 50,
     /// [`crate::unlisted`]): empty when none is significant.
     pub unlisted: Vec<crate::unlisted::UnlistedTerm>,
+    /// The strongest follow-up of the residual beyond the candidates (and beyond the unlisted
+    /// terms added) and why it was not added; `null` when no variable was left to try.
+    pub unlisted_rejected: Option<String>,
     /// Candidates within the nominal model's uncertainty (aliased with the nuisance, not named).
     pub within_nominal_uncertainty: Vec<WithinNominal>,
     /// Named effects another family could also be on these data ([`LookAlike`]).

@@ -1366,7 +1366,9 @@ impl Diagnoser {
 
         // beyond the candidate list: a term built from the data where structure remains
         // (`unlisted`); the model is then fitted to the measured depth less its offsets
-        let (unlisted, cur2, extra_um) = self.unlisted_step(&y, &terms, cur, &w, &mut notes);
+        let mut unlisted_rejected = None;
+        let (unlisted, cur2, extra_um) =
+            self.unlisted_step(&y, &terms, cur, &w, &mut unlisted_rejected);
         cur = cur2;
         let y: Vec<f64> = y.iter().zip(&extra_um).map(|(a, b)| a - b).collect();
         if !unlisted.is_empty() {
@@ -1518,6 +1520,7 @@ impl Diagnoser {
             skipped,
             unexplained,
             unlisted,
+            unlisted_rejected,
             within_nominal_uncertainty: within,
             look_alikes,
             aliasing: self.plan.aliasing.clone(),
@@ -1714,7 +1717,8 @@ impl Diagnoser {
     /// variable significantly at the search's family-wise level, better on held-out grooves and
     /// beyond the resolution, a cross-validated spline (or level) term in it is added, and the
     /// model refitted to the measured depth less its offsets. Returns the terms, the model and
-    /// the terms' summed offsets (µm). The refits alternate twice between the term's
+    /// the terms' summed offsets (µm); `rejected` says why the search's last best basis was not
+    /// added. The refits alternate twice between the term's
     /// coefficients (linearised jointly with the model) and the model's nonlinear fit.
     fn unlisted_step(
         &self,
@@ -1722,7 +1726,7 @@ impl Diagnoser {
         terms: &[Term],
         mut cur: Fitted,
         w: &Whitening,
-        notes: &mut Vec<String>,
+        rejected: &mut Option<String>,
     ) -> (Vec<UnlistedTerm>, Fitted, Vec<f64>) {
         let n = y.len();
         let alpha = self.opts.alpha;
@@ -1770,11 +1774,9 @@ impl Diagnoser {
             let (s, beta) = unlisted::offsets(&best, &cur);
             let amplitude = s.iter().fold(f64::NEG_INFINITY, |a, v| a.max(*v))
                 - s.iter().fold(f64::INFINITY, |a, v| a.min(*v));
-            if let Err(why) =
-                unlisted::accepts(&best.test, threshold, l, amplitude, resolution)
-            {
-                notes.push(format!(
-                    "unlisted: the residual's strongest follow-up, a {} in {name} ({} dof), was not added: {why}",
+            if let Err(why) = unlisted::accepts(&best.test, threshold, l, amplitude, resolution) {
+                *rejected = Some(format!(
+                    "the residual's strongest follow-up beyond the candidates, a {} in {name} ({} dof), was not added: {why}",
                     best.basis_name(),
                     best.dof
                 ));

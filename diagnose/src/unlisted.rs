@@ -177,7 +177,9 @@ impl Basis {
     fn columns(&self, x: &[f64]) -> Vec<Vec<f64>> {
         let rows: Vec<Vec<f64>> = x.iter().map(|&v| self.at(v)).collect();
         let k = rows.first().map_or(0, Vec::len);
-        (0..k).map(|j| rows.iter().map(|r| r[j]).collect()).collect()
+        (0..k)
+            .map(|j| rows.iter().map(|r| r[j]).collect())
+            .collect()
     }
 
     /// Where the shape table evaluates the term.
@@ -391,7 +393,13 @@ pub(crate) fn shape_table(basis: &Basis, beta: &[f64], mean: f64) -> Vec<ShapePo
         .into_iter()
         .map(|v| ShapePoint {
             value: v,
-            offset_um: basis.at(v).iter().zip(beta).map(|(a, b)| a * b).sum::<f64>() - mean,
+            offset_um: basis
+                .at(v)
+                .iter()
+                .zip(beta)
+                .map(|(a, b)| a * b)
+                .sum::<f64>()
+                - mean,
         })
         .collect()
 }
@@ -403,9 +411,18 @@ pub(crate) fn held_out_rms(w: &Whitening, x: &DMatrix<f64>, r: &DVector<f64>) ->
 
 /// Whether a basis beyond the current model is accepted: significant at the family-wise
 /// threshold, better on held-out grooves, larger than the resolution.
-pub(crate) fn accepts(test: &StrataTest, threshold: f64, l: Logo, amplitude_um: f64, resolution_um: f64) -> Result<(), String> {
+pub(crate) fn accepts(
+    test: &StrataTest,
+    threshold: f64,
+    l: Logo,
+    amplitude_um: f64,
+    resolution_um: f64,
+) -> Result<(), String> {
     if test.p_value >= threshold {
-        Err(format!("not significant (p = {:.2e} ≥ {threshold:.2e})", test.p_value))
+        Err(format!(
+            "not significant (p = {:.2e} ≥ {threshold:.2e})",
+            test.p_value
+        ))
     } else if l.after >= l.before {
         Err("significant but does not improve the prediction of held-out grooves".into())
     } else if amplitude_um <= resolution_um {
@@ -428,11 +445,21 @@ mod tests {
         assert_eq!(b[0].name(), "levels_3");
         // each value's column is its indicator: the columns sum to one at every point
         let cols = b[0].columns(&[1.0, 2.0, 3.0]);
-        assert_eq!(cols, vec![vec![1.0, 0.0, 0.0], vec![0.0, 1.0, 0.0], vec![0.0, 0.0, 1.0]]);
+        assert_eq!(
+            cols,
+            vec![
+                vec![1.0, 0.0, 0.0],
+                vec![0.0, 1.0, 0.0],
+                vec![0.0, 0.0, 1.0]
+            ]
+        );
         let x: Vec<f64> = (0..40).map(|i| f64::from(i) * 0.25).collect();
         let b = bases(&x);
         let names: Vec<String> = b.iter().map(Basis::name).collect();
-        assert_eq!(names, ["spline_1", "spline_2", "spline_4", "spline_8", "spline_16"]);
+        assert_eq!(
+            names,
+            ["spline_1", "spline_2", "spline_4", "spline_8", "spline_16"]
+        );
         // m intervals: m + 3 cubic B-splines
         assert_eq!(b[3].columns(&x).len(), 11);
         assert!(bases(&[2.0; 5]).is_empty());

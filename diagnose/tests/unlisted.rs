@@ -59,7 +59,12 @@ fn a_periodic_error_in_position_is_unlisted_in_x_and_the_held_out_gap_shrinks() 
     assert_eq!(u.shape.len(), 9);
     for p in &u.shape {
         let truth = periodic_um(p.value, 1.0, period);
-        assert!((p.offset_um - truth).abs() < 0.1, "{} µm at {} mm: {truth}", p.offset_um, p.value);
+        assert!(
+            (p.offset_um - truth).abs() < 0.1,
+            "{} µm at {} mm: {truth}",
+            p.offset_um,
+            p.value
+        );
     }
     // cross-validation chose the most flexible spline, 16 intervals (≈ 5 per period)
     assert_eq!(u.basis, "spline_16");

@@ -311,11 +311,23 @@ fn unlisted_text(s: &mut String, u: &UnlistedTerm) {
         s,
         format!(
             "  held-out grooves: RMS {:.3} → {:.3} µm   residual RMS {:.3} → {:.3} µm   amplitude {:.3} µm",
-            u.held_out_rms_um[0], u.held_out_rms_um[1], u.rms_before_um, u.rms_after_um, u.amplitude_um
+            u.held_out_rms_um[0],
+            u.held_out_rms_um[1],
+            u.rms_before_um,
+            u.rms_after_um,
+            u.amplitude_um
         ),
     );
-    let values: Vec<String> = u.shape.iter().map(|p| format!("{:>8.4}", p.value)).collect();
-    let offsets: Vec<String> = u.shape.iter().map(|p| format!("{:>8.3}", p.offset_um)).collect();
+    let values: Vec<String> = u
+        .shape
+        .iter()
+        .map(|p| format!("{:>8.4}", p.value))
+        .collect();
+    let offsets: Vec<String> = u
+        .shape
+        .iter()
+        .map(|p| format!("{:>8.3}", p.offset_um))
+        .collect();
     w(s, format!("  {:<14}{}", u.variable, values.join("")));
     w(s, format!("  {:<14}{}", "offset (µm)", offsets.join("")));
 }
