@@ -1839,6 +1839,10 @@ impl Diagnoser {
                 rms_after_um: rms_after,
                 amplitude_um: amplitude,
                 shape: unlisted::shape_table(&best.basis, &beta_total, mean),
+                driver_of: unlisted::driver_of(
+                    name,
+                    &terms.iter().map(|t| t.family).collect::<Vec<_>>(),
+                ),
             });
             used.push(best.var);
         }

@@ -69,6 +69,31 @@ pub(crate) const VARIABLES: [Variable; 10] = [
     ("depth_cmd_um", |p| p.depth_cmd_um),
 ];
 
+/// The session variables each family's driver is a function of (the variables a named effect's
+/// shape can misfit along): a term in one of them beside that named effect is reported as
+/// possibly its shape's misfit ([`UnlistedTerm::driver_of`]).
+pub const DRIVER_VARIABLES: [(&str, &[&str]); 7] = [
+    ("coolant_thermal_drift", &["coolant_on", "t_s"]),
+    ("spindle_thermal_growth", &["speed_rpm", "t_s"]),
+    ("probe_tilt_offset", &[]),
+    ("tool_wear", &["cut_length_mm"]),
+    ("slideway_straightness", &["machine_x_mm"]),
+    ("machine_compliance", &["force_z_n", "machine_x_mm"]),
+    (
+        "flute_runout",
+        &["depth_cmd_um", "upfeed_um", "cut_length_mm", "speed_rpm"],
+    ),
+];
+
+/// The named effects whose driver is a function of `variable` ([`DRIVER_VARIABLES`]).
+pub(crate) fn driver_of(variable: &str, named: &[&str]) -> Vec<String> {
+    DRIVER_VARIABLES
+        .iter()
+        .filter(|(f, vars)| named.contains(f) && vars.contains(&variable))
+        .map(|(f, _)| (*f).to_string())
+        .collect()
+}
+
 /// The knot intervals of the cubic B-spline tried per continuous variable (a cubic polynomial at
 /// 1; 16 intervals follow a periodic error of 3–4 periods over the range with ≈ 5 intervals per
 /// period). Chosen per variable by leave-one-groove-out cross-validation.
@@ -140,6 +165,10 @@ pub struct UnlistedTerm {
     pub amplitude_um: f64,
     /// The function over the variable's range ([`SHAPE_POINTS`] points, or every level).
     pub shape: Vec<ShapePoint>,
+    /// Named effects whose driver is a function of this variable: the term may be what their
+    /// shapes miss (a kink in a straightness no bow, cubic or spline of the family follows)
+    /// rather than a further effect. Empty when it follows a variable no named effect drives.
+    pub driver_of: Vec<String>,
 }
 
 /// A basis of one variable.
@@ -463,5 +492,20 @@ mod tests {
         // m intervals: m + 3 cubic B-splines
         assert_eq!(b[3].columns(&x).len(), 11);
         assert!(bases(&[2.0; 5]).is_empty());
+    }
+
+    #[test]
+    fn a_term_in_a_named_effects_driver_is_flagged_and_every_family_has_an_entry() {
+        assert_eq!(
+            driver_of("machine_x_mm", &["tool_wear", "slideway_straightness"]),
+            vec!["slideway_straightness".to_string()]
+        );
+        assert!(driver_of("x_mm", &["slideway_straightness"]).is_empty());
+        let names: Vec<&str> = crate::families::standard().iter().map(|f| f.name).collect();
+        let listed: Vec<&str> = DRIVER_VARIABLES.iter().map(|(f, _)| *f).collect();
+        assert_eq!(names, listed);
+        for (_, vars) in DRIVER_VARIABLES {
+            assert!(vars.iter().all(|v| VARIABLES.iter().any(|(n, _)| n == v)));
+        }
     }
 }

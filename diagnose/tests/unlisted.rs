@@ -98,4 +98,6 @@ fn a_named_effect_stays_named_and_the_periodic_error_is_unlisted_beside_it() {
     assert_eq!(plain.shapes, rep.shapes);
     assert_eq!(rep.named, vec!["tool_wear".to_string()]);
     assert_eq!(rep.unlisted[0].variable, "x_mm");
+    // x along the groove drives no family: not the wear's misfit
+    assert!(rep.unlisted[0].driver_of.is_empty());
 }

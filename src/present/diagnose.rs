@@ -280,6 +280,16 @@ fn unlisted_text(s: &mut String, u: &UnlistedTerm) {
             u.variable
         ),
     );
+    if !u.driver_of.is_empty() {
+        w(
+            s,
+            format!(
+                "  {} drives the named {}: the term may be what its shapes miss rather than a further effect",
+                u.variable,
+                u.driver_of.join(", ")
+            ),
+        );
+    }
     w(
         s,
         format!(
