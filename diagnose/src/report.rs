@@ -286,6 +286,9 @@ pub struct DiagnoseReport {
     /// The strongest follow-up of the residual beyond the candidates (and beyond the unlisted
     /// terms added) and why it was not added; `null` when no variable was left to try.
     pub unlisted_rejected: Option<String>,
+    /// RMS of measured − (final model + the unlisted terms) (µm); `null` without one.
+    /// `final_rms_um` is the final model's without them.
+    pub final_rms_with_unlisted_um: Option<f64>,
     /// Candidates within the nominal model's uncertainty (aliased with the nuisance, not named).
     pub within_nominal_uncertainty: Vec<WithinNominal>,
     /// Named effects another family could also be on these data ([`LookAlike`]).

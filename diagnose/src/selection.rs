@@ -1365,22 +1365,25 @@ impl Diagnoser {
         }
 
         // beyond the candidate list: a term built from the data where structure remains
-        // (`unlisted`); the model is then fitted to the measured depth less its offsets
+        // (`unlisted`). It is reported with the model it is added to (its RMS and held-out gap
+        // before and after, the series' last prediction); the final model of the `final_*` keys
+        // stays the candidates' — the named effects' estimates are not fitted beside a term that
+        // is no physical effect, and `final_rms_um` is what the named effects explain.
         let mut unlisted_rejected = None;
-        let (unlisted, cur2, extra_um) =
-            self.unlisted_step(&y, &terms, cur, &w, &mut unlisted_rejected);
-        cur = cur2;
-        let y: Vec<f64> = y.iter().zip(&extra_um).map(|(a, b)| a - b).collect();
+        let (unlisted, with_unlisted, extra_um) =
+            self.unlisted_step(&y, &terms, cur.clone(), &w, &mut unlisted_rejected);
         if !unlisted.is_empty() {
-            let pred = self.problem(&y, &terms, &w).predict(&cur.theta);
+            let y2: Vec<f64> = y.iter().zip(&extra_um).map(|(a, b)| a - b).collect();
+            let pred = self.problem(&y2, &terms, &w).predict(&with_unlisted.theta);
             series
                 .predictions_um
                 .push(pred.iter().zip(&extra_um).map(|(a, b)| a + b).collect());
         }
+        let final_rms_with_unlisted = unlisted.last().map(|u| u.rms_after_um);
 
         // final model, weighted by the scatter as estimated (with nothing ever added, the
         // nuisance step's fit is the final one)
-        let comps = if steps.is_empty() && unlisted.is_empty() {
+        let comps = if steps.is_empty() {
             nuisance_comps
         } else {
             let (f2, w2, comps) = self.reweight(&y, &terms, cur, w, false)?;
@@ -1521,6 +1524,7 @@ impl Diagnoser {
             unexplained,
             unlisted,
             unlisted_rejected,
+            final_rms_with_unlisted_um: final_rms_with_unlisted,
             within_nominal_uncertainty: within,
             look_alikes,
             aliasing: self.plan.aliasing.clone(),

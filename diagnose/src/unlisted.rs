@@ -231,7 +231,8 @@ fn level_tol(levels: &[f64]) -> f64 {
 pub(crate) fn bases(x: &[f64]) -> Vec<Basis> {
     let lo = x.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = x.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    if !(hi > lo) {
+    // constant (or empty, or NaN: the measured points are checked finite before)
+    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
         return Vec::new();
     }
     let tol = 1e-9 * (hi - lo).max(1.0);

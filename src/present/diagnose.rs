@@ -247,12 +247,15 @@ pub fn text(rep: &DiagnoseReport) -> String {
     w(
         &mut s,
         format!(
-            "named: {}{}   RMS {:.3} (nominal) → {:.3} (nuisance) → {:.3} µm",
+            "named: {}{}   RMS {:.3} (nominal) → {:.3} (nuisance) → {:.3} µm{}",
             rep.named.join(", "),
             unlisted_names(rep),
             rep.initial_rms_um,
             rep.nuisance_rms_um,
-            rep.final_rms_um
+            rep.final_rms_um,
+            rep.final_rms_with_unlisted_um
+                .map(|r| format!(" → {r:.3} µm with the unlisted term"))
+                .unwrap_or_default()
         ),
     );
     s
