@@ -33,7 +33,8 @@
 //! the grid, never smaller than the grid's smallest, so the chance that it passes under the null
 //! is at most α; Bonferroni's α over the bases with `Multiplicity::Bonferroni`; (2) the model
 //! with it predicts held-out grooves better; (3) its amplitude exceeds the measurement's
-//! resolution. Then it is added (the model refitted with it, twice alternating) and the search
+//! resolution. A basis that would leave fewer than `MIN_RESIDUAL_DOF` residual degrees of
+//! freedom is not tried, nor any with fewer than [`MIN_GROOVES`] grooves. Then it is added (the model refitted with it, twice alternating) and the search
 //! repeated for a second variable, at most [`MAX_TERMS`].
 //!
 //! [`DiagnoseReport::unexplained`]: crate::DiagnoseReport::unexplained
@@ -50,6 +51,7 @@ use crate::model::{Fitted, orthonormal_basis, project_out, strata_of_columns};
 use crate::nested::{StrataTest, StrataVariance, strata_test};
 use crate::report::Logo;
 use crate::scatter::Whitening;
+use crate::thresholds;
 
 /// A session variable: its name and its value at a point.
 pub(crate) type Variable = (&'static str, fn(&PointContext) -> f64);
@@ -318,6 +320,11 @@ impl Tried {
     }
 }
 
+/// The search needs at least this many grooves: with fewer, leaving one out leaves at most one
+/// to refit from, and the held-out criterion cannot tell a function of the variable from the
+/// grooves' offsets.
+pub const MIN_GROOVES: usize = 3;
+
 /// Every variable's cross-validated basis, tested beyond `cur`, and the null blocks of every
 /// basis tried (for the family-wise threshold). `skip`: variables already given a term.
 pub(crate) fn search(
@@ -331,6 +338,9 @@ pub(crate) fn search(
     let rcol = DMatrix::from_column_slice(r.len(), 1, r.as_slice());
     let mut out = Vec::new();
     let mut null = Vec::new();
+    if ctx.w.n_groups() < MIN_GROOVES {
+        return (out, null);
+    }
     for (vi, (_, get)) in VARIABLES.iter().enumerate() {
         if skip.contains(&vi) {
             continue;
@@ -348,7 +358,8 @@ pub(crate) fn search(
             }
             let qb = orthonormal_basis(&project_out(&q0, &b));
             let dof = qb.ncols();
-            if dof == 0 {
+            // as a candidate's shape: at least MIN_RESIDUAL_DOF residual dof must remain
+            if dof == 0 || n < cur.x.ncols() + dof + thresholds::MIN_RESIDUAL_DOF {
                 continue;
             }
             let mut xa = DMatrix::zeros(ctx.rows, cur.x.ncols() + b.ncols());
