@@ -3,6 +3,13 @@
 
 use millcomp_doe::{DesignKind, DesignRequest, DoeError, FactorSpec, generate};
 
+/// `k` coded factors named A, B, C, … (the letters `doe design` gives them).
+fn coded(k: usize) -> Vec<FactorSpec> {
+    (0..k)
+        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
+        .collect()
+}
+
 /// A mixed-level full factorial above 1e6 runs is refused before anything is allocated, naming its
 /// size (10 factors of 10 levels: 10^10 runs). Kills `factorial.rs: replace > with == in full`
 /// (which would go on to allocate 10^10 rows).
@@ -157,6 +164,29 @@ fn factors_are_not_guessed_from_columns_of_distinct_values() {
     assert_eq!(names, ["A", "B"]);
 }
 
+/// The bound on a guessed factor's distinct values is half the runs: in a 3² factorial of 9 runs
+/// (levels −1, 0, 1) the two three-level columns are factors (3 ≤ max(2, ⌊9/2⌋) = 4), the response (9
+/// distinct values) is not. Kills `analysis/mod.rs:124:47: replace / with % in
+/// AnalysisInput::from_table` (found by the draw of seed 53), whose bound max(2, 9 % 2) = 2 leaves
+/// both factors out and refuses the table.
+#[test]
+fn three_level_columns_of_a_nine_run_table_are_factors() {
+    use millcomp_doe::{AnalysisInput, ModelSpec, Values};
+    let a = [-1.0, 0.0, 1.0, -1.0, 0.0, 1.0, -1.0, 0.0, 1.0];
+    let b = [-1.0, -1.0, -1.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0];
+    let y: Vec<f64> = (0..9)
+        .map(|i| 10.0 + i as f64 * 1.5 + (i % 2) as f64)
+        .collect();
+    let table = vec![
+        ("A".to_string(), Values::F64(a.to_vec())),
+        ("B".to_string(), Values::F64(b.to_vec())),
+        ("y".to_string(), Values::F64(y)),
+    ];
+    let input = AnalysisInput::from_table(&table, "y", None, ModelSpec::Main).unwrap();
+    let names: Vec<&str> = input.factors.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names, ["A", "B"]);
+}
+
 /// Nine factors at resolution VII: the catalogue's best for nine factors is resolution VI (128 runs)
 /// and the full factorial (512 runs) is past what a fraction request falls back to (up to 7
 /// factors), so the request is refused naming the factors and the resolution. Kills
@@ -164,10 +194,7 @@ fn factors_are_not_guessed_from_columns_of_distinct_values() {
 /// full factorial).
 #[test]
 fn nine_factors_at_resolution_seven_are_refused_not_run_in_full() {
-    let factors = (0..9)
-        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-        .collect();
-    let mut req = DesignRequest::new(DesignKind::Fractional, factors);
+    let mut req = DesignRequest::new(DesignKind::Fractional, coded(9));
     req.resolution = Some(7);
     match generate(&req) {
         Err(DoeError::NoCatalogueDesign {
@@ -198,15 +225,10 @@ fn a_ccd_alpha_must_be_a_positive_finite_number() {
 /// replace > with < in plackett_burman` (which refuses every run count up to 4096).
 #[test]
 fn a_plackett_burman_run_count_is_taken_up_to_its_bound() {
-    let factors = || {
-        (0..5)
-            .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-            .collect()
-    };
-    let mut req = DesignRequest::new(DesignKind::PlackettBurman, factors());
+    let mut req = DesignRequest::new(DesignKind::PlackettBurman, coded(5));
     req.runs = Some(20);
     assert_eq!(generate(&req).unwrap().n_runs(), 20);
-    let mut req = DesignRequest::new(DesignKind::PlackettBurman, factors());
+    let mut req = DesignRequest::new(DesignKind::PlackettBurman, coded(5));
     req.runs = Some(4100);
     match generate(&req) {
         Err(DoeError::InvalidParameter { name, value, .. }) => {
@@ -342,10 +364,7 @@ fn a_design_lists_its_factor_names_in_order() {
 /// replace * with / in lhs` (which gives 10/3 = 3 runs).
 #[test]
 fn a_latin_hypercube_has_ten_runs_per_factor_by_default() {
-    let factors = (0..3)
-        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-        .collect();
-    let mut req = DesignRequest::new(DesignKind::Lhs, factors);
+    let mut req = DesignRequest::new(DesignKind::Lhs, coded(3));
     req.seed = Some(7);
     let d = generate(&req).unwrap();
     assert_eq!(d.n_runs(), 30);
@@ -545,10 +564,7 @@ fn a_saturated_three_factor_quadratic_design_reaches_the_grids_best() {
 /// 2² in reverse order: ++, −+, +−, −−).
 #[test]
 fn a_box_behnken_design_comes_in_the_handbooks_standard_order() {
-    let factors = (0..3)
-        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-        .collect();
-    let mut req = DesignRequest::new(DesignKind::BoxBehnken, factors);
+    let mut req = DesignRequest::new(DesignKind::BoxBehnken, coded(3));
     req.randomize = false;
     let d = generate(&req).unwrap();
     let nist = [
@@ -648,10 +664,7 @@ fn a_face_centred_ccd_is_asked_by_its_variant_name() {
 /// with == in plackett_burman` (which refuses exactly 4096).
 #[test]
 fn a_plackett_burman_design_of_4096_runs_is_built() {
-    let factors = (0..5)
-        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-        .collect();
-    let mut req = DesignRequest::new(DesignKind::PlackettBurman, factors);
+    let mut req = DesignRequest::new(DesignKind::PlackettBurman, coded(5));
     req.runs = Some(4096);
     req.randomize = false;
     let d = generate(&req).unwrap();
@@ -667,10 +680,7 @@ fn a_plackett_burman_design_of_4096_runs_is_built() {
 /// 1 and 2).
 #[test]
 fn blocks_of_a_second_replicate_are_numbered_on() {
-    let factors = (0..3)
-        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-        .collect();
-    let mut req = DesignRequest::new(DesignKind::Full, factors);
+    let mut req = DesignRequest::new(DesignKind::Full, coded(3));
     req.blocks = 2;
     req.replicates = 2;
     req.randomize = false;
@@ -685,19 +695,14 @@ fn blocks_of_a_second_replicate_are_numbered_on() {
 /// naming the 2 needed. Kills `screening.rs:257:10: replace < with == in dsd` (which refuses 2).
 #[test]
 fn a_definitive_screening_design_of_two_factors_has_nine_runs() {
-    let factors = |k: usize| {
-        (0..k)
-            .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-            .collect()
-    };
-    let d = generate(&DesignRequest::new(DesignKind::Dsd, factors(2))).unwrap();
+    let d = generate(&DesignRequest::new(DesignKind::Dsd, coded(2))).unwrap();
     assert_eq!(d.n_runs(), 9);
     for j in 0..2 {
         for level in [-1.0, 0.0, 1.0] {
             assert_eq!(d.runs.iter().filter(|r| r.coded[j] == level).count(), 3);
         }
     }
-    match generate(&DesignRequest::new(DesignKind::Dsd, factors(1))) {
+    match generate(&DesignRequest::new(DesignKind::Dsd, coded(1))) {
         Err(DoeError::NotEnoughData { needed, have, .. }) => assert_eq!((needed, have), (2, 1)),
         other => panic!("{other:?}"),
     }
@@ -709,10 +714,7 @@ fn a_definitive_screening_design_of_two_factors_has_nine_runs() {
 /// (which counts 8 + 1000 + 4 = 1012 runs a replicate).
 #[test]
 fn a_designs_size_counts_the_centre_points_of_every_block() {
-    let factors = (0..3)
-        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-        .collect();
-    let mut req = DesignRequest::new(DesignKind::Full, factors);
+    let mut req = DesignRequest::new(DesignKind::Full, coded(3));
     req.blocks = 4;
     req.center_points = Some(1000);
     req.replicates = 989;
@@ -772,10 +774,7 @@ fn power_skips_the_columns_of_a_three_level_label_factor() {
 /// (docs/reliability-mutants.md).
 #[test]
 fn generators_that_alias_two_factors_are_refused_naming_them() {
-    let factors = (0..3)
-        .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-        .collect();
-    let mut req = DesignRequest::new(DesignKind::Fractional, factors);
+    let mut req = DesignRequest::new(DesignKind::Fractional, coded(3));
     req.generators = Some("C=A".into());
     match generate(&req) {
         Err(DoeError::AliasedGenerators {
@@ -836,12 +835,7 @@ fn lack_of_fit_is_tested_only_against_some_pure_error() {
 /// replace * with + in plackett_burman` (which starts its search at 5 and gives 8).
 #[test]
 fn run_counts_at_and_past_the_full_factorial() {
-    let factors = || {
-        (0..3)
-            .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-            .collect::<Vec<_>>()
-    };
-    let mut req = DesignRequest::new(DesignKind::Fractional, factors());
+    let mut req = DesignRequest::new(DesignKind::Fractional, coded(3));
     req.runs = Some(8);
     let d = generate(&req).unwrap();
     assert_eq!((d.n_runs(), d.resolution), (8, None));
@@ -860,7 +854,7 @@ fn run_counts_at_and_past_the_full_factorial() {
         }
         other => panic!("{other:?}"),
     }
-    let pb = generate(&DesignRequest::new(DesignKind::PlackettBurman, factors())).unwrap();
+    let pb = generate(&DesignRequest::new(DesignKind::PlackettBurman, coded(3))).unwrap();
     assert_eq!(pb.n_runs(), 4);
 }
 
@@ -1116,12 +1110,7 @@ fn only_a_box_behnken_design_beyond_the_table_says_it_is_built_from_pairs() {
 /// bound k − 1 = 3 lets 4 factors into 4 runs).
 #[test]
 fn a_plackett_burman_design_needs_more_runs_than_factors() {
-    let factors = |k: usize| {
-        (0..k)
-            .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-            .collect()
-    };
-    let mut req = DesignRequest::new(DesignKind::PlackettBurman, factors(4));
+    let mut req = DesignRequest::new(DesignKind::PlackettBurman, coded(4));
     req.runs = Some(4);
     match generate(&req) {
         Err(DoeError::InvalidParameter {
@@ -1134,7 +1123,7 @@ fn a_plackett_burman_design_needs_more_runs_than_factors() {
         }
         other => panic!("{other:?}"),
     }
-    let mut req = DesignRequest::new(DesignKind::PlackettBurman, factors(3));
+    let mut req = DesignRequest::new(DesignKind::PlackettBurman, coded(3));
     req.runs = Some(4);
     assert_eq!(generate(&req).unwrap().n_runs(), 4);
 }
@@ -1250,17 +1239,12 @@ fn an_analysis_level_of_one_is_refused() {
 /// builds the second.
 #[test]
 fn a_fraction_by_runs_holds_the_resolution_asked() {
-    let factors = || {
-        (0..5)
-            .map(|i| FactorSpec::coded(&millcomp_doe::factor_letter(i)))
-            .collect()
-    };
-    let mut req = DesignRequest::new(DesignKind::Fractional, factors());
+    let mut req = DesignRequest::new(DesignKind::Fractional, coded(5));
     req.runs = Some(8);
     req.resolution = Some(3);
     let d = generate(&req).unwrap();
     assert_eq!((d.n_runs(), d.resolution), (8, Some(3)));
-    let mut req = DesignRequest::new(DesignKind::Fractional, factors());
+    let mut req = DesignRequest::new(DesignKind::Fractional, coded(5));
     req.runs = Some(8);
     req.resolution = Some(4);
     match generate(&req) {
@@ -1401,4 +1385,256 @@ fn a_factor_named_again_adds_its_coefficient() {
     let c = LinearConstraint::parse_list("b + 3*b - a <= 2", &f).unwrap();
     assert_eq!(c[0].coefs, [(1, 4.0), (0, -1.0)]);
     assert_eq!(c[0].rhs, 2.0);
+}
+
+/// A factor named twice in a generator's word is refused naming it, whichever factor it is: `D=ABB`
+/// (B, the second factor) as well as `D=AAB`. Kills `fractional.rs:142:17: replace >> with << in
+/// parse_word` (found by the draw of seed 53), whose `mask << i & 1` sees a repeat of the first
+/// factor only and lets `D=ABB` through as D = A.
+#[test]
+fn a_factor_twice_in_a_generator_word_is_refused_naming_it() {
+    for (gens, twice) in [("D=ABB", "B"), ("D=AAB", "A"), ("D=ACC", "C")] {
+        let mut req = DesignRequest::new(DesignKind::Fractional, coded(4));
+        req.generators = Some(gens.into());
+        match generate(&req) {
+            Err(DoeError::InvalidGenerator { reason, .. }) => assert_eq!(
+                reason,
+                format!("factor `{twice}` appears twice in the word"),
+                "{gens}"
+            ),
+            other => panic!("{gens}: {other:?}"),
+        }
+    }
+}
+
+/// Every name `doe design --design` documents for a design parses to it (docs/doe.md lists them).
+/// Kills `design/mod.rs:173:13: delete match arm "plackett-burman" | "pb" | "plackett_burman" in
+/// <impl FromStr for DesignKind>::from_str` (found by the draw of seed 53), which refuses all three.
+#[test]
+fn every_documented_design_name_parses() {
+    use millcomp_doe::{CcdAlpha, CcdVariant};
+    let ccd = |variant| DesignKind::Ccd {
+        variant,
+        alpha: CcdAlpha::Rotatable,
+    };
+    let cases = [
+        ("full", DesignKind::Full),
+        ("Full-Factorial", DesignKind::Full),
+        ("frac", DesignKind::Fractional),
+        ("plackett-burman", DesignKind::PlackettBurman),
+        ("pb", DesignKind::PlackettBurman),
+        ("plackett_burman", DesignKind::PlackettBurman),
+        (" PB ", DesignKind::PlackettBurman),
+        ("ccd", ccd(CcdVariant::Circumscribed)),
+        ("ccf", ccd(CcdVariant::FaceCentred)),
+        ("cci", ccd(CcdVariant::Inscribed)),
+        ("bbd", DesignKind::BoxBehnken),
+        ("lhs", DesignKind::Lhs),
+        ("dsd", DesignKind::Dsd),
+        ("d-optimal", DesignKind::DOptimal),
+    ];
+    for (name, kind) in cases {
+        assert_eq!(name.parse::<DesignKind>().unwrap(), kind, "{name}");
+    }
+    assert!("pbb".parse::<DesignKind>().is_err());
+}
+
+/// A two-level label factor enters the response surface as its second level (+1 in the coded
+/// column): coolant dry/wet over 4 runs with y = 10, 14 (dry) and 20, 24 (wet) has the cell means 12
+/// and 22 (by hand), and the surface predicts them at each label. Kills `surface.rs:75:49: replace ==
+/// with != in response_surface` (found by the draw of seed 53), which files the +1 column under
+/// the first level, so that "dry" predicts 22 and "wet" 12.
+#[test]
+fn a_two_level_label_factor_predicts_each_levels_mean() {
+    use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze, response_surface};
+    use millcomp_models::Level;
+    let s = |v: &[&str]| Values::Str(v.iter().map(|s| s.to_string()).collect());
+    let input = AnalysisInput {
+        factors: vec![("coolant".into(), s(&["dry", "wet", "dry", "wet"]))],
+        response_name: "y".into(),
+        response: Values::F64(vec![10.0, 20.0, 14.0, 24.0]),
+        model: ModelSpec::Main,
+    };
+    let m = response_surface(&analyze(&input).unwrap()).unwrap();
+    for (label, mean) in [("dry", 12.0), ("wet", 22.0)] {
+        let p = m
+            .predict_levels(&[("coolant", Level::Label(label.into()))])
+            .unwrap();
+        assert!((p.mean - mean).abs() < 1e-12, "{label}: {}", p.mean);
+    }
+}
+
+/// The 12-run Plackett–Burman design in standard order is Plackett & Burman's (1946, Biometrika
+/// 33:305–325) cyclic construction as Montgomery (*Design and Analysis of Experiments*, 8th ed.,
+/// Table 8.23) prints it: the first row `++-+++---+-`, each next row the previous one shifted one
+/// position to the right (the last sign moves to the front), a last row of minus signs. Kills
+/// `screening.rs:43:48: replace - with + in hadamard` (found by the draw of seed 52), which shifts
+/// to the left: the same Hadamard matrix with its rows permuted, so that run 2 reads `+-+++---+-+`.
+#[test]
+fn the_twelve_run_plackett_burman_rows_are_the_published_cyclic_shifts() {
+    let d = generate(&DesignRequest::new(DesignKind::PlackettBurman, coded(11))).unwrap();
+    let mut runs: Vec<_> = d.runs.iter().collect();
+    runs.sort_by_key(|r| r.std_order);
+    let signs = |r: &millcomp_doe::Run| -> String {
+        r.coded
+            .iter()
+            .map(|&x| if x > 0.0 { '+' } else { '-' })
+            .collect()
+    };
+    let got: Vec<String> = runs.iter().map(|r| signs(r)).collect();
+    let published = [
+        "++-+++---+-",
+        "-++-+++---+",
+        "+-++-+++---",
+        "-+-++-+++--",
+        "--+-++-+++-",
+        "---+-++-+++",
+        "+---+-++-++",
+        "++---+-++-+",
+        "+++---+-++-",
+        "-+++---+-++",
+        "+-+++---+-+",
+        "-----------",
+    ];
+    assert_eq!(got, published);
+}
+
+/// A seeded Latin hypercube is the same design on every run, and the one the maximin search keeps:
+/// 12 runs of 3 factors (levels −1 + (2i + 1)/12, so every squared distance is a multiple of 1/36)
+/// reach the smallest distance √m/6 with m = 29, 33, 29, 29, 27, 29 for seeds 1–6 — recorded from
+/// this implementation at 809c00d (ChaCha8 from `--seed`; five starts of the Morris–Mitchell swap
+/// search, the best φ₁₅ kept). A change of which start is kept or of how a swap updates the
+/// distances changes them. Kills `spacefilling.rs:72:30: replace + with * in lhs` (every start's φ
+/// infinite, so the first start is kept, not the best) and `spacefilling.rs:93:42: replace - with +
+/// in lhs` (a swap's distances updated wrongly, so the search is misled), both found by the draw of
+/// seed 52.
+#[test]
+fn a_seeded_latin_hypercube_keeps_the_best_start() {
+    let mut got = Vec::new();
+    for seed in 1..=6u64 {
+        let mut req = DesignRequest::new(DesignKind::Lhs, coded(3));
+        req.seed = Some(seed);
+        req.runs = Some(12);
+        let d = generate(&req).unwrap();
+        let dmin = d.criteria.min_distance.unwrap();
+        let m = 36.0 * dmin * dmin;
+        assert!((m - m.round()).abs() < 1e-9, "seed {seed}: {m}");
+        got.push(m.round() as u32);
+    }
+    assert_eq!(got, [29, 33, 29, 29, 27, 29]);
+}
+
+/// A 2⁴ full factorial in 4 blocks has blocks 1–4 of 4 runs each (two block generators, their
+/// product's sign pair numbering the block: Montgomery, 8th ed., §7.6). Kills `factorial.rs:105:30:
+/// replace << with >> in regular_two_level` (found by the draw of seed 53), which sets no bit for
+/// the second generator and so puts the 16 runs in blocks 1 and 2 only.
+#[test]
+fn four_blocks_of_a_two_to_the_four_have_four_runs_each() {
+    let mut req = DesignRequest::new(DesignKind::Full, coded(4));
+    req.blocks = 4;
+    let d = generate(&req).unwrap();
+    let mut count = [0usize; 4];
+    for r in &d.runs {
+        count[r.block - 1] += 1;
+    }
+    assert_eq!(count, [4, 4, 4, 4]);
+}
+
+/// A CCD's axial distance must be positive and finite also when a library caller builds
+/// `CcdAlpha::Value` directly (the text form is checked where it is parsed): −1.5 and +∞ are refused
+/// naming `alpha`, 1.5 is taken (axial points at ±1.5). Kills `rsm.rs:93:24: replace && with || in
+/// ccd` (found by the draw of seed 53), which takes any finite or any positive α.
+#[test]
+fn a_ccd_refuses_a_negative_or_infinite_alpha_given_as_a_value() {
+    use millcomp_doe::{CcdAlpha, CcdVariant};
+    let req = |a: f64| {
+        let kind = DesignKind::Ccd {
+            variant: CcdVariant::Circumscribed,
+            alpha: CcdAlpha::Value(a),
+        };
+        let mut r = DesignRequest::new(kind, coded(2));
+        r.randomize = false;
+        r
+    };
+    for a in [-1.5, f64::INFINITY] {
+        match generate(&req(a)) {
+            Err(DoeError::InvalidParameter { name, .. }) => assert_eq!(name, "alpha", "{a}"),
+            other => panic!("{a}: {other:?}"),
+        }
+    }
+    let d = generate(&req(1.5)).unwrap();
+    let widest = d
+        .runs
+        .iter()
+        .flat_map(|r| r.coded.iter().map(|x| x.abs()))
+        .fold(0.0, f64::max);
+    assert!((widest - 1.5).abs() < 1e-12, "{widest}");
+}
+
+/// Plackett–Burman without `--runs` takes the smallest supported order above k up to 4096 runs and
+/// no further: 4095 factors fit the Sylvester order 4096; 4096 factors would need 4100 or more and are
+/// refused (`Unsupported`, naming the factor count) before any matrix is built. Kills
+/// `screening.rs:88:34: replace / with * in plackett_burman` (found by the draw of seed 53), whose
+/// search runs on to 16 384 runs and builds an 8192-run design for 4096 factors.
+#[test]
+fn plackett_burman_stops_at_its_largest_order() {
+    match generate(&DesignRequest::new(DesignKind::PlackettBurman, coded(4096))) {
+        Err(DoeError::Unsupported { what }) => {
+            assert_eq!(what, "a Plackett–Burman design for 4096 factors")
+        }
+        other => panic!("{:?}", other.map(|d| d.n_runs())),
+    }
+}
+
+/// A mixed-level full factorial of exactly 1e6 runs (6 factors of 10 levels) is built — the limit is
+/// "at most 1e6" (10^10 is refused by the test above). Kills `factorial.rs:152:14: replace > with >=
+/// in full` (found by the draw of seed 53), which refuses the limit itself.
+#[test]
+fn a_full_factorial_of_exactly_a_million_runs_is_built() {
+    let spec = (0..6)
+        .map(|i| format!("{}=1:2:3:4:5:6:7:8:9:10", millcomp_doe::factor_letter(i)))
+        .collect::<Vec<_>>()
+        .join(",");
+    let factors = FactorSpec::parse_list(&spec).unwrap();
+    let mut req = DesignRequest::new(DesignKind::Full, factors);
+    req.randomize = false;
+    assert_eq!(generate(&req).unwrap().n_runs(), 1_000_000);
+}
+
+/// A bound that overflows to infinity is refused as a non-finite number, with finite coefficients:
+/// `a + b <= 1e999` (1e999 parses to +∞). Kills `doptimal.rs:154:29: replace || with && in
+/// LinearConstraint::parse` (found by the draw of seed 53), which refuses only when a coefficient is
+/// non-finite as well.
+#[test]
+fn a_constraint_whose_bound_overflows_is_refused() {
+    use millcomp_doe::LinearConstraint;
+    let f = FactorSpec::parse_list("a,b").unwrap();
+    for text in ["a + b <= 1e999", "a - b >= -1e999"] {
+        match LinearConstraint::parse_list(text, &f) {
+            Err(DoeError::InvalidConstraint { constraint, reason }) => {
+                assert_eq!(
+                    (constraint.as_str(), reason.as_str()),
+                    (text, "non-finite number")
+                )
+            }
+            other => panic!("{text}: {other:?}"),
+        }
+    }
+    assert!(LinearConstraint::parse_list("a + b <= 1e300", &f).is_ok());
+}
+
+/// A fraction of 64 factors by its run count: 64 is past the factor count whose 2^k fits a u64, so
+/// the run-count checks against 2^k are skipped (they would overflow) and 128 runs for 64 factors is
+/// refused by the catalogue search, naming the factors. Kills `fractional.rs:605:10: replace < with
+/// <= in by_runs` (found by the draw of seed 53), which shifts 1 by 64 (a panic in debug builds).
+#[test]
+fn a_fraction_of_sixty_four_factors_by_runs_does_not_overflow() {
+    let mut req = DesignRequest::new(DesignKind::Fractional, coded(64));
+    req.runs = Some(128);
+    match generate(&req) {
+        Err(DoeError::NoCatalogueDesign {
+            factors, request, ..
+        }) => assert_eq!((factors, request.as_str()), (64, "in 128 runs")),
+        other => panic!("{:?}", other.map(|d| d.n_runs())),
+    }
 }

@@ -243,16 +243,14 @@ mod tests {
         v.iter().map(|s| s.to_string()).collect()
     }
 
-    /// A constant column of any value is the intercept: y = [1, 3, 2, 5, 4] at x = 0..4 is the
-    /// line 1.4 + 0.8·x (by hand: Sxx = 10, Sxy = 8, ȳ = 3), so with the constant column 2 instead of
-    /// 1 its coefficient is 0.7. Kills `linear.rs:150:17: replace / with * in fit_linear` (found by
-    /// the draw of seed 52 beyond its first 300), which gives 2.8.
-    #[test]
-    fn a_constant_column_of_two_carries_half_the_intercept() {
+    /// The textbook line of a hand calculation of simple regression (Σx = 10, Σx² = 30, n = 5,
+    /// Sxx = 10, Sxy = 8, ȳ = 3): y = [1, 3, 2, 5, 4] at x = 0..4 is the line 1.4 + 0.8·x, RSS = 3.6,
+    /// s² = 1.2. Fitted by QR on a constant column of value `constant` (named `c`) and x (`m`).
+    fn textbook_line(constant: f64) -> LinearFit {
         let y = [1.0, 3.0, 2.0, 5.0, 4.0];
-        let a = DMatrix::from_fn(5, 2, |i, j| if j == 0 { 2.0 } else { i as f64 });
-        let f = fit_linear(
-            &names(&["c", "b1"]),
+        let a = DMatrix::from_fn(5, 2, |i, j| if j == 0 { constant } else { i as f64 });
+        fit_linear(
+            &names(&["c", "m"]),
             &a,
             &y,
             None,
@@ -260,7 +258,16 @@ mod tests {
             "t",
             "um",
         )
-        .unwrap();
+        .unwrap()
+    }
+
+    /// A constant column of any value is the intercept: with the constant column 2 instead of 1 the
+    /// textbook line's intercept 1.4 is carried by a coefficient of 0.7. Kills `linear.rs:150:17:
+    /// replace / with * in fit_linear` (found by the draw of seed 52 beyond its first 300), which
+    /// gives 2.8.
+    #[test]
+    fn a_constant_column_of_two_carries_half_the_intercept() {
+        let f = textbook_line(2.0);
         assert_relative_eq!(f.theta[0], 0.7, max_relative = 1e-12);
         assert_relative_eq!(f.theta[1], 0.8, max_relative = 1e-12);
     }
@@ -283,22 +290,8 @@ mod tests {
 
     #[test]
     fn textbook_line_standard_errors() {
-        // Data and reference from a hand calculation of simple regression (Σx = 10, Σx² = 30,
-        // n = 5, Sxx = 10): y = [1, 3, 2, 5, 4] at x = 0..4 → slope 0.8, intercept 1.4,
-        // RSS = 3.6, s² = 1.2, SE(slope) = √(1.2/10), SE(intercept) = √(1.2·30/(5·10)).
-        let x = [0.0, 1.0, 2.0, 3.0, 4.0];
-        let y = [1.0, 3.0, 2.0, 5.0, 4.0];
-        let a = DMatrix::from_fn(5, 2, |i, j| if j == 0 { 1.0 } else { x[i] });
-        let f = fit_linear(
-            &names(&["c", "m"]),
-            &a,
-            &y,
-            None,
-            LinearMethod::Qr,
-            "t",
-            "um",
-        )
-        .unwrap();
+        // SE(slope) = √(s²/Sxx) = √(1.2/10), SE(intercept) = √(s²·Σx²/(n·Sxx)) = √(1.2·30/(5·10)).
+        let f = textbook_line(1.0);
         assert_relative_eq!(f.report.param("m"), 0.8, epsilon = 1e-12);
         assert_relative_eq!(f.report.param("c"), 1.4, epsilon = 1e-12);
         assert_relative_eq!(f.report.se("m"), (1.2f64 / 10.0).sqrt(), epsilon = 1e-12);

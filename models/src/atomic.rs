@@ -493,4 +493,31 @@ mod tests {
         assert_eq!(e.raw_os_error(), Some(libc::ENAMETOOLONG), "{e}");
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "old");
     }
+
+    /// A temporary file of another process of this host that still runs is not swept: a child kept
+    /// running (`sleep 30`, killed at the end) owns `…-PID-z.partial`, which survives a write in the same
+    /// directory, while a finished child's file is removed. Kills `atomic.rs:194:5: replace is_running
+    /// -> bool with false` (found by the draw of seed 53), which would delete a concurrent writer's file
+    /// under it.
+    #[cfg(unix)]
+    #[test]
+    fn a_temporary_file_of_a_running_process_is_kept() {
+        let dir = tempfile::tempdir().unwrap();
+        let host = host();
+        let mut alive = std::process::Command::new("sleep")
+            .arg("30")
+            .spawn()
+            .unwrap();
+        let running = dir
+            .path()
+            .join(format!("{TEMP_PREFIX}{host}-{}-z{TEMP_SUFFIX}", alive.id()));
+        std::fs::write(&running, "x").unwrap();
+        let kept = is_running(alive.id());
+        write_atomic(&dir.path().join("out.txt"), |f| f.write_all(b"1")).unwrap();
+        let survived = running.exists();
+        alive.kill().unwrap();
+        alive.wait().unwrap();
+        assert!(kept, "a running child is running");
+        assert!(survived, "a running writer's temporary file was swept");
+    }
 }

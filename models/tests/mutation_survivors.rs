@@ -102,6 +102,24 @@ fn a_value_within_rounding_of_the_range_is_not_an_extrapolation() {
     assert!((m.predict(&[("d", 150.0)]).unwrap() - 0.5).abs() < 1e-12);
 }
 
+/// The margin's edge itself is inside the range: on d ∈ [100, 200] the lower edge is computed as
+/// 100 − 1e-9·(200 − 100), and that very value is no extrapolation (the comparisons are strict), nor
+/// is the upper edge 200 + 1e-9·100. Kills `surface.rs:298:36: replace < with <= in
+/// ResponseSurface::out_of_range` (found by the draw of seed 53), which calls the lower edge outside.
+#[test]
+fn the_edge_of_the_margin_is_inside_the_range() {
+    let m = line_over(100.0, 200.0);
+    let (low, high) = (100.0_f64, 200.0_f64);
+    assert!(
+        m.out_of_range(&[("d", low - 1e-9 * (high - low))])
+            .is_empty()
+    );
+    assert!(
+        m.out_of_range(&[("d", high + 1e-9 * (high - low))])
+            .is_empty()
+    );
+}
+
 fn spindle(zeta: &str, gain: &str) -> IdentifiedModel {
     identified(
         500,

@@ -46,6 +46,17 @@ pub enum PipelineError {
         /// What is wrong (column, row).
         message: String,
     },
+    /// A material not in the thesis's Table 4-1 (`clayton_force_materials`), where a prediction
+    /// needs its published properties.
+    #[error(
+        "--material {material}: not in Table 4-1 (clayton_force_materials: {known}); the groove prediction needs its published properties"
+    )]
+    UnknownMaterial {
+        /// The material asked for.
+        material: String,
+        /// The materials the table holds, comma-separated.
+        known: String,
+    },
     /// A stage failed.
     #[error("stage `{stage}`")]
     Stage {

@@ -40,6 +40,7 @@ mod diagnosis;
 pub mod error;
 pub mod files;
 pub mod plan;
+pub mod published;
 pub mod report;
 pub mod svg;
 

@@ -29,81 +29,6 @@ fn opt_col(t: &Table, name: &str) -> anyhow::Result<Option<Vec<f64>>> {
     })
 }
 
-/// The thesis's S7 groove deep end (datasets `clayton_groove_conditions`), W carried from the
-/// table's material by the Table 4-1 ratios (datasets `clayton_force_materials`).
-fn groove_case(material: &str) -> anyhow::Result<PredictCase> {
-    let g = millcomp_datasets::load("clayton_groove_conditions")?;
-    let names = g.strings("parameter")?;
-    let values = g.f64s("value")?;
-    let sources = g.strings("source")?;
-    let get = |p: &str| -> anyhow::Result<(f64, String)> {
-        let i = names
-            .iter()
-            .position(|n| n == p)
-            .with_context(|| format!("clayton_groove_conditions: no `{p}`"))?;
-        Ok((values[i], sources[i].clone()))
-    };
-    let (depth, _) = get("depth_end")?;
-    let (upfeed, _) = get("upfeed")?;
-    let (speed, _) = get("spindle_speed")?;
-    let (tilt, _) = get("tilt")?;
-    let (wl, wl_src) = get("wearland_closed_loop")?;
-    let m = millcomp_datasets::load("clayton_force_materials")?;
-    let mats = m.strings("material")?;
-    let row = |name: &str| -> anyhow::Result<usize> {
-        mats.iter()
-            .position(|x| x.eq_ignore_ascii_case(name))
-            .with_context(|| {
-                format!(
-                    "--material {name}: not in Table 4-1 (clayton_force_materials: {}); the groove prediction needs its published properties",
-                    mats.join(", ")
-                )
-            })
-    };
-    let (src, s7) = (row(material)?, row("S7")?);
-    let mut transfers = Vec::new();
-    for (col, what) in [
-        (
-            "model_w_nm_per_m3",
-            "Table 4-1 modelled W (itself set by hand in the thesis)",
-        ),
-        ("volumetric_work_nm_per_m3", "Table 4-1 volumetric work"),
-        ("hardness_mpa", "Table 4-1 hardness"),
-    ] {
-        let v = m.f64s(col)?;
-        transfers.push(Cited {
-            name: format!("{col} ratio S7/{material}"),
-            value: v[s7] / v[src],
-            unit: "1".into(),
-            source: format!("000_367e180efde69d0c.txt {what}: {} / {}", v[s7], v[src]),
-        });
-    }
-    Ok(PredictCase {
-        name: "S7 groove deep end (20 deg, 80 um, 10 um/rev, 10 000 rpm)".into(),
-        material: "S7".into(),
-        cut: CutConditions::new(depth, upfeed, speed, tilt)?,
-        wearland: Cited {
-            name: "wearland".into(),
-            value: wl,
-            unit: "um".into(),
-            source: wl_src,
-        },
-        runout: Cited {
-            name: "runout".into(),
-            value: 10.0,
-            unit: "um".into(),
-            source: "000_367e180efde69d0c.txt Table 4-2 (S7 cuts: 5-10 um, 10 um at 0 and 25 deg tilt); the value sim's groove uses".into(),
-        },
-        measured: Cited {
-            name: "deep-end peak Fz".into(),
-            value: 8.53,
-            unit: "N".into(),
-            source: "000_367e180efde69d0c.txt section 7.2.2, Fig. 7-6: 6 um axial and 9 um radial deflection at the deep end times the measured stiffnesses (8.29 and 8.77 N, mean 8.53; sim/tests/groove.rs)".into(),
-        },
-        transfers,
-    })
-}
-
 pub fn run(args: &IdentifyArgs, json: bool) -> anyhow::Result<()> {
     let files = crate::cmd::units::read_files(args)?;
     let [file] = files.as_slice() else {
@@ -132,7 +57,7 @@ pub fn run(args: &IdentifyArgs, json: bool) -> anyhow::Result<()> {
     let material = args.material.clone().unwrap_or_else(|| "6061".into());
     let opts = ForceDiagnoseOptions::new(&material);
     let diag = diagnose_forces(&origin, &data, &opts)?;
-    let case = groove_case(&material)?;
+    let case = millcomp_pipeline::published::s7_groove_case(&material)?;
     // the 30° groove's end force measured by the workpiece transducer (000 §7.3.1, Fig. 7-20)
     let (f30, f30_src) = {
         let g = millcomp_datasets::load("clayton_groove_conditions")?;

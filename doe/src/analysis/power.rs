@@ -142,4 +142,17 @@ mod tests {
             assert!((c + s - 1.0).abs() < 1e-12, "λ = {lam}: {c} + {s}");
         }
     }
+
+    /// The mixture stops at the first term past the mean whose weight is below 1e-17 of the mass so
+    /// far: for μ = 4 that is j = 32 (e^{−4}·4³²/32! = 1.28e-18; computed in Python with
+    /// math.lgamma), 33 weights, not the 69 of the hard bound ⌈μ + 12√μ + 40⌉. Kills
+    /// `power.rs:21:21: replace > with == in poisson_weights` (found by the draw of seed 53), which
+    /// never stops early (the sum is the same to 1e-17, the work twice).
+    #[test]
+    fn the_poisson_mixture_stops_at_its_documented_tail() {
+        let w = poisson_weights(4.0);
+        assert_eq!(w.len(), 33);
+        assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-15);
+        assert_eq!(poisson_weights(0.0), vec![1.0]);
+    }
 }
