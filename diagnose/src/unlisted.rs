@@ -54,11 +54,11 @@ use crate::scatter::Whitening;
 use crate::thresholds;
 
 /// A session variable: its name and its value at a point.
-pub(crate) type Variable = (&'static str, fn(&PointContext) -> f64);
+pub type Variable = (&'static str, fn(&PointContext) -> f64);
 
 /// The session variables a residual is examined against (the unexplained correlations' and the
 /// unlisted term's).
-pub(crate) const VARIABLES: [Variable; 10] = [
+pub const VARIABLES: [Variable; 10] = [
     ("t_s", |p| p.t_s),
     ("cut_length_mm", |p| p.cut_length_mm),
     ("x_mm", |p| p.x_mm),
