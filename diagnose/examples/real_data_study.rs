@@ -4,7 +4,7 @@
 //! diagnosed against their nominal session, and what is named is compared with what was hidden.
 //!
 //! ```text
-//! cargo run -p millcomp-diagnose --example real_data_study --release -- [--n 210] [--rows single,two,none,matched,measured_stiffness] [--seeds study|fresh|third|fifth|sixth|seventh|eighth|ninth|dev] [--plan base|extended] [--alpha A] [--multiplicity simulated|bonferroni] [--out DIR]
+//! cargo run -p millcomp-diagnose --example real_data_study --release -- [--n 210] [--rows single,two,none,matched,measured_stiffness] [--seeds study|fresh|third|fifth|sixth|seventh|eighth|ninth|dev] [--plan base|extended] [--alpha A] [--multiplicity simulated|bonferroni] [--add-periodic A,P] [--out DIR]
 //! ```
 //! `--plan extended` gives every row's nominal session the plan `diagnose` would propose as the
 //! next experiment: the study's 14 grooves with each of its eight standard changes appended once
@@ -28,7 +28,11 @@
 //! `--alpha` runs `diagnose` at another family-wise level than its default 0.01 (the ideal
 //! observer's "at the first round's level" follows it); `--multiplicity bonferroni` sets each
 //! round's threshold to α over the shapes tried instead of the simulated family-wise one (the
-//! eighth round's rule, for a paired comparison). `RAYON_NUM_THREADS` sets the threads.
+//! eighth round's rule, for a paired comparison). `--add-periodic A,P` adds a periodic error in
+//! the position along the groove, `A·sin(2π·x_mm/P)` (µm, mm), to every session's measured depth:
+//! an effect beyond the candidate list (issue 50; no family has it, the ideal observer does not
+//! see it). Every row's summary ends with how often an `unlisted` term was added, with its
+//! two-sided 95 % Clopper–Pearson interval. `RAYON_NUM_THREADS` sets the threads.
 
 #[path = "real_data_study/ideal_observer.rs"]
 mod ideal_observer;
@@ -243,6 +247,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut out: Option<PathBuf> = None;
     let mut extended = false;
     let mut opts = DiagnoseOptions::default();
+    let mut periodic: Option<(f64, f64)> = None;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -291,6 +296,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     "bonferroni" => Multiplicity::Bonferroni,
                     other => return Err(format!("unknown multiplicity `{other}`").into()),
                 }
+            }
+            "--add-periodic" => {
+                let v = args.next().ok_or("--add-periodic needs AMPLITUDE_UM,PERIOD_MM")?;
+                let (a, p) = v
+                    .split_once(',')
+                    .ok_or("--add-periodic needs AMPLITUDE_UM,PERIOD_MM")?;
+                periodic = Some((
+                    a.parse().map_err(|e| format!("--add-periodic: {e}"))?,
+                    p.parse().map_err(|e| format!("--add-periodic: {e}"))?,
+                ));
             }
             "--out" => out = Some(args.next().ok_or("--out needs a directory")?.into()),
             "--plan" => {
@@ -356,11 +371,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .find(|(r, _, _, _)| *r == spec.row)
                 .expect("a diagnoser per row");
             let variant = draw(session, spec).expect("the study's variants are valid");
+            let mut points = variant.points.clone();
+            if let Some((a, period)) = periodic {
+                // the study's own effect beyond the candidate list (issue 50): a periodic error
+                // in the position along the groove, which no family has
+                for (p, c) in points.iter_mut().zip(diagnoser.session_model().points()) {
+                    p.depth_meas_um += a * (std::f64::consts::TAU * c.x_mm / period).sin();
+                }
+            }
             let report = diagnoser
-                .run(&Measured::new(
-                    format!("seed {}", spec.seed),
-                    variant.points.clone(),
-                ))
+                .run(&Measured::new(format!("seed {}", spec.seed), points))
                 .map_err(|e| e.to_string());
             let seconds = t.elapsed().as_secs_f64();
             // the ideal observer: each hidden effect's evidence; where nothing is hidden, the
@@ -430,6 +450,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             Row::None => none_row(&mut md, &of_row),
             Row::MeasuredStiffness => measured_row(&mut md, &of_row),
         }
+        unlisted_line(&mut md, &of_row);
         let _ = writeln!(md);
     }
     print!("{md}");
@@ -445,6 +466,67 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("written: {}", dir.display());
     }
     Ok(())
+}
+
+/// Two-sided 95 % Clopper–Pearson interval of a binomial rate k/n.
+fn interval(k: usize, n: usize) -> [f64; 2] {
+    let q = |a: f64, b: f64, p: f64| Beta::new(a, b).map_or(f64::NAN, |d| d.inverse_cdf(p));
+    let lo = if k == 0 {
+        0.0
+    } else {
+        q(k as f64, (n - k + 1) as f64, 0.025)
+    };
+    let hi = if k == n {
+        1.0
+    } else {
+        q((k + 1) as f64, (n - k) as f64, 0.975)
+    };
+    [lo, hi]
+}
+
+/// How often the step beyond the candidate list (issue 50) adds an `unlisted` term in a row,
+/// with its two-sided 95 % interval, and the variables it followed.
+fn unlisted_line(md: &mut String, of_row: &Of<'_>) {
+    let k = count(of_row, |_, r| !r.unlisted.is_empty());
+    let n = of_row.len();
+    let [lo, hi] = interval(k, n);
+    let mut vars: BTreeMap<String, usize> = BTreeMap::new();
+    for (_, r) in of_row {
+        for u in &r.unlisted {
+            *vars.entry(u.variable.clone()).or_default() += 1;
+        }
+    }
+    let held: Vec<[f64; 2]> = of_row
+        .iter()
+        .filter_map(|(_, r)| r.unlisted.first().map(|u| u.held_out_rms_um))
+        .collect();
+    let held = if held.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; held-out RMS with the first term, median {:.3} → {:.3} µm",
+            median(held.iter().map(|h| h[0]).collect()),
+            median(held.iter().map(|h| h[1]).collect())
+        )
+    };
+    let _ = writeln!(
+        md,
+        "\nunlisted term added: {k}/{n} = {:.1} % (95 % interval {:.1}–{:.1} %){held}{}",
+        100.0 * k as f64 / n.max(1) as f64,
+        100.0 * lo,
+        100.0 * hi,
+        if vars.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; following {}",
+                vars.iter()
+                    .map(|(v, c)| format!("{v} ({c})"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        }
+    );
 }
 
 /// One line of `sessions.jsonl`: the truth, what was named, and every round's tests.
@@ -472,6 +554,7 @@ fn record(d: &Done) -> serde_json::Value {
                     "beyond_named_p": t.beyond_named.map(|b| b.p_value),
                 })).collect::<Vec<_>>(),
             })).collect::<Vec<_>>(),
+            "unlisted": r.unlisted.iter().map(|u| json!({"variable": u.variable, "basis": u.basis, "p": u.p_value, "threshold": u.threshold, "held_out_rms_um": u.held_out_rms_um, "amplitude_um": u.amplitude_um})).collect::<Vec<_>>(),
             "notes": r.notes,
         }),
         Err(e) => json!({"row": v.spec.row.name(), "seed": v.spec.seed, "error": e}),

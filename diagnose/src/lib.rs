@@ -98,6 +98,7 @@ pub mod scatter;
 mod selection;
 pub mod structure;
 pub mod thresholds;
+pub mod unlisted;
 
 use millcomp_sim::session::Session;
 
@@ -112,6 +113,7 @@ pub use nominal::SessionModel;
 pub use report::{DiagnoseReport, Round, Series, Skipped, Step, StructureReport};
 pub use selection::{DiagnoseOptions, Diagnoser, Multiplicity, NULL_DRAWS, WITHIN_NOMINAL};
 pub use structure::StructureItem;
+pub use unlisted::UnlistedTerm;
 
 /// Diagnoses `measured` against the nominal model of `session` (crate documentation): the
 /// nuisance step, the effects named, the RMS residual before and after, every round's tests.

@@ -27,6 +27,12 @@ use crate::scatter::Whitening;
 /// keep less than [`KEPT_INFORMATION`] of their information without the groove are left out (a
 /// one-step refit along them would be extrapolation from almost nothing — a step of arbitrary size).
 pub(crate) fn score(w: &Whitening, x: &DMatrix<f64>, r: &DVector<f64>) -> f64 {
+    errors(w, x, r).iter().map(|e| e.norm_squared()).sum()
+}
+
+/// The whitened leave-one-groove-out prediction error of every groove (in `w.groups` order), as
+/// [`score`] sums them.
+pub(crate) fn errors(w: &Whitening, x: &DMatrix<f64>, r: &DVector<f64>) -> Vec<DVector<f64>> {
     let p = x.ncols();
     // scale the columns to unit norm so the threshold is unit-free
     let d = DVector::from_iterator(
@@ -40,17 +46,31 @@ pub(crate) fn score(w: &Whitening, x: &DMatrix<f64>, r: &DVector<f64>) -> f64 {
     let a = xs.transpose() * &xs;
     let b = xs.transpose() * r;
     let t = information_basis(&a);
-    let mut total = 0.0;
-    for &(s, e) in &w.groups {
-        let xg = xs.rows(s, e - s);
-        let rg = r.rows(s, e - s);
-        let ag = &a - xg.transpose() * xg;
-        let bg = &b - xg.transpose() * rg;
-        let delta = kept_step(&t, &ag, &bg);
-        let pred = rg + xg * delta;
-        total += pred.norm_squared();
+    w.groups
+        .iter()
+        .map(|&(s, e)| {
+            let xg = xs.rows(s, e - s);
+            let rg = r.rows(s, e - s);
+            let ag = &a - xg.transpose() * xg;
+            let bg = &b - xg.transpose() * rg;
+            let delta = kept_step(&t, &ag, &bg);
+            rg + xg * delta
+        })
+        .collect()
+}
+
+/// The raw (µm) RMS of the leave-one-groove-out prediction errors ([`errors`], each held-out
+/// groove's error unwhitened by [`Whitening::unapply_group`]): the held-out gap in the units of
+/// the measurement.
+pub(crate) fn rms_um(w: &Whitening, x: &DMatrix<f64>, r: &DVector<f64>) -> f64 {
+    let mut ss = 0.0;
+    let mut n = 0usize;
+    for (k, e) in errors(w, x, r).into_iter().enumerate() {
+        let raw = w.unapply_group(k, e.as_slice());
+        ss += raw.iter().map(|v| v * v).sum::<f64>();
+        n += raw.len();
     }
-    total
+    (ss / n.max(1) as f64).sqrt()
 }
 
 /// The share of a direction's information that must remain without the held-out groove for the

@@ -244,8 +244,10 @@ pub struct DiagnoseReport {
     pub steps: Vec<Step>,
     /// Effects named, in the order added (force channel after depth channel); `["none"]` if none.
     pub named: Vec<String>,
-    /// `named`, `none`, or `plan_cannot_separate` (no candidate is separable from the nominal
-    /// model's uncertainty by this plan: nothing is named, the report says why and what to change).
+    /// `named`, `unlisted` (no candidate named, but a term built from the data is significant:
+    /// [`DiagnoseReport::unlisted`]), `none`, or `plan_cannot_separate` (no candidate is
+    /// separable from the nominal model's uncertainty by this plan: nothing is named, the report
+    /// says why and what to change).
     pub verdict: String,
     /// Session name.
     pub session: String,
@@ -278,6 +280,15 @@ pub struct DiagnoseReport {
     pub skipped: Vec<Skipped>,
     /// Residual correlations the final model leaves unexplained.
     pub unexplained: Vec<Unexplained>,
+    /// Terms built from the data when structure remains that no candidate explains (issue 50,
+    /// [`crate::unlisted`]): empty when none is significant.
+    pub unlisted: Vec<crate::unlisted::UnlistedTerm>,
+    /// The strongest follow-up of the residual beyond the candidates (and beyond the unlisted
+    /// terms added) and why it was not added; `null` when no variable was left to try.
+    pub unlisted_rejected: Option<String>,
+    /// RMS of measured − (final model + the unlisted terms) (µm); `null` without one.
+    /// `final_rms_um` is the final model's without them.
+    pub final_rms_with_unlisted_um: Option<f64>,
     /// Candidates within the nominal model's uncertainty (aliased with the nuisance, not named).
     pub within_nominal_uncertainty: Vec<WithinNominal>,
     /// Named effects another family could also be on these data ([`LookAlike`]).

@@ -63,6 +63,16 @@ impl Whitening {
         }
     }
 
+    /// The raw values (µm) of groove `k`'s whitened values `v` ([`Self::apply`] undone: the
+    /// whitening subtracts `c·mean` and divides by σ_e, with `c < 1`, so the groove mean is
+    /// `σ_e·mean(v)/(1 − c)`).
+    pub fn unapply_group(&self, k: usize, v: &[f64]) -> Vec<f64> {
+        let c = self.c[k];
+        let mw = v.iter().sum::<f64>() / v.len().max(1) as f64;
+        let m = self.sigma_e_um * mw / (1.0 - c).max(1e-300);
+        v.iter().map(|x| self.sigma_e_um * x + c * m).collect()
+    }
+
     /// Squared norms of the within-groove and between-groove parts of a (whitened) data vector.
     pub fn strata(&self, v: &[f64]) -> (f64, f64) {
         let (mut w, mut bt) = (0.0, 0.0);
@@ -139,6 +149,23 @@ pub fn estimate(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn unapply_undoes_the_whitening() {
+        // two grooves of 3 and 4 points, σ_e = 0.1, σ_g = 0.5: whitening then unwhitening each
+        // groove returns the raw values (reference: the identity, to round-off)
+        let groups = [(0usize, 3usize), (3, 7)];
+        let w = Whitening::new(&groups, 0.1, 0.5);
+        let raw = [1.0, -2.0, 0.5, 3.0, 3.5, 2.0, -1.0];
+        let mut v = raw.to_vec();
+        w.apply(&mut v);
+        for (k, &(a, b)) in groups.iter().enumerate() {
+            let back = w.unapply_group(k, &v[a..b]);
+            for (x, y) in back.iter().zip(&raw[a..b]) {
+                assert!((x - y).abs() < 1e-12, "{x} vs {y}");
+            }
+        }
+    }
 
     #[test]
     fn whitening_makes_the_groove_model_white() {

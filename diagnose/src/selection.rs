@@ -27,6 +27,7 @@ use crate::report::{
     Step, StructureReport, Tested, Unexplained, WithinNominal,
 };
 use crate::scatter::{self, Components, PRIOR_SCATTER_DOF, Whitening};
+use crate::unlisted::{self, UnlistedTerm};
 use crate::{force_channel, structure, thresholds};
 
 /// The words for a candidate aliased with the nominal model and not beyond its prior.
@@ -77,6 +78,9 @@ const MIN_DRAWS_BEYOND: f64 = 20.0;
 
 /// Seed of the first round's null draws (a round adds its index): the threshold is reproducible.
 const NULL_SEED: u64 = 0x5eed_0015;
+
+/// Seed of the unlisted search's null draws (the second term's adds 1).
+const UNLISTED_SEED: u64 = 0x5eed_0050;
 
 /// Options of [`diagnose`](crate::diagnose).
 #[derive(Debug, Clone, PartialEq)]
@@ -1360,6 +1364,23 @@ impl Diagnoser {
                 .push(self.problem(&y, &terms, &w).predict(&cur.theta));
         }
 
+        // beyond the candidate list: a term built from the data where structure remains
+        // (`unlisted`). It is reported with the model it is added to (its RMS and held-out gap
+        // before and after, the series' last prediction); the final model of the `final_*` keys
+        // stays the candidates' — the named effects' estimates are not fitted beside a term that
+        // is no physical effect, and `final_rms_um` is what the named effects explain.
+        let mut unlisted_rejected = None;
+        let (unlisted, with_unlisted, extra_um) =
+            self.unlisted_step(&y, &terms, cur.clone(), &w, &mut unlisted_rejected);
+        if !unlisted.is_empty() {
+            let y2: Vec<f64> = y.iter().zip(&extra_um).map(|(a, b)| a - b).collect();
+            let pred = self.problem(&y2, &terms, &w).predict(&with_unlisted.theta);
+            series
+                .predictions_um
+                .push(pred.iter().zip(&extra_um).map(|(a, b)| a + b).collect());
+        }
+        let final_rms_with_unlisted = unlisted.last().map(|u| u.rms_after_um);
+
         // final model, weighted by the scatter as estimated (with nothing ever added, the
         // nuisance step's fit is the final one)
         let comps = if steps.is_empty() {
@@ -1455,6 +1476,8 @@ impl Diagnoser {
         };
         let verdict = if !named.is_empty() {
             "named"
+        } else if !unlisted.is_empty() {
+            "unlisted"
         } else if self.plan.cannot_separate_any {
             "plan_cannot_separate"
         } else {
@@ -1499,6 +1522,9 @@ impl Diagnoser {
             rounds,
             skipped,
             unexplained,
+            unlisted,
+            unlisted_rejected,
+            final_rms_with_unlisted_um: final_rms_with_unlisted,
             within_nominal_uncertainty: within,
             look_alikes,
             aliasing: self.plan.aliasing.clone(),
@@ -1691,6 +1717,142 @@ impl Diagnoser {
         out
     }
 
+    /// Beyond the candidate list ([`unlisted`]): while the residual of `cur` follows a session
+    /// variable significantly at the search's family-wise level, better on held-out grooves and
+    /// beyond the resolution, a cross-validated spline (or level) term in it is added, and the
+    /// model refitted to the measured depth less its offsets. Returns the terms, the model and
+    /// the terms' summed offsets (µm); `rejected` says why the search's last best basis was not
+    /// added. The refits alternate twice between the term's
+    /// coefficients (linearised jointly with the model) and the model's nonlinear fit.
+    fn unlisted_step(
+        &self,
+        y: &[f64],
+        terms: &[Term],
+        mut cur: Fitted,
+        w: &Whitening,
+        rejected: &mut Option<String>,
+    ) -> (Vec<UnlistedTerm>, Fitted, Vec<f64>) {
+        let n = y.len();
+        let alpha = self.opts.alpha;
+        let resolution = self.sm.session.uncertainty.resolution_um;
+        let mut extra = vec![0.0; n];
+        let mut out: Vec<UnlistedTerm> = Vec::new();
+        let mut used: Vec<usize> = Vec::new();
+        let variance = |q: &DMatrix<f64>, r: &DVector<f64>| Self::strata_variance_of(w, q, r, n);
+        while out.len() < unlisted::MAX_TERMS {
+            let ctx = unlisted::Context {
+                pts: self.sm.points(),
+                w,
+                rows: cur.r.len(),
+                variance: &variance,
+            };
+            let (cands, null) = unlisted::search(&ctx, &cur, &used);
+            let Some((best, flex)) = cands
+                .into_iter()
+                .min_by(|a, b| a.0.test.ln_p.total_cmp(&b.0.test.ln_p))
+            else {
+                break;
+            };
+            let name = unlisted::VARIABLES[best.var].0;
+            let bonferroni = alpha / null.len().max(1) as f64;
+            // the threshold is at most α: simulate it only when the smallest p could pass
+            let threshold = match self.opts.multiplicity {
+                Multiplicity::Simulated { draws } if best.test.p_value < alpha => {
+                    familywise::simulated_threshold(
+                        &null,
+                        cur.r.len(),
+                        (n as f64).ln(),
+                        alpha,
+                        Multiplicity::draws_at(draws, alpha),
+                        UNLISTED_SEED + out.len() as u64,
+                    )
+                    .unwrap_or(bonferroni)
+                }
+                Multiplicity::Simulated { .. } => alpha,
+                Multiplicity::Bonferroni => bonferroni,
+            };
+            let l = Logo {
+                before: logo::score(w, &cur.x, &cur.r),
+                after: best.logo,
+            };
+            let (s, beta) = unlisted::offsets(&best, &cur);
+            let amplitude = s.iter().fold(f64::NEG_INFINITY, |a, v| a.max(*v))
+                - s.iter().fold(f64::INFINITY, |a, v| a.min(*v));
+            if let Err(why) = unlisted::accepts(&best.test, threshold, l, amplitude, resolution) {
+                *rejected = Some(format!(
+                    "the residual's strongest follow-up beyond the candidates, a {} in {name} ({} dof), was not added: {why}",
+                    best.basis_name(),
+                    best.dof
+                ));
+                break;
+            }
+            let held_out = [
+                unlisted::held_out_rms(w, &cur.x, &cur.r),
+                unlisted::held_out_rms(w, &best.xa, &best.r1),
+            ];
+            let rms_before = rms(&resid(
+                &resid(y, &extra),
+                &self.problem(y, terms, w).predict(&cur.theta),
+            ));
+            // add it: fit the model to y − extra − s, then the term's coefficients again on the
+            // refitted model's residual (linearised jointly), then the model once more
+            let mut beta_total = beta;
+            let mut s_total = s;
+            for pass in 0..2 {
+                let y2: Vec<f64> = (0..n).map(|i| y[i] - extra[i] - s_total[i]).collect();
+                if let Ok(f) = fit(&self.problem(&y2, terms, w), &cur.theta) {
+                    cur = f;
+                }
+                if pass == 1 {
+                    break;
+                }
+                let redo = best.rebased(&cur);
+                let (ds, db) = unlisted::offsets(&redo, &cur);
+                for (a, b) in s_total.iter_mut().zip(ds) {
+                    *a += b;
+                }
+                for (a, b) in beta_total.iter_mut().zip(db) {
+                    *a += b;
+                }
+            }
+            for (a, b) in extra.iter_mut().zip(&s_total) {
+                *a += b;
+            }
+            let y_now: Vec<f64> = (0..n).map(|i| y[i] - extra[i]).collect();
+            let rms_after = rms(&resid(
+                &y_now,
+                &self.problem(&y_now, terms, w).predict(&cur.theta),
+            ));
+            let mean = s_total.iter().sum::<f64>() / n.max(1) as f64;
+            let amplitude = s_total.iter().fold(f64::NEG_INFINITY, |a, v| a.max(*v))
+                - s_total.iter().fold(f64::INFINITY, |a, v| a.min(*v));
+            out.push(UnlistedTerm {
+                variable: name.into(),
+                basis: best.basis_name(),
+                dof: best.dof,
+                flexibility: flex,
+                test: best.test,
+                p_value: best.test.p_value,
+                threshold,
+                bonferroni_threshold: bonferroni,
+                bases_tried: null.len(),
+                between_share: best.test.shares[1],
+                logo: l,
+                held_out_rms_um: held_out,
+                rms_before_um: rms_before,
+                rms_after_um: rms_after,
+                amplitude_um: amplitude,
+                shape: unlisted::shape_table(&best.basis, &beta_total, mean),
+                driver_of: unlisted::driver_of(
+                    name,
+                    &terms.iter().map(|t| t.family).collect::<Vec<_>>(),
+                ),
+            });
+            used.push(best.var);
+        }
+        (out, cur, extra)
+    }
+
     /// Residual correlations with the session's variables beyond the final model.
     fn unexplained(&self, w: &Whitening, f: &Fitted) -> Vec<Unexplained> {
         let n = self.sm.len();
@@ -1703,22 +1865,9 @@ impl Diagnoser {
         let q = orthonormal_basis(&xd);
         let v = self.strata_variance(w, f, n);
         let pts = self.sm.points();
-        type Get = fn(&millcomp_sim::session::PointContext) -> f64;
-        let vars: [(&str, Get); 10] = [
-            ("t_s", |p| p.t_s),
-            ("cut_length_mm", |p| p.cut_length_mm),
-            ("x_mm", |p| p.x_mm),
-            ("machine_x_mm", |p| p.machine_x_mm),
-            ("speed_rpm", |p| p.speed_rpm),
-            ("coolant_on", |p| f64::from(u8::from(p.coolant_on))),
-            ("force_z_n", |p| p.force_z_n),
-            ("tilt_deg", |p| p.tilt_deg),
-            ("upfeed_um", |p| p.upfeed_um),
-            ("depth_cmd_um", |p| p.depth_cmd_um),
-        ];
         let r = DMatrix::from_column_slice(rows, 1, f.r.as_slice());
         let mut out = Vec::new();
-        for (name, get) in vars {
+        for (name, get) in unlisted::VARIABLES {
             let mut c: Vec<f64> = pts.iter().map(get).collect();
             w.apply(&mut c);
             let mut col = DMatrix::zeros(rows, 1);

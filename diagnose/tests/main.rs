@@ -20,4 +20,5 @@ mod ideal_observer_impl;
 mod named;
 mod nominal;
 mod record;
+mod unlisted;
 mod variants;

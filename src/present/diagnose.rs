@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use millcomp_diagnose::{DiagnoseReport, StructureItem};
+use millcomp_diagnose::{DiagnoseReport, StructureItem, UnlistedTerm};
 
 use crate::present::plot::{GRAY, IndexCurve, Mark, index_plot};
 
@@ -187,6 +187,9 @@ pub fn text(rep: &DiagnoseReport) -> String {
             ),
         );
     }
+    for u in &rep.unlisted {
+        unlisted_text(&mut s, u);
+    }
     for x in &rep.within_nominal_uncertainty {
         w(&mut s, format!("{}: {}", x.effect, x.note));
     }
@@ -244,14 +247,102 @@ pub fn text(rep: &DiagnoseReport) -> String {
     w(
         &mut s,
         format!(
-            "named: {}   RMS {:.3} (nominal) → {:.3} (nuisance) → {:.3} µm",
+            "named: {}{}   RMS {:.3} (nominal) → {:.3} (nuisance) → {:.3} µm{}",
             rep.named.join(", "),
+            unlisted_names(rep),
             rep.initial_rms_um,
             rep.nuisance_rms_um,
-            rep.final_rms_um
+            rep.final_rms_um,
+            rep.final_rms_with_unlisted_um
+                .map(|r| format!(" → {r:.3} µm with the unlisted term"))
+                .unwrap_or_default()
         ),
     );
     s
+}
+
+/// ` + unlisted f(x_mm)` for each unlisted term (empty without one).
+fn unlisted_names(rep: &DiagnoseReport) -> String {
+    rep.unlisted
+        .iter()
+        .map(|u| format!(" + unlisted f({})", u.variable))
+        .collect()
+}
+
+/// The `unlisted` section of one term: the variable, the basis cross-validation chose, the
+/// evidence, the held-out gap and the shape table.
+fn unlisted_text(s: &mut String, u: &UnlistedTerm) {
+    let w = |s: &mut String, line: String| {
+        s.push_str(&line);
+        s.push('\n');
+    };
+    w(
+        s,
+        format!(
+            "unlisted: a term built from the data follows {} (no candidate family explains it)",
+            u.variable
+        ),
+    );
+    if !u.driver_of.is_empty() {
+        w(
+            s,
+            format!(
+                "  {} drives the named {}: the term may be what its shapes miss rather than a further effect",
+                u.variable,
+                u.driver_of.join(", ")
+            ),
+        );
+    }
+    w(
+        s,
+        format!(
+            "  basis {} ({} dof), chosen by leave-one-groove-out cross-validation over {}",
+            u.basis,
+            u.dof,
+            u.flexibility
+                .iter()
+                .map(|f| f.basis.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    );
+    w(
+        s,
+        format!(
+            "  evidence: F({},{:.0}) = {:.2}  p = {}  threshold p < {:.2e} (family-wise over {} bases; Bonferroni's {:.2e})  between grooves {:.0} %",
+            u.test.df1,
+            u.test.df2,
+            u.test.f_statistic,
+            fmt_p(u.p_value),
+            u.threshold,
+            u.bases_tried,
+            u.bonferroni_threshold,
+            100.0 * u.between_share
+        ),
+    );
+    w(
+        s,
+        format!(
+            "  held-out grooves: RMS {:.3} → {:.3} µm   residual RMS {:.3} → {:.3} µm   amplitude {:.3} µm",
+            u.held_out_rms_um[0],
+            u.held_out_rms_um[1],
+            u.rms_before_um,
+            u.rms_after_um,
+            u.amplitude_um
+        ),
+    );
+    let values: Vec<String> = u
+        .shape
+        .iter()
+        .map(|p| format!("{:>8.4}", p.value))
+        .collect();
+    let offsets: Vec<String> = u
+        .shape
+        .iter()
+        .map(|p| format!("{:>8.3}", p.offset_um))
+        .collect();
+    w(s, format!("  {:<14}{}", u.variable, values.join("")));
+    w(s, format!("  {:<14}{}", "offset (µm)", offsets.join("")));
 }
 
 /// Palette indices of the curves (present::plot): nominal blue, final red, measured gray.
@@ -270,10 +361,12 @@ pub fn write_plots(rep: &DiagnoseReport, dir: &Path) -> anyhow::Result<Vec<PathB
     let nominal = s.predictions_um.first().cloned().unwrap_or_default();
     let last = s.predictions_um.last().cloned().unwrap_or_default();
     let p = dir.join("measured_vs_simulated.svg");
-    let final_label = if rep.steps.is_empty() {
+    let final_label = if rep.steps.is_empty() && rep.unlisted.is_empty() {
         "final model (= nominal)".to_string()
+    } else if rep.steps.is_empty() {
+        format!("nominal{}", unlisted_names(rep))
     } else {
-        format!("nominal + {}", rep.named.join(" + "))
+        format!("nominal + {}{}", rep.named.join(" + "), unlisted_names(rep))
     };
     index_plot(
         &p,
