@@ -837,4 +837,25 @@ mod tests {
             }
         }
     }
+
+    /// Every b-subset of 0..n once, in lexicographic order, including the whole set when b = n
+    /// (C(4, 2) = 6, C(3, 3) = 1, C(3, 4) = 0, C(0, 0) = 1: the empty subset). Kills `fractional.rs:512:10:
+    /// replace > with >= in for_each_combination` (found by the draw of seed 53), which gives no subset
+    /// when b = n — so a design whose block-generator candidates are exactly as many as needed would
+    /// find none.
+    #[test]
+    fn every_subset_is_visited_once_including_the_whole_set() {
+        let subsets = |n: usize, b: usize| {
+            let mut v: Vec<Vec<usize>> = Vec::new();
+            for_each_combination(n, b, &mut |idx: &[usize]| v.push(idx.to_vec()));
+            v
+        };
+        let four_two = subsets(4, 2);
+        assert_eq!(four_two.len(), 6);
+        assert_eq!(four_two[0], [0, 1]);
+        assert_eq!(four_two[5], [2, 3]);
+        assert_eq!(subsets(3, 3), [vec![0, 1, 2]]);
+        assert!(subsets(3, 4).is_empty());
+        assert_eq!(subsets(0, 0), [Vec::<usize>::new()]);
+    }
 }
