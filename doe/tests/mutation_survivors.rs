@@ -1638,3 +1638,23 @@ fn a_fraction_of_sixty_four_factors_by_runs_does_not_overflow() {
         other => panic!("{:?}", other.map(|d| d.n_runs())),
     }
 }
+
+/// A design lists each factor's levels as written (what `doe design --json` gives under `factors`):
+/// `depth_um=100:150:200` → 100, 150, 200; `coolant=dry:wet` → the two labels; a bare name → −1, +1.
+/// Kills `factor.rs:305:9: replace FactorSpec::level_values -> Vec<Level> with vec![]` (found by the
+/// draw of seed 53), which lists no levels.
+#[test]
+fn a_designs_factors_list_their_levels_as_written() {
+    use millcomp_doe::Level;
+    let f = FactorSpec::parse_list("depth_um=100:150:200,coolant=dry:wet,c").unwrap();
+    let d = generate(&DesignRequest::new(DesignKind::Full, f)).unwrap();
+    let levels: Vec<Vec<Level>> = d.factors.iter().map(|f| f.levels.clone()).collect();
+    assert_eq!(
+        levels,
+        [
+            vec![Level::Num(100.0), Level::Num(150.0), Level::Num(200.0)],
+            vec![Level::Label("dry".into()), Level::Label("wet".into())],
+            vec![Level::Num(-1.0), Level::Num(1.0)],
+        ]
+    );
+}
