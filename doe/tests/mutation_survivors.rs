@@ -1658,3 +1658,28 @@ fn a_designs_factors_list_their_levels_as_written() {
         ]
     );
 }
+
+/// A two-level design's base factors are limited to 20 (2^20 runs) before anything is built, and every
+/// design to 10^6 runs: the full 2^20 of 20 coded factors (1 048 576 runs) is refused by the run cap,
+/// naming both counts, and 21 factors by the base limit, naming 2^21. Kills `factorial.rs:50:19: replace
+/// > with >= in regular_two_level` (found by the draw of seed 53), which refuses 20 factors by the base
+/// limit with "2^20 runs (at most 2^20)".
+#[test]
+fn twenty_two_level_factors_meet_the_run_cap_and_twenty_one_the_base_limit() {
+    match generate(&DesignRequest::new(DesignKind::Full, coded(20))) {
+        Err(DoeError::InvalidParameter { name, allowed, .. }) => assert_eq!(
+            (name, allowed.as_str()),
+            (
+                "replicates",
+                "a design of at most 1000000 runs (this one would have 1048576: 1048576 runs × 1 replicates)"
+            )
+        ),
+        other => panic!("{:?}", other.map(|d| d.n_runs())),
+    }
+    match generate(&DesignRequest::new(DesignKind::Full, coded(21))) {
+        Err(DoeError::Unsupported { what }) => {
+            assert_eq!(what, "a two-level design with 2^21 runs (at most 2^20)")
+        }
+        other => panic!("{:?}", other.map(|d| d.n_runs())),
+    }
+}
