@@ -58,7 +58,7 @@ pub use analysis::{
 };
 pub use design::{
     AliasEntry, CcdAlpha, CcdVariant, Design, DesignCriteria, DesignKind, DesignOptions,
-    DesignRequest, LinearConstraint, Run, generate, resolution_roman,
+    DesignRequest, LinearConstraint, MAX_FACTORS, Run, generate, resolution_roman,
 };
 pub use error::{DoeError, Result};
 pub use factor::{

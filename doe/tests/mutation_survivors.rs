@@ -1571,19 +1571,22 @@ fn a_ccd_refuses_a_negative_or_infinite_alpha_given_as_a_value() {
     assert!((widest - 1.5).abs() < 1e-12, "{widest}");
 }
 
-/// Plackett–Burman without `--runs` takes the smallest supported order above k up to 4096 runs and
-/// no further: 4095 factors fit the Sylvester order 4096; 4096 factors would need 4100 or more and are
-/// refused (`Unsupported`, naming the factor count) before any matrix is built. Kills
-/// `screening.rs:88:34: replace / with * in plackett_burman` (found by the draw of seed 53), whose
-/// search runs on to 16 384 runs and builds an 8192-run design for 4096 factors.
+/// A design takes at most 4095 factors (`MAX_FACTORS`, the largest Plackett–Burman design's): 4096
+/// coded factors are refused naming `factors` before anything is built (a definitive screening design of
+/// 20 000 factors asked for 8 GB or more and aborted). With that bound the Plackett–Burman search can
+/// no longer run past 4096 runs, so `screening.rs:88:34: replace / with * in plackett_burman` (found by
+/// the draw of seed 53, which this test killed before the bound) is now equivalent.
 #[test]
-fn plackett_burman_stops_at_its_largest_order() {
-    match generate(&DesignRequest::new(DesignKind::PlackettBurman, coded(4096))) {
-        Err(DoeError::Unsupported { what }) => {
-            assert_eq!(what, "a Plackett–Burman design for 4096 factors")
+fn a_design_takes_at_most_4095_factors() {
+    for kind in [DesignKind::PlackettBurman, DesignKind::Dsd, DesignKind::Lhs] {
+        match generate(&DesignRequest::new(kind, coded(4096))) {
+            Err(DoeError::InvalidParameter { name, value, .. }) => {
+                assert_eq!((name, value.as_str()), ("factors", "4096"), "{kind:?}")
+            }
+            other => panic!("{kind:?}: {:?}", other.map(|d| d.n_runs())),
         }
-        other => panic!("{:?}", other.map(|d| d.n_runs())),
     }
+    assert_eq!(millcomp_doe::MAX_FACTORS, 4095);
 }
 
 /// A mixed-level full factorial of exactly 1e6 runs (6 factors of 10 levels) is built — the limit is

@@ -647,6 +647,15 @@ pub fn generate(req: &DesignRequest) -> Result<Design> {
     if factors.is_empty() {
         return Err(DoeError::NoFactors);
     }
+    if factors.len() > MAX_FACTORS {
+        return Err(DoeError::InvalidParameter {
+            name: "factors",
+            value: factors.len().to_string(),
+            allowed: format!(
+                "at most {MAX_FACTORS} factors (the largest Plackett–Burman design's)"
+            ),
+        });
+    }
     for (i, f) in factors.iter().enumerate() {
         if factors[..i].iter().any(|g| g.name == f.name) {
             return Err(DoeError::DuplicateFactor {
@@ -816,3 +825,8 @@ pub fn generate(req: &DesignRequest) -> Result<Design> {
         runs,
     })
 }
+
+/// The most factors a design takes: the largest Plackett–Burman design's (4096 runs). A design holds
+/// runs × factors levels, and a definitive screening design of k factors builds a conference matrix of
+/// order ≈ k: without a bound, 20 000 factors asked for 8 GB or more before anything was checked.
+pub const MAX_FACTORS: usize = 4095;
