@@ -1686,3 +1686,43 @@ fn twenty_two_level_factors_meet_the_run_cap_and_twenty_one_the_base_limit() {
         other => panic!("{:?}", other.map(|d| d.n_runs())),
     }
 }
+
+/// A 7-factor Box–Behnken design is Box & Behnken's (1960, Technometrics 2:455–475) balanced
+/// incomplete block plan: 7 blocks of 3 factors, each a 2³ with the others at their centre — 56 runs
+/// before centre points, each factor at ±1 in 24 of them. Kills `rsm.rs:161:9: delete match arm 7 in
+/// bbd_groups` (found by the draw of seed 53), which falls back to all 21 pairs (84 runs).
+#[test]
+fn a_seven_factor_box_behnken_design_has_fifty_six_edge_runs() {
+    let mut req = DesignRequest::new(DesignKind::BoxBehnken, coded(7));
+    req.center_points = Some(0);
+    req.randomize = false;
+    let d = generate(&req).unwrap();
+    assert_eq!(d.n_runs(), 56);
+    for j in 0..7 {
+        let at_edge = d.runs.iter().filter(|r| r.coded[j] != 0.0).count();
+        assert_eq!(at_edge, 24, "factor {j}");
+    }
+    assert!(
+        d.runs
+            .iter()
+            .all(|r| r.coded.iter().filter(|x| **x != 0.0).count() == 3)
+    );
+}
+
+/// The effects confounded with blocks are named by the lowest-order member of their alias set: the
+/// 2^(6−1) with F = ABCDE (I = ABCDEF) in 8 blocks has block generators ABC, ABD, ACE, and the product
+/// ABD·ACE = BCDE is aliased with AF (BCDE·ABCDEF = AF, by hand), so it is listed as `A:F`. Kills
+/// `factorial.rs:123:35: replace ^ with | in regular_two_level` (found by the draw of seed 53), which
+/// keeps each product as it is (`B:C:D:E`).
+#[test]
+fn effects_confounded_with_blocks_are_named_by_their_lowest_order_alias() {
+    let mut req = DesignRequest::new(DesignKind::Fractional, coded(6));
+    req.generators = Some("F=ABCDE".into());
+    req.blocks = 8;
+    let d = generate(&req).unwrap();
+    assert_eq!(d.block_generators, ["ABC", "ABD", "ACE"]);
+    assert_eq!(
+        d.confounded_with_blocks,
+        ["C:D", "B:E", "A:F", "A:B:C", "A:B:D", "A:C:E", "A:D:E"]
+    );
+}
