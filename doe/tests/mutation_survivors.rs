@@ -1664,9 +1664,9 @@ fn a_designs_factors_list_their_levels_as_written() {
 
 /// A two-level design's base factors are limited to 20 (2^20 runs) before anything is built, and every
 /// design to 10^6 runs: the full 2^20 of 20 coded factors (1 048 576 runs) is refused by the run cap,
-/// naming both counts, and 21 factors by the base limit, naming 2^21. Kills `factorial.rs:50:19: replace
-/// > with >= in regular_two_level` (found by the draw of seed 53), which refuses 20 factors by the base
-/// limit with "2^20 runs (at most 2^20)".
+/// naming both counts, and 21 factors by the base limit, naming 2^21. Kills
+/// `factorial.rs:50:19: replace > with >= in regular_two_level` (found by the draw of seed 53), which
+/// refuses 20 factors by the base limit with "2^20 runs (at most 2^20)".
 #[test]
 fn twenty_two_level_factors_meet_the_run_cap_and_twenty_one_the_base_limit() {
     match generate(&DesignRequest::new(DesignKind::Full, coded(20))) {
