@@ -1726,3 +1726,43 @@ fn effects_confounded_with_blocks_are_named_by_their_lowest_order_alias() {
         ["C:D", "B:E", "A:F", "A:B:C", "A:B:D", "A:C:E", "A:D:E"]
     );
 }
+
+/// Lenth's pseudo standard error trims effects at or above 2.5·s0 before its second median
+/// (Lenth 1989, Technometrics 31:469–473): effects 1, 2, 7.5 have s0 = 1.5·2 = 3, so 7.5 = 2.5·s0 is
+/// trimmed and PSE = 1.5·median(1, 2) = 2.25 (by hand). Kills `lenth.rs:75:10: replace < with <= in
+/// lenth` (found by the draw of seed 53), which keeps 7.5 and gives 1.5·2 = 3.
+#[test]
+fn lenth_trims_an_effect_exactly_at_two_and_a_half_s0() {
+    let names: Vec<String> = ["A", "B", "C"].iter().map(|s| s.to_string()).collect();
+    let l = millcomp_doe::lenth(&names, &[1.0, 2.0, 7.5]).unwrap();
+    assert_eq!((l.s0, l.pse), (3.0, 2.25));
+}
+
+/// A run whose studentised residual exceeds 3 is an outlier, the others are not: a 2⁴ in 16 runs,
+/// main effects, y = 10 + 2·A + a ±0.1 pattern and +5 on run 6 — only row 6 is listed. Kills
+/// `analysis/mod.rs:845:59: replace > with < in analyze` (found by the draw of seed 53), which lists
+/// the fifteen others.
+#[test]
+fn only_the_run_with_a_large_studentised_residual_is_an_outlier() {
+    use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze};
+    let lv = |i: usize, b: usize| if i >> b & 1 == 1 { 1.0 } else { -1.0 };
+    let col = |b: usize| Values::F64((0..16).map(|i| lv(i, b)).collect());
+    let y: Vec<f64> = (0..16)
+        .map(|i| {
+            10.0 + 2.0 * lv(i, 0) + [0.1, -0.1, -0.1, 0.1][i % 4] + if i == 5 { 5.0 } else { 0.0 }
+        })
+        .collect();
+    let input = AnalysisInput {
+        factors: vec![
+            ("A".into(), col(0)),
+            ("B".into(), col(1)),
+            ("C".into(), col(2)),
+            ("D".into(), col(3)),
+        ],
+        response_name: "y".into(),
+        response: Values::F64(y),
+        model: ModelSpec::Main,
+    };
+    let a = analyze(&input).unwrap();
+    assert_eq!(a.diagnostics.outliers, [6]);
+}

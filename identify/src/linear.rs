@@ -422,4 +422,27 @@ mod tests {
         );
         assert!(matches!(e, Err(IdentifyError::NonFinite { row: 2, .. })));
     }
+
+    /// The intercept is found wherever its column stands, and only a constant column is one: the
+    /// textbook line with the columns [x + 1, 1] (x + 1 = 1..5, whose first value is not 0) has slope
+    /// 0.8 and intercept 1.4 − 0.8 = 0.6 (by hand). Kills `linear.rs:115:26: replace && with || in
+    /// fit_linear` (found by the draw of seed 53), which takes the first column with a non-zero first
+    /// value — x + 1 — for the intercept.
+    #[test]
+    fn the_intercept_column_may_stand_second() {
+        let y = [1.0, 3.0, 2.0, 5.0, 4.0];
+        let a = DMatrix::from_fn(5, 2, |i, j| if j == 0 { i as f64 + 1.0 } else { 1.0 });
+        let f = fit_linear(
+            &names(&["m", "c"]),
+            &a,
+            &y,
+            None,
+            LinearMethod::Qr,
+            "t",
+            "um",
+        )
+        .unwrap();
+        assert_relative_eq!(f.theta[0], 0.8, max_relative = 1e-12);
+        assert_relative_eq!(f.theta[1], 0.6, max_relative = 1e-12);
+    }
 }
