@@ -1727,15 +1727,19 @@ fn effects_confounded_with_blocks_are_named_by_their_lowest_order_alias() {
     );
 }
 
-/// Lenth's pseudo standard error trims effects at or above 2.5·s0 before its second median
-/// (Lenth 1989, Technometrics 31:469–473): effects 1, 2, 7.5 have s0 = 1.5·2 = 3, so 7.5 = 2.5·s0 is
-/// trimmed and PSE = 1.5·median(1, 2) = 2.25 (by hand). Kills `lenth.rs:75:10: replace < with <= in
-/// lenth` (found by the draw of seed 53), which keeps 7.5 and gives 1.5·2 = 3.
+/// Lenth's pseudo standard error (Lenth 1989, Technometrics 31:469–473) is computed from two effects
+/// on: 1 and 2 give s0 = 1.5·median = 2.25 and, nothing trimmed, PSE = 2.25 (by hand); and it trims
+/// effects at or above 2.5·s0 before its second median: 1, 2, 7.5 have s0 = 1.5·2 = 3, so 7.5 is
+/// trimmed and PSE = 1.5·median(1, 2) = 2.25. One effect has none. Kills `lenth.rs:75:10: replace <
+/// with <= in lenth` (found by the draw of seed 53), which gives none for two effects.
 #[test]
-fn lenth_trims_an_effect_exactly_at_two_and_a_half_s0() {
+fn lenth_is_computed_from_two_effects_and_trims_at_two_and_a_half_s0() {
     let names: Vec<String> = ["A", "B", "C"].iter().map(|s| s.to_string()).collect();
+    let two = millcomp_doe::lenth(&names[..2], &[1.0, 2.0]).unwrap();
+    assert_eq!((two.s0, two.pse), (2.25, 2.25));
     let l = millcomp_doe::lenth(&names, &[1.0, 2.0, 7.5]).unwrap();
     assert_eq!((l.s0, l.pse), (3.0, 2.25));
+    assert!(millcomp_doe::lenth(&names[..1], &[1.0]).is_none());
 }
 
 /// A run whose studentised residual exceeds 3 is an outlier, the others are not: a 2⁴ in 16 runs,
