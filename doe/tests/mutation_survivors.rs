@@ -1770,3 +1770,14 @@ fn only_the_run_with_a_large_studentised_residual_is_an_outlier() {
     let a = analyze(&input).unwrap();
     assert_eq!(a.diagnostics.outliers, [6]);
 }
+
+/// `ModelSpec::parse` reads the saturated model's keywords as the keyword, not as a formula naming
+/// a factor `full`. Kills `model.rs:43:13: delete match arm "full" | "saturated" in ModelSpec::parse`
+/// (found by the draw of seed 53), whose formula `full` expands to the same terms but is another spec.
+#[test]
+fn the_saturated_model_is_asked_by_its_keywords() {
+    use millcomp_doe::ModelSpec;
+    for k in ["full", "Saturated", " FULL "] {
+        assert_eq!(ModelSpec::parse(k).unwrap(), ModelSpec::Full, "{k}");
+    }
+}

@@ -155,4 +155,16 @@ mod tests {
         assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-15);
         assert_eq!(poisson_weights(0.0), vec![1.0]);
     }
+
+    /// α must lie strictly between 0 and 1: 0 (a critical value of +∞) and 1.5 give none, 0.05 the
+    /// documented example's power. Kills `power.rs:116:22: replace && with || in f_test_power` (found
+    /// by the draw of seed 53), which takes α = 0 (power 0 at an infinite critical value) and 1.5.
+    #[test]
+    fn the_significance_level_must_lie_between_zero_and_one() {
+        assert!(f_test_power(1.0, 4.0, 8.0, 0.0).is_none());
+        assert!(f_test_power(1.0, 4.0, 8.0, 1.5).is_none());
+        assert!(f_test_power(1.0, 4.0, 8.0, 1.0).is_none());
+        let (_, power) = f_test_power(1.0, 4.0, 8.0, 0.05).unwrap();
+        assert!((power - 0.5716094577007155).abs() < 1e-10);
+    }
 }
