@@ -1781,3 +1781,31 @@ fn the_saturated_model_is_asked_by_its_keywords() {
         assert_eq!(ModelSpec::parse(k).unwrap(), ModelSpec::Full, "{k}");
     }
 }
+
+/// Lack of fit needs residual degrees of freedom beyond pure error: a 2² replicated twice with the
+/// saturated model A*B has 4 residual df, all pure error, so there is no lack-of-fit test (its df
+/// would be 0). Kills `analysis/mod.rs:889:18: replace > with >= in analyze` (found by the draw of
+/// seed 53), which reports one with 0 df.
+#[test]
+fn a_model_saturated_in_the_cell_means_has_no_lack_of_fit_test() {
+    use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze};
+    let col = |v: [f64; 8]| Values::F64(v.to_vec());
+    let input = AnalysisInput {
+        factors: vec![
+            (
+                "A".into(),
+                col([-1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0]),
+            ),
+            (
+                "B".into(),
+                col([-1.0, -1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0]),
+            ),
+        ],
+        response_name: "y".into(),
+        response: col([10.0, 14.0, 12.0, 19.0, 10.4, 13.8, 12.2, 18.6]),
+        model: ModelSpec::parse("A*B").unwrap(),
+    };
+    let a = analyze(&input).unwrap();
+    assert_eq!(a.residual_df, 4);
+    assert!(a.lack_of_fit.is_none(), "{:?}", a.lack_of_fit);
+}

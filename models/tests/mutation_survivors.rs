@@ -304,3 +304,52 @@ fn a_bundle_gives_back_its_hysteresis() {
     b.hysteresis = None;
     assert!(b.hysteresis(at).unwrap().is_none());
 }
+
+/// Beside an undetermined parameter a derived quantity may have a NaN `std_err` or `ci95`, but its
+/// `value` must still be a number: `value = nan` is refused naming its key, `ci95 = [nan, nan]` is
+/// accepted. Kills `file.rs:382:5: replace walk_value_allowing -> Result<()> with Ok(())` (found by the
+/// draw of seed 53), which checks none of a derived quantity's numbers there.
+#[test]
+fn a_derived_quantitys_value_must_be_a_number_even_beside_an_undetermined_parameter() {
+    use millcomp_models::file::check_numbers;
+    let doc = |value: &str| -> toml::Table {
+        toml::from_str(&format!(
+            r#"
+[model]
+params = {{ a = 1.0, b = 2.0 }}
+std_err = {{ a = 0.1, b = inf }}
+[model.derived.q]
+value = {value}
+std_err = nan
+ci95 = [nan, nan]
+"#
+        ))
+        .unwrap()
+    };
+    let at = Path::new("m.toml");
+    match check_numbers(&doc("nan"), at) {
+        Err(ModelError::InvalidValue { key, .. }) => assert_eq!(key, "model.derived.q.value"),
+        other => panic!("{other:?}"),
+    }
+    assert!(check_numbers(&doc("3.0"), at).is_ok());
+}
+
+/// A model file's creation time is UTC in RFC 3339 to the second (`YYYY-MM-DDThh:mm:ssZ`), in this
+/// century. Kills `file.rs:531:5: replace utc_now_rfc3339 -> String with "xyzzy".into()` (found by the
+/// draw of seed 53).
+#[test]
+fn the_creation_time_is_rfc3339_utc() {
+    let t = millcomp_models::utc_now_rfc3339();
+    let b = t.as_bytes();
+    assert_eq!(t.len(), 20, "{t}");
+    assert!(t.starts_with("20") && t.ends_with('Z'), "{t}");
+    for (i, c) in b.iter().enumerate() {
+        match i {
+            4 | 7 => assert_eq!(*c, b'-', "{t}"),
+            10 => assert_eq!(*c, b'T', "{t}"),
+            13 | 16 => assert_eq!(*c, b':', "{t}"),
+            19 => assert_eq!(*c, b'Z', "{t}"),
+            _ => assert!(c.is_ascii_digit(), "{t}"),
+        }
+    }
+}
