@@ -1784,8 +1784,10 @@ fn the_saturated_model_is_asked_by_its_keywords() {
 
 /// Lack of fit needs residual degrees of freedom beyond pure error: a 2² replicated twice with the
 /// saturated model A*B has 4 residual df, all pure error, so there is no lack-of-fit test (its df
-/// would be 0). Kills `analysis/mod.rs:889:18: replace > with >= in analyze` (found by the draw of
-/// seed 53), which reports one with 0 df.
+/// would be 0). Written for `analysis/mod.rs:889:18: replace > with >= in analyze` (found by the draw
+/// of seed 53), which turned out to be the guard `df_pe > 0` — equivalent, since without replicates
+/// the pure-error sum of squares is 0 and the next guard refuses; this test holds the `df_e > df_pe`
+/// guard beside it.
 #[test]
 fn a_model_saturated_in_the_cell_means_has_no_lack_of_fit_test() {
     use millcomp_doe::{AnalysisInput, ModelSpec, Values, analyze};
