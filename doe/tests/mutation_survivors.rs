@@ -1811,3 +1811,19 @@ fn a_model_saturated_in_the_cell_means_has_no_lack_of_fit_test() {
     assert_eq!(a.residual_df, 4);
     assert!(a.lack_of_fit.is_none(), "{:?}", a.lack_of_fit);
 }
+
+/// A label factor's actual level for a coded value is the nearest of its evenly spaced levels, and a
+/// coded value beyond ±1 is the end level: dry/mist/wet at −1, 0, +1 are dry, mist, wet; at +1.5 wet
+/// and at −1.5 dry. Kills `factor.rs:297:36: replace - with / in FactorSpec::actual` (found by the draw
+/// of seed 53), whose clamp to n instead of n − 1 indexes past the last label at +1.5 (a panic).
+#[test]
+fn a_label_factors_coded_value_past_its_range_is_its_end_level() {
+    use millcomp_doe::Level;
+    let f = FactorSpec::parse_list("coolant=dry:mist:wet").unwrap();
+    let label = |x: f64| match f[0].actual(x) {
+        Level::Label(s) => s,
+        other => panic!("{other:?}"),
+    };
+    let got: Vec<String> = [-1.5, -1.0, 0.0, 1.0, 1.5].map(label).to_vec();
+    assert_eq!(got, ["dry", "dry", "mist", "wet", "wet"]);
+}
