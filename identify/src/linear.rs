@@ -247,18 +247,14 @@ mod tests {
     /// Sxx = 10, Sxy = 8, ȳ = 3): y = [1, 3, 2, 5, 4] at x = 0..4 is the line 1.4 + 0.8·x, RSS = 3.6,
     /// s² = 1.2. Fitted by QR on a constant column of value `constant` (named `c`) and x (`m`).
     fn textbook_line(constant: f64) -> LinearFit {
+        textbook_line_on(&["c", "m"], |i, j| if j == 0 { constant } else { i as f64 })
+    }
+
+    /// The textbook line's data fitted by QR on the design `column(i, j)` named `labels`.
+    fn textbook_line_on(labels: &[&str], column: impl Fn(usize, usize) -> f64) -> LinearFit {
         let y = [1.0, 3.0, 2.0, 5.0, 4.0];
-        let a = DMatrix::from_fn(5, 2, |i, j| if j == 0 { constant } else { i as f64 });
-        fit_linear(
-            &names(&["c", "m"]),
-            &a,
-            &y,
-            None,
-            LinearMethod::Qr,
-            "t",
-            "um",
-        )
-        .unwrap()
+        let a = DMatrix::from_fn(5, 2, column);
+        fit_linear(&names(labels), &a, &y, None, LinearMethod::Qr, "t", "um").unwrap()
     }
 
     /// A constant column of any value is the intercept: with the constant column 2 instead of 1 the
@@ -430,18 +426,10 @@ mod tests {
     /// value — x + 1 — for the intercept.
     #[test]
     fn the_intercept_column_may_stand_second() {
-        let y = [1.0, 3.0, 2.0, 5.0, 4.0];
-        let a = DMatrix::from_fn(5, 2, |i, j| if j == 0 { i as f64 + 1.0 } else { 1.0 });
-        let f = fit_linear(
-            &names(&["m", "c"]),
-            &a,
-            &y,
-            None,
-            LinearMethod::Qr,
-            "t",
-            "um",
-        )
-        .unwrap();
+        let f = textbook_line_on(
+            &["m", "c"],
+            |i, j| if j == 0 { i as f64 + 1.0 } else { 1.0 },
+        );
         assert_relative_eq!(f.theta[0], 0.8, max_relative = 1e-12);
         assert_relative_eq!(f.theta[1], 0.6, max_relative = 1e-12);
     }
