@@ -1787,8 +1787,8 @@ impl Diagnoser {
                 break;
             }
             let held_out = [
-                unlisted::held_out_rms(w, &cur.x, &cur.r),
-                unlisted::held_out_rms(w, &best.xa, &best.r1),
+                logo::rms_um(w, &cur.x, &cur.r),
+                logo::rms_um(w, &best.xa, &best.r1),
             ];
             let rms_before = rms(&resid(
                 &resid(y, &extra),

@@ -445,11 +445,6 @@ pub(crate) fn shape_table(basis: &Basis, beta: &[f64], mean: f64) -> Vec<ShapePo
         .collect()
 }
 
-/// The held-out RMS (µm) of the model `x`, `r`.
-pub(crate) fn held_out_rms(w: &Whitening, x: &DMatrix<f64>, r: &DVector<f64>) -> f64 {
-    logo::rms_um(w, x, r)
-}
-
 /// Whether a basis beyond the current model is accepted: significant at the family-wise
 /// threshold, better on held-out grooves, larger than the resolution.
 pub(crate) fn accepts(
