@@ -3,6 +3,8 @@
 
 mod common;
 
+mod boundaries_analysis;
+mod boundaries_design;
 mod clayton_anova;
 mod design_claims;
 mod designs;
