@@ -291,6 +291,8 @@ pub struct Controller {
     feed: FeedProfile,
     position_tolerance_mm: f64,
     touch_off: TouchOff,
+    /// The amplifier's top (V, the bundle's spindle): a touch-off voltage lies in 0 ..= it.
+    voltage_max_v: f64,
     notes: Vec<String>,
     state: CycleState,
     /// The budget is the wall clock (deadline misses are acted on and flagged).
@@ -421,18 +423,53 @@ impl Controller {
             feed,
             position_tolerance_mm: settings.position_tolerance_mm,
             touch_off: TouchOff::default(),
+            voltage_max_v: v_max,
             notes,
             state: CycleState::new(TouchOff::default()),
             wall_clock: settings.budget.cycle_budget().enforced,
         };
-        c.touched_off(settings.touch_off);
+        c.set_touch_off(settings.touch_off);
         Ok(c)
     }
 
     /// The tool was touched off at `at` (the stack's voltage and the gauge's reading there); called
     /// before the first step — the program's `controller.touch_off` does it at construction. Kept
-    /// across [`Self::reset`].
-    pub fn touched_off(&mut self, at: TouchOff) {
+    /// across [`Self::reset`]. Until the first reading the controller holds this voltage, so it is
+    /// checked as the program's is.
+    ///
+    /// # Errors
+    /// [`RuntimeError::InvalidValue`] naming `touch_off.bias_v` for a voltage outside the amplifier's
+    /// 0 ..= `voltage_max_v` (NaN included), or `touch_off.gauge_um` for a reading that is not finite;
+    /// the controller then keeps the touch-off it had.
+    pub fn touched_off(&mut self, at: TouchOff) -> Result<(), RuntimeError> {
+        let invalid = |key: &str, value: f64, allowed: String| RuntimeError::InvalidValue {
+            path: PathBuf::from("<touched_off>"),
+            key: key.into(),
+            value: value.to_string(),
+            allowed,
+        };
+        if !(0.0..=self.voltage_max_v).contains(&at.bias_v) {
+            return Err(invalid(
+                "touch_off.bias_v",
+                at.bias_v,
+                format!(
+                    "0 ..= {} V, the amplifier's range (the bundle's spindle)",
+                    self.voltage_max_v
+                ),
+            ));
+        }
+        if !at.gauge_um.is_finite() {
+            return Err(invalid(
+                "touch_off.gauge_um",
+                at.gauge_um,
+                "a finite gauge reading".into(),
+            ));
+        }
+        self.set_touch_off(at);
+        Ok(())
+    }
+
+    fn set_touch_off(&mut self, at: TouchOff) {
         self.touch_off = at;
         self.inner.touched_off(at);
         self.state.last_v = at.bias_v;

@@ -102,3 +102,53 @@ fn a_program_round_trips_through_its_text() {
     let again = Program::from_toml_str(&p.to_toml().unwrap(), Path::new("again.toml")).unwrap();
     assert_eq!(p, again);
 }
+
+/// A touch-off given after construction (`Controller::touched_off`) is checked as the program's is:
+/// the controller holds its voltage until the first reading, so a NaN or out-of-range one would reach
+/// the amplifier. Refused naming the key; the controller keeps the touch-off it had.
+#[test]
+fn a_touch_off_outside_the_amplifiers_range_is_refused_and_the_old_one_kept() {
+    use millcomp_mpc::groove::TouchOff;
+    use millcomp_runtime::{ControllerKind, Measurement};
+    let bundle = millcomp_runtime::load_bundle(&common::data("bundle_s7.toml")).unwrap();
+    let mut program = Program::load(&common::data("ramp_20deg.toml")).unwrap();
+    program.controller.kind = ControllerKind::PidTuned;
+    let mut c = Controller::from_bundle(&bundle, &program).unwrap();
+    c.touched_off(TouchOff {
+        bias_v: 150.0,
+        gauge_um: 2.0,
+    })
+    .unwrap();
+    // the bundle's amplifier reaches 1000 V (tests/data/bundle_s7.toml): its top is allowed
+    c.touched_off(TouchOff {
+        bias_v: 1000.0,
+        gauge_um: 2.0,
+    })
+    .unwrap();
+    c.touched_off(TouchOff {
+        bias_v: 150.0,
+        gauge_um: 2.0,
+    })
+    .unwrap();
+    for (bias_v, gauge_um, key) in [
+        (f64::NAN, 0.0, "touch_off.bias_v"),
+        (-1.0, 0.0, "touch_off.bias_v"),
+        (1000.5, 0.0, "touch_off.bias_v"),
+        (f64::INFINITY, 0.0, "touch_off.bias_v"),
+        (100.0, f64::NAN, "touch_off.gauge_um"),
+        (100.0, f64::NEG_INFINITY, "touch_off.gauge_um"),
+    ] {
+        let e = c.touched_off(TouchOff { bias_v, gauge_um }).unwrap_err();
+        assert!(
+            matches!(&e, RuntimeError::InvalidValue { key: k, .. } if k == key),
+            "{bias_v} V, {gauge_um} µm: {e}"
+        );
+        if key == "touch_off.bias_v" {
+            assert!(e.to_string().contains("0 ..= 1000 V"), "{e}");
+        }
+        assert_eq!(c.touch_off().bias_v, 150.0);
+        assert_eq!(c.touch_off().gauge_um, 2.0);
+    }
+    // before the first reading the PI holds the touch-off it kept
+    assert_eq!(c.step(&Measurement::NONE).voltage_v, 150.0);
+}
