@@ -272,77 +272,55 @@ fn unlisted_names(rep: &DiagnoseReport) -> String {
 /// The `unlisted` section of one term: the variable, the basis cross-validation chose, the
 /// evidence, the held-out gap and the shape table.
 fn unlisted_text(s: &mut String, u: &UnlistedTerm) {
-    let w = |s: &mut String, line: String| {
-        s.push_str(&line);
-        s.push('\n');
-    };
-    w(
+    use std::fmt::Write;
+    // writing into a String cannot fail: the results are ignored
+    let _ = writeln!(
         s,
-        format!(
-            "unlisted: a term built from the data follows {} (no candidate family explains it)",
-            u.variable
-        ),
+        "unlisted: a term built from the data follows {} (no candidate family explains it)",
+        u.variable
     );
     if !u.driver_of.is_empty() {
-        w(
+        let _ = writeln!(
             s,
-            format!(
-                "  {} drives the named {}: the term may be what its shapes miss rather than a further effect",
-                u.variable,
-                u.driver_of.join(", ")
-            ),
+            "  {} drives the named {}: the term may be what its shapes miss rather than a further effect",
+            u.variable,
+            u.driver_of.join(", ")
         );
     }
-    w(
+    let bases: Vec<&str> = u.flexibility.iter().map(|f| f.basis.as_str()).collect();
+    let _ = writeln!(
         s,
-        format!(
-            "  basis {} ({} dof), chosen by leave-one-groove-out cross-validation over {}",
-            u.basis,
-            u.dof,
-            u.flexibility
-                .iter()
-                .map(|f| f.basis.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
-        ),
+        "  basis {} ({} dof), chosen by leave-one-groove-out cross-validation over {}",
+        u.basis,
+        u.dof,
+        bases.join(", ")
     );
-    w(
+    let _ = writeln!(
         s,
-        format!(
-            "  evidence: F({},{:.0}) = {:.2}  p = {}  threshold p < {:.2e} (family-wise over {} bases; Bonferroni's {:.2e})  between grooves {:.0} %",
-            u.test.df1,
-            u.test.df2,
-            u.test.f_statistic,
-            fmt_p(u.p_value),
-            u.threshold,
-            u.bases_tried,
-            u.bonferroni_threshold,
-            100.0 * u.between_share
-        ),
+        "  evidence: F({},{:.0}) = {:.2}  p = {}  threshold p < {:.2e} (family-wise over {} bases; Bonferroni's {:.2e})  between grooves {:.0} %",
+        u.test.df1,
+        u.test.df2,
+        u.test.f_statistic,
+        fmt_p(u.p_value),
+        u.threshold,
+        u.bases_tried,
+        u.bonferroni_threshold,
+        100.0 * u.between_share
     );
-    w(
+    let _ = writeln!(
         s,
-        format!(
-            "  held-out grooves: RMS {:.3} → {:.3} µm   residual RMS {:.3} → {:.3} µm   amplitude {:.3} µm",
-            u.held_out_rms_um[0],
-            u.held_out_rms_um[1],
-            u.rms_before_um,
-            u.rms_after_um,
-            u.amplitude_um
-        ),
+        "  held-out grooves: RMS {:.3} → {:.3} µm   residual RMS {:.3} → {:.3} µm   amplitude {:.3} µm",
+        u.held_out_rms_um[0], u.held_out_rms_um[1], u.rms_before_um, u.rms_after_um, u.amplitude_um
     );
-    let values: Vec<String> = u
-        .shape
-        .iter()
-        .map(|p| format!("{:>8.4}", p.value))
-        .collect();
-    let offsets: Vec<String> = u
-        .shape
-        .iter()
-        .map(|p| format!("{:>8.3}", p.offset_um))
-        .collect();
-    w(s, format!("  {:<14}{}", u.variable, values.join("")));
-    w(s, format!("  {:<14}{}", "offset (µm)", offsets.join("")));
+    let _ = write!(s, "  {:<14}", u.variable);
+    for p in &u.shape {
+        let _ = write!(s, "{:>8.4}", p.value);
+    }
+    let _ = write!(s, "\n  {:<14}", "offset (µm)");
+    for p in &u.shape {
+        let _ = write!(s, "{:>8.3}", p.offset_um);
+    }
+    s.push('\n');
 }
 
 /// Palette indices of the curves (present::plot): nominal blue, final red, measured gray.
