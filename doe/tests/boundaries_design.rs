@@ -1306,3 +1306,50 @@ fn a_latin_hypercube_takes_two_to_five_thousand_runs() {
         d.criteria.min_distance
     );
 }
+
+/// A D-optimal design of exactly 10 000 runs (`MAX_DOPTIMAL_RUNS`) is built: one coded factor, main
+/// effects, half the runs at each level (by hand: det XᵀX = n² − (Σx)² is largest when Σx = 0, so
+/// ln det = 2 ln 10⁴). Targets doptimal.rs:205 (`> with >=`).
+#[test]
+fn a_d_optimal_design_of_exactly_ten_thousand_runs_is_built() {
+    let d = dopt("a", "main", Some(10_000)).unwrap();
+    assert_eq!(d.n_runs(), 10_000);
+    assert_eq!(d.runs.iter().filter(|r| r.coded[0] == 1.0).count(), 5_000);
+    assert!((d.criteria.log_det_xtx.unwrap() - 2.0 * 1e4f64.ln()).abs() < 1e-9);
+}
+
+/// The alias structure of the 2^(5−2) with D = AB, E = AC (words ABD, ACE, BCDE), by hand: each main
+/// effect and two-factor interaction with its aliases of order ≤ 3, sorted by order then factors.
+/// Targets `alias_structure` (fractional.rs:336–353: `-> vec![]`, `<<`/`>>` swaps, `<= with >`,
+/// `&& with ||`, `!= with ==`).
+#[test]
+fn the_aliases_of_a_two_to_the_five_minus_two_are_those_worked_by_hand() {
+    let d = fractional(5, |r| r.generators = Some("D=AB,E=AC".into())).unwrap();
+    let got: Vec<(String, Vec<String>)> = d
+        .alias_structure
+        .iter()
+        .map(|e| (e.term.clone(), e.aliases.clone()))
+        .collect();
+    let want: Vec<(&str, Vec<&str>)> = vec![
+        ("A", vec!["B:D", "C:E"]),
+        ("B", vec!["A:D", "C:D:E"]),
+        ("C", vec!["A:E", "B:D:E"]),
+        ("D", vec!["A:B", "B:C:E"]),
+        ("E", vec!["A:C", "B:C:D"]),
+        ("A:B", vec!["D", "B:C:E"]),
+        ("A:C", vec!["E", "B:C:D"]),
+        ("A:D", vec!["B", "C:D:E"]),
+        ("A:E", vec!["C", "B:D:E"]),
+        ("B:C", vec!["D:E", "A:B:E", "A:C:D"]),
+        ("B:D", vec!["A", "C:E"]),
+        ("B:E", vec!["C:D", "A:B:C", "A:D:E"]),
+        ("C:D", vec!["B:E", "A:B:C", "A:D:E"]),
+        ("C:E", vec!["A", "B:D"]),
+        ("D:E", vec!["B:C", "A:B:E", "A:C:D"]),
+    ];
+    let want: Vec<(String, Vec<String>)> = want
+        .into_iter()
+        .map(|(t, a)| (t.to_string(), a.into_iter().map(String::from).collect()))
+        .collect();
+    assert_eq!(got, want);
+}
