@@ -1353,3 +1353,40 @@ fn the_aliases_of_a_two_to_the_five_minus_two_are_those_worked_by_hand() {
         .collect();
     assert_eq!(got, want);
 }
+
+/// A run count with a resolution: 5 factors in 8 runs reach resolution III (the catalogue's 2^(5−2)_III)
+/// and are refused at IV naming the best 8-run design's III; 5 factors in 16 runs reach V. Targets
+/// factorial.rs:234 (`< with <=/>`).
+#[test]
+fn a_run_count_with_a_resolution_is_refused_only_below_that_resolution() {
+    let d = fractional(5, |r| {
+        r.runs = Some(8);
+        r.resolution = Some(3);
+    })
+    .unwrap();
+    assert_eq!((d.n_runs(), d.resolution), (8, Some(3)));
+    match fractional(5, |r| {
+        r.runs = Some(8);
+        r.resolution = Some(4);
+    }) {
+        Err(DoeError::NoCatalogueDesign {
+            factors,
+            request,
+            reason,
+        }) => assert_eq!(
+            (factors, request.as_str(), reason.as_str()),
+            (
+                5,
+                "in 8 runs at resolution IV",
+                "the best 8-run design has resolution III; use more runs"
+            )
+        ),
+        other => panic!("{:?}", other.map(|d| d.n_runs())),
+    }
+    let d = fractional(5, |r| {
+        r.runs = Some(16);
+        r.resolution = Some(5);
+    })
+    .unwrap();
+    assert_eq!((d.n_runs(), d.resolution), (16, Some(5)));
+}
