@@ -1390,3 +1390,82 @@ fn a_run_count_with_a_resolution_is_refused_only_below_that_resolution() {
     .unwrap();
     assert_eq!((d.n_runs(), d.resolution), (16, Some(5)));
 }
+
+/// A D-optimal design takes p + 5 runs by default (main effects of 2 factors: p = 3 → 8 runs), and
+/// under `a + b <= 0.5` 19 of the 25 points of the 5-level grid are candidates (by hand: 5 + 5 + 4 + 3
+/// + 2 for a = −1, −0.5, 0, 0.5, 1). Targets doptimal.rs:203, 204, 241, 242.
+#[test]
+fn a_d_optimal_design_takes_p_plus_five_runs_and_counts_its_candidates() {
+    let d = dopt("a,b", "main", None).unwrap();
+    assert_eq!(d.n_runs(), 8);
+    let mut o = DesignOptions::new("d-optimal", "a,b");
+    o.model = Some("main".into());
+    o.constraints = Some("a + b <= 0.5".into());
+    o.seed = Some(2);
+    let d = generate(&o.request().unwrap()).unwrap();
+    assert!(
+        d.notes
+            .iter()
+            .any(|n| n.ends_with("; 19 candidate points satisfy the constraints")),
+        "{:?}",
+        d.notes
+    );
+}
+
+/// An orthogonal CCD in 2 blocks counts the centre points of both blocks: k = 2, 2 centres per block,
+/// N = 4 + 4 + 4 = 12, α = √((√48 − 4)/2) (by hand, Box & Hunter 1957). Targets rsm.rs:22 (`+ with -`).
+#[test]
+fn an_orthogonal_ccd_in_two_blocks_counts_the_centre_points_of_both() {
+    let mut r = ccd_req(2, CcdVariant::Circumscribed, CcdAlpha::Orthogonal);
+    r.blocks = 2;
+    r.center_points = Some(2);
+    let d = generate(&r).unwrap();
+    let want = ((48f64.sqrt() - 4.0) / 2.0).sqrt();
+    assert!((d.alpha.unwrap() - want).abs() < 1e-12, "{:?}", d.alpha);
+    assert_eq!(d.n_runs(), 12);
+}
+
+/// A CCD of 5 factors is built on the 2^(5−1)_V (E = ABCD): its alias structure pairs each two-factor
+/// interaction with the complementary three-factor one (by hand: A:B with C:D:E). Targets rsm.rs:140
+/// (delete field alias_structure).
+#[test]
+fn a_ccd_on_a_half_fraction_reports_its_aliases() {
+    let d = generate(&ccd_req(5, CcdVariant::Circumscribed, CcdAlpha::Rotatable)).unwrap();
+    assert_eq!(d.n_runs(), 16 + 10 + 4);
+    let ab = d.alias_structure.iter().find(|e| e.term == "A:B").unwrap();
+    assert_eq!(ab.aliases, ["C:D:E"]);
+    assert_eq!(d.alias_structure.len(), 10);
+}
+
+/// A Box–Behnken design of 8 factors (past Box & Behnken's table) is built from all 28 pairs, each a
+/// 2² with the others at 0: 112 runs before centre points (by hand). Targets rsm.rs:174 (`+ with */-`).
+#[test]
+fn a_box_behnken_design_of_eight_factors_has_all_twenty_eight_pairs() {
+    let mut req = DesignRequest::new(DesignKind::BoxBehnken, coded(8));
+    req.center_points = Some(0);
+    req.randomize = false;
+    let d = generate(&req).unwrap();
+    assert_eq!(d.n_runs(), 112);
+    assert!(
+        d.runs
+            .iter()
+            .all(|r| r.coded.iter().filter(|&&c| c != 0.0).count() == 2)
+    );
+}
+
+/// A design of two factors serialises each run with both factors' actual and coded levels. Targets
+/// mod.rs:435 (`+ with -`: the size hint underflows from two factors on).
+#[test]
+fn a_two_factor_design_serialises_both_factors_of_each_run() {
+    let mut req = DesignRequest::new(
+        DesignKind::Full,
+        FactorSpec::parse_list("a=1:2,tool=x:y").unwrap(),
+    );
+    req.randomize = false;
+    let v = serde_json::to_value(generate(&req).unwrap()).unwrap();
+    let run = &v["runs"][3];
+    assert_eq!(run["a"], 2.0);
+    assert_eq!(run["tool"], "y");
+    assert_eq!(run["tool_coded"], 1.0);
+    assert_eq!(v["runs"].as_array().unwrap().len(), 4);
+}
