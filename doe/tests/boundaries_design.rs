@@ -1469,3 +1469,59 @@ fn a_two_factor_design_serialises_both_factors_of_each_run() {
     assert_eq!(run["tool_coded"], 1.0);
     assert_eq!(v["runs"].as_array().unwrap().len(), 4);
 }
+
+/// A negative generator `D=-ABC` gives the other half fraction: every run has D = −A·B·C and the
+/// defining relation I = −ABCD. Targets factorial.rs:23 (`delete -`).
+#[test]
+fn a_negative_generator_gives_the_other_half_fraction() {
+    let d = fractional(4, |r| r.generators = Some("D=-ABC".into())).unwrap();
+    assert_eq!(d.n_runs(), 8);
+    assert_eq!(d.defining_relation, ["I=-ABCD"]);
+    for r in &d.runs {
+        assert_eq!(
+            r.coded[3],
+            -r.coded[0] * r.coded[1] * r.coded[2],
+            "{:?}",
+            r.coded
+        );
+    }
+}
+
+/// A mixed-level full factorial lists every combination once: 3 × 2 levels → 6 distinct runs, each
+/// level of the 3-level factor twice. Targets factorial.rs:164, 165.
+#[test]
+fn a_mixed_level_full_factorial_lists_every_combination_once() {
+    let mut req = DesignRequest::new(
+        DesignKind::Full,
+        FactorSpec::parse_list("d=1:2:3,tool=x:y").unwrap(),
+    );
+    req.randomize = false;
+    let d = generate(&req).unwrap();
+    let mut rows: Vec<String> = d
+        .runs
+        .iter()
+        .map(|r| format!("{}/{}", r.actual[0], r.actual[1]))
+        .collect();
+    rows.sort();
+    rows.dedup();
+    assert_eq!(rows.len(), 6, "{rows:?}");
+    for l in [1.0, 2.0, 3.0] {
+        assert_eq!(
+            d.runs
+                .iter()
+                .filter(|r| r.actual[0] == Level::Num(l))
+                .count(),
+            2
+        );
+    }
+}
+
+/// A coded value past the ends of a label factor is its nearest label: −2 → x, +2 → z. Targets
+/// factor.rs:295, 297.
+#[test]
+fn a_coded_value_past_the_ends_of_a_label_factor_is_its_end_label() {
+    let m = FactorSpec::parse("tool=x:y:z").unwrap();
+    assert_eq!(m.actual(2.0), Level::Label("z".into()));
+    assert_eq!(m.actual(-2.0), Level::Label("x".into()));
+    assert_eq!(m.actual(-1.0), Level::Label("x".into()));
+}
