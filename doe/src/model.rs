@@ -403,3 +403,66 @@ mod tests {
         assert!(expand(&ModelSpec::parse("a^3").unwrap(), &m).is_err());
     }
 }
+
+#[cfg(test)]
+mod boundary_tests {
+    use super::*;
+
+    fn meta(name: &str, n_levels: usize, label: bool) -> FactorMeta {
+        FactorMeta {
+            name: name.into(),
+            n_levels,
+            label,
+        }
+    }
+
+    /// Containment is strict: `a` ⊂ `a:b`, not `a:b` ⊂ `a:b` nor `a:b` ⊂ `a`; `a` ⊄ `a^2`'s sibling
+    /// `b:c`. Targets `Term::contained_in` (`-> true`, `< with ==`).
+    #[test]
+    fn a_term_is_contained_only_in_a_larger_term_holding_all_its_parts() {
+        let a = Term {
+            parts: vec![(0, 1)],
+        };
+        let ab = Term {
+            parts: vec![(0, 1), (1, 1)],
+        };
+        let bc = Term {
+            parts: vec![(1, 1), (2, 1)],
+        };
+        assert!(a.contained_in(&ab));
+        assert!(!ab.contained_in(&ab));
+        assert!(!ab.contained_in(&a));
+        assert!(!a.contained_in(&bc));
+        let a2 = Term {
+            parts: vec![(0, 2)],
+        };
+        assert!(a2.has_square() && !a.has_square() && !ab.has_square());
+        assert_eq!((a.degree(), ab.degree(), a2.degree()), (1, 2, 2));
+    }
+
+    /// `quadratic` squares only numeric factors of three or more levels: not a two-level numeric factor,
+    /// not a three-level label. Targets model.rs:180 (`&& with ||`).
+    #[test]
+    fn quadratic_squares_only_numeric_factors_of_three_levels() {
+        let metas = [meta("a", 3, false), meta("b", 2, false), meta("c", 3, true)];
+        let t = expand(&ModelSpec::Quadratic, &metas).unwrap();
+        let names: Vec<String> = ["a", "b", "c"].iter().map(|s| s.to_string()).collect();
+        let got: Vec<String> = t.iter().map(|t| t.name(&names)).collect();
+        assert_eq!(got, ["a", "b", "c", "a:b", "a:c", "b:c", "a^2"]);
+    }
+
+    /// A label factor has no square: `c^2` is refused, `a^2` taken. Targets model.rs:265 (`== with !=`)
+    /// and 247 (`|| with &&`).
+    #[test]
+    fn a_label_factor_has_no_square() {
+        let metas = [meta("a", 3, false), meta("c", 3, true)];
+        let e = expand(&ModelSpec::Formula("a + c^2".into()), &metas).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("`c` is a label factor and has no square"),
+            "{e}"
+        );
+        let t = expand(&ModelSpec::Formula("a^2 + c + a^1".into()), &metas).unwrap();
+        assert_eq!(t.len(), 3);
+    }
+}

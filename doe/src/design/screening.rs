@@ -346,3 +346,34 @@ mod tests {
         assert_eq!(conference(0), None);
     }
 }
+
+#[cfg(test)]
+mod boundary_tests {
+    use super::*;
+
+    /// Prime powers by hand: 2 = 2¹, 8 = 2³, 9 = 3², 25 = 5², 31 = 31¹; 0, 1, 12, 15 are none.
+    /// Targets `prime_power` (`< with <=/==/>`, its `Some((…))` bodies, `== with !=` at line 203).
+    #[test]
+    fn prime_powers_are_recognised_with_their_prime_and_exponent() {
+        assert_eq!(prime_power(2), Some((2, 1)));
+        assert_eq!(prime_power(8), Some((2, 3)));
+        assert_eq!(prime_power(9), Some((3, 2)));
+        assert_eq!(prime_power(25), Some((5, 2)));
+        assert_eq!(prime_power(31), Some((31, 1)));
+        for q in [0, 1, 12, 15] {
+            assert_eq!(prime_power(q), None, "{q}");
+        }
+    }
+
+    /// GF(9) as digits base 3: q = 9, 7 = (1, 2) ↔ 7, 5 − 7 = (2, 1) − (1, 2) = (1, 2) = 7 (by hand).
+    /// Targets `Gf::q`, `Gf::digits`, `Gf::undigits`.
+    #[test]
+    fn the_field_of_nine_elements_counts_and_writes_its_elements() {
+        let f = Gf::new(9).unwrap();
+        assert_eq!(f.q(), 9);
+        assert_eq!(f.digits(7), [1, 2]);
+        assert_eq!(f.undigits(&[1, 2]), 7);
+        assert_eq!(f.sub(5, 7), 7);
+        assert_eq!(f.sub(7, 7), 0);
+    }
+}
