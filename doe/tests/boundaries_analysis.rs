@@ -257,3 +257,248 @@ fn a_three_level_label_factor_is_sum_coded_against_its_last_level() {
     }
     assert_eq!(a.terms[0].df, 2);
 }
+
+fn one_factor(f: (String, Values), y: &[f64], model: ModelSpec) -> AnalysisInput {
+    AnalysisInput {
+        factors: vec![f],
+        response_name: "y".into(),
+        response: Values::F64(y.to_vec()),
+        model,
+    }
+}
+
+/// A constant response (sse = sst = 0 exactly) leaves R² NaN and adjusted R², predicted R², the
+/// Durbin–Watson statistic and every studentized residual and Cook's distance undefined, with a note.
+/// Targets analysis/mod.rs:822 (`m > 0.0` -> `>=`), :848 (`sse > 0.0` -> `>=`), :860, :862 and :917.
+#[test]
+fn a_constant_response_leaves_every_ratio_to_its_variation_undefined() {
+    let a = analyze(&one_factor(
+        f64col("a", &[-1.0, 1.0, -1.0, 1.0]),
+        &[5.0; 4],
+        ModelSpec::Main,
+    ))
+    .unwrap();
+    assert_eq!(a.residual_sum_sq, 0.0);
+    assert!(a.r_squared.is_nan());
+    assert_eq!(a.adj_r_squared, None);
+    assert_eq!(a.pred_r_squared, None);
+    assert_eq!(a.diagnostics.durbin_watson, None);
+    assert!(
+        a.diagnostics
+            .runs
+            .iter()
+            .all(|r| r.studentized.is_none() && r.cooks_d.is_none())
+    );
+    assert_eq!(a.diagnostics.max_abs_studentized, None);
+    assert!(
+        a.notes
+            .iter()
+            .any(|n| n == "the response is constant: R² is undefined")
+    );
+}
+
+/// A run alone at its level of a label factor has leverage 1: no studentized residual, Cook's distance
+/// or PRESS (so no predicted R²); the other runs have theirs. By hand (levels p, p, q, q, r; y = 1, 3,
+/// 5, 8, 20): residuals −1, 1, −1.5, 1.5, 0; SSE = 6.5 on 2 df, MSE = 3.25; h = ½ for the replicated
+/// runs; r₁ = −1/√(3.25·½) = −0.78446…, D₁ = r₁²·h/(p(1−h)) = 0.20513, max |r| = 1.5/√1.625,
+/// DW = (4 + 6.25 + 9 + 2.25)/6.5. The model saturates the 3 settings (df_e = df_pe = 2): no lack of
+/// fit; not saturated: no Lenth. Targets analysis/mod.rs:822–829, :848–862, :907.
+#[test]
+fn a_run_of_leverage_one_has_no_studentized_residual_and_the_others_have_theirs() {
+    let a = analyze(&one_factor(
+        strcol("B", &["p", "p", "q", "q", "r"]),
+        &[1.0, 3.0, 5.0, 8.0, 20.0],
+        ModelSpec::Main,
+    ))
+    .unwrap();
+    let runs = &a.diagnostics.runs;
+    assert_eq!(a.residual_df, 2);
+    assert!((a.residual_sum_sq - 6.5).abs() < 1e-12);
+    for (r, h) in runs.iter().zip([0.5, 0.5, 0.5, 0.5, 1.0]) {
+        assert!((r.leverage - h).abs() < 1e-12, "{r:?}");
+    }
+    assert_eq!((runs[4].studentized, runs[4].cooks_d), (None, None));
+    let r1 = runs[0].studentized.unwrap();
+    assert!((r1 + 0.7844645405527362).abs() < 1e-12, "{r1}");
+    assert!((runs[0].cooks_d.unwrap() - 0.20512820512820515).abs() < 1e-12);
+    assert!((runs[3].studentized.unwrap() - 1.1766968108291043).abs() < 1e-12);
+    let m = a.diagnostics.max_abs_studentized.unwrap();
+    assert!((m - 1.1766968108291043).abs() < 1e-12);
+    assert!(a.diagnostics.outliers.is_empty());
+    let dw = a.diagnostics.durbin_watson.unwrap();
+    assert!((dw - 3.3076923076923075).abs() < 1e-12, "{dw}");
+    assert_eq!(a.pred_r_squared, None);
+    // by hand: SST = 225.2 (mean 7.4), R² = 1 − 6.5/225.2, adj = 1 − 3.25/(225.2/4)
+    assert!((a.r_squared - (1.0 - 6.5 / 225.2)).abs() < 1e-12);
+    assert!((a.adj_r_squared.unwrap() - (1.0 - 3.25 / 56.3)).abs() < 1e-12);
+    assert_eq!(a.lack_of_fit, None);
+    assert_eq!(a.lenth, None);
+}
+
+/// Lack of fit of a straight line to three replicated settings (x = −1, 0, 1 twice; y = 1, 3, 6, 8, 5,
+/// 7). By hand: fitted 3, 5, 7; SSE = 18 on 4 df; pure error 6 on 3 df; lack of fit 12 on 1 df,
+/// F = 12/(6/3) = 6, p = P(|t₃| > √6) = 0.0917211133 (closed-form t₃ CDF). Identical replicates
+/// (no pure error) give none. Targets analysis/mod.rs:889 (each comparison), :892, and the pure
+/// error's centring.
+#[test]
+fn lack_of_fit_needs_replicates_that_differ_and_is_the_textbook_f() {
+    let x = f64col("x", &[-1.0, -1.0, 0.0, 0.0, 1.0, 1.0]);
+    let a = analyze(&one_factor(
+        x.clone(),
+        &[1.0, 3.0, 6.0, 8.0, 5.0, 7.0],
+        ModelSpec::Main,
+    ))
+    .unwrap();
+    let l = a.lack_of_fit.unwrap();
+    assert_eq!((l.lack_of_fit_df, l.pure_error_df), (1, 3));
+    assert!((l.lack_of_fit_ss - 12.0).abs() < 1e-9);
+    assert!((l.pure_error_ss - 6.0).abs() < 1e-9);
+    assert!((l.f - 6.0).abs() < 1e-9);
+    assert!(
+        (l.p_value - 0.09172111331157184).abs() < 1e-9,
+        "{}",
+        l.p_value
+    );
+    let a = analyze(&one_factor(
+        x,
+        &[2.0, 2.0, 7.0, 7.0, 6.0, 6.0],
+        ModelSpec::Main,
+    ))
+    .unwrap();
+    assert_eq!(a.lack_of_fit, None);
+    // no replicates: none
+    let a = analyze(&one_factor(
+        f64col("x", &[-1.0, 0.0, 1.0, 2.0]),
+        &[1.0, 4.0, 2.0, 8.0],
+        ModelSpec::Main,
+    ))
+    .unwrap();
+    assert_eq!(a.lack_of_fit, None);
+}
+
+/// A saturated model (2² with its interaction, 4 runs) has no residual df: Lenth's method instead, and
+/// a note. Targets analysis/mod.rs:907 (`==` -> `!=`).
+#[test]
+fn a_saturated_model_is_judged_by_lenth() {
+    let a = analyze(&AnalysisInput {
+        factors: vec![
+            f64col("A", &[-1.0, 1.0, -1.0, 1.0]),
+            f64col("B", &[-1.0, -1.0, 1.0, 1.0]),
+        ],
+        response_name: "y".into(),
+        response: Values::F64(vec![1.0, 5.0, 2.0, 9.0]),
+        model: ModelSpec::parse("2fi").unwrap(),
+    })
+    .unwrap();
+    assert_eq!(a.residual_df, 0);
+    let l = a.lenth.unwrap();
+    assert_eq!(l.terms.len(), 3);
+    // by hand: effects A = (5 + 9 − 1 − 2)/2 = 5.5, B = 2.5, AB = (1 + 9 − 5 − 2)/2 = 1.5
+    assert!((l.terms[0].effect - 5.5).abs() < 1e-12);
+    assert!((l.terms[2].effect - 1.5).abs() < 1e-12);
+    assert!(a.notes.iter().any(|n| n.starts_with("saturated model")));
+}
+
+/// 2² replicated twice: A strong, B and AB weak.
+fn two_by_two() -> AnalysisInput {
+    AnalysisInput {
+        factors: vec![
+            f64col("A", &[-1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0]),
+            f64col("B", &[-1.0, -1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0]),
+        ],
+        response_name: "y".into(),
+        response: Values::F64(vec![5.0, 15.0, 6.0, 14.0, 4.5, 15.5, 5.0, 15.2]),
+        model: ModelSpec::parse("2fi").unwrap(),
+    }
+}
+
+/// Backward elimination removes the interaction first (only a term contained in no other may go), then
+/// B, and keeps A; α must lie strictly in (0, 1). Targets analysis/mod.rs:1030 (each comparison),
+/// :1046 (`delete !`: hierarchy), :1071.
+#[test]
+fn elimination_keeps_the_hierarchy_and_refuses_an_alpha_of_zero_or_one() {
+    let e = millcomp_doe::backward_eliminate(&two_by_two(), 0.05).unwrap();
+    let removed: Vec<&str> = e.steps.iter().map(|s| s.removed.as_str()).collect();
+    assert_eq!(removed, vec!["A:B", "B"]);
+    assert_eq!(e.analysis.model, "A");
+    assert!(e.steps.iter().all(|s| s.p_value.unwrap() > 0.05));
+    for a in [0.0, 1.0, -0.1, 1.5] {
+        match millcomp_doe::backward_eliminate(&two_by_two(), a) {
+            Err(DoeError::InvalidParameter { name, .. }) => assert_eq!(name, "alpha"),
+            other => panic!("α = {a}: {other:?}"),
+        }
+    }
+    let e = millcomp_doe::backward_eliminate(&two_by_two(), 1.0 - 1e-12).unwrap();
+    assert!(e.steps.is_empty());
+}
+
+/// A term goes only when its p-value is strictly above α: at α equal to the interaction's p-value it
+/// stays, just below it goes. Targets analysis/mod.rs:1063 (`>` -> `>=`, `==`).
+#[test]
+fn a_term_whose_p_value_equals_alpha_stays() {
+    let a = analyze(&two_by_two()).unwrap();
+    let p = a
+        .terms
+        .iter()
+        .find(|t| t.term == "A:B")
+        .unwrap()
+        .p_value
+        .unwrap();
+    assert!(p > 0.05 && p < 1.0, "{p}");
+    let e = millcomp_doe::backward_eliminate(&two_by_two(), p).unwrap();
+    assert!(e.steps.is_empty(), "{:?}", e.steps);
+    assert_eq!(e.analysis.terms.len(), 3);
+    let e = millcomp_doe::backward_eliminate(&two_by_two(), p * (1.0 - 1e-9)).unwrap();
+    assert_eq!(e.steps[0].removed, "A:B");
+    assert_eq!(e.steps[0].p_value, Some(p));
+}
+
+fn two_cubed() -> Vec<(String, Values)> {
+    vec![
+        f64col("A", &[-1., 1., -1., 1., -1., 1., -1., 1.]),
+        f64col("B", &[-1., -1., 1., 1., -1., -1., 1., 1.]),
+        f64col("C", &[-1., -1., -1., -1., 1., 1., 1., 1.]),
+    ]
+}
+
+/// Power of each main effect of a 2³ (4 residual df) for an effect of 4 at σ = 2: λ = (Δ/2)²/(σ²·1/8)
+/// = 8 by hand, power 0.5716094577007155 at α = 0.05 (scipy, tests/golden/noncentral_f.json); each
+/// refused argument alone names itself; a saturated model has no residual df. Targets
+/// analysis/mod.rs:1144–1196 (the guards, `-> Ok(Default)`, the noncentrality's arithmetic).
+#[test]
+fn the_power_of_a_two_cubed_main_effect_and_each_refused_argument() {
+    let r = millcomp_doe::power(&two_cubed(), &ModelSpec::Main, 4.0, 2.0, 0.05).unwrap();
+    assert_eq!((r.residual_df, r.terms.len()), (4, 3));
+    for t in &r.terms {
+        assert!((t.noncentrality - 8.0).abs() < 1e-12, "{t:?}");
+        assert!((t.power - 0.5716094577007155).abs() < 1e-10);
+        assert!((t.f_crit - 7.708647422176786).abs() < 1e-7);
+    }
+    let bad = [
+        (f64::NAN, 2.0, 0.05, "effect"),
+        (f64::INFINITY, 2.0, 0.05, "effect"),
+        (4.0, 0.0, 0.05, "sigma"),
+        (4.0, -1.0, 0.05, "sigma"),
+        (4.0, f64::INFINITY, 0.05, "sigma"),
+        (4.0, 2.0, 0.0, "alpha"),
+        (4.0, 2.0, 1.0, "alpha"),
+    ];
+    for (e, s, a, which) in bad {
+        match millcomp_doe::power(&two_cubed(), &ModelSpec::Main, e, s, a) {
+            Err(DoeError::InvalidParameter { name, .. }) => assert_eq!(name, which),
+            other => panic!("{e} {s} {a}: {other:?}"),
+        }
+    }
+    // an effect of 0 is allowed: the power is the level (by definition)
+    let r = millcomp_doe::power(&two_cubed(), &ModelSpec::Main, 0.0, 2.0, 0.05).unwrap();
+    assert!((r.terms[0].power - 0.05).abs() < 1e-10);
+    let sat = ModelSpec::parse("A + B + C + A:B + A:C + B:C + A:B:C").unwrap();
+    assert!(matches!(
+        millcomp_doe::power(&two_cubed(), &sat, 4.0, 2.0, 0.05),
+        Err(DoeError::NotEnoughData {
+            needed: 1,
+            have: 0,
+            ..
+        })
+    ));
+}
