@@ -240,3 +240,150 @@ fn a_saved_surface_loads_back_and_its_header_is_checked() {
         other => panic!("{other:?}"),
     }
 }
+
+use millcomp_models::{IdentifiedModel, NamedMatrix, SensorNoise, SpindleModel};
+
+/// An identified model with residuals in `unit` and the given sections (no covariance).
+fn fitted(unit: &str, rms: f64, sections: &str) -> IdentifiedModel {
+    toml::from_str(&format!(
+        "status = \"converged\"\nn_obs = 100\ndof = 98\nrms_residual = {rms}\n\
+         residual_unit = \"{unit}\"\n{sections}\n[std_err]\n[covariance]\nnames = []\nvalues = []\n"
+    ))
+    .unwrap()
+}
+
+/// Each documented residual unit (`um`, `n`, `none`) is read and kept as spelled; another is refused.
+/// A parameter is looked up in `params`, then `fixed`; a missing one is refused naming its key and
+/// the available ones. Targets identified.rs:149 (`residual_unit -> Ok(..)`), get/require/require_valid
+/// (`-> None`, `Ok(-1.0)`, `Ok(0.0)`).
+#[test]
+fn each_residual_unit_is_read_and_a_parameter_is_found_in_params_then_fixed() {
+    for unit in IdentifiedModel::RESIDUAL_UNITS {
+        assert_eq!(fitted(unit, 0.1, "[params]").residual_unit, unit);
+    }
+    let bad: Result<IdentifiedModel, _> = toml::from_str(
+        "status = \"converged\"\nn_obs = 3\ndof = 1\nrms_residual = 0.1\nresidual_unit = \"mm\"\n\
+         [params]\n[std_err]\n[covariance]\nnames = []\nvalues = []\n",
+    );
+    assert!(bad.is_err());
+    let m = fitted("um", 0.1, "[params]\na = 0.25\n[fixed]\nb = 3.5");
+    assert_eq!(
+        (m.get("a"), m.get("b"), m.get("c")),
+        (Some(0.25), Some(3.5), None)
+    );
+    let at = Path::new("m.toml");
+    assert_eq!(m.require("b", at, "k").unwrap(), 3.5);
+    assert_eq!(
+        m.require_valid("a", at, "k", |v| v > 0.0, "> 0").unwrap(),
+        0.25
+    );
+    match m.require("c", at, "k") {
+        Err(ModelError::MissingKey { key, available, .. }) => {
+            assert_eq!(
+                (key.as_str(), available.as_str()),
+                ("model.params.c", "a, b")
+            )
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+/// A spindle model needs residuals in µm: the same parameters with residuals in N are refused.
+/// Targets identified.rs:251 (`==` -> `!=`) and SpindleModel::from_identified (`-> Ok(Default)`).
+#[test]
+fn a_spindle_model_needs_residuals_in_micrometres() {
+    let p = "[params]\ngain_um_per_v = 0.05\nzeta = 0.46\nwn_rad_s = 1302.0";
+    let at = Path::new("s.toml");
+    let s = SpindleModel::from_identified(&fitted("um", 0.1, p), at).unwrap();
+    assert_eq!((s.gain_um_per_v, s.zeta, s.wn_rad_s), (0.05, 0.46, 1302.0));
+    assert!(matches!(
+        SpindleModel::from_identified(&fitted("n", 0.1, p), at),
+        Err(ModelError::InvalidValue { .. })
+    ));
+}
+
+/// Sensor noise levels must be finite and ≥ 0: exactly 0 is taken, −0.1 and +∞ are refused naming the
+/// key. Targets identified.rs:616 (`&&` -> `||`, `>=` -> `<`).
+#[test]
+fn a_sensor_noise_of_zero_is_taken_and_negative_or_infinite_is_refused() {
+    let at = Path::new("n.toml");
+    let n = |f: &str, g: &str| {
+        SensorNoise::from_identified(
+            &fitted(
+                "none",
+                0.0,
+                &format!("[params]\nforce_noise_n = {f}\ngauge_noise_um = {g}"),
+            ),
+            at,
+        )
+    };
+    let s = n("0.0", "0.02").unwrap();
+    assert_eq!((s.force_noise_n, s.gauge_noise_um), (0.0, 0.02));
+    for (f, g, key) in [
+        ("-0.1", "0.02", "model.params.force_noise_n"),
+        ("0.3", "inf", "model.params.gauge_noise_um"),
+    ] {
+        match n(f, g) {
+            Err(ModelError::InvalidValue { key: k, .. }) => assert_eq!(k, key),
+            other => panic!("{other:?}"),
+        }
+    }
+}
+
+/// Sensor noise from the residuals of a spindle fit (µm) and a force fit (N): each is taken when its
+/// unit matches (case-insensitively) and its RMS is finite and ≥ 0 (0 included); a wrong unit alone,
+/// or an infinite RMS alone, is refused naming the part. Targets identified.rs:638–641.
+#[test]
+fn sensor_noise_from_residuals_checks_each_condition_alone() {
+    let at = Path::new("b.toml");
+    let sp = |unit: &str, rms: f64| fitted(unit, rms, "[params]");
+    let s = SensorNoise::from_residuals(&sp("um", 0.05), &sp("n", 0.0), at).unwrap();
+    assert_eq!((s.force_noise_n, s.gauge_noise_um), (0.0, 0.05));
+    let key = |r: millcomp_models::Result<SensorNoise>| match r {
+        Err(ModelError::InvalidValue { key, .. }) => key,
+        other => panic!("{other:?}"),
+    };
+    assert_eq!(
+        key(SensorNoise::from_residuals(
+            &sp("n", 0.05),
+            &sp("n", 0.3),
+            at
+        )),
+        "model.spindle.rms_residual"
+    );
+    let mut inf = sp("n", 0.3);
+    inf.rms_residual = f64::INFINITY;
+    assert_eq!(
+        key(SensorNoise::from_residuals(&sp("um", 0.05), &inf, at)),
+        "model.force.rms_residual"
+    );
+    let mut neg = sp("um", 0.3);
+    neg.rms_residual = -0.1;
+    assert_eq!(
+        key(SensorNoise::from_residuals(&neg, &sp("n", 0.3), at)),
+        "model.spindle.rms_residual"
+    );
+}
+
+/// A named matrix built from a matrix gives each cell back by name and as a matrix; a missing cell
+/// reads as NaN and an unknown name as none. Targets identified.rs:58, :65, :77.
+#[test]
+fn a_named_matrix_gives_back_its_cells_by_name() {
+    let names = vec!["a".to_string(), "b".to_string()];
+    let m = nalgebra::DMatrix::from_row_slice(2, 2, &[1.0, 0.5, 0.25, 4.0]);
+    let nm = NamedMatrix::from_matrix(&names, &m);
+    assert_eq!(nm.names, names);
+    assert_eq!(
+        (nm.get("a", "b"), nm.get("b", "a"), nm.get("b", "b")),
+        (Some(0.5), Some(0.25), Some(4.0))
+    );
+    assert_eq!(nm.get("a", "z"), None);
+    assert_eq!(nm.to_matrix(), m);
+    let short = NamedMatrix {
+        names: names.clone(),
+        values: vec![vec![1.0, 2.0]],
+    };
+    let t = short.to_matrix();
+    assert_eq!((t.nrows(), t.ncols(), t[(0, 1)]), (2, 2, 2.0));
+    assert!(t[(1, 0)].is_nan());
+}
