@@ -387,3 +387,60 @@ fn a_named_matrix_gives_back_its_cells_by_name() {
     assert_eq!((t.nrows(), t.ncols(), t[(0, 1)]), (2, 2, 2.0));
     assert!(t[(1, 0)].is_nan());
 }
+
+use millcomp_models::ModelBundle;
+
+fn spindle_fit() -> IdentifiedModel {
+    fitted(
+        "um",
+        0.05,
+        "[params]\ngain_um_per_v = 0.05\nzeta = 0.46\nwn_rad_s = 1302.0",
+    )
+}
+
+/// A bundle from a spindle file alone is made (any one model is enough; none is refused), gives the
+/// spindle back, takes its material whatever the case and spaces, and refuses another; sensor noise
+/// without a record at rest needs both the spindle and the force fit, whose RMS residuals stand in.
+/// Targets bundle.rs:176 (`-> Ok(Default)`, `&&` -> `||`), :72, :116 (the match arm), :241.
+#[test]
+fn a_bundle_of_one_spindle_file_is_made_and_checks_its_material_and_noise_sources() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("spindle.toml");
+    ModelFile::new(
+        "spindle",
+        spindle_fit(),
+        Provenance::now("millcomp", "fit spindle"),
+    )
+    .save(&path)
+    .unwrap();
+    let b = ModelBundle::from_files("Al6061", Some(&path), None, None).unwrap();
+    assert_eq!(b.material, "Al6061");
+    assert_eq!(b.spindle.as_ref(), Some(&spindle_fit()));
+    assert_eq!(b.experiments.len(), 1);
+    let at = Path::new("b.toml");
+    let s = b.spindle(at, "t").unwrap();
+    assert_eq!((s.gain_um_per_v, s.zeta, s.wn_rad_s), (0.05, 0.46, 1302.0));
+    b.check_material(" al6061 ", at).unwrap();
+    match b.check_material("S7", at) {
+        Err(ModelError::InvalidValue { key, value, .. }) => {
+            assert_eq!(
+                (key.as_str(), value.as_str()),
+                ("model.material", "`Al6061`")
+            )
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(matches!(
+        b.sensor_noise(at, "t"),
+        Err(ModelError::MissingKey { .. })
+    ));
+    let mut both = b.clone();
+    both.force = Some(fitted("n", 0.3, "[params]"));
+    let (n, from) = both.sensor_noise(at, "t").unwrap();
+    assert_eq!((n.force_noise_n, n.gauge_noise_um), (0.3, 0.05));
+    assert!(from.starts_with("the spindle and force fits'"), "{from}");
+    match ModelBundle::from_files("Al6061", None, None, None) {
+        Err(ModelError::InvalidValue { key, .. }) => assert_eq!(key, "model"),
+        other => panic!("{other:?}"),
+    }
+}
