@@ -433,4 +433,50 @@ mod tests {
         assert_relative_eq!(f.theta[0], 0.8, max_relative = 1e-12);
         assert_relative_eq!(f.theta[1], 0.6, max_relative = 1e-12);
     }
+
+    /// A weighted line on a constant column of 2 (by hand, weights w = 1, 2, 2, 1 at x = 0..3, y = 1,
+    /// 3, 2, 6: Σw = 6, x̄_w = 1.5, ȳ_w = 17/6, Sxx = 5.5, Sxy = 6.5, slope 13/11, intercept 35/33,
+    /// so the constant column's coefficient is 35/66; weighted RSS = Σ w r² = 2·3.5757… = 7.1515…,
+    /// SE(slope) = √(s²/Sxx) with s² = RSS/2). Both methods. Targets the weighted centring and the
+    /// intercept's recovery: linear.rs:140–150 (`* sw`, `- means`, `/ design[(0, c0)]`).
+    #[test]
+    fn a_weighted_line_on_a_constant_column_of_two_matches_the_hand_calculation() {
+        let x = [0.0, 1.0, 2.0, 3.0];
+        let y = [1.0, 3.0, 2.0, 6.0];
+        let w = [1.0, 2.0, 2.0, 1.0];
+        let a = DMatrix::from_fn(4, 2, |i, j| if j == 0 { 2.0 } else { x[i] });
+        for method in [LinearMethod::Qr, LinearMethod::Svd] {
+            let f =
+                fit_linear(&names(&["c", "m"]), &a, &y, Some(&w), method, "line", "um").unwrap();
+            let r = &f.report;
+            assert_relative_eq!(r.param("m"), 13.0 / 11.0, max_relative = 1e-12);
+            assert_relative_eq!(r.param("c"), 35.0 / 66.0, max_relative = 1e-12);
+            let rss = 2.0 * 3.5757575757575757;
+            assert_relative_eq!(r.rss, rss, max_relative = 1e-10);
+            assert_relative_eq!(r.se("m"), (rss / 2.0 / 5.5).sqrt(), max_relative = 1e-10);
+        }
+    }
+
+    /// A weighted line through the origin (no constant column; by hand, w = 1, 4, 1 at x = 1, 2, 3,
+    /// y = 2, 5, 5: θ = Σwxy/Σwx² = 57/26, weighted RSS = Σ w r² = 2·2.0192307…, SE = √(s²/26)).
+    /// Targets the uncentred branch: linear.rs:154 (`y * s`), :156 (`aw θ − yw`).
+    #[test]
+    fn a_weighted_proportional_fit_matches_the_hand_calculation() {
+        let a = DMatrix::from_column_slice(3, 1, &[1.0, 2.0, 3.0]);
+        let f = fit_linear(
+            &names(&["k"]),
+            &a,
+            &[2.0, 5.0, 5.0],
+            Some(&[1.0, 4.0, 1.0]),
+            LinearMethod::Qr,
+            "prop",
+            "um",
+        )
+        .unwrap();
+        let r = &f.report;
+        assert_relative_eq!(r.param("k"), 57.0 / 26.0, max_relative = 1e-12);
+        let rss = 2.0 * 2.019230769230769;
+        assert_relative_eq!(r.rss, rss, max_relative = 1e-10);
+        assert_relative_eq!(r.se("k"), (rss / 2.0 / 26.0).sqrt(), max_relative = 1e-10);
+    }
 }
