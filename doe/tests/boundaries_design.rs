@@ -428,6 +428,15 @@ fn a_generator_over_a_generated_factor_is_refused_naming_it() {
         reason,
         "the word uses `D` (D), which is itself generated; write words over the base factors only"
     );
+    // the factor named is the generated one in the word, wherever it stands: before stop 58 the test
+    // read `mask & generated >> i & 1` (`>>` binds first), true only for a word with A and a
+    // generated factor i, so `E=AC,D=AE` named D and `D=BC,E=BD` fell back to A
+    let (g, reason) = bad_generator(fractional(5, |r| r.generators = Some("E=AC,D=AE".into())));
+    assert_eq!(g, "D=AE");
+    assert!(reason.starts_with("the word uses `E` (E)"), "{reason}");
+    let (g, reason) = bad_generator(fractional(5, |r| r.generators = Some("D=BC,E=BD".into())));
+    assert_eq!(g, "E=BD");
+    assert!(reason.starts_with("the word uses `D` (D)"), "{reason}");
 }
 
 /// A one-letter word aliases two main effects: `D=A` is refused naming A (word I = AD); `D=AB,E=AB`

@@ -216,7 +216,7 @@ pub(crate) fn parse_generators(s: &str, factors: &[FactorSpec]) -> Result<Vec<Ge
     for g in &gens {
         if g.word.mask & generated != 0 {
             let bad = (0..k)
-                .find(|&i| g.word.mask & generated >> i & 1 == 1)
+                .find(|&i| (g.word.mask & generated) >> i & 1 == 1)
                 .unwrap_or(0);
             return Err(DoeError::InvalidGenerator {
                 generator: g.text.clone(),
