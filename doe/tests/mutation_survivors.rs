@@ -1827,3 +1827,37 @@ fn a_label_factors_coded_value_past_its_range_is_its_end_level() {
     let got: Vec<String> = [-1.5, -1.0, 0.0, 1.0, 1.5].map(label).to_vec();
     assert_eq!(got, ["dry", "dry", "mist", "wet", "wet"]);
 }
+
+/// The response surface lists its monomials by degree, then by name: the intercept, the main effects,
+/// then the two-factor products (Clayton's Table 3-3 X force, main effects and the three two-factor
+/// interactions). Kills `surface.rs:101:73: replace + with * in response_surface` (found by the draw
+/// of seed 54), whose degree is 0 for every monomial of numeric factors, so the products sort among
+/// the main effects by name (`depth_um*speed_rpm` right after `depth_um`).
+#[test]
+fn a_response_surface_lists_its_terms_by_degree_then_name() {
+    use millcomp_doe::{AnalysisInput, ModelSpec, analyze, response_surface};
+    let table = crate::common::read_fixture("tests/fixtures/clayton_table_3_3.csv");
+    let f: Vec<String> = ["depth_um", "speed_rpm", "upfeed_um"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    let model = ModelSpec::parse(
+        "depth_um + speed_rpm + upfeed_um + depth_um:speed_rpm + depth_um:upfeed_um + speed_rpm:upfeed_um",
+    )
+    .unwrap();
+    let input = AnalysisInput::from_table(&table, "fx_n", Some(&f), model).unwrap();
+    let m = response_surface(&analyze(&input).unwrap()).unwrap();
+    let names: Vec<&str> = m.terms.iter().map(|t| t.name.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "intercept",
+            "depth_um",
+            "speed_rpm",
+            "upfeed_um",
+            "depth_um*speed_rpm",
+            "depth_um*upfeed_um",
+            "speed_rpm*upfeed_um"
+        ]
+    );
+}

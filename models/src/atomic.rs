@@ -520,4 +520,40 @@ mod tests {
         assert!(kept, "a running child is running");
         assert!(survived, "a running writer's temporary file was swept");
     }
+
+    /// A bare file name (`--out model.toml`: its parent is the empty path) is written in the working
+    /// directory, which is swept of a dead writer's temporary file like any other destination's
+    /// directory. The write runs in a child (this test binary again, `MILLCOMP_ATOMIC_CWD_CHILD` set,
+    /// its working directory the temporary one) so that no other test sees a changed working
+    /// directory. Kills `atomic.rs:59:20: replace match guard !p.as_os_str().is_empty() with true in
+    /// write_atomic` (found by the draw of seed 54), which takes the empty path as the directory: the
+    /// sweep then reads nothing and the stale file stays.
+    #[test]
+    fn a_bare_file_name_is_written_in_the_working_directory_and_sweeps_it() {
+        if std::env::var_os("MILLCOMP_ATOMIC_CWD_CHILD").is_some() {
+            write_atomic(Path::new("out.txt"), |f| f.write_all(b"bare")).unwrap();
+            return;
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let mut child = std::process::Command::new("true").spawn().unwrap();
+        let dead = child.id();
+        child.wait().unwrap();
+        let stale = dir
+            .path()
+            .join(format!("{TEMP_PREFIX}{}-{dead}-x{TEMP_SUFFIX}", host()));
+        std::fs::write(&stale, "x").unwrap();
+        let status = std::process::Command::new(std::env::current_exe().unwrap())
+            .args([
+                "--exact",
+                "atomic::tests::a_bare_file_name_is_written_in_the_working_directory_and_sweeps_it",
+                "--test-threads=1",
+            ])
+            .env("MILLCOMP_ATOMIC_CWD_CHILD", "1")
+            .current_dir(dir.path())
+            .output()
+            .unwrap();
+        assert!(status.status.success(), "{status:?}");
+        assert_eq!(std::fs::read(dir.path().join("out.txt")).unwrap(), b"bare");
+        assert!(!stale.exists(), "the working directory was not swept");
+    }
 }
