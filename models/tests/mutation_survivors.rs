@@ -231,6 +231,19 @@ fn a_scaled_stiffness_scales_both_and_the_covariance_by_the_square() {
     let s = k.scaled(2.0);
     assert_eq!((s.axial_n_per_um, s.radial_n_per_um), (2.44, 0.228));
     assert_eq!(s.covariance.values, [[4e-4, 0.0], [0.0, 4e-4]]);
+    // by 1.5, where the square (2.25) is not the double (3): variances 2 and 0.5 and covariance 0.25
+    // become 4.5, 1.125 and 0.5625 (exact in binary). Kills `identified.rs:577:30: replace * with + in StiffnessModel::scaled` (found
+    // by the draw of seed 54), which scales the covariance by 1.5 + 1.5 = 3 — at 2 the two agree.
+    let k = StiffnessModel {
+        covariance: NamedMatrix {
+            names: k.covariance.names.clone(),
+            values: vec![vec![2.0, 0.25], vec![0.25, 0.5]],
+        },
+        ..k
+    };
+    let s = k.scaled(1.5);
+    assert_eq!(s.covariance.values, [[4.5, 0.5625], [0.5625, 1.125]]);
+    assert_eq!(s.covariance.names, k.covariance.names);
 }
 
 /// A derived quantity may have a NaN uncertainty only in a fit that left a parameter undetermined
