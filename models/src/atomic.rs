@@ -556,4 +556,35 @@ mod tests {
         assert_eq!(std::fs::read(dir.path().join("out.txt")).unwrap(), b"bare");
         assert!(!stale.exists(), "the working directory was not swept");
     }
+
+    /// A running process is running whatever the last failed system call left in `errno`: right
+    /// after asking about a process that has exited (`kill(pid, 0)` fails with ESRCH), a running one
+    /// (`kill` succeeds and leaves `errno` as it was) is still reported running, and a second exited one
+    /// is not. Kills `atomic.rs:201:17: replace || with && in is_running` (found by the draw of seed
+    /// 54), which reads the stale ESRCH after a successful `kill` and calls the running writer gone —
+    /// the sweep would then delete its temporary file when it is listed after a dead writer's.
+    #[cfg(unix)]
+    #[test]
+    fn a_running_process_is_running_after_asking_about_an_exited_one() {
+        let spawn_dead = || {
+            let mut child = std::process::Command::new("true").spawn().unwrap();
+            let pid = child.id();
+            child.wait().unwrap();
+            pid
+        };
+        let (dead, dead_too) = (spawn_dead(), spawn_dead());
+        let mut alive = std::process::Command::new("sleep")
+            .arg("30")
+            .spawn()
+            .unwrap();
+        let answers = [
+            is_running(dead),
+            is_running(alive.id()),
+            is_running(dead_too),
+            is_running(alive.id()),
+        ];
+        alive.kill().unwrap();
+        alive.wait().unwrap();
+        assert_eq!(answers, [false, true, false, true]);
+    }
 }
