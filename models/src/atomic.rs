@@ -587,4 +587,37 @@ mod tests {
         alive.wait().unwrap();
         assert_eq!(answers, [false, true, false, true]);
     }
+
+    /// Where the file system gives unnamed files (probed here with `O_TMPFILE` directly, not through
+    /// the code under test), nothing at all is visible in the directory while the content is written:
+    /// there is nothing a kill could leave behind. Kills `atomic.rs:251:43: replace | with & in
+    /// unnamed::create` (found by the draw of seed 54): O_TMPFILE & O_CLOEXEC share no bit, so the
+    /// mutant opens the directory without O_TMPFILE, fails, and falls back to a named temporary file.
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn an_unnamed_file_leaves_the_directory_empty_while_writing() {
+        use std::os::unix::fs::OpenOptionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let probe = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .custom_flags(libc::O_TMPFILE)
+            .mode(0o600)
+            .open(dir.path());
+        if probe.is_err() || !Path::new("/proc/self/fd").is_dir() {
+            eprintln!("no O_TMPFILE in {}: skipped", dir.path().display());
+            return;
+        }
+        drop(probe);
+        let mut seen = vec!["not called".to_string()];
+        write_atomic(&dir.path().join("m.toml"), |f| {
+            seen = std::fs::read_dir(dir.path())
+                .unwrap()
+                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect();
+            f.write_all(b"x")
+        })
+        .unwrap();
+        assert!(seen.is_empty(), "{seen:?}");
+    }
 }
