@@ -479,4 +479,28 @@ mod tests {
         assert_relative_eq!(r.rss, rss, max_relative = 1e-10);
         assert_relative_eq!(r.se("k"), (rss / 2.0 / 26.0).sqrt(), max_relative = 1e-10);
     }
+
+    /// The SVD's rank cut sits at `RANK_RTOL · σ_max` of the column-scaled design: two unit columns
+    /// (1, 0, 0, 0) and (1, ε, 0, 0) with ε = √2·10⁻¹⁰ have σ_max ≈ √2 and σ_min ≈ ε/√2 = 10⁻¹⁰, below
+    /// the cut 1.41·10⁻¹⁰, so σ_min counts as zero and y = (1, 1, 0, 0) gets the minimum-norm answer
+    /// along the dominant direction, θ ≈ (½, ½) (by hand: v₁ = (1, 1)/√2, u₁ᵀy/σ₁ ≈ 1/√2), not the exact
+    /// solve's (1 − 1/ε, 1/ε) ≈ (−7·10⁹, 7·10⁹). Kills `linear.rs:233:40: replace * with / in svd_solve`
+    /// (found by the draw of seed 54), whose cut 10⁻¹⁰/√2 keeps σ_min.
+    #[test]
+    fn a_singular_value_below_the_rank_cut_counts_as_zero() {
+        let eps = std::f64::consts::SQRT_2 * 1e-10;
+        let a = DMatrix::from_row_slice(4, 2, &[1.0, 1.0, 0.0, eps, 0.0, 0.0, 0.0, 0.0]);
+        let f = fit_linear(
+            &names(&["a", "b"]),
+            &a,
+            &[1.0, 1.0, 0.0, 0.0],
+            None,
+            LinearMethod::Svd,
+            "cut",
+            "um",
+        )
+        .unwrap();
+        assert_relative_eq!(f.theta[0], 0.5, max_relative = 1e-9);
+        assert_relative_eq!(f.theta[1], 0.5, max_relative = 1e-9);
+    }
 }
