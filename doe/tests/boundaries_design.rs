@@ -437,6 +437,14 @@ fn a_generator_over_a_generated_factor_is_refused_naming_it() {
     let (g, reason) = bad_generator(fractional(5, |r| r.generators = Some("D=BC,E=BD".into())));
     assert_eq!(g, "E=BD");
     assert!(reason.starts_with("the word uses `D` (D)"), "{reason}");
+    // a word with two generated factors names the first: `F=DE` names D. Kills
+    // `fractional.rs:219:59: replace & with | in parse_generators` (found by the draw of seed 54):
+    // `(m >> i | 1) == 1` first holds at the highest bit of m, so the mutant names E
+    let (g, reason) = bad_generator(fractional(6, |r| {
+        r.generators = Some("D=AB,E=AC,F=DE".into())
+    }));
+    assert_eq!(g, "F=DE");
+    assert!(reason.starts_with("the word uses `D` (D)"), "{reason}");
 }
 
 /// A one-letter word aliases two main effects: `D=A` is refused naming A (word I = AD); `D=AB,E=AB`
