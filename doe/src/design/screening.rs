@@ -376,4 +376,21 @@ mod boundary_tests {
         assert_eq!(f.sub(5, 7), 7);
         assert_eq!(f.sub(7, 7), 0);
     }
+
+    /// Paley's conference matrices are symmetric when q = m − 1 ≡ 1 (mod 4) and antisymmetric when
+    /// q ≡ 3 (mod 4) (Paley 1933; Jones & Nachtsheim 2011 use both): orders 6 and 10 (q = 5, 9)
+    /// symmetric, 4, 8 and 12 (q = 3, 7, 11) antisymmetric. Kills `screening.rs:236:17: replace % with
+    /// / in conference` (found by the draw of seed 54): q / 4 == 1 calls q = 7 symmetric and q = 9 not,
+    /// a first column of the wrong sign, which CCᵀ = (m − 1)I alone cannot see.
+    #[test]
+    fn paleys_conference_matrices_are_symmetric_or_antisymmetric_by_q_mod_four() {
+        for (m, sign) in [(4, -1.0), (6, 1.0), (8, -1.0), (10, 1.0), (12, -1.0)] {
+            let c = conference(m).unwrap();
+            for i in 0..m {
+                for j in 0..m {
+                    assert_eq!(c[j][i], sign * c[i][j], "order {m}, ({i}, {j})");
+                }
+            }
+        }
+    }
 }
