@@ -1885,28 +1885,6 @@ fn a_response_surface_lists_its_terms_by_degree_then_name() {
     );
 }
 
-/// A one-letter generator makes its factor an alias of that letter, whichever letter comes first:
-/// `A=E` (A generated from E) is refused as "A aliased with E", word I = AE — the generator's own
-/// reading, not the defining subgroup's (which lists letters in order and would call E the factor
-/// aliased with A). Kills `fractional.rs:248:29: replace || with && in check_generators` (found by the
-/// draw of seed 54), which skips the one-letter check and leaves it to the subgroup's.
-#[test]
-fn a_one_letter_generator_names_the_generated_factor_even_below_its_alias() {
-    let mut req = DesignRequest::new(DesignKind::Fractional, coded(5));
-    req.generators = Some("A=E".into());
-    match generate(&req) {
-        Err(DoeError::AliasedGenerators {
-            factor,
-            aliased_with,
-            word,
-        }) => assert_eq!(
-            (factor.as_str(), aliased_with.as_str(), word.as_str()),
-            ("A", "E", "I = AE")
-        ),
-        other => panic!("{:?}", other.map(|d| d.n_runs())),
-    }
-}
-
 /// Of restarts that tie on φ_p the first is kept: a Latin hypercube of one factor in two runs has the
 /// same two points (±½) from every restart, in the order its permutation drew, so its first run is the
 /// first restart's, and no swap (each changes φ by exactly 0) is taken; recorded for seeds 0–9 (not

@@ -427,16 +427,21 @@ mod tests {
         assert_eq!(left.len(), 2, "{left:?}");
     }
 
+    /// The names of the entries of `dir`, as listed.
+    fn names_in(dir: &Path) -> Vec<String> {
+        std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect()
+    }
+
     #[test]
     fn nothing_but_our_own_temporary_file_is_visible_while_writing() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("m.toml");
         let mut seen = Vec::new();
         write_atomic(&path, |f| {
-            seen = std::fs::read_dir(dir.path())
-                .unwrap()
-                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-                .collect();
+            seen = names_in(dir.path());
             f.write_all(b"x")
         })
         .unwrap();
@@ -611,10 +616,7 @@ mod tests {
         drop(probe);
         let mut seen = vec!["not called".to_string()];
         write_atomic(&dir.path().join("m.toml"), |f| {
-            seen = std::fs::read_dir(dir.path())
-                .unwrap()
-                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-                .collect();
+            seen = names_in(dir.path());
             f.write_all(b"x")
         })
         .unwrap();
