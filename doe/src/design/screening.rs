@@ -386,9 +386,9 @@ mod boundary_tests {
     fn paleys_conference_matrices_are_symmetric_or_antisymmetric_by_q_mod_four() {
         for (m, sign) in [(4, -1.0), (6, 1.0), (8, -1.0), (10, 1.0), (12, -1.0)] {
             let c = conference(m).unwrap();
-            for i in 0..m {
-                for j in 0..m {
-                    assert_eq!(c[j][i], sign * c[i][j], "order {m}, ({i}, {j})");
+            for (i, row) in c.iter().enumerate() {
+                for (j, &v) in row.iter().enumerate() {
+                    assert_eq!(c[j][i], sign * v, "order {m}, ({i}, {j})");
                 }
             }
         }
