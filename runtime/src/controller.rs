@@ -299,6 +299,14 @@ pub struct Controller {
     wall_clock: bool,
 }
 
+/// For a touch-off voltage outside the amplifier's 0 ..= `v_max` (NaN included), what is allowed, as
+/// an error names it; `None` inside. The program's touch-off at construction and a later
+/// [`Controller::touched_off`] are checked by it alike.
+fn bias_outside(bias_v: f64, v_max: f64) -> Option<String> {
+    (!(0.0..=v_max).contains(&bias_v))
+        .then(|| format!("0 ..= {v_max} V, the amplifier's range (the bundle's spindle)"))
+}
+
 impl std::fmt::Debug for Controller {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Controller")
@@ -390,12 +398,12 @@ impl Controller {
         // the program checks the touch-off voltage is >= 0; its top is the bundle's amplifier's
         let v_max = parts.models.spindle.plant().voltage_max_v;
         let bias_v = settings.touch_off.bias_v;
-        if !(0.0..=v_max).contains(&bias_v) {
+        if let Some(allowed) = bias_outside(bias_v, v_max) {
             return Err(RuntimeError::InvalidValue {
                 path: parts.origins.program.clone(),
                 key: "controller.touch_off.bias_v".into(),
                 value: bias_v.to_string(),
-                allowed: format!("0 ..= {v_max} V, the amplifier's range (the bundle's spindle)"),
+                allowed,
             });
         }
         let (inner, notes) = build(kind, parts, settings).map_err(|e| match e {
@@ -448,15 +456,8 @@ impl Controller {
             value: value.to_string(),
             allowed,
         };
-        if !(0.0..=self.voltage_max_v).contains(&at.bias_v) {
-            return Err(invalid(
-                "touch_off.bias_v",
-                at.bias_v,
-                format!(
-                    "0 ..= {} V, the amplifier's range (the bundle's spindle)",
-                    self.voltage_max_v
-                ),
-            ));
+        if let Some(allowed) = bias_outside(at.bias_v, self.voltage_max_v) {
+            return Err(invalid("touch_off.bias_v", at.bias_v, allowed));
         }
         if !at.gauge_um.is_finite() {
             return Err(invalid(
