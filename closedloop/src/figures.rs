@@ -177,14 +177,17 @@ pub mod recorded {
     /// nc_axis_study -- --seeds 10 --band-seeds 3` (docs/studies/nc-axis.md).
     pub const NC_SEEDS: std::ops::Range<u64> = 1..11;
     /// Reactive: static wall error removed (%), median and 95 % interval.
-    pub const NC_REACTIVE_REMOVED_PCT: (f64, [f64; 2]) = (96.10, [94.42, 96.73]);
+    pub const NC_REACTIVE_REMOVED_PCT: (f64, [f64; 2]) = (96.11, [94.40, 96.74]);
     /// Feed-step peak (µm), median: reactive, proactive.
-    pub const NC_PEAK_UM: [f64; 2] = [54.81, 18.32];
+    pub const NC_PEAK_UM: [f64; 2] = [75.89, 16.55];
+    /// Proactive / reactive feed-step peak per seed (the ratio on one machine): median and 95 %
+    /// interval, to 0.01.
+    pub const NC_PROACTIVE_OVER_REACTIVE: (f64, [f64; 2]) = (0.21, [0.19, 0.28]);
     /// Exit undersize (µm), median: reactive, proactive.
-    pub const NC_EXIT_UNDERSIZE_UM: [f64; 2] = [147.34, 189.67];
+    pub const NC_EXIT_UNDERSIZE_UM: [f64; 2] = [155.35, 191.39];
     /// The band over machine stiffness 20/30/50 N/µm × overhang 3/3.5/4 D (medians over seeds 1..=3
     /// at each point): the feed-step peak's range (µm), reactive and proactive.
-    pub const NC_BAND_PEAK_UM: [[f64; 2]; 2] = [[38.0, 83.2], [12.4, 27.1]];
+    pub const NC_BAND_PEAK_UM: [[f64; 2]; 2] = [[52.9, 115.9], [11.8, 24.5]];
     /// Seeds of each band point.
     pub const NC_BAND_SEEDS: std::ops::Range<u64> = 1..4;
     /// How far a recomputed NC figure may move (µm or percentage points) before the record is stale.
@@ -192,16 +195,17 @@ pub mod recorded {
     /// The notch chain after the feed step (reactive, seed 1): the correction's first overshoot and
     /// the undershoot after it, % of the step (docs/studies/nc-axis.md, the `ringing` section),
     /// recorded to 0.1 %.
-    pub const NC_RINGING_PCT: [f64; 2] = [1.4, 1.1];
-    /// Seeds of the feedforward candidate (`nc_axis_study -- --sections 8 --seeds 5`,
+    pub const NC_RINGING_PCT: [f64; 2] = [6.6, 4.3];
+    /// Seeds of the axis shipped before (`nc_axis_study -- --sections 8 --seeds 5`,
     /// docs/studies/published-nc.md).
-    pub const NC_FFW_SEEDS: std::ops::Range<u64> = 1..6;
-    /// The published groove with both axes as sim's `AxisDynamics::speed_feedforward_003` (the
-    /// 840D sl's speed feedforward: 12 ms dead time + 4 ms): the reactive correction's first
-    /// overshoot and the undershoot after it (seed 1, % of the step, to 0.1 %).
-    pub const NC_FFW_RINGING_PCT: [f64; 2] = [6.7, 4.3];
-    /// The same: feed-step peak (µm), median over [`NC_FFW_SEEDS`]: reactive, proactive.
-    pub const NC_FFW_PEAK_UM: [f64; 2] = [73.90, 29.30];
+    pub const NC_P_LOOP_SEEDS: std::ops::Range<u64> = 1..6;
+    /// The published groove with both axes as sim's `AxisDynamics::brecher_003` (a P position loop
+    /// without feedforward, 4 ms dead time + 1/kv = 12 ms: the default until the diagnosis of
+    /// docs/studies/published-nc.md): the reactive correction's first overshoot and the undershoot
+    /// after it (seed 1, % of the step, to 0.1 %).
+    pub const NC_P_LOOP_RINGING_PCT: [f64; 2] = [1.4, 1.1];
+    /// The same: feed-step peak (µm), median over [`NC_P_LOOP_SEEDS`]: reactive, proactive.
+    pub const NC_P_LOOP_PEAK_UM: [f64; 2] = [57.61, 17.98];
 }
 
 const TEST_GROOVES: &str = "`recorded_groove_controller_figures_hold`";
@@ -859,26 +863,30 @@ pub fn published_figures(progress: &dyn Fn(&str)) -> Result<Vec<PublishedFigure>
         },
         command: nc_cmd,
     });
+    let (qm, qci) = recorded::NC_PROACTIVE_OVER_REACTIVE;
     push(Draft {
         name: "nc_proactive_peak",
         figure: "NC feed step, proactive peak",
         source: "003 Fig. 6",
         published: Published {
-            text: "43 µm",
-            values: vec![43.0],
+            text: "43 µm, 0.58 of the reactive",
+            values: vec![43.0, 43.0 / 74.0],
             unit: "µm",
-            reach: "inside millcomp's band over the unpublished machine stiffness × overhang",
+            reach: "the ratio proactive/reactive on one machine (003: 43/74) inside the 95 % interval \
+                    of millcomp's per-seed median (the peak alone moves with the unpublished machine)",
         },
         millcomp: Millcomp {
-            text: format!("{pp:.2} µm; {:.1}–{:.1} over the band", pb[0], pb[1]),
-            values: vec![pp, pb[0], pb[1]],
+            text: format!(
+                "{pp:.2} µm; {:.1}–{:.1} over the band; proactive/reactive {qm:.2} [{:.2}, {:.2}]",
+                pb[0], pb[1], qci[0], qci[1]
+            ),
+            values: vec![pp, pb[0], pb[1], qm, qci[0], qci[1]],
             unit: "µm",
         },
-        within: (pb[0]..=pb[1]).contains(&43.0),
+        within: (qci[0]..=qci[1]).contains(&(43.0 / 74.0)),
         note: None,
-        why: "smaller; proactive/reactive 0.32 against 0.58 on one machine, no machine candidate \
-              reaches it and keeps 95 % removed; 003's offset curve not identifiable: \
-              docs/studies/published-nc.md",
+        why: "smaller; no machine candidate reaches 0.58 and keeps 95 % removed; 003's offset curve \
+              not identifiable: docs/studies/published-nc.md",
         fitted_on: vec![],
         computed: Computed::Recorded {
             test: TEST_NC_AND_BAND,
@@ -897,15 +905,20 @@ pub fn published_figures(progress: &dyn Fn(&str)) -> Result<Vec<PublishedFigure>
             reach: "visible: taken here as a first overshoot ≥ 5 % of the step",
         },
         millcomp: Millcomp {
-            text: format!("not visible (overshoot {over} %, undershoot {under} %)"),
+            text: format!(
+                "{} (overshoot {over} %, undershoot {under} %)",
+                if over >= 5.0 {
+                    "visible"
+                } else {
+                    "not visible"
+                }
+            ),
             values: vec![over, under],
             unit: "% of the step",
         },
         within: over >= 5.0,
         note: None,
-        why: "the shipped axis smooths the feed step; visible (6.7 %) with the 840D sl's speed \
-              feedforward, named but not identifiable, not yet the default: \
-              docs/studies/published-nc.md",
+        why: "the feed axis smooths the feed step: docs/studies/published-nc.md",
         fitted_on: vec![],
         computed: Computed::Recorded {
             test: "`recorded_nc_ringing_holds`",

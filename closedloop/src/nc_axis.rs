@@ -191,7 +191,7 @@ fn axis_trace(
     cycle_s: f64,
     a: f64,
 ) -> Result<AxisTrace, ClosedLoopError> {
-    let mut axis = FeedAxis::new(d, dt_s, 0.0)?;
+    let mut axis = FeedAxis::new(d, dt_s, 0.0, steps_per_cycle)?;
     let refs: Vec<f64> = (0..230)
         .map(|i| match i {
             0..10 => 0.0,
@@ -905,7 +905,7 @@ pub fn run_nc_axis(s: &Scenario, kind: ControllerKind) -> Result<RunOutput, Clos
             50.0 * nc.machine.machine_span_rel,
             nc.machine.overhang_d,
             k_true,
-            1e3 * nc.machine.axis.equivalent_delay_s()
+            1e3 * nc.machine.axis.equivalent_delay_s(nc.program.cycle_s)
         ),
         format!(
             "controllers' models (commissioned): k {:.2} N/µm at the blank's middle, kc1.1 {:.0} N/mm², mc {:.3}, y axis {:.2} + {:.2} ms, platform σ {:.2} N",

@@ -74,10 +74,15 @@ pub struct NcBoundSetup<'a> {
     pub uncompensated: &'a [(f64, f64)],
 }
 
-/// The axis' response at each stage step to a unit set-point latched at step 0 from rest, until it is
-/// within 1e-12 of 1 (at most 60 s of steps).
-fn step_response(axis: &AxisDynamics, dt_s: f64) -> Result<Vec<f64>, ClosedLoopError> {
-    let mut ax = FeedAxis::new(axis, dt_s, 0.0)?;
+/// The axis' response at each stage step to a unit set-point latched at step 0 from rest (a cycle
+/// start: with fine interpolation it reaches the loop over the cycle's `steps_per_cycle` steps), until
+/// it is within 1e-12 of 1 (at most 60 s of steps).
+fn step_response(
+    axis: &AxisDynamics,
+    dt_s: f64,
+    steps_per_cycle: usize,
+) -> Result<Vec<f64>, ClosedLoopError> {
+    let mut ax = FeedAxis::new(axis, dt_s, 0.0, steps_per_cycle)?;
     let mut s = Vec::new();
     let max = (60.0 / dt_s).ceil() as usize;
     let mut settled = 0usize;
@@ -152,7 +157,7 @@ impl NcBoundSetup<'_> {
             (k, (q - k as f64).clamp(0.0, 1.0))
         };
         let step_of = |p: usize| step_at(p).0;
-        let s_resp = step_response(self.axis, self.dt_s)?;
+        let s_resp = step_response(self.axis, self.dt_s, l)?;
         let settle_cycles = s_resp.len().div_ceil(l) as i64 + 1;
         let cycle_of = |s: i64| s.div_euclid(l as i64);
         let first = points.iter().map(|&p| cycle_of(step_of(p))).min();
@@ -276,6 +281,7 @@ mod tests {
             kv_per_s: 1e4,
             velocity_loop_s: 1e-5,
             max_feed_mm_min: 1e4,
+            fine_interpolation: false,
         };
         let limits = CorrectionLimits {
             range_um: 100.0,

@@ -209,6 +209,23 @@ fn recorded_nc_figures_hold() {
     ] {
         close(what, col(runs, i).0, rec, tol);
     }
+    // proactive / reactive peak per seed (the ratio on one machine: the proactive row's reach),
+    // recorded to 0.01
+    let ratios: Vec<f64> = proactive
+        .iter()
+        .zip(&reactive)
+        .map(|(p, r)| p[0] / r[0])
+        .collect();
+    let (m, ci) = median(ratios);
+    let (rm, rci) = recorded::NC_PROACTIVE_OVER_REACTIVE;
+    close("proactive/reactive peak", m, rm, 0.005 + 0.005);
+    close("proactive/reactive peak, low", ci[0], rci[0], 0.005 + 0.005);
+    close(
+        "proactive/reactive peak, high",
+        ci[1],
+        rci[1],
+        0.005 + 0.005,
+    );
 }
 
 #[test]
@@ -295,31 +312,30 @@ fn recorded_nc_ringing_holds() {
 
 #[test]
 #[ignore = "slow suite (a long study): cargo test --workspace --test main -- --ignored"]
-fn recorded_nc_feedforward_candidate_holds() {
+fn recorded_nc_p_loop_before_holds() {
     // section 8 of `nc_axis_study` (docs/studies/published-nc.md): the published groove with both
-    // axes as the 840D sl's speed feedforward runs them (sim's `AxisDynamics::
-    // speed_feedforward_003`): the notch chain's ringing (seed 1) and the feed-step peaks (medians
-    // over the seeds), all recorded to 0.1 (%, µm) or 0.01 µm
+    // axes as the P position loop shipped before the diagnosis (sim's `AxisDynamics::brecher_003`):
+    // the notch chain's ringing (seed 1) and the feed-step peaks (medians over the seeds), all
+    // recorded to 0.1 % or 0.01 µm — the "before" of the figure table
     let mut s = scenario("nc_c45_feed_step.toml");
-    s.nc_axis.as_mut().unwrap().machine.axis =
-        millcomp_sim::nc_axis::AxisDynamics::speed_feedforward_003();
+    s.nc_axis.as_mut().unwrap().machine.axis = millcomp_sim::nc_axis::AxisDynamics::brecher_003();
     let [over, under] = nc_ringing_pct(&s);
-    let [r_over, r_under] = recorded::NC_FFW_RINGING_PCT;
+    let [r_over, r_under] = recorded::NC_P_LOOP_RINGING_PCT;
     let tol = 0.05 + recorded::NC_TOL;
-    close("feedforward: first overshoot %", over, r_over, tol);
-    close("feedforward: undershoot after it %", under, r_under, tol);
-    // visible by the registry's reach (a first overshoot >= 5 %), the shipped axis' is not
-    assert!(over >= 5.0 && recorded::NC_RINGING_PCT[0] < 5.0);
+    close("P loop: first overshoot %", over, r_over, tol);
+    close("P loop: undershoot after it %", under, r_under, tol);
+    // not visible by the registry's reach (a first overshoot >= 5 %); the shipped feedforward axis' is
+    assert!(over < 5.0 && recorded::NC_RINGING_PCT[0] >= 5.0);
     for (i, kind) in [ControllerKind::Reactive, ControllerKind::Proactive]
         .into_iter()
         .enumerate()
     {
-        let runs = nc_runs(&s, kind, recorded::NC_FFW_SEEDS);
+        let runs = nc_runs(&s, kind, recorded::NC_P_LOOP_SEEDS);
         let m = median(runs.iter().map(|r| r[0]).collect()).0;
         close(
-            "feedforward: feed-step peak",
+            "P loop: feed-step peak",
             m,
-            recorded::NC_FFW_PEAK_UM[i],
+            recorded::NC_P_LOOP_PEAK_UM[i],
             recorded::NC_TOL,
         );
     }

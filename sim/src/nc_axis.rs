@@ -12,12 +12,16 @@
 //!   default, typical commissioning values of a machining centre's path dynamics). The reference
 //!   acceleration `a_cmd` is non-zero exactly while the S-curve runs — the trigger of 003's proactive
 //!   offset curve (§2.3).
-//! * **The feed axes** ([`AxisDynamics`], the truth's structure): a dead time of two position cycles
-//!   (4 ms: the set-point reaches the drive one cycle after the NC computes it and the drive's inner
-//!   loops take about one more) followed by a P position loop with kv = 83.3 1/s around a velocity loop
-//!   with a 2 ms time constant, `kv/(Tv s² + s + kv)`. A ramp's actual position then lags its reference
-//!   by `T_d + 1/kv` = 4 + 12 = 16 ms: 003's "delay time of the feed axis" (Fig. 3). The controllers'
-//!   model of it is identified, with another structure (dead time + first-order lag).
+//! * **The feed axes** ([`AxisDynamics`], the truth's structure): a dead time followed by a P
+//!   position loop around a velocity loop, `kv/(Tv s² + s + kv)`. A ramp's actual position lags its
+//!   reference by `T_d + 1/kv` = 16 ms: 003's "delay time of the feed axis" (Fig. 3). Two splits are
+//!   provided: [`AxisDynamics::speed_feedforward_003`] (12 + 4 ms, the 840D sl's standard speed
+//!   feedforward, its set-points fine-interpolated over the cycle; the shipped scenarios' axes since
+//!   the diagnosis of `docs/studies/published-nc.md`)
+//!   and [`AxisDynamics::brecher_003`] (4 ms dead time — the set-point reaches the drive one cycle
+//!   after the NC computes it and the drive's inner loops take about one more — and kv = 83.3 1/s
+//!   around a 2 ms velocity loop: a P loop without feedforward, the scenarios' axes before). The
+//!   controllers' model of it is identified, with another structure (dead time + first-order lag).
 //! * **The cutting force** (`crate::kienzle`): Kienzle's law for C45 with edge forces on top, on 003's
 //!   Ø16 mm 5-tooth end mill, evaluated at every stage step at the actual position and the actual feed per
 //!   tooth (from the x axis' actual velocity).
@@ -424,6 +428,15 @@ pub struct AxisDynamics {
     /// Largest feed (mm/min) the axis moves at.
     #[serde(default = "default_max_feed")]
     pub max_feed_mm_min: f64,
+    /// Fine interpolation: the set-point latched at each NC cycle start reaches the position loop
+    /// interpolated linearly from the previous one over the cycle ([`FeedAxis::new`]'s
+    /// `steps_per_cycle`), as a NC's fine interpolator hands the interpolator's cycle set-points to
+    /// the position-control clock (SINUMERIK: MD33000 `$MA_FIPO_TYPE`; from memory, unchecked);
+    /// off: held over the cycle. Against a held set-point it delays a ramp by half a cycle more.
+    /// Without it a fast loop (a few ms) follows the held set-points' staircase within each cycle,
+    /// and the feed pulsates at the cycle rate.
+    #[serde(default)]
+    pub fine_interpolation: bool,
 }
 
 fn default_max_feed() -> f64 {
@@ -431,12 +444,13 @@ fn default_max_feed() -> f64 {
 }
 
 impl AxisDynamics {
-    /// 003's axis (module doc): 4 ms dead time, kv = 83.3 1/s, Tv = 2 ms: 16 ms for a ramp; 30 m/min
-    /// rapid (assumed).
+    /// 003's 16 ms as a P position loop without feedforward (module doc; the scenarios' axes until
+    /// `docs/studies/published-nc.md`): 4 ms dead time, kv = 83.3 1/s, Tv = 2 ms: 16 ms for a ramp;
+    /// 30 m/min rapid (assumed).
     ///
     /// ```
     /// use millcomp_sim::nc_axis::AxisDynamics;
-    /// assert!((AxisDynamics::brecher_003().equivalent_delay_s() - 0.016).abs() < 1e-12);
+    /// assert!((AxisDynamics::brecher_003().equivalent_delay_s(0.002) - 0.016).abs() < 1e-12);
     /// ```
     pub fn brecher_003() -> Self {
         Self {
@@ -444,39 +458,51 @@ impl AxisDynamics {
             kv_per_s: 1.0 / 0.012,
             velocity_loop_s: 0.002,
             max_feed_mm_min: default_max_feed(),
+            fine_interpolation: false,
         }
     }
 
     /// 003's axis as a SINUMERIK 840D sl runs it by default (the candidate of
-    /// `docs/studies/published-nc.md`; not the scenarios' default): speed feedforward with dead-time
+    /// `docs/studies/published-nc.md`; the shipped scenarios' axes): speed feedforward with dead-time
     /// balancing — MD32620 `$MA_FFW_MODE` = 3, "speed feedforward control with Tt balancing (standard
     /// setting for 840D sl / 840Di sl)", which reduces the following error "almost to zero"
     /// (SINUMERIK 840D sl Function Manual Extended Functions K3, 09/2009, 6FC5397-1BP20-0BA0, §5.5).
     /// The reference then reaches the tool through the set-point's dead time and the speed loop's
     /// equivalent time constant (MD32810 `$MA_EQUIV_SPEEDCTRL_TIME`), the position loop correcting
-    /// only what the feedforward misses: 003's 16 ms "delay time" (Fig. 3) split as 12 ms dead time
-    /// and 4 ms for the loop (kv = 250 1/s around a 1 ms velocity loop, a critically damped pair of
-    /// poles at 500 rad/s). The 4 ms is an assumption of the size of a speed loop's equivalent time
-    /// constant (a few ms; from memory, unchecked); 30 m/min rapid as in [`Self::brecher_003`].
+    /// only what the feedforward misses: 003's 16 ms "delay time" (Fig. 3) split as 12 ms before the
+    /// loop and 4 ms for the loop (kv = 250 1/s around a 1 ms velocity loop, a critically damped pair
+    /// of poles at 500 rad/s). The 12 ms are the set-points' fine interpolation over the 2 ms cycle
+    /// (linear: against a held set-point half a cycle more, 1 ms) and 11 ms dead time. The 4 ms is an
+    /// assumption of the size of a speed loop's equivalent time constant (a few ms; from memory,
+    /// unchecked); 30 m/min rapid as in [`Self::brecher_003`].
     ///
     /// ```
     /// use millcomp_sim::nc_axis::AxisDynamics;
     /// let a = AxisDynamics::speed_feedforward_003();
-    /// assert!((a.equivalent_delay_s() - 0.016).abs() < 1e-12);
+    /// assert!(a.fine_interpolation);
+    /// assert!((a.equivalent_delay_s(0.002) - 0.016).abs() < 1e-12);
     /// assert!((a.kv_per_s * a.velocity_loop_s - 0.25).abs() < 1e-12); // critically damped
     /// ```
     pub fn speed_feedforward_003() -> Self {
         Self {
-            dead_time_s: 0.012,
+            dead_time_s: 0.011,
             kv_per_s: 250.0,
             velocity_loop_s: 0.001,
             max_feed_mm_min: default_max_feed(),
+            fine_interpolation: true,
         }
     }
 
-    /// The lag of a ramp's actual position behind its reference (s): `T_d + 1/kv`.
-    pub fn equivalent_delay_s(&self) -> f64 {
-        self.dead_time_s + 1.0 / self.kv_per_s
+    /// The lag of a ramp's actual position behind its reference (s) with set-points latched every
+    /// `cycle_s`, counted from a held set-point: `T_d + 1/kv`, plus half a cycle with fine
+    /// interpolation.
+    pub fn equivalent_delay_s(&self, cycle_s: f64) -> f64 {
+        let fipo = if self.fine_interpolation {
+            0.5 * cycle_s
+        } else {
+            0.0
+        };
+        self.dead_time_s + 1.0 / self.kv_per_s + fipo
     }
 
     /// Validate.
@@ -499,23 +525,44 @@ impl AxisDynamics {
     }
 }
 
-/// A feed axis stepped at the stage rate: the reference delayed by the dead time, through the loop.
+/// A feed axis stepped at the stage rate: the reference (fine-interpolated over the NC cycle when
+/// [`AxisDynamics::fine_interpolation`]) delayed by the dead time, through the loop.
 #[derive(Debug, Clone)]
 pub struct FeedAxis {
     lti: DiscreteLti,
     state: nalgebra::DVector<f64>,
     delay: VecDeque<f64>,
     position: f64,
+    /// Fine interpolation: stage steps per NC cycle (0: off), the step within the cycle, and the
+    /// previous and the latched set-point.
+    fipo_steps: usize,
+    fipo_step: usize,
+    fipo_from: f64,
+    fipo_to: f64,
 }
 
 impl FeedAxis {
-    /// The axis at sample time `dt_s`, at rest at `position`.
+    /// The axis at sample time `dt_s`, at rest at `position`, its set-points latched every
+    /// `steps_per_cycle` steps from the first (the NC cycle; used by the fine interpolation only).
     ///
     /// # Errors
-    /// [`SimError::InvalidParameter`] for invalid dynamics, the discretisation's errors.
-    pub fn new(d: &AxisDynamics, dt_s: f64, position: f64) -> Result<Self, SimError> {
+    /// [`SimError::InvalidParameter`] for invalid dynamics, `steps_per_cycle` = 0, the
+    /// discretisation's errors.
+    pub fn new(
+        d: &AxisDynamics,
+        dt_s: f64,
+        position: f64,
+        steps_per_cycle: usize,
+    ) -> Result<Self, SimError> {
         d.validate()?;
         check_positive("dt_s", dt_s)?;
+        if steps_per_cycle == 0 {
+            return Err(SimError::InvalidParameter {
+                name: "steps_per_cycle",
+                value: 0.0,
+                allowed: ">= 1",
+            });
+        }
         let lti = ContinuousLti::from_transfer_function(
             &[d.kv_per_s],
             &[d.velocity_loop_s, 1.0, d.kv_per_s],
@@ -531,11 +578,34 @@ impl FeedAxis {
             state,
             delay: std::iter::repeat_n(position, n).collect(),
             position,
+            fipo_steps: if d.fine_interpolation {
+                steps_per_cycle
+            } else {
+                0
+            },
+            fipo_step: 0,
+            fipo_from: position,
+            fipo_to: position,
         })
     }
 
-    /// One step with reference `r`; returns the actual position.
+    /// One step with reference `r` (with fine interpolation, read at each cycle's first step);
+    /// returns the actual position.
     pub fn step(&mut self, r: f64) -> f64 {
+        let r = if self.fipo_steps > 0 {
+            if self.fipo_step == 0 {
+                self.fipo_from = self.fipo_to;
+                self.fipo_to = r;
+            }
+            self.fipo_step += 1;
+            let w = self.fipo_step as f64 / self.fipo_steps as f64;
+            if self.fipo_step == self.fipo_steps {
+                self.fipo_step = 0;
+            }
+            self.fipo_from + w * (self.fipo_to - self.fipo_from)
+        } else {
+            r
+        };
         self.delay.push_back(r);
         let u = self.delay.pop_front().unwrap_or(r);
         self.position = self.lti.step_siso(&mut self.state, u);
@@ -877,8 +947,8 @@ impl NcAxisStage {
         let x0 = program.start_mm;
         let k_tool = cfg.stiffness.tool.stiffness_n_per_um()?;
         Ok(Self {
-            x_axis: FeedAxis::new(&cfg.x_axis, cfg.dt_s, x0)?,
-            y_axis: FeedAxis::new(&cfg.y_axis, cfg.dt_s, 0.0)?,
+            x_axis: FeedAxis::new(&cfg.x_axis, cfg.dt_s, x0, ratio.round() as usize)?,
+            y_axis: FeedAxis::new(&cfg.y_axis, cfg.dt_s, 0.0, ratio.round() as usize)?,
             steps_per_cycle: ratio.round() as usize,
             step: 0,
             x_ref: x0,
@@ -1284,7 +1354,7 @@ mod tests {
     #[test]
     fn the_axis_lags_a_ramp_by_16_ms() {
         let d = AxisDynamics::brecher_003();
-        let mut ax = FeedAxis::new(&d, 1e-4, 0.0).unwrap();
+        let mut ax = FeedAxis::new(&d, 1e-4, 0.0, 1).unwrap();
         let v = 10.0; // mm/s
         let mut last = 0.0;
         for k in 0..20_000 {
@@ -1295,10 +1365,56 @@ mod tests {
         assert!((lag - 0.016).abs() < 2e-4, "{lag}");
     }
 
+    /// The axis' velocity (mm/s) at each stage step of the last two cycles and its lag (s) behind a
+    /// ramp of 10 mm/s whose set-points are latched every 20 stage steps (2 ms at 0.1 ms).
+    fn held_ramp(d: &AxisDynamics) -> (Vec<f64>, f64) {
+        let (dt, n, v) = (1e-4, 20, 10.0);
+        let mut ax = FeedAxis::new(d, dt, 0.0, n).unwrap();
+        let (mut last, mut vel) = (0.0, Vec::new());
+        let steps = 20_000;
+        for k in 0..steps {
+            let r = v * (k / n * n) as f64 * dt; // the cycle's set-point, held
+            let y = ax.step(r);
+            if k >= steps - 2 * n {
+                vel.push((y - last) / dt);
+            }
+            last = y;
+        }
+        (vel, (v * (steps - 1) as f64 * dt - last) / v)
+    }
+
+    #[test]
+    fn fine_interpolation_keeps_the_feed_constant_within_a_cycle() {
+        // held set-points: the 4 ms loop follows the 2 ms staircase, the feed pulsates; fine
+        // interpolation hands the loop a ramp: the feed is the programmed 10 mm/s to 1e-6
+        let ff = AxisDynamics::speed_feedforward_003();
+        let (vel, lag) = held_ramp(&ff);
+        for w in &vel {
+            assert!((w - 10.0).abs() < 1e-6, "{w}");
+        }
+        // behind the continuous ramp: the interpolation's whole cycle (less one step), 11 ms dead
+        // time, 1/kv = 4 ms: 17 ms, the equivalent delay (16 ms, from a held set-point) + T/2
+        assert!(
+            (lag - (ff.equivalent_delay_s(0.002) + 0.001 - 1e-4)).abs() < 2e-4,
+            "{lag}"
+        );
+        let held = AxisDynamics {
+            fine_interpolation: false,
+            ..ff
+        };
+        let (vel, _) = held_ramp(&held);
+        let (lo, hi) = vel
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &w| {
+                (a.min(w), b.max(w))
+            });
+        assert!(hi - lo > 5.0, "{lo} .. {hi}");
+    }
+
     /// The 10 % and 90 % crossing times (s) of `d`'s response to a unit position step at 0.
     fn step_crossings(d: &AxisDynamics) -> (f64, f64) {
         let dt = 1e-5;
-        let mut ax = FeedAxis::new(d, dt, 0.0).unwrap();
+        let mut ax = FeedAxis::new(d, dt, 0.0, 1).unwrap();
         let (mut t10, mut t90) = (f64::NAN, f64::NAN);
         for k in 1..10_000 {
             let y = ax.step(1.0);
@@ -1318,11 +1434,12 @@ mod tests {
     fn the_feedforward_axis_is_mostly_dead_time() {
         // the loop kv/(Tv s² + s + kv) with kv = 250, Tv = 1 ms is (500/(s + 500))²: its step
         // response 1 − (1 + a t) e^{−a t}, a = 500 1/s, crosses 10 % at a t = 0.5318 and 90 % at
-        // a t = 3.8897 (the roots of that expression), after the 12 ms dead time
+        // a t = 3.8897 (the roots of that expression), after the 11 ms dead time (one set-point per
+        // step: the fine interpolation has nothing to interpolate)
         let (t10, t90) = step_crossings(&AxisDynamics::speed_feedforward_003());
-        assert!((t10 - (0.012 + 0.5318 / 500.0)).abs() < 3e-5, "{t10}");
-        assert!((t90 - (0.012 + 3.8897 / 500.0)).abs() < 3e-5, "{t90}");
-        // the shipped axis: poles at 250 ∓ √(250² − 41 667) = 105.66 and 394.34 1/s after 4 ms, its
+        assert!((t10 - (0.011 + 0.5318 / 500.0)).abs() < 3e-5, "{t10}");
+        assert!((t90 - (0.011 + 3.8897 / 500.0)).abs() < 3e-5, "{t90}");
+        // the P loop: poles at 250 ∓ √(250² − 41 667) = 105.66 and 394.34 1/s after 4 ms, its
         // 10–90 % rise 22.0 ms (the step response of two real poles, solved numerically) against
         // 6.7 ms: the same 16 ms for a ramp, three times slower to follow a step
         let (s10, s90) = step_crossings(&AxisDynamics::brecher_003());
