@@ -657,8 +657,8 @@ pub fn published_figures(progress: &dyn Fn(&str)) -> Result<Vec<PublishedFigure>
         note: None,
         why: "larger: the model's force does not fall with tilt while the compliance grows 2.35× \
               from 20° to 40°; 30° not identifiable (a sharp, low-runout tool gives 15.0 µm, the \
-              force measured in that cut 17.4 µm), 40° needs 0.48 of the force; the controllers' scenarios stay calibrated to 16 µm: \
-              docs/studies/published-grooves.md",
+              force measured in that cut 17.4 µm), 40° needs 0.48 of the force; the controllers' \
+              scenarios stay calibrated to 16 µm: docs/studies/published-grooves.md",
         fitted_on: vec!["groove_20deg_uncompensated", "table_5_1_stiffness"],
         computed: Computed::Live,
         command: "sed /calibrate_uncompensated_um/d datasets/scenarios/groove_s7_30deg.toml > g30.toml \
