@@ -14,7 +14,8 @@
 //!   offset curve (§2.3).
 //! * **The feed axes** ([`AxisDynamics`], the truth's structure): a dead time followed by a P
 //!   position loop around a velocity loop, `kv/(Tv s² + s + kv)`. A ramp's actual position lags its
-//!   reference by `T_d + 1/kv` = 16 ms: 003's "delay time of the feed axis" (Fig. 3). Two splits are
+//!   reference by [`AxisDynamics::equivalent_delay_s`] = 16 ms: 003's "delay time of the feed axis"
+//!   (Fig. 3). Two splits are
 //!   provided: [`AxisDynamics::speed_feedforward_003`] (12 + 4 ms, the 840D sl's standard speed
 //!   feedforward, its set-points fine-interpolated over the cycle; the shipped scenarios' axes since
 //!   the diagnosis of `docs/studies/published-nc.md`)
