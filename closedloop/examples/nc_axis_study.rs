@@ -45,6 +45,7 @@ use millcomp_closedloop::{
     ControllerKind, RunReport, Scenario, run_scenario, run_scenario_with_trace,
 };
 use millcomp_mpc::nc_axis::{OffsetWindow, ToothOffsets};
+use millcomp_sim::nc_axis::AxisDynamics;
 use rayon::prelude::*;
 
 const KINDS: [ControllerKind; 4] = [
@@ -427,15 +428,16 @@ fn candidates(
         runout_um,
         fipo: false,
     };
+    let ff = AxisDynamics::speed_feedforward_003();
     let shipped = |label, runout_um| Candidate {
         label,
-        dead_ms: 11.0,
-        lag_ms: 4.0,
-        tv_ms: 1.0,
+        dead_ms: ff.dead_time_s * 1e3,
+        lag_ms: 1e3 / ff.kv_per_s,
+        tv_ms: ff.velocity_loop_s * 1e3,
         accel_m_s2: 2.0,
         jerk_m_s3: 50.0,
         runout_um,
-        fipo: true,
+        fipo: ff.fine_interpolation,
     };
     let list = [
         c(

@@ -33,7 +33,8 @@ impl Default for NcMachineSpec {
     /// k_M = 30 N/µm (the middle of the 20–50 N/µm assumed; module doc of the scenario file), 10 %
     /// span, 3.5 D overhang, 32 mm flutes, 3 µm runout (a shrink chuck), 003's 16 ms axes as its
     /// 840D sl runs them by default (sim's `AxisDynamics::speed_feedforward_003`: speed feedforward,
-    /// 12 ms dead time + 4 ms; docs/studies/published-nc.md).
+    /// the set-points fine-interpolated over the cycle, 11 ms dead time, a 4 ms loop;
+    /// docs/studies/published-nc.md).
     fn default() -> Self {
         Self {
             machine_stiffness_n_per_um: 30.0,

@@ -947,10 +947,11 @@ impl NcAxisStage {
         let interp = NcInterpolator::new(&program, settle)?;
         let x0 = program.start_mm;
         let k_tool = cfg.stiffness.tool.stiffness_n_per_um()?;
+        let steps_per_cycle = ratio.round() as usize;
         Ok(Self {
-            x_axis: FeedAxis::new(&cfg.x_axis, cfg.dt_s, x0, ratio.round() as usize)?,
-            y_axis: FeedAxis::new(&cfg.y_axis, cfg.dt_s, 0.0, ratio.round() as usize)?,
-            steps_per_cycle: ratio.round() as usize,
+            x_axis: FeedAxis::new(&cfg.x_axis, cfg.dt_s, x0, steps_per_cycle)?,
+            y_axis: FeedAxis::new(&cfg.y_axis, cfg.dt_s, 0.0, steps_per_cycle)?,
+            steps_per_cycle,
             step: 0,
             x_ref: x0,
             y_ref: 0.0,
